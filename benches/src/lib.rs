@@ -1,0 +1,1 @@
+//! Benchmarks of arm_core live in `benches/`; this crate has no library code.

@@ -1,0 +1,130 @@
+//! `link_bending@Li`: link i as an Euler–Bernoulli beam along its local x axis.
+//!
+//! Every change of force on the link, `(f_x, f_y)` at local `(x_p, y_p)`, is carried to the
+//! axis as a transverse force `f_y` and a couple `C = −y_p·f_x` at `x_p`. The changes are in
+//! equilibrium, so `EI·v″(x) = M(x) = Σ_{x_p > x} [f_y (x_p − x) + C]`, integrated in closed form
+//! with `v(0) = 0` (joint O_i) and `v(x_A) = 0` (abscissa of A_i). A point (x, y) of the link
+//! moves by `(−y·v′(x), v(x))` in the link frame.
+
+use super::{check_param, check_place, Deformation, EffectContext, Mechanism, PinShift};
+use crate::arm::Arm;
+use crate::error::{ArmError, Result};
+use crate::geometry::V2;
+
+/// Flexural rigidity EI (N·mm²) of link `link` (0-based).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LinkBending {
+    /// 0-based link index.
+    pub link: usize,
+    /// Flexural rigidity (N·mm²), > 0.
+    pub ei: f64,
+}
+
+/// A point load on the beam axis: abscissa, transverse force, couple.
+#[derive(Debug, Clone, Copy, Default)]
+struct AxisLoad {
+    x: f64,
+    f: f64,
+    c: f64,
+}
+
+/// Closed-form deflection of a beam under axis loads, supports at 0 and `xa`.
+struct Beam {
+    loads: [AxisLoad; 4],
+    len: usize,
+    inv_ei: f64,
+    w0: f64,
+    slope: f64,
+}
+
+impl Beam {
+    fn new(loads: [AxisLoad; 4], len: usize, ei: f64, xa: f64) -> Self {
+        let mut b = Self {
+            loads,
+            len,
+            inv_ei: 1.0 / ei,
+            w0: 0.0,
+            slope: 0.0,
+        };
+        b.w0 = b.w(0.0);
+        b.slope = (b.w(xa) - b.w0) / xa;
+        b
+    }
+
+    /// Particular solution w with w″ = M/EI.
+    fn w(&self, x: f64) -> f64 {
+        let mut s = 0.0;
+        for l in &self.loads[..self.len] {
+            let d = (l.x - x).max(0.0);
+            s += l.f * d * d * d / 6.0 + l.c * d * d / 2.0;
+        }
+        s * self.inv_ei
+    }
+
+    fn dw(&self, x: f64) -> f64 {
+        let mut s = 0.0;
+        for l in &self.loads[..self.len] {
+            let d = (l.x - x).max(0.0);
+            s += l.f * d * d / 2.0 + l.c * d;
+        }
+        -s * self.inv_ei
+    }
+
+    /// Displacement of local point p: (−y·v′(x), v(x)).
+    fn shift(&self, p: V2) -> V2 {
+        let v = self.w(p.x) - self.w0 - self.slope * p.x;
+        let dv = self.dw(p.x) - self.slope;
+        V2::new(-p.y * dv, v)
+    }
+}
+
+impl Mechanism for LinkBending {
+    fn label(&self) -> String {
+        format!("link_bending@L{}", self.link + 1)
+    }
+    fn check(&self, arm: &Arm) -> Result<()> {
+        check_place(&self.label(), self.link, arm)?;
+        check_param(&self.label(), "ei_n_mm2", self.ei, false)?;
+        let xa = arm.links[self.link].a.x;
+        if xa.abs() <= 1e-9 * (1.0 + arm.links[self.link].a.norm()) {
+            return Err(ArmError::InvalidEffect {
+                effect: self.label(),
+                reason: "pin A lies at x = 0 of the link, so the beam's two supports coincide"
+                    .into(),
+            });
+        }
+        Ok(())
+    }
+    fn apply(&self, ctx: &EffectContext<'_>, def: &mut Deformation) {
+        let (k, arm, fr, d) = (self.link, ctx.arm, ctx.frames, ctx.delta);
+        let n = arm.n();
+        let link = &arm.links[k];
+        let mut loads = [AxisLoad::default(); 4];
+        let mut len = 0;
+        let mut push = |p: V2, f_global: V2| {
+            let f = fr.to_local(k, f_global);
+            loads[len] = AxisLoad {
+                x: p.x,
+                f: f.y,
+                c: -p.y * f.x,
+            };
+            len += 1;
+        };
+        push(V2::zeros(), d.r[k]);
+        push(link.a, d.f[k] * ctx.lines.e[k]);
+        if k + 1 < n {
+            push(link.b, -d.f[k + 1] * ctx.lines.e[k + 1]);
+            push(link.next, -d.r[k + 1]);
+        } else {
+            push(link.next, ctx.payload);
+        }
+        let beam = Beam::new(loads, len, self.ei, link.a.x);
+        let s = &mut def.pin_shift[k];
+        *s = PinShift {
+            a: s.a + beam.shift(link.a),
+            b: s.b + beam.shift(link.b),
+            next: s.next + beam.shift(link.next),
+            measure: s.measure + beam.shift(arm.measure),
+        };
+    }
+}

@@ -1,0 +1,272 @@
+//! The catalogue of physical effects (CONTRACT §4), one module each.
+//!
+//! An effect never moves anything itself: it adds its *cause* to a [`Deformation`] (a length
+//! change, a pin offset, a pin displacement field, a chassis tilt) computed from the statics
+//! of the undeformed pose. [`crate::pose`] then closes the loaded pose exactly with all causes
+//! at once. Adding an effect means one new module and one line in [`Effect`].
+
+mod actuator_compliance;
+mod actuator_play;
+mod base_compliance;
+mod joint_clearance;
+mod link_bending;
+mod mount_compliance;
+
+pub use actuator_compliance::ActuatorCompliance;
+pub use actuator_play::ActuatorPlay;
+pub use base_compliance::BaseCompliance;
+pub use joint_clearance::JointClearance;
+pub use link_bending::LinkBending;
+pub use mount_compliance::MountCompliance;
+
+use crate::arm::Arm;
+use crate::error::{ArmError, Result};
+use crate::geometry::V2;
+use crate::kinematics::Frames;
+use crate::statics::{ActuatorLines, Forces};
+
+/// What an effect may read: the undeformed pose and its statics.
+#[derive(Debug, Clone, Copy)]
+pub struct EffectContext<'a> {
+    /// The arm.
+    pub arm: &'a Arm,
+    /// Undeformed global geometry.
+    pub frames: &'a Frames,
+    /// Actuator directions and moment arms.
+    pub lines: &'a ActuatorLines,
+    /// Forces in the loaded state (self-weight, if any, plus payload).
+    pub loaded: &'a Forces,
+    /// Change of forces from the unloaded to the loaded state.
+    pub delta: &'a Forces,
+    /// Payload force at the load point (N, global).
+    pub payload: V2,
+}
+
+/// Displacements of a link's named points, in the link's own frame (mm).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct PinShift {
+    /// Of the actuator pin A_i.
+    pub a: V2,
+    /// Of the next actuator's base pin B_i.
+    pub b: V2,
+    /// Of the next joint (or load point).
+    pub next: V2,
+    /// Of the measurement point (last link only).
+    pub measure: V2,
+}
+
+/// The causes of deformation of one pose, summed over the effects.
+#[derive(Debug, Clone, Default)]
+pub struct Deformation {
+    /// Compliance of each actuator body (mm/N); the `dlK_mm` sensor sees `−ΔF·this`.
+    pub body_compliance: Vec<f64>,
+    /// Further pin-to-pin length change of each actuator, unseen by its sensor (mm).
+    pub extra_length: Vec<f64>,
+    /// Offset of link i's joint from its bore, in the frame of body i−1 (mm).
+    pub joint_offset: Vec<V2>,
+    /// Bending displacement of each link's pins, in its frame (mm).
+    pub pin_shift: Vec<PinShift>,
+    /// Counter-clockwise tilt of the chassis about the pivot (rad).
+    pub base_tilt: f64,
+}
+
+impl Deformation {
+    /// Sized for `arm`, holding the baseline (file stiffness, nothing else).
+    pub fn new(arm: &Arm) -> Self {
+        let n = arm.n();
+        let mut d = Self {
+            body_compliance: vec![0.0; n],
+            extra_length: vec![0.0; n],
+            joint_offset: vec![V2::zeros(); n],
+            pin_shift: vec![PinShift::default(); n],
+            base_tilt: 0.0,
+        };
+        d.reset(arm);
+        d
+    }
+
+    /// Back to the baseline model.
+    pub fn reset(&mut self, arm: &Arm) {
+        for (c, a) in self.body_compliance.iter_mut().zip(&arm.actuators) {
+            *c = 1.0 / a.stiffness;
+        }
+        self.extra_length.fill(0.0);
+        self.joint_offset.fill(V2::zeros());
+        self.pin_shift.fill(PinShift::default());
+        self.base_tilt = 0.0;
+    }
+}
+
+/// One physical mechanism at one place.
+pub trait Mechanism {
+    /// `name@place`, as the CLI writes it.
+    fn label(&self) -> String;
+    /// Checks the parameter and the place against `arm`.
+    ///
+    /// # Errors
+    /// [`ArmError::InvalidEffect`].
+    fn check(&self, arm: &Arm) -> Result<()>;
+    /// Adds this effect's cause to `def`.
+    fn apply(&self, ctx: &EffectContext<'_>, def: &mut Deformation);
+}
+
+/// Every effect of the catalogue.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Effect {
+    /// `actuator_compliance@Mi`.
+    ActuatorCompliance(ActuatorCompliance),
+    /// `mount_compliance@Mi`.
+    MountCompliance(MountCompliance),
+    /// `actuator_play@Mi`.
+    ActuatorPlay(ActuatorPlay),
+    /// `joint_clearance@Oi`.
+    JointClearance(JointClearance),
+    /// `link_bending@Li`.
+    LinkBending(LinkBending),
+    /// `base_compliance@base`.
+    BaseCompliance(BaseCompliance),
+}
+
+impl Effect {
+    /// Builds an effect from the binding's code (the order of the catalogue), 0-based place
+    /// index and parameter value.
+    ///
+    /// # Errors
+    /// [`ArmError::InvalidEffect`] for an unknown code.
+    pub fn from_code(code: i64, index: usize, value: f64) -> Result<Self> {
+        Ok(match code {
+            0 => Self::ActuatorCompliance(ActuatorCompliance {
+                actuator: index,
+                stiffness: value,
+            }),
+            1 => Self::MountCompliance(MountCompliance {
+                actuator: index,
+                stiffness: value,
+            }),
+            2 => Self::ActuatorPlay(ActuatorPlay {
+                actuator: index,
+                play: value,
+            }),
+            3 => Self::JointClearance(JointClearance {
+                joint: index,
+                clearance: value,
+            }),
+            4 => Self::LinkBending(LinkBending {
+                link: index,
+                ei: value,
+            }),
+            5 => Self::BaseCompliance(BaseCompliance { stiffness: value }),
+            _ => {
+                return Err(ArmError::InvalidEffect {
+                    effect: format!("code {code}"),
+                    reason: "unknown effect code".into(),
+                })
+            }
+        })
+    }
+
+    fn inner(&self) -> &dyn Mechanism {
+        match self {
+            Self::ActuatorCompliance(e) => e,
+            Self::MountCompliance(e) => e,
+            Self::ActuatorPlay(e) => e,
+            Self::JointClearance(e) => e,
+            Self::LinkBending(e) => e,
+            Self::BaseCompliance(e) => e,
+        }
+    }
+}
+
+impl Mechanism for Effect {
+    fn label(&self) -> String {
+        self.inner().label()
+    }
+    fn check(&self, arm: &Arm) -> Result<()> {
+        self.inner().check(arm)
+    }
+    fn apply(&self, ctx: &EffectContext<'_>, def: &mut Deformation) {
+        self.inner().apply(ctx, def)
+    }
+}
+
+/// A validated set of effects for one arm: every place exists, no effect twice at a place.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct EffectSet {
+    effects: Vec<Effect>,
+}
+
+impl EffectSet {
+    /// Validates `effects` against `arm`.
+    ///
+    /// # Errors
+    /// [`ArmError::InvalidEffect`] naming the effect.
+    pub fn new(arm: &Arm, effects: Vec<Effect>) -> Result<Self> {
+        for (i, e) in effects.iter().enumerate() {
+            e.check(arm)?;
+            if effects[..i].iter().any(|p| p.label() == e.label()) {
+                return Err(ArmError::InvalidEffect {
+                    effect: e.label(),
+                    reason: "given twice".into(),
+                });
+            }
+        }
+        Ok(Self { effects })
+    }
+
+    /// The baseline model: no effect.
+    pub fn empty() -> Self {
+        Self::default()
+    }
+
+    /// The effects, in the order given.
+    pub fn effects(&self) -> &[Effect] {
+        &self.effects
+    }
+
+    /// Resets `def` to the baseline and applies every effect.
+    pub fn apply(&self, ctx: &EffectContext<'_>, def: &mut Deformation) {
+        def.reset(ctx.arm);
+        for e in &self.effects {
+            e.apply(ctx, def);
+        }
+    }
+}
+
+/// Shared parameter/place checks of the effect modules.
+pub(crate) fn check_param(label: &str, name: &str, value: f64, allow_zero: bool) -> Result<()> {
+    let ok = value.is_finite() && (value > 0.0 || (allow_zero && value == 0.0));
+    if ok {
+        Ok(())
+    } else {
+        Err(ArmError::InvalidEffect {
+            effect: label.to_owned(),
+            reason: format!(
+                "{name} must be finite and {}, got {value}",
+                if allow_zero { ">= 0" } else { "> 0" }
+            ),
+        })
+    }
+}
+
+pub(crate) fn check_place(label: &str, index: usize, arm: &Arm) -> Result<()> {
+    if index < arm.n() {
+        Ok(())
+    } else {
+        Err(ArmError::InvalidEffect {
+            effect: label.to_owned(),
+            reason: format!("the arm has only {} links", arm.n()),
+        })
+    }
+}
+
+/// `sign(x)` with `sign(0) = 0`.
+#[inline]
+pub(crate) fn sign0(x: f64) -> f64 {
+    if x > 0.0 {
+        1.0
+    } else if x < 0.0 {
+        -1.0
+    } else {
+        0.0
+    }
+}

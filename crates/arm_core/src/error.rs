@@ -1,0 +1,87 @@
+//! The one error type of the core. Every message names what the user must fix: the arm key,
+//! the pose row (0-based, as in the arrays the caller passed) or the effect.
+
+use thiserror::Error;
+
+/// Everything that can go wrong in `arm_core`, as a value; the core never panics on input.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum ArmError {
+    /// The arm description is invalid; `key` names the arm-file key (e.g. `link[2].A`).
+    #[error("arm: key '{key}': {reason}")]
+    InvalidArm {
+        /// Arm-file key at fault.
+        key: String,
+        /// What is wrong with it.
+        reason: String,
+    },
+    /// An input array has the wrong length.
+    #[error("{what}: expected {expected} values, got {got}")]
+    Shape {
+        /// Name of the array.
+        what: &'static str,
+        /// Expected number of values.
+        expected: usize,
+        /// Number of values given.
+        got: usize,
+    },
+    /// An input value is NaN or infinite.
+    #[error("pose row {row}: {what} has a non-finite value")]
+    NonFinite {
+        /// 0-based row.
+        row: usize,
+        /// Name of the array.
+        what: &'static str,
+    },
+    /// An input value is outside its physical range.
+    #[error("pose row {row}: {what}")]
+    OutOfRange {
+        /// 0-based row.
+        row: usize,
+        /// What is wrong.
+        what: String,
+    },
+    /// The actuator's line passes through its joint: no finite force holds the pose.
+    #[error(
+        "pose row {row}: actuator {actuator} passes through joint O{actuator} (singular pose)"
+    )]
+    Singular {
+        /// 0-based row.
+        row: usize,
+        /// 1-based actuator number.
+        actuator: usize,
+    },
+    /// The actuator's two pins coincide in this pose.
+    #[error("pose row {row}: actuator {actuator} has coincident pins (zero length)")]
+    ZeroLength {
+        /// 0-based row.
+        row: usize,
+        /// 1-based actuator number.
+        actuator: usize,
+    },
+    /// The actuator triangle cannot be closed with the requested pin-to-pin length.
+    #[error(
+        "pose row {row}: actuator {actuator} cannot close its triangle with length {length:.6} mm"
+    )]
+    Unreachable {
+        /// 0-based row.
+        row: usize,
+        /// 1-based actuator number.
+        actuator: usize,
+        /// The length that could not be reached (mm).
+        length: f64,
+    },
+    /// An effect is malformed or does not fit the arm.
+    #[error("effect {effect}: {reason}")]
+    InvalidEffect {
+        /// `name@place`.
+        effect: String,
+        /// What is wrong.
+        reason: String,
+    },
+    /// A computation is not defined for this arm (e.g. inverse kinematics for n != 3).
+    #[error("{0}")]
+    Unsupported(String),
+}
+
+/// Result alias of the core.
+pub type Result<T> = std::result::Result<T, ArmError>;

@@ -1,0 +1,173 @@
+//! Frame transforms (seed relation 1), actuator lengths, angles from lengths, inverse kinematics.
+//!
+//! All positions are global, in mm; angles are absolute, counter-clockwise from global x.
+
+use crate::arm::Arm;
+use crate::error::{ArmError, Result};
+use crate::geometry::{angle, close_triangle, cross, rot, rot_sc, wrap_pi, V2};
+
+/// The global geometry of one pose, filled in place (no allocation once sized).
+#[derive(Debug, Clone, Default)]
+pub struct Frames {
+    /// Absolute link angles α_i (rad).
+    pub alpha: Vec<f64>,
+    /// `sin α_i`.
+    pub sin: Vec<f64>,
+    /// `cos α_i`.
+    pub cos: Vec<f64>,
+    /// Joints O_1…O_n followed by the load point (n + 1 entries).
+    pub joint: Vec<V2>,
+    /// Pin A_i of actuator i on link i.
+    pub a: Vec<V2>,
+    /// Base pin of actuator i: B_0 (chassis) for i = 1, else link i−1's B point.
+    pub b: Vec<V2>,
+    /// Centre of mass of link i.
+    pub c: Vec<V2>,
+    /// Measurement point.
+    pub measure: V2,
+}
+
+impl Frames {
+    /// Empty frames sized for an arm of `n` links.
+    pub fn new(n: usize) -> Self {
+        Self {
+            alpha: vec![0.0; n],
+            sin: vec![0.0; n],
+            cos: vec![0.0; n],
+            joint: vec![V2::zeros(); n + 1],
+            a: vec![V2::zeros(); n],
+            b: vec![V2::zeros(); n],
+            c: vec![V2::zeros(); n],
+            measure: V2::zeros(),
+        }
+    }
+
+    /// Fills the frames from absolute angles in radians (`alpha.len() == arm.n()`).
+    pub fn fill(&mut self, arm: &Arm, alpha: &[f64]) {
+        let mut o = arm.o1;
+        let mut base_pin = arm.b0;
+        for (i, link) in arm.links.iter().enumerate() {
+            let (s, c) = alpha[i].sin_cos();
+            self.alpha[i] = alpha[i];
+            self.sin[i] = s;
+            self.cos[i] = c;
+            self.joint[i] = o;
+            self.a[i] = o + rot_sc(s, c, link.a);
+            self.b[i] = base_pin;
+            self.c[i] = o + rot_sc(s, c, link.c);
+            base_pin = o + rot_sc(s, c, link.b);
+            o += rot_sc(s, c, link.next);
+        }
+        let n = arm.n();
+        self.joint[n] = o;
+        let last = n - 1;
+        self.measure = self.joint[last] + rot_sc(self.sin[last], self.cos[last], arm.measure);
+    }
+
+    /// Pin-to-pin length of actuator `i` (mm).
+    #[inline]
+    pub fn length(&self, i: usize) -> f64 {
+        (self.a[i] - self.b[i]).norm()
+    }
+
+    /// Local vector `v` of link `i` expressed in the global frame (rotation only).
+    #[inline]
+    pub fn to_global(&self, i: usize, v: V2) -> V2 {
+        rot_sc(self.sin[i], self.cos[i], v)
+    }
+
+    /// Global vector `v` expressed in link `i`'s frame (rotation only).
+    #[inline]
+    pub fn to_local(&self, i: usize, v: V2) -> V2 {
+        rot_sc(-self.sin[i], self.cos[i], v)
+    }
+
+    /// Side of actuator `i`'s triangle: +1 when A_i lies counter-clockwise of B_{i−1} as seen
+    /// from O_i, −1 otherwise, 0 when degenerate.
+    #[inline]
+    pub fn side(&self, i: usize) -> f64 {
+        let o = self.joint[i];
+        let s = cross(self.b[i] - o, self.a[i] - o);
+        if s > 0.0 {
+            1.0
+        } else if s < 0.0 {
+            -1.0
+        } else {
+            0.0
+        }
+    }
+}
+
+/// Absolute angles (rad) of a rigid arm whose actuators have pin-to-pin lengths `length` (mm).
+///
+/// Each triangle is closed in closed form from the base out; the branch is the one of the
+/// reference pose `alpha_ref` (rad), i.e. the nearest.
+///
+/// # Errors
+/// [`ArmError::Unreachable`] when a length cannot close its triangle.
+pub fn angles_from_lengths(
+    arm: &Arm,
+    length: &[f64],
+    alpha_ref: &[f64],
+    row: usize,
+    out: &mut [f64],
+) -> Result<()> {
+    let mut reference = Frames::new(arm.n());
+    reference.fill(arm, alpha_ref);
+    let mut o = arm.o1;
+    let mut base_pin = arm.b0;
+    for (i, link) in arm.links.iter().enumerate() {
+        let side = reference.side(i);
+        let theta = close_triangle(base_pin - o, link.a.norm(), length[i], side).ok_or(
+            ArmError::Unreachable {
+                row,
+                actuator: i + 1,
+                length: length[i],
+            },
+        )?;
+        // The solution nearest the reference, not merely equal modulo 2π.
+        let al = alpha_ref[i] + wrap_pi(theta - angle(link.a) - alpha_ref[i]);
+        out[i] = al;
+        base_pin = o + rot(al, link.b);
+        o += rot(al, link.next);
+    }
+    Ok(())
+}
+
+/// Inverse kinematics of a 3-link arm: absolute angles (rad) that put the load point at
+/// `(x, y)` (mm, global) with the last link at angle `alpha3` (rad).
+///
+/// `elbow` (+1 or −1) picks the branch of the relative angle β = α₂ − α₁ (−1 is the seed's
+/// "elbow up" pose, with α₂ < α₁). Returns `Ok(false)` and leaves `out` unchanged when the
+/// target is out of reach.
+///
+/// # Errors
+/// [`ArmError::Unsupported`] when the arm does not have exactly 3 links.
+pub fn inverse_kinematics(
+    arm: &Arm,
+    target: [f64; 3],
+    elbow: f64,
+    out: &mut [f64],
+) -> Result<bool> {
+    if arm.n() != 3 {
+        return Err(ArmError::Unsupported(format!(
+            "inverse kinematics needs a 3-link arm, this one has {} links",
+            arm.n()
+        )));
+    }
+    let [x, y, a3] = target;
+    let o3 = V2::new(x, y) - rot(a3, arm.links[2].next);
+    let d = o3 - arm.o1;
+    let (n1, n2) = (arm.links[0].next, arm.links[1].next);
+    let (r1, r2) = (n1.norm(), n2.norm());
+    let c = (d.norm_squared() - r1 * r1 - r2 * r2) / (2.0 * r1 * r2);
+    if !(-1.0..=1.0).contains(&c) {
+        return Ok(false);
+    }
+    let beta = angle(n1) - angle(n2) + elbow.signum() * c.acos();
+    let a1 = angle(d) - angle(n1 + rot(beta, n2));
+    out[0] = a1;
+    out[1] = a1 + beta;
+    out[2] = a3;
+    Ok(true)
+}

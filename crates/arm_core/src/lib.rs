@@ -1,0 +1,30 @@
+//! # arm_core
+//!
+//! The physics of eodarm, in pure Rust (no Python): a planar arm of `n` links, each driven
+//! by a linear actuator, as in Ștefan et al., *Electronics* 2022, 11, 2355.
+//!
+//! * [`kinematics`]: frame transforms (the seed's relation 1), actuator lengths, angles from
+//!   lengths and inverse kinematics;
+//! * [`statics`]: actuator forces and joint reactions (relations 2–8 for `n` links);
+//! * [`effects`]: the catalogue of physical effects (compliance, play, clearance, bending,
+//!   base tilt), one module each;
+//! * [`pose`]: the loaded pose, closed exactly;
+//! * [`solve`]: all of it for many poses at once, in parallel.
+//!
+//! Units: mm, N, kg, rad inside (degrees at the batch API). Global frame: x forward, y up,
+//! angles counter-clockwise. `docs/model.md` in the repository derives every equation.
+
+pub mod arm;
+pub mod effects;
+pub mod error;
+pub mod geometry;
+pub mod kinematics;
+pub mod pose;
+pub mod solve;
+pub mod statics;
+
+pub use arm::{Actuator, Arm, Link};
+pub use effects::{Effect, EffectSet, Mechanism};
+pub use error::{ArmError, Result};
+pub use geometry::V2;
+pub use solve::{solve_batch, BatchInput, BatchOutput, SolveOptions, Workspace};

@@ -1,0 +1,57 @@
+//! The loaded pose, closed exactly (CONTRACT §1): body by body from the chassis, each actuator
+//! triangle is closed with its changed length and its moved pins. Nothing is linearised.
+
+use crate::arm::Arm;
+use crate::effects::Deformation;
+use crate::error::{ArmError, Result};
+use crate::geometry::{angle, close_triangle, rot, V2};
+use crate::kinematics::Frames;
+
+/// Closes the loaded pose.
+///
+/// `fr` is the undeformed pose, `def` the deformation causes, `new_length` the loaded
+/// pin-to-pin lengths (mm). Writes the loaded absolute angles (rad) into `alpha_out` and
+/// returns the loaded global position of the measurement point.
+///
+/// # Errors
+/// [`ArmError::Unreachable`] (naming `row`) when a triangle cannot close.
+pub fn close_pose(
+    arm: &Arm,
+    fr: &Frames,
+    def: &Deformation,
+    new_length: &[f64],
+    row: usize,
+    alpha_out: &mut [f64],
+) -> Result<V2> {
+    let n = arm.n();
+    let pv = arm.pivot;
+    let tilt = def.base_tilt;
+    let chassis = |p: V2| pv + rot(tilt, p - pv);
+    // Joint of link 1 (offset in the chassis frame) and actuator 1's chassis pin.
+    let mut o = chassis(arm.o1 + def.joint_offset[0]);
+    let mut base_pin = chassis(arm.b0);
+    let mut measure = V2::zeros();
+    for (i, link) in arm.links.iter().enumerate() {
+        let shift = &def.pin_shift[i];
+        let a = link.a + shift.a;
+        let side = fr.side(i);
+        let theta = close_triangle(base_pin - o, a.norm(), new_length[i], side).ok_or(
+            ArmError::Unreachable {
+                row,
+                actuator: i + 1,
+                length: new_length[i],
+            },
+        )?;
+        let al = theta - angle(a);
+        alpha_out[i] = al;
+        let (s, c) = al.sin_cos();
+        let to_global = |v: V2| V2::new(c * v.x - s * v.y, s * v.x + c * v.y);
+        if i + 1 < n {
+            base_pin = o + to_global(link.b + shift.b);
+            o += to_global(link.next + shift.next + def.joint_offset[i + 1]);
+        } else {
+            measure = o + to_global(arm.measure + shift.measure);
+        }
+    }
+    Ok(measure)
+}

@@ -1,0 +1,356 @@
+//! The batch solver: statics of both states, effects, exact loaded pose, for many poses.
+//!
+//! Poses are processed in chunks, each with its own [`Workspace`] (nothing is allocated per
+//! pose), in parallel with rayon above [`PARALLEL_THRESHOLD`] poses.
+
+use rayon::prelude::*;
+
+use crate::arm::Arm;
+use crate::effects::{Deformation, EffectContext, EffectSet};
+use crate::error::{ArmError, Result};
+use crate::geometry::{wrap_pi, V2};
+use crate::kinematics::Frames;
+use crate::pose::close_pose;
+use crate::statics::{solve_forces, ActuatorLines, Forces};
+
+/// Below this many poses the batch runs on the calling thread.
+pub const PARALLEL_THRESHOLD: usize = 2048;
+/// Poses per parallel work item.
+pub const CHUNK: usize = 1024;
+
+/// Options of a solve.
+#[derive(Debug, Clone, Copy)]
+pub struct SolveOptions {
+    /// Include link and actuator weights in both states (the seed's Table 5 did not).
+    pub self_weight: bool,
+}
+
+impl Default for SolveOptions {
+    fn default() -> Self {
+        Self { self_weight: true }
+    }
+}
+
+/// Per-thread scratch space for one pose at a time.
+#[derive(Debug, Clone)]
+pub struct Workspace {
+    /// Undeformed geometry.
+    pub frames: Frames,
+    /// Actuator lines of the undeformed pose.
+    pub lines: ActuatorLines,
+    /// Forces of the self-weight case.
+    pub weight: Forces,
+    /// Forces of the payload case = the change from unloaded to loaded.
+    pub delta: Forces,
+    /// Forces of the loaded state.
+    pub loaded: Forces,
+    /// Deformation causes.
+    pub def: Deformation,
+    /// Loaded pin-to-pin lengths (mm).
+    pub new_length: Vec<f64>,
+    /// Loaded angles (rad).
+    pub new_alpha: Vec<f64>,
+    /// Body length changes seen by the actuator sensors (mm).
+    pub body_dl: Vec<f64>,
+    /// Displacement of the measurement point (mm).
+    pub dmeasure: V2,
+}
+
+impl Workspace {
+    /// Scratch space for `arm`.
+    pub fn new(arm: &Arm) -> Self {
+        let n = arm.n();
+        Self {
+            frames: Frames::new(n),
+            lines: ActuatorLines::new(n),
+            weight: Forces::new(n),
+            delta: Forces::new(n),
+            loaded: Forces::new(n),
+            def: Deformation::new(arm),
+            new_length: vec![0.0; n],
+            new_alpha: vec![0.0; n],
+            body_dl: vec![0.0; n],
+            dmeasure: V2::zeros(),
+        }
+    }
+
+    /// Solves one pose (angles in rad, payload force in N at the load point).
+    ///
+    /// # Errors
+    /// Singular poses and triangles that cannot close, naming `row`.
+    pub fn solve(
+        &mut self,
+        arm: &Arm,
+        effects: &EffectSet,
+        alpha: &[f64],
+        payload: V2,
+        opts: SolveOptions,
+        row: usize,
+    ) -> Result<()> {
+        self.frames.fill(arm, alpha);
+        self.lines.fill(&self.frames, row)?;
+        solve_forces(
+            arm,
+            &self.frames,
+            &self.lines,
+            opts.self_weight,
+            V2::zeros(),
+            &mut self.weight,
+        );
+        solve_forces(
+            arm,
+            &self.frames,
+            &self.lines,
+            false,
+            payload,
+            &mut self.delta,
+        );
+        self.loaded.set_sum(&self.weight, &self.delta);
+        let ctx = EffectContext {
+            arm,
+            frames: &self.frames,
+            lines: &self.lines,
+            loaded: &self.loaded,
+            delta: &self.delta,
+            payload,
+        };
+        effects.apply(&ctx, &mut self.def);
+        for i in 0..arm.n() {
+            let body = -self.delta.f[i] * self.def.body_compliance[i];
+            self.body_dl[i] = body;
+            self.new_length[i] = self.lines.length[i] + body + self.def.extra_length[i];
+        }
+        let m = close_pose(
+            arm,
+            &self.frames,
+            &self.def,
+            &self.new_length,
+            row,
+            &mut self.new_alpha,
+        )?;
+        self.dmeasure = m - self.frames.measure;
+        Ok(())
+    }
+}
+
+/// Inputs of a batch: `N` poses of an `n`-link arm, row-major.
+#[derive(Debug, Clone, Copy)]
+pub struct BatchInput<'a> {
+    /// Unloaded absolute angles (deg), `N × n`.
+    pub alpha_deg: &'a [f64],
+    /// Payload force at the load point (N, global), `N × 2`.
+    pub payload_n: &'a [f64],
+}
+
+/// Outputs of a batch, row-major, to be filled in place.
+#[derive(Debug)]
+pub struct BatchOutput<'a> {
+    /// Loaded actuator forces (N), `N × n`.
+    pub force_n: &'a mut [f64],
+    /// Loaded joint reactions (N), `N × n × 2`.
+    pub reaction_n: &'a mut [f64],
+    /// Force changes unloaded → loaded (N), `N × n`.
+    pub dforce_n: &'a mut [f64],
+    /// Measurement point displacement x (mm), `N`.
+    pub dx_mm: &'a mut [f64],
+    /// Measurement point displacement y (mm), `N`.
+    pub dy_mm: &'a mut [f64],
+    /// Change of absolute link angles (deg), `N × n`.
+    pub dalpha_deg: &'a mut [f64],
+    /// Actuator body length change seen by its sensor (mm), `N × n`.
+    pub dl_mm: &'a mut [f64],
+    /// Pin-to-pin length change (mm), `N × n`.
+    pub dlength_mm: &'a mut [f64],
+    /// Unloaded pin-to-pin length (mm), `N × n`.
+    pub length_mm: &'a mut [f64],
+}
+
+impl BatchOutput<'_> {
+    fn check(&self, rows: usize, n: usize) -> Result<()> {
+        let want = [
+            ("force_n", self.force_n.len(), rows * n),
+            ("reaction_n", self.reaction_n.len(), rows * n * 2),
+            ("dforce_n", self.dforce_n.len(), rows * n),
+            ("dx_mm", self.dx_mm.len(), rows),
+            ("dy_mm", self.dy_mm.len(), rows),
+            ("dalpha_deg", self.dalpha_deg.len(), rows * n),
+            ("dl_mm", self.dl_mm.len(), rows * n),
+            ("dlength_mm", self.dlength_mm.len(), rows * n),
+            ("length_mm", self.length_mm.len(), rows * n),
+        ];
+        for (what, got, expected) in want {
+            if got != expected {
+                return Err(ArmError::Shape {
+                    what,
+                    expected,
+                    got,
+                });
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Checks shapes and finiteness of a batch; returns the number of poses.
+///
+/// # Errors
+/// [`ArmError::Shape`] or [`ArmError::NonFinite`] naming the first bad row.
+pub fn check_input(arm: &Arm, input: &BatchInput<'_>) -> Result<usize> {
+    let n = arm.n();
+    if input.alpha_deg.len() % n != 0 {
+        return Err(ArmError::Shape {
+            what: "alpha_deg",
+            expected: (input.alpha_deg.len() / n + 1) * n,
+            got: input.alpha_deg.len(),
+        });
+    }
+    let rows = input.alpha_deg.len() / n;
+    if input.payload_n.len() != 2 * rows {
+        return Err(ArmError::Shape {
+            what: "payload_n",
+            expected: 2 * rows,
+            got: input.payload_n.len(),
+        });
+    }
+    for row in 0..rows {
+        if !input.alpha_deg[row * n..(row + 1) * n]
+            .iter()
+            .all(|v| v.is_finite())
+        {
+            return Err(ArmError::NonFinite {
+                row,
+                what: "alpha_deg",
+            });
+        }
+        if !input.payload_n[2 * row..2 * row + 2]
+            .iter()
+            .all(|v| v.is_finite())
+        {
+            return Err(ArmError::NonFinite {
+                row,
+                what: "payload",
+            });
+        }
+    }
+    Ok(rows)
+}
+
+/// Solves a batch of poses, filling `out` in place.
+///
+/// # Errors
+/// The error of the lowest failing row (shape, non-finite, singular, unreachable).
+pub fn solve_batch(
+    arm: &Arm,
+    effects: &EffectSet,
+    input: BatchInput<'_>,
+    opts: SolveOptions,
+    out: BatchOutput<'_>,
+) -> Result<()> {
+    let n = arm.n();
+    let rows = check_input(arm, &input)?;
+    out.check(rows, n)?;
+    if rows < PARALLEL_THRESHOLD {
+        return solve_chunk(arm, effects, input, opts, out, 0);
+    }
+    let chunks = split_output(out, n, CHUNK);
+    let errors: Vec<ArmError> = chunks
+        .into_par_iter()
+        .enumerate()
+        .filter_map(|(k, chunk)| {
+            let start = k * CHUNK;
+            let m = chunk.dx_mm.len();
+            let sub = BatchInput {
+                alpha_deg: &input.alpha_deg[start * n..(start + m) * n],
+                payload_n: &input.payload_n[2 * start..2 * (start + m)],
+            };
+            solve_chunk(arm, effects, sub, opts, chunk, start).err()
+        })
+        .collect();
+    // Chunks come back in order, so the first error is the lowest failing chunk's.
+    match errors.into_iter().next() {
+        Some(e) => Err(e),
+        None => Ok(()),
+    }
+}
+
+fn split_output<'a>(out: BatchOutput<'a>, n: usize, rows: usize) -> Vec<BatchOutput<'a>> {
+    let mut f = out.force_n.chunks_mut(rows * n);
+    let mut r = out.reaction_n.chunks_mut(rows * n * 2);
+    let mut df = out.dforce_n.chunks_mut(rows * n);
+    let mut dx = out.dx_mm.chunks_mut(rows);
+    let mut dy = out.dy_mm.chunks_mut(rows);
+    let mut da = out.dalpha_deg.chunks_mut(rows * n);
+    let mut dl = out.dl_mm.chunks_mut(rows * n);
+    let mut dlen = out.dlength_mm.chunks_mut(rows * n);
+    let mut len = out.length_mm.chunks_mut(rows * n);
+    let mut chunks = Vec::new();
+    while let (
+        Some(force_n),
+        Some(reaction_n),
+        Some(dforce_n),
+        Some(dx_mm),
+        Some(dy_mm),
+        Some(dalpha_deg),
+        Some(dl_mm),
+        Some(dlength_mm),
+        Some(length_mm),
+    ) = (
+        f.next(),
+        r.next(),
+        df.next(),
+        dx.next(),
+        dy.next(),
+        da.next(),
+        dl.next(),
+        dlen.next(),
+        len.next(),
+    ) {
+        chunks.push(BatchOutput {
+            force_n,
+            reaction_n,
+            dforce_n,
+            dx_mm,
+            dy_mm,
+            dalpha_deg,
+            dl_mm,
+            dlength_mm,
+            length_mm,
+        });
+    }
+    chunks
+}
+
+fn solve_chunk(
+    arm: &Arm,
+    effects: &EffectSet,
+    input: BatchInput<'_>,
+    opts: SolveOptions,
+    out: BatchOutput<'_>,
+    first_row: usize,
+) -> Result<()> {
+    let n = arm.n();
+    let mut ws = Workspace::new(arm);
+    let mut alpha = vec![0.0; n];
+    for p in 0..out.dx_mm.len() {
+        let row = first_row + p;
+        for (a, d) in alpha.iter_mut().zip(&input.alpha_deg[p * n..(p + 1) * n]) {
+            *a = d.to_radians();
+        }
+        let payload = V2::new(input.payload_n[2 * p], input.payload_n[2 * p + 1]);
+        ws.solve(arm, effects, &alpha, payload, opts, row)?;
+        for i in 0..n {
+            let j = p * n + i;
+            out.force_n[j] = ws.loaded.f[i];
+            out.reaction_n[2 * j] = ws.loaded.r[i].x;
+            out.reaction_n[2 * j + 1] = ws.loaded.r[i].y;
+            out.dforce_n[j] = ws.delta.f[i];
+            out.dalpha_deg[j] = wrap_pi(ws.new_alpha[i] - alpha[i]).to_degrees();
+            out.dl_mm[j] = ws.body_dl[i];
+            out.dlength_mm[j] = ws.new_length[i] - ws.lines.length[i];
+            out.length_mm[j] = ws.lines.length[i];
+        }
+        out.dx_mm[p] = ws.dmeasure.x;
+        out.dy_mm[p] = ws.dmeasure.y;
+    }
+    Ok(())
+}

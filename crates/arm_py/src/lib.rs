@@ -1,0 +1,402 @@
+//! `eodarm._core`: the private native module. Only conversions live here (arrays in, arrays
+//! out, core errors to Python exceptions); every function is one call into `arm_core`.
+
+use arm_core::effects::{Effect, EffectSet};
+use arm_core::kinematics::{angles_from_lengths, inverse_kinematics, Frames};
+use arm_core::{Actuator, Arm, ArmError, BatchInput, BatchOutput, Link, SolveOptions, V2};
+use numpy::{
+    IntoPyArray, PyArray1, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2,
+    PyUntypedArrayMethods,
+};
+use pyo3::create_exception;
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+
+create_exception!(
+    _core,
+    CoreError,
+    PyValueError,
+    "Invalid input refused by the compiled core."
+);
+
+/// Newtype carrying a core error across the boundary as a `CoreError` (a `ValueError`).
+struct PyArmError(ArmError);
+
+impl From<PyArmError> for PyErr {
+    fn from(e: PyArmError) -> Self {
+        CoreError::new_err(e.0.to_string())
+    }
+}
+
+impl From<ArmError> for PyArmError {
+    fn from(e: ArmError) -> Self {
+        Self(e)
+    }
+}
+
+fn value_error(msg: String) -> PyErr {
+    CoreError::new_err(msg)
+}
+
+/// Borrows a C-contiguous float64 array of shape `(rows, cols)` as a slice.
+fn matrix<'a>(
+    a: &'a PyReadonlyArray2<'_, f64>,
+    name: &str,
+    cols: usize,
+) -> PyResult<(&'a [f64], usize)> {
+    let shape = a.shape();
+    if shape[1] != cols {
+        return Err(value_error(format!(
+            "{name}: expected shape (N, {cols}), got ({}, {})",
+            shape[0], shape[1]
+        )));
+    }
+    let s = a
+        .as_slice()
+        .map_err(|_| value_error(format!("{name}: array must be C-contiguous")))?;
+    Ok((s, shape[0]))
+}
+
+fn vector<'a>(a: &'a PyReadonlyArray1<'_, f64>, name: &str, len: usize) -> PyResult<&'a [f64]> {
+    let s = a
+        .as_slice()
+        .map_err(|_| value_error(format!("{name}: array must be contiguous")))?;
+    if s.len() != len {
+        return Err(value_error(format!(
+            "{name}: expected {len} values, got {}",
+            s.len()
+        )));
+    }
+    Ok(s)
+}
+
+fn opt(v: f64) -> Option<f64> {
+    (!v.is_nan()).then_some(v)
+}
+
+/// An arm in the core's form, built from the arrays of `eodarm.Arm.arrays()`.
+#[pyclass(frozen, name = "CoreArm", module = "eodarm._core")]
+struct CoreArm {
+    inner: Arm,
+}
+
+#[pymethods]
+impl CoreArm {
+    /// Builds and validates the arm; optional limits are NaN when absent.
+    #[new]
+    #[pyo3(signature = (g, o1, b0, pivot, next, a, b, c, link_mass, measure, stiffness, act_mass, min_length, max_length, max_force))]
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        g: f64,
+        o1: [f64; 2],
+        b0: [f64; 2],
+        pivot: [f64; 2],
+        next: PyReadonlyArray2<'_, f64>,
+        a: PyReadonlyArray2<'_, f64>,
+        b: PyReadonlyArray2<'_, f64>,
+        c: PyReadonlyArray2<'_, f64>,
+        link_mass: PyReadonlyArray1<'_, f64>,
+        measure: [f64; 2],
+        stiffness: PyReadonlyArray1<'_, f64>,
+        act_mass: PyReadonlyArray1<'_, f64>,
+        min_length: PyReadonlyArray1<'_, f64>,
+        max_length: PyReadonlyArray1<'_, f64>,
+        max_force: PyReadonlyArray1<'_, f64>,
+    ) -> PyResult<Self> {
+        let (next, n) = matrix(&next, "next", 2)?;
+        let (a, _) = matrix(&a, "A", 2)?;
+        let (b, _) = matrix(&b, "B", 2)?;
+        let (c, _) = matrix(&c, "C", 2)?;
+        let p = |s: &[f64], i: usize| -> PyResult<V2> {
+            s.get(2 * i..2 * i + 2)
+                .map(|v| V2::new(v[0], v[1]))
+                .ok_or_else(|| value_error(format!("link arrays: expected {n} rows")))
+        };
+        let link_mass = vector(&link_mass, "link_mass", n)?;
+        let mut links = Vec::with_capacity(n);
+        for i in 0..n {
+            links.push(Link {
+                next: p(next, i)?,
+                a: p(a, i)?,
+                b: p(b, i)?,
+                c: p(c, i)?,
+                mass_kg: link_mass[i],
+            });
+        }
+        let k = vector(&stiffness, "stiffness", n)?;
+        let m = vector(&act_mass, "act_mass", n)?;
+        let lo = vector(&min_length, "min_length", n)?;
+        let hi = vector(&max_length, "max_length", n)?;
+        let fmax = vector(&max_force, "max_force", n)?;
+        let actuators = (0..n)
+            .map(|i| Actuator {
+                stiffness: k[i],
+                mass_kg: m[i],
+                min_length: opt(lo[i]),
+                max_length: opt(hi[i]),
+                max_force: opt(fmax[i]),
+            })
+            .collect();
+        let v = |q: [f64; 2]| V2::new(q[0], q[1]);
+        let inner = Arm::new(g, v(o1), v(b0), v(pivot), links, actuators, v(measure))
+            .map_err(PyArmError)?;
+        Ok(Self { inner })
+    }
+
+    /// Number of links.
+    #[getter]
+    fn n(&self) -> usize {
+        self.inner.n()
+    }
+}
+
+fn effect_set(
+    arm: &Arm,
+    codes: &PyReadonlyArray1<'_, i64>,
+    places: &PyReadonlyArray1<'_, i64>,
+    values: &PyReadonlyArray1<'_, f64>,
+) -> PyResult<EffectSet> {
+    let err = |_| value_error("effect arrays must be contiguous".into());
+    let (codes, places, values) = (
+        codes.as_slice().map_err(err)?,
+        places.as_slice().map_err(err)?,
+        values.as_slice().map_err(err)?,
+    );
+    if codes.len() != places.len() || codes.len() != values.len() {
+        return Err(value_error("effect arrays differ in length".into()));
+    }
+    let mut effects = Vec::with_capacity(codes.len());
+    for ((&code, &place), &value) in codes.iter().zip(places).zip(values) {
+        let place = usize::try_from(place)
+            .map_err(|_| value_error(format!("effect place index {place} is negative")))?;
+        effects.push(Effect::from_code(code, place, value).map_err(PyArmError)?);
+    }
+    Ok(EffectSet::new(arm, effects).map_err(PyArmError)?)
+}
+
+/// Solves N poses; returns a dict of float64 arrays (see `eodarm.solve`).
+#[pyfunction]
+#[pyo3(signature = (arm, alpha_deg, payload_n, codes, places, values, self_weight))]
+#[allow(clippy::too_many_arguments)]
+fn solve<'py>(
+    py: Python<'py>,
+    arm: &CoreArm,
+    alpha_deg: PyReadonlyArray2<'py, f64>,
+    payload_n: PyReadonlyArray2<'py, f64>,
+    codes: PyReadonlyArray1<'py, i64>,
+    places: PyReadonlyArray1<'py, i64>,
+    values: PyReadonlyArray1<'py, f64>,
+    self_weight: bool,
+) -> PyResult<Bound<'py, PyDict>> {
+    let arm = &arm.inner;
+    let n = arm.n();
+    let (alpha, rows) = matrix(&alpha_deg, "alpha_deg", n)?;
+    let (payload, prow) = matrix(&payload_n, "payload_n", 2)?;
+    if prow != rows {
+        return Err(value_error(format!(
+            "payload_n: expected {rows} rows, got {prow}"
+        )));
+    }
+    let effects = effect_set(arm, &codes, &places, &values)?;
+    let mut force = vec![0.0; rows * n];
+    let mut reaction = vec![0.0; rows * n * 2];
+    let mut dforce = vec![0.0; rows * n];
+    let mut dx = vec![0.0; rows];
+    let mut dy = vec![0.0; rows];
+    let mut dalpha = vec![0.0; rows * n];
+    let mut dl = vec![0.0; rows * n];
+    let mut dlength = vec![0.0; rows * n];
+    let mut length = vec![0.0; rows * n];
+    py.detach(|| {
+        arm_core::solve_batch(
+            arm,
+            &effects,
+            BatchInput {
+                alpha_deg: alpha,
+                payload_n: payload,
+            },
+            SolveOptions { self_weight },
+            BatchOutput {
+                force_n: &mut force,
+                reaction_n: &mut reaction,
+                dforce_n: &mut dforce,
+                dx_mm: &mut dx,
+                dy_mm: &mut dy,
+                dalpha_deg: &mut dalpha,
+                dl_mm: &mut dl,
+                dlength_mm: &mut dlength,
+                length_mm: &mut length,
+            },
+        )
+    })
+    .map_err(PyArmError)?;
+    let out = PyDict::new(py);
+    out.set_item("force_n", force.into_pyarray(py).reshape([rows, n])?)?;
+    out.set_item(
+        "reaction_n",
+        reaction.into_pyarray(py).reshape([rows, n, 2])?,
+    )?;
+    out.set_item("dforce_n", dforce.into_pyarray(py).reshape([rows, n])?)?;
+    out.set_item("dx_mm", dx.into_pyarray(py))?;
+    out.set_item("dy_mm", dy.into_pyarray(py))?;
+    out.set_item("dalpha_deg", dalpha.into_pyarray(py).reshape([rows, n])?)?;
+    out.set_item("dl_mm", dl.into_pyarray(py).reshape([rows, n])?)?;
+    out.set_item("dlength_mm", dlength.into_pyarray(py).reshape([rows, n])?)?;
+    out.set_item("length_mm", length.into_pyarray(py).reshape([rows, n])?)?;
+    Ok(out)
+}
+
+/// Global points of N poses: O (N, n+1, 2), A, B, C (N, n, 2), measure (N, 2), length_mm (N, n).
+#[pyfunction]
+fn forward<'py>(
+    py: Python<'py>,
+    arm: &CoreArm,
+    alpha_deg: PyReadonlyArray2<'py, f64>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let arm = &arm.inner;
+    let n = arm.n();
+    let (alpha, rows) = matrix(&alpha_deg, "alpha_deg", n)?;
+    let mut o = vec![0.0; rows * (n + 1) * 2];
+    let mut a = vec![0.0; rows * n * 2];
+    let mut b = vec![0.0; rows * n * 2];
+    let mut c = vec![0.0; rows * n * 2];
+    let mut m = vec![0.0; rows * 2];
+    let mut len = vec![0.0; rows * n];
+    py.detach(|| -> Result<(), ArmError> {
+        let mut fr = Frames::new(n);
+        let mut rad = vec![0.0; n];
+        for row in 0..rows {
+            let src = &alpha[row * n..(row + 1) * n];
+            if !src.iter().all(|v| v.is_finite()) {
+                return Err(ArmError::NonFinite {
+                    row,
+                    what: "alpha_deg",
+                });
+            }
+            for (r, d) in rad.iter_mut().zip(src) {
+                *r = d.to_radians();
+            }
+            fr.fill(arm, &rad);
+            let put = |dst: &mut [f64], k: usize, p: V2| {
+                dst[2 * k] = p.x;
+                dst[2 * k + 1] = p.y;
+            };
+            for i in 0..=n {
+                put(&mut o, row * (n + 1) + i, fr.joint[i]);
+            }
+            for i in 0..n {
+                put(&mut a, row * n + i, fr.a[i]);
+                put(&mut b, row * n + i, fr.b[i]);
+                put(&mut c, row * n + i, fr.c[i]);
+                len[row * n + i] = fr.length(i);
+            }
+            put(&mut m, row, fr.measure);
+        }
+        Ok(())
+    })
+    .map_err(PyArmError)?;
+    let out = PyDict::new(py);
+    out.set_item("O", o.into_pyarray(py).reshape([rows, n + 1, 2])?)?;
+    out.set_item("A", a.into_pyarray(py).reshape([rows, n, 2])?)?;
+    out.set_item("B", b.into_pyarray(py).reshape([rows, n, 2])?)?;
+    out.set_item("C", c.into_pyarray(py).reshape([rows, n, 2])?)?;
+    out.set_item("measure", m.into_pyarray(py).reshape([rows, 2])?)?;
+    out.set_item("length_mm", len.into_pyarray(py).reshape([rows, n])?)?;
+    Ok(out)
+}
+
+/// Angles (deg, N × n) of a rigid arm from pin-to-pin lengths, branch of `alpha_ref_deg`.
+#[pyfunction(name = "angles_from_lengths")]
+fn py_angles_from_lengths<'py>(
+    py: Python<'py>,
+    arm: &CoreArm,
+    length_mm: PyReadonlyArray2<'py, f64>,
+    alpha_ref_deg: PyReadonlyArray2<'py, f64>,
+) -> PyResult<Bound<'py, numpy::PyArray2<f64>>> {
+    let arm = &arm.inner;
+    let n = arm.n();
+    let (len, rows) = matrix(&length_mm, "length_mm", n)?;
+    let (aref, rrows) = matrix(&alpha_ref_deg, "alpha_ref_deg", n)?;
+    if rrows != rows {
+        return Err(value_error(format!(
+            "alpha_ref_deg: expected {rows} rows, got {rrows}"
+        )));
+    }
+    let mut out = vec![0.0; rows * n];
+    py.detach(|| -> Result<(), ArmError> {
+        let mut r = vec![0.0; n];
+        for row in 0..rows {
+            let l = &len[row * n..(row + 1) * n];
+            let a = &aref[row * n..(row + 1) * n];
+            if !l.iter().chain(a).all(|v| v.is_finite()) {
+                return Err(ArmError::NonFinite {
+                    row,
+                    what: "length_mm/alpha_ref_deg",
+                });
+            }
+            for (ri, ai) in r.iter_mut().zip(a) {
+                *ri = ai.to_radians();
+            }
+            let dst = &mut out[row * n..(row + 1) * n];
+            angles_from_lengths(arm, l, &r, row, dst)?;
+            for v in dst.iter_mut() {
+                *v = v.to_degrees();
+            }
+        }
+        Ok(())
+    })
+    .map_err(PyArmError)?;
+    Ok(out.into_pyarray(py).reshape([rows, n])?)
+}
+
+/// Inverse kinematics (3 links): target (N, 3) = load point x, y (mm) and α₃ (deg).
+/// Returns (alpha_deg (N, 3), reachable (N,)); unreachable rows are NaN.
+#[pyfunction(name = "inverse_kinematics")]
+fn py_inverse_kinematics<'py>(
+    py: Python<'py>,
+    arm: &CoreArm,
+    target: PyReadonlyArray2<'py, f64>,
+    elbow: f64,
+) -> PyResult<(Bound<'py, numpy::PyArray2<f64>>, Bound<'py, PyArray1<bool>>)> {
+    let arm = &arm.inner;
+    let (t, rows) = matrix(&target, "target", 3)?;
+    let mut out = vec![f64::NAN; rows * 3];
+    let mut ok = vec![false; rows];
+    py.detach(|| -> Result<(), ArmError> {
+        for row in 0..rows {
+            let tr = [t[3 * row], t[3 * row + 1], t[3 * row + 2].to_radians()];
+            if !tr.iter().all(|v| v.is_finite()) {
+                return Err(ArmError::NonFinite {
+                    row,
+                    what: "target",
+                });
+            }
+            let dst = &mut out[3 * row..3 * row + 3];
+            if inverse_kinematics(arm, tr, elbow, dst)? {
+                ok[row] = true;
+                for v in dst.iter_mut() {
+                    *v = v.to_degrees();
+                }
+            }
+        }
+        Ok(())
+    })
+    .map_err(PyArmError)?;
+    Ok((
+        out.into_pyarray(py).reshape([rows, 3])?,
+        ok.into_pyarray(py),
+    ))
+}
+
+/// The private native module of eodarm.
+#[pymodule]
+fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add("CoreError", m.py().get_type::<CoreError>())?;
+    m.add_class::<CoreArm>()?;
+    m.add_function(wrap_pyfunction!(solve, m)?)?;
+    m.add_function(wrap_pyfunction!(forward, m)?)?;
+    m.add_function(wrap_pyfunction!(py_angles_from_lengths, m)?)?;
+    m.add_function(wrap_pyfunction!(py_inverse_kinematics, m)?)?;
+    Ok(())
+}

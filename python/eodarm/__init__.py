@@ -1,0 +1,44 @@
+"""eodarm: why does a robot arm not go where its model says?
+
+Statics, actuator/mount compliance, play, joint clearance, link bending and base tilt of planar
+arms driven by linear actuators, solved exactly for many poses at once by a compiled Rust core,
+with an independent numpy reference.
+
+>>> import eodarm
+>>> arm = eodarm.Arm.from_toml("examples/example_arm.toml")            # doctest: +SKIP
+>>> eff = [eodarm.Effect("joint_clearance", "O3", clearance_mm=0.15)]  # doctest: +SKIP
+>>> out = eodarm.solve(arm, [[90.0, 10.0, 0.0]], 5.0, effects=eff)     # doctest: +SKIP
+"""
+
+from .arm import Actuator, Arm, Link
+from .effects import CATALOGUE, Effect
+from .errors import ArmFileError, EffectError, EodarmError, InputError
+from .solver import (
+    angles_from_lengths,
+    forward,
+    inverse_kinematics,
+    solve,
+    solve_payload,
+    stroke_violations,
+)
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "CATALOGUE",
+    "Actuator",
+    "Arm",
+    "ArmFileError",
+    "Effect",
+    "EffectError",
+    "EodarmError",
+    "InputError",
+    "Link",
+    "__version__",
+    "angles_from_lengths",
+    "forward",
+    "inverse_kinematics",
+    "solve",
+    "solve_payload",
+    "stroke_violations",
+]

@@ -1,0 +1,47 @@
+"""Type stubs of the private native module ``eodarm._core`` (built from crates/arm_py)."""
+
+import numpy as np
+import numpy.typing as npt
+
+class CoreError(ValueError): ...
+
+class CoreArm:
+    def __new__(
+        cls,
+        g: float,
+        o1: tuple[float, float] | list[float] | npt.NDArray[np.float64],
+        b0: tuple[float, float] | list[float] | npt.NDArray[np.float64],
+        pivot: tuple[float, float] | list[float] | npt.NDArray[np.float64],
+        next: npt.NDArray[np.float64],
+        a: npt.NDArray[np.float64],
+        b: npt.NDArray[np.float64],
+        c: npt.NDArray[np.float64],
+        link_mass: npt.NDArray[np.float64],
+        measure: tuple[float, float] | list[float] | npt.NDArray[np.float64],
+        stiffness: npt.NDArray[np.float64],
+        act_mass: npt.NDArray[np.float64],
+        min_length: npt.NDArray[np.float64],
+        max_length: npt.NDArray[np.float64],
+        max_force: npt.NDArray[np.float64],
+    ) -> CoreArm: ...
+    @property
+    def n(self) -> int: ...
+
+def solve(
+    arm: CoreArm,
+    alpha_deg: npt.NDArray[np.float64],
+    payload_n: npt.NDArray[np.float64],
+    codes: npt.NDArray[np.int64],
+    places: npt.NDArray[np.int64],
+    values: npt.NDArray[np.float64],
+    self_weight: bool,
+) -> dict[str, npt.NDArray[np.float64]]: ...
+def forward(
+    arm: CoreArm, alpha_deg: npt.NDArray[np.float64]
+) -> dict[str, npt.NDArray[np.float64]]: ...
+def angles_from_lengths(
+    arm: CoreArm, length_mm: npt.NDArray[np.float64], alpha_ref_deg: npt.NDArray[np.float64]
+) -> npt.NDArray[np.float64]: ...
+def inverse_kinematics(
+    arm: CoreArm, target: npt.NDArray[np.float64], elbow: float
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.bool_]]: ...

@@ -1,0 +1,352 @@
+"""Arm description: loading, validating and exporting the arm file of CONTRACT §2.
+
+An :class:`Arm` is immutable and always valid: every constructor goes through
+:meth:`Arm.from_dict`, which checks every key before anything is built, so nothing
+half-loaded is ever used.
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+import warnings
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, NoReturn
+
+import numpy as np
+
+from .errors import ArmFileError
+
+__all__ = ["Actuator", "Arm", "Link"]
+
+Point = tuple[float, float]
+
+_BASE_KEYS = {"O1", "B0", "pivot"}
+_LINK_KEYS = {"next", "A", "B", "C", "mass_kg", "measure", "ei_n_mm2", "ea_n"}
+_ACT_KEYS = {"stiffness_n_per_mm", "mass_kg", "min_length_mm", "max_length_mm", "max_force_n"}
+_TOP_KEYS = {"name", "g", "base", "link", "actuator"}
+
+
+@dataclass(frozen=True)
+class Link:
+    """One rigid link, points in its local frame (mm).
+
+    Attributes
+    ----------
+    next : next joint O_{i+1} (for the last link: the load point).
+    A : pin of the link's own actuator.
+    B : base pin of the next actuator (``None`` on the last link).
+    C : centre of mass.
+    mass_kg : link mass.
+    measure : measurement point (last link only; ``None`` means the load point).
+    ei_n_mm2, ea_n : optional section properties (N·mm², N).
+    """
+
+    next: Point
+    A: Point
+    B: Point | None
+    C: Point
+    mass_kg: float
+    measure: Point | None = None
+    ei_n_mm2: float | None = None
+    ea_n: float | None = None
+
+
+@dataclass(frozen=True)
+class Actuator:
+    """One linear actuator: axial stiffness (N/mm), mass (kg) and optional limits."""
+
+    stiffness_n_per_mm: float
+    mass_kg: float
+    min_length_mm: float | None = None
+    max_length_mm: float | None = None
+    max_force_n: float | None = None
+
+
+@dataclass(frozen=True)
+class Arm:
+    """A planar arm of n links, each driven by a linear actuator (CONTRACT §2).
+
+    Build one with :meth:`from_toml` or :meth:`from_dict`.
+    """
+
+    name: str
+    O1: Point
+    B0: Point
+    pivot: Point
+    links: tuple[Link, ...]
+    actuators: tuple[Actuator, ...]
+    g: float = 9.81
+    source: str = field(default="<dict>", compare=False)
+
+    # ------------------------------------------------------------------ loading
+    @classmethod
+    def from_toml(cls, path: str | Path) -> Arm:
+        """Load and validate an arm file.
+
+        Raises
+        ------
+        ArmFileError
+            If the file cannot be read or parsed, or any key is missing or invalid. The message
+            names the file and the key.
+        """
+        p = Path(path)
+        try:
+            text = p.read_text(encoding="utf-8")
+        except OSError as exc:
+            raise ArmFileError(f"{p}: cannot read arm file: {exc.strerror or exc}") from None
+        try:
+            data = tomllib.loads(text)
+        except tomllib.TOMLDecodeError as exc:
+            raise ArmFileError(f"{p}: not valid TOML: {exc}") from None
+        return cls.from_dict(data, source=str(p))
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any], source: str = "<dict>") -> Arm:
+        """Validate a parsed arm file (same keys as the TOML) and build the arm."""
+        v = _Validator(source)
+        if not isinstance(data, Mapping):
+            v.fail("<top>", "the arm must be a table of keys")
+        v.unknown(data, _TOP_KEYS, "")
+        name = data.get("name", Path(source).stem if source != "<dict>" else "arm")
+        if not isinstance(name, str):
+            v.fail("name", f"must be a string, got {name!r}")
+        g = v.number(data, "g", "", default=9.81, positive=True)
+
+        base = data.get("base")
+        if not isinstance(base, Mapping):
+            v.fail("base", "missing table [base]")
+        v.unknown(base, _BASE_KEYS, "base.")
+        o1 = v.point(base, "O1", "base.")
+        b0 = v.point(base, "B0", "base.")
+        pivot = v.point(base, "pivot", "base.", default=o1)
+        if _same(o1, b0):
+            v.fail("base.B0", f"coincides with base.O1 {o1}")
+
+        raw_links = data.get("link")
+        if not isinstance(raw_links, list) or not raw_links:
+            v.fail("link", "need at least one [[link]] table")
+        raw_acts = data.get("actuator")
+        if not isinstance(raw_acts, list):
+            v.fail("actuator", "need one [[actuator]] table per [[link]]")
+        n = len(raw_links)
+        if len(raw_acts) != n:
+            v.fail("actuator", f"{len(raw_acts)} [[actuator]] tables for {n} [[link]] tables")
+
+        links = []
+        for i, raw in enumerate(raw_links):
+            pre = f"link[{i + 1}]."
+            if not isinstance(raw, Mapping):
+                v.fail(pre[:-1], "must be a table")
+            v.unknown(raw, _LINK_KEYS, pre)
+            last = i == n - 1
+            nxt = v.point(raw, "next", pre)
+            a = v.point(raw, "A", pre)
+            b = None if last else v.point(raw, "B", pre)
+            if last and "B" in raw:
+                v.warn(pre + "B", "is ignored on the last link (no actuator follows)")
+            c = v.point(raw, "C", pre)
+            mass = v.number(raw, "mass_kg", pre, nonneg=True)
+            measure = v.point(raw, "measure", pre, default=None) if last else None
+            if not last and "measure" in raw:
+                v.fail(pre + "measure", "only the last link has a measurement point")
+            ei = v.number(raw, "ei_n_mm2", pre, default=None, positive=True)
+            ea = v.number(raw, "ea_n", pre, default=None, positive=True)
+            if _same(nxt, (0.0, 0.0)):
+                v.fail(pre + "next", "coincides with the link's own joint (zero-length link)")
+            if _same(a, (0.0, 0.0)):
+                v.fail(pre + "A", "coincides with the link's own joint O (no moment arm)")
+            if b is not None and _same(b, nxt):
+                v.fail(pre + "B", f"coincides with the next joint {nxt}")
+            links.append(Link(nxt, a, b, c, mass, measure, ei, ea))
+
+        acts = []
+        for i, raw in enumerate(raw_acts):
+            pre = f"actuator[{i + 1}]."
+            if not isinstance(raw, Mapping):
+                v.fail(pre[:-1], "must be a table")
+            v.unknown(raw, _ACT_KEYS, pre)
+            k = v.number(raw, "stiffness_n_per_mm", pre, positive=True)
+            m = v.number(raw, "mass_kg", pre, nonneg=True)
+            lo = v.number(raw, "min_length_mm", pre, default=None, positive=True)
+            hi = v.number(raw, "max_length_mm", pre, default=None, positive=True)
+            if lo is not None and hi is not None and lo > hi:
+                v.fail(pre + "min_length_mm", f"{lo} exceeds max_length_mm {hi}")
+            fmax = v.number(raw, "max_force_n", pre, default=None, positive=True)
+            acts.append(Actuator(k, m, lo, hi, fmax))
+
+        return cls(
+            name=name,
+            O1=o1,
+            B0=b0,
+            pivot=pivot,
+            links=tuple(links),
+            actuators=tuple(acts),
+            g=g,
+            source=source,
+        )
+
+    # ------------------------------------------------------------------ views
+    @property
+    def n(self) -> int:
+        """Number of links (and actuators)."""
+        return len(self.links)
+
+    @property
+    def measure(self) -> Point:
+        """Measurement point in the last link's frame (the load point unless set)."""
+        last = self.links[-1]
+        return last.measure if last.measure is not None else last.next
+
+    def arrays(self) -> dict[str, np.ndarray]:
+        """Contiguous float64 arrays describing the arm, as the solvers consume them.
+
+        ``B`` has a zero row for the last link (it has no B pin).
+        """
+        n = self.n
+        zero = (0.0, 0.0)
+        return {
+            "O1": np.array(self.O1, dtype=float),
+            "B0": np.array(self.B0, dtype=float),
+            "pivot": np.array(self.pivot, dtype=float),
+            "next": np.array([lk.next for lk in self.links], dtype=float).reshape(n, 2),
+            "A": np.array([lk.A for lk in self.links], dtype=float).reshape(n, 2),
+            "B": np.array([lk.B or zero for lk in self.links], dtype=float).reshape(n, 2),
+            "C": np.array([lk.C for lk in self.links], dtype=float).reshape(n, 2),
+            "link_mass": np.array([lk.mass_kg for lk in self.links], dtype=float),
+            "measure": np.array(self.measure, dtype=float),
+            "stiffness": np.array([a.stiffness_n_per_mm for a in self.actuators], dtype=float),
+            "act_mass": np.array([a.mass_kg for a in self.actuators], dtype=float),
+            "g": np.array(self.g, dtype=float),
+        }
+
+    def to_dict(self) -> dict[str, Any]:
+        """The arm as a dict with the arm file's keys (inverse of :meth:`from_dict`)."""
+        out: dict[str, Any] = {"name": self.name, "g": self.g}
+        out["base"] = {"O1": list(self.O1), "B0": list(self.B0), "pivot": list(self.pivot)}
+        links = []
+        for lk in self.links:
+            d: dict[str, Any] = {"next": list(lk.next), "A": list(lk.A)}
+            if lk.B is not None:
+                d["B"] = list(lk.B)
+            d["C"] = list(lk.C)
+            if lk.measure is not None:
+                d["measure"] = list(lk.measure)
+            d["mass_kg"] = lk.mass_kg
+            for key in ("ei_n_mm2", "ea_n"):
+                if getattr(lk, key) is not None:
+                    d[key] = getattr(lk, key)
+            links.append(d)
+        out["link"] = links
+        acts = []
+        for a in self.actuators:
+            d = {"stiffness_n_per_mm": a.stiffness_n_per_mm, "mass_kg": a.mass_kg}
+            for key in ("min_length_mm", "max_length_mm", "max_force_n"):
+                if getattr(a, key) is not None:
+                    d[key] = getattr(a, key)
+            acts.append(d)
+        out["actuator"] = acts
+        return out
+
+    def to_toml(self) -> str:
+        """Render the arm as an arm file (CONTRACT §2)."""
+        d = self.to_dict()
+        lines = [f"name = {_toml_value(d['name'])}", f"g = {_toml_value(d['g'])}", "", "[base]"]
+        lines += [f"{k} = {_toml_value(v)}" for k, v in d["base"].items()]
+        for i, lk in enumerate(d["link"]):
+            lines += ["", f"[[link]]  # link {i + 1}"]
+            lines += [f"{k} = {_toml_value(v)}" for k, v in lk.items()]
+        for i, a in enumerate(d["actuator"]):
+            lines += ["", f"[[actuator]]  # actuator {i + 1}"]
+            lines += [f"{k} = {_toml_value(v)}" for k, v in a.items()]
+        return "\n".join(lines) + "\n"
+
+    def replace(self, **changes: Any) -> Arm:
+        """A validated copy with top-level fields changed (e.g. ``B0=(240.0, -35.0)``)."""
+        d = self.to_dict()
+        for key, value in changes.items():
+            if key in ("O1", "B0", "pivot"):
+                d["base"][key] = list(value)
+            elif key in ("name", "g"):
+                d[key] = value
+            else:
+                raise ArmFileError(f"{self.source}: key '{key}': cannot be replaced this way")
+        return Arm.from_dict(d, source=self.source)
+
+
+def _same(p: Point, q: Point) -> bool:
+    return math.hypot(p[0] - q[0], p[1] - q[1]) <= 1e-9 * (1.0 + math.hypot(*p) + math.hypot(*q))
+
+
+def _toml_value(v: Any) -> str:
+    if isinstance(v, str):
+        return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
+    if isinstance(v, list):
+        return "[" + ", ".join(_toml_value(x) for x in v) + "]"
+    return repr(float(v))
+
+
+class _Validator:
+    """Checks keys of one source and raises ArmFileError naming the source and key."""
+
+    _MISSING = object()
+
+    def __init__(self, source: str) -> None:
+        self.source = source
+
+    def fail(self, key: str, why: str) -> NoReturn:
+        raise ArmFileError(f"{self.source}: key '{key}': {why}")
+
+    def warn(self, key: str, why: str) -> None:
+        warnings.warn(f"{self.source}: key '{key}' {why}", UserWarning, stacklevel=4)
+
+    def unknown(self, table: Mapping[str, Any], allowed: set[str], prefix: str) -> None:
+        for key in table:
+            if key not in allowed:
+                self.warn(prefix + key, "is not an arm-file key and is ignored")
+
+    def number(
+        self,
+        table: Mapping[str, Any],
+        key: str,
+        prefix: str,
+        default: Any = _MISSING,
+        positive: bool = False,
+        nonneg: bool = False,
+    ) -> Any:
+        if key not in table:
+            if default is self._MISSING:
+                self.fail(prefix + key, "missing")
+            return default
+        val = table[key]
+        if isinstance(val, bool) or not isinstance(val, (int, float)):
+            self.fail(prefix + key, f"must be a number, got {val!r}")
+        x = float(val)
+        if not math.isfinite(x):
+            self.fail(prefix + key, f"must be finite, got {val!r}")
+        if positive and x <= 0:
+            self.fail(prefix + key, f"must be > 0, got {val!r}")
+        if nonneg and x < 0:
+            self.fail(prefix + key, f"must be >= 0, got {val!r}")
+        return x
+
+    def point(
+        self, table: Mapping[str, Any], key: str, prefix: str, default: Any = _MISSING
+    ) -> Any:
+        if key not in table:
+            if default is self._MISSING:
+                self.fail(prefix + key, "missing")
+            return default
+        val = table[key]
+        if (
+            not isinstance(val, (list, tuple))
+            or len(val) != 2
+            or any(isinstance(x, bool) or not isinstance(x, (int, float)) for x in val)
+        ):
+            self.fail(prefix + key, f"must be a pair of numbers [x, y], got {val!r}")
+        x, y = float(val[0]), float(val[1])
+        if not (math.isfinite(x) and math.isfinite(y)):
+            self.fail(prefix + key, f"must be finite, got {val!r}")
+        return (x, y)

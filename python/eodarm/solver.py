@@ -1,0 +1,256 @@
+"""The public solvers: loaded pose, kinematics, inverse kinematics (CONTRACT §5).
+
+Every function takes and returns numpy arrays for many poses at once and dispatches to the
+compiled core (``backend="rust"``, the default) or to the numpy reference
+(``backend="numpy"``, :mod:`eodarm.reference`). Inputs are checked here once, so both
+backends refuse bad input with the same one-line message naming the row.
+"""
+
+from __future__ import annotations
+
+from functools import lru_cache
+from typing import Any, Literal
+
+import numpy as np
+import numpy.typing as npt
+
+from .arm import Arm
+from .effects import Effect, as_effects, effect_arrays
+from .errors import InputError
+
+__all__ = [
+    "angles_from_lengths",
+    "forward",
+    "inverse_kinematics",
+    "solve",
+    "solve_payload",
+    "stroke_violations",
+]
+
+Backend = Literal["rust", "numpy"]
+Arrays = dict[str, npt.NDArray[np.float64]]
+
+
+def solve(
+    arm: Arm,
+    alpha_deg: npt.ArrayLike,
+    mass_kg: npt.ArrayLike = 0.0,
+    effects: Effect | list[Effect] | tuple[Effect, ...] | None = None,
+    backend: Backend = "rust",
+    self_weight: bool = True,
+) -> Arrays:
+    """Loaded minus unloaded state of N poses under a payload mass at the load point.
+
+    Parameters
+    ----------
+    arm : the arm.
+    alpha_deg : (N, n) unloaded absolute link angles, degrees (a single pose (n,) is N = 1).
+    mass_kg : payload mass, kg; scalar or (N,). Its weight ``m·g`` acts downward.
+    effects : effects added to the baseline model (CONTRACT §4).
+    backend : ``"rust"`` (compiled core) or ``"numpy"`` (independent reference).
+    self_weight : include link and actuator weights in both states.
+
+    Returns
+    -------
+    dict of arrays: ``force_n`` (N, n) loaded actuator forces (compression +, N);
+    ``reaction_n`` (N, n, 2) loaded joint reactions (force of body i−1 on link i, N);
+    ``dforce_n`` (N, n) force change; ``dx_mm``, ``dy_mm`` (N,) measure-point displacement;
+    ``dalpha_deg`` (N, n) change of absolute link angles; ``dl_mm`` (N, n) actuator body length
+    change as its sensor sees it; ``dlength_mm`` (N, n) pin-to-pin change; ``length_mm`` (N, n)
+    unloaded pin-to-pin length.
+
+    Raises
+    ------
+    ValueError
+        (an :class:`~eodarm.errors.EodarmError`) naming the row for a wrong shape, a non-finite
+        value, a negative mass, a singular pose or a triangle that cannot close.
+    """
+    alpha = _poses(alpha_deg, arm.n, "alpha_deg")
+    mass = _per_row(mass_kg, alpha.shape[0], "mass_kg")
+    bad = np.flatnonzero(mass < 0)
+    if bad.size:
+        raise InputError(f"pose row {bad[0]}: mass_kg is negative ({mass[bad[0]]})")
+    payload = np.zeros((alpha.shape[0], 2))
+    payload[:, 1] = -mass * arm.g
+    return solve_payload(arm, alpha, payload, effects, backend, self_weight)
+
+
+def solve_payload(
+    arm: Arm,
+    alpha_deg: npt.ArrayLike,
+    payload_n: npt.ArrayLike,
+    effects: Effect | list[Effect] | tuple[Effect, ...] | None = None,
+    backend: Backend = "rust",
+    self_weight: bool = True,
+) -> Arrays:
+    """Like :func:`solve`, with any payload force vector (N, 2) in N at the load point."""
+    alpha = _poses(alpha_deg, arm.n, "alpha_deg")
+    payload = _poses(payload_n, 2, "payload_n")
+    if payload.shape[0] == 1 and alpha.shape[0] != 1:
+        payload = np.ascontiguousarray(np.broadcast_to(payload, (alpha.shape[0], 2)))
+    if payload.shape[0] != alpha.shape[0]:
+        raise InputError(
+            f"payload_n: expected {alpha.shape[0]} rows like alpha_deg, got {payload.shape[0]}"
+        )
+    effs = as_effects(effects)
+    codes, places, values = effect_arrays(effs, arm.n)
+    if backend == "rust":
+        from . import _core
+
+        return _core.solve(_core_arm(arm), alpha, payload, codes, places, values, self_weight)
+    if backend == "numpy":
+        from . import reference
+
+        return reference.solve_payload(arm, alpha, payload, effs, self_weight=self_weight)
+    raise InputError(f"backend must be 'rust' or 'numpy', got {backend!r}")
+
+
+def forward(arm: Arm, alpha_deg: npt.ArrayLike, backend: Backend = "rust") -> Arrays:
+    """Global points of N poses (seed relation 1).
+
+    Returns ``O`` (N, n+1, 2): joints O_1…O_n and the load point; ``A`` (N, n, 2): actuator
+    pins on the links; ``B`` (N, n, 2): base pin of each actuator (B_0 for actuator 1);
+    ``C`` (N, n, 2): centres of mass; ``measure`` (N, 2); ``length_mm`` (N, n) pin-to-pin.
+    """
+    alpha = _poses(alpha_deg, arm.n, "alpha_deg")
+    if backend == "rust":
+        from . import _core
+
+        return _core.forward(_core_arm(arm), alpha)
+    from . import reference
+
+    return reference.forward(arm, alpha)
+
+
+def angles_from_lengths(
+    arm: Arm,
+    length_mm: npt.ArrayLike,
+    alpha_ref_deg: npt.ArrayLike,
+    backend: Backend = "rust",
+) -> npt.NDArray[np.float64]:
+    """Absolute angles (N, n), degrees, of the rigid arm with the given actuator lengths.
+
+    Each actuator triangle is closed in closed form; of its two solutions the one on the side
+    of the reference pose ``alpha_ref_deg`` ((n,) or (N, n)) is taken.
+    """
+    length = _poses(length_mm, arm.n, "length_mm")
+    ref = _poses(alpha_ref_deg, arm.n, "alpha_ref_deg")
+    if ref.shape[0] == 1 and length.shape[0] != 1:
+        ref = np.ascontiguousarray(np.broadcast_to(ref, length.shape))
+    if backend == "rust":
+        from . import _core
+
+        return _core.angles_from_lengths(_core_arm(arm), length, ref)
+    from . import reference
+
+    return reference.angles_from_lengths(arm, length, ref)
+
+
+def inverse_kinematics(
+    arm: Arm,
+    target: npt.ArrayLike,
+    elbow: int = -1,
+    backend: Backend = "rust",
+) -> Arrays:
+    """Angles and actuator lengths that put the load point at a target (3-link arms).
+
+    Parameters
+    ----------
+    target : (N, 3) or (3,): load point x, y (mm, global) and the last link's angle (deg).
+    elbow : −1 (α₂ < α₁, the seed's pose) or +1, the branch of the middle joint.
+
+    Returns
+    -------
+    ``alpha_deg`` (N, 3) (NaN where unreachable), ``length_mm`` (N, 3) and ``reachable`` (N,).
+    """
+    t = _poses(target, 3, "target")
+    if elbow not in (-1, 1):
+        raise InputError(f"elbow must be -1 or +1, got {elbow!r}")
+    if arm.n != 3:
+        raise InputError(f"inverse kinematics needs a 3-link arm, this one has {arm.n} links")
+    if backend == "numpy":
+        from . import reference
+
+        return reference.inverse_kinematics(arm, t, elbow=elbow)
+    from . import _core
+
+    alpha, ok = _core.inverse_kinematics(_core_arm(arm), t, float(elbow))
+    length = np.full_like(alpha, np.nan)
+    if ok.any():
+        length[ok] = _core.forward(_core_arm(arm), np.ascontiguousarray(alpha[ok]))["length_mm"]
+    return {"alpha_deg": alpha, "length_mm": length, "reachable": ok}
+
+
+def stroke_violations(arm: Arm, length_mm: npt.ArrayLike) -> npt.NDArray[np.int8]:
+    """Stroke check of pin-to-pin lengths (N, n): −1 below ``min_length_mm``, +1 above
+    ``max_length_mm``, 0 within the stroke (or no limit set)."""
+    length = _poses(length_mm, arm.n, "length_mm")
+    lo = np.array(
+        [a.min_length_mm if a.min_length_mm is not None else -np.inf for a in arm.actuators]
+    )
+    hi = np.array(
+        [a.max_length_mm if a.max_length_mm is not None else np.inf for a in arm.actuators]
+    )
+    return (np.where(length < lo, -1, 0) + np.where(length > hi, 1, 0)).astype(np.int8)
+
+
+# ---------------------------------------------------------------------------- helpers
+def _poses(values: npt.ArrayLike, n: int, name: str) -> npt.NDArray[np.float64]:
+    """(N, n) contiguous float64, or a clear InputError naming the shape or the row."""
+    try:
+        a = np.asarray(values, dtype=float)
+    except (TypeError, ValueError):
+        raise InputError(f"{name}: cannot be read as an array of numbers") from None
+    if a.ndim == 1 and a.shape[0] == n:
+        a = a[None, :]
+    if a.ndim != 2 or a.shape[1] != n:
+        raise InputError(f"{name}: expected shape (N, {n}), got {a.shape}")
+    bad = ~np.isfinite(a).all(axis=1)
+    if bad.any():
+        raise InputError(f"pose row {int(np.flatnonzero(bad)[0])}: {name} has a non-finite value")
+    return np.ascontiguousarray(a)
+
+
+def _per_row(values: npt.ArrayLike, rows: int, name: str) -> npt.NDArray[np.float64]:
+    try:
+        a = np.asarray(values, dtype=float)
+    except (TypeError, ValueError):
+        raise InputError(f"{name}: cannot be read as numbers") from None
+    if a.ndim == 0:
+        a = np.full(rows, float(a))
+    if a.shape != (rows,):
+        raise InputError(f"{name}: expected a scalar or shape ({rows},), got {a.shape}")
+    bad = ~np.isfinite(a)
+    if bad.any():
+        raise InputError(f"pose row {int(np.flatnonzero(bad)[0])}: {name} is not finite")
+    return a
+
+
+@lru_cache(maxsize=64)
+def _core_arm(arm: Arm) -> Any:
+    from . import _core
+
+    d = arm.arrays()
+
+    def lim(key: str) -> npt.NDArray[np.float64]:
+        return np.array(
+            [np.nan if getattr(a, key) is None else getattr(a, key) for a in arm.actuators]
+        )
+
+    return _core.CoreArm(
+        float(d["g"]),
+        d["O1"],
+        d["B0"],
+        d["pivot"],
+        d["next"],
+        d["A"],
+        d["B"],
+        d["C"],
+        d["link_mass"],
+        d["measure"],
+        d["stiffness"],
+        d["act_mass"],
+        lim("min_length_mm"),
+        lim("max_length_mm"),
+        lim("max_force_n"),
+    )
