@@ -1,1 +1,274 @@
-fn main() {}
+//! Criterion benchmarks of `arm_core::solve_batch` (1e3, 1e4, 1e5 poses; baseline and all six
+//! effect kinds at once) and of one pose through `Workspace::solve`, on the example arm of
+//! `examples/example_arm.toml`. Run with `cargo bench -p arm_benches`; see `docs/benchmarks.md`.
+
+use std::hint::black_box;
+use std::time::Duration;
+
+use arm_core::effects::{
+    ActuatorCompliance, ActuatorPlay, BaseCompliance, JointClearance, LinkBending, MountCompliance,
+};
+use arm_core::{
+    Actuator, Arm, BatchInput, BatchOutput, Effect, EffectSet, Link, SolveOptions, Workspace, V2,
+};
+use criterion::{
+    criterion_group, criterion_main, BenchmarkId, Criterion, SamplingMode, Throughput,
+};
+
+/// Batch sizes (poses per call).
+const SIZES: [usize; 3] = [1_000, 10_000, 100_000];
+
+/// Unwraps a core result; a benchmark set up wrongly should stop loudly, naming the step.
+fn ok<T>(r: arm_core::Result<T>, what: &str) -> T {
+    match r {
+        Ok(v) => v,
+        Err(e) => panic!("{what}: {e}"),
+    }
+}
+
+fn v(x: f64, y: f64) -> V2 {
+    V2::new(x, y)
+}
+
+/// The example arm, with the numbers of `examples/example_arm.toml`.
+fn example_arm() -> Arm {
+    let link = |next: V2, a: V2, b: V2, c: V2, mass_kg: f64| Link {
+        next,
+        a,
+        b,
+        c,
+        mass_kg,
+    };
+    let act = |stiffness: f64, mass_kg: f64, lo: f64, hi: f64, fmax: f64| Actuator {
+        stiffness,
+        mass_kg,
+        min_length: Some(lo),
+        max_length: Some(hi),
+        max_force: Some(fmax),
+    };
+    ok(
+        Arm::new(
+            9.81,
+            v(0.0, 0.0),
+            v(250.0, -40.0),
+            v(-200.0, -280.0),
+            vec![
+                link(
+                    v(480.0, 0.0),
+                    v(95.0, 55.0),
+                    v(-40.0, -50.0),
+                    v(220.0, -3.0),
+                    3.0,
+                ),
+                link(
+                    v(380.0, 0.0),
+                    v(85.0, -55.0),
+                    v(-110.0, 10.0),
+                    v(170.0, -2.0),
+                    2.2,
+                ),
+                // The last link has no B pin (no actuator follows); the core ignores it.
+                link(
+                    v(360.0, 0.0),
+                    v(50.0, -40.0),
+                    v(0.0, 0.0),
+                    v(160.0, -2.0),
+                    1.3,
+                ),
+            ],
+            vec![
+                act(3000.0, 1.5, 150.0, 420.0, 4000.0),
+                act(2500.0, 1.2, 150.0, 380.0, 3000.0),
+                act(2000.0, 0.9, 120.0, 330.0, 2500.0),
+            ],
+            v(280.0, -40.0),
+        ),
+        "example arm",
+    )
+}
+
+/// One effect of each of the six kinds, with plausible values for the example arm.
+fn all_effects(arm: &Arm) -> EffectSet {
+    ok(
+        EffectSet::new(
+            arm,
+            vec![
+                Effect::ActuatorCompliance(ActuatorCompliance {
+                    actuator: 0,
+                    stiffness: 1500.0,
+                }),
+                Effect::MountCompliance(MountCompliance {
+                    actuator: 1,
+                    stiffness: 4000.0,
+                }),
+                Effect::ActuatorPlay(ActuatorPlay {
+                    actuator: 2,
+                    play: 0.05,
+                }),
+                Effect::JointClearance(JointClearance {
+                    joint: 2,
+                    clearance: 0.15,
+                }),
+                Effect::LinkBending(LinkBending {
+                    link: 1,
+                    ei: 2.0e10,
+                }),
+                Effect::BaseCompliance(BaseCompliance { stiffness: 5.0e8 }),
+            ],
+        ),
+        "effect set",
+    )
+}
+
+/// `rows` reproducible poses: α ∈ [60, 110] × [0, 30] × [−10, 10] degrees, payload masses
+/// 0..7 kg (downward force), from a fixed-seed xorshift generator.
+fn poses(rows: usize, g: f64) -> (Vec<f64>, Vec<f64>) {
+    let mut state: u64 = 0x9E37_79B9_7F4A_7C15;
+    let mut uniform = move |lo: f64, hi: f64| {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        lo + (hi - lo) * ((state >> 11) as f64 / (1u64 << 53) as f64)
+    };
+    let mut alpha = Vec::with_capacity(3 * rows);
+    let mut payload = Vec::with_capacity(2 * rows);
+    for _ in 0..rows {
+        alpha.push(uniform(60.0, 110.0));
+        alpha.push(uniform(0.0, 30.0));
+        alpha.push(uniform(-10.0, 10.0));
+        payload.push(0.0);
+        payload.push(-uniform(0.0, 7.0) * g);
+    }
+    (alpha, payload)
+}
+
+/// Output buffers of a batch, allocated once per size and reused by every iteration.
+struct Buffers {
+    force: Vec<f64>,
+    reaction: Vec<f64>,
+    dforce: Vec<f64>,
+    dx: Vec<f64>,
+    dy: Vec<f64>,
+    dalpha: Vec<f64>,
+    dl: Vec<f64>,
+    dlength: Vec<f64>,
+    length: Vec<f64>,
+}
+
+impl Buffers {
+    fn new(rows: usize, n: usize) -> Self {
+        let z = |k: usize| vec![0.0; k];
+        Self {
+            force: z(rows * n),
+            reaction: z(rows * n * 2),
+            dforce: z(rows * n),
+            dx: z(rows),
+            dy: z(rows),
+            dalpha: z(rows * n),
+            dl: z(rows * n),
+            dlength: z(rows * n),
+            length: z(rows * n),
+        }
+    }
+
+    fn out(&mut self) -> BatchOutput<'_> {
+        BatchOutput {
+            force_n: &mut self.force,
+            reaction_n: &mut self.reaction,
+            dforce_n: &mut self.dforce,
+            dx_mm: &mut self.dx,
+            dy_mm: &mut self.dy,
+            dalpha_deg: &mut self.dalpha,
+            dl_mm: &mut self.dl,
+            dlength_mm: &mut self.dlength,
+            length_mm: &mut self.length,
+        }
+    }
+}
+
+fn bench_batch(c: &mut Criterion) {
+    let arm = example_arm();
+    let models = [
+        ("baseline", EffectSet::empty()),
+        ("all_effects", all_effects(&arm)),
+    ];
+    let opts = SolveOptions::default();
+    eprintln!(
+        "arm_benches: {} hardware threads, RAYON_NUM_THREADS={}",
+        std::thread::available_parallelism().map_or(0, |n| n.get()),
+        std::env::var("RAYON_NUM_THREADS").unwrap_or_else(|_| "unset".into()),
+    );
+    for (name, effects) in &models {
+        let mut group = c.benchmark_group(format!("solve_batch/{name}"));
+        group
+            .sampling_mode(SamplingMode::Flat)
+            .sample_size(10)
+            .warm_up_time(Duration::from_millis(500))
+            .measurement_time(Duration::from_secs(3));
+        for rows in SIZES {
+            let (alpha, payload) = poses(rows, arm.g);
+            let input = BatchInput {
+                alpha_deg: &alpha,
+                payload_n: &payload,
+            };
+            let mut buf = Buffers::new(rows, arm.n());
+            // Every pose must solve: a benchmark of error returns would measure nothing.
+            ok(
+                arm_core::solve_batch(&arm, effects, input, opts, buf.out()),
+                "batch check",
+            );
+            assert!(buf.dy.iter().all(|d| d.is_finite()));
+            group.throughput(Throughput::Elements(rows as u64));
+            group.bench_with_input(BenchmarkId::from_parameter(rows), &input, |b, input| {
+                b.iter(|| {
+                    let r =
+                        arm_core::solve_batch(&arm, effects, *black_box(input), opts, buf.out());
+                    black_box(r.is_ok())
+                });
+            });
+        }
+        group.finish();
+    }
+}
+
+fn bench_single(c: &mut Criterion) {
+    let arm = example_arm();
+    let models = [
+        ("baseline", EffectSet::empty()),
+        ("all_effects", all_effects(&arm)),
+    ];
+    let opts = SolveOptions::default();
+    let alpha = [90f64.to_radians(), 10f64.to_radians(), 0.0];
+    let payload = v(0.0, -5.0 * arm.g);
+    let mut group = c.benchmark_group("workspace_solve");
+    group
+        .sample_size(50)
+        .warm_up_time(Duration::from_millis(500))
+        .measurement_time(Duration::from_secs(2))
+        .throughput(Throughput::Elements(1));
+    for (name, effects) in &models {
+        let mut ws = Workspace::new(&arm);
+        ok(
+            ws.solve(&arm, effects, &alpha, payload, opts, 0),
+            "single-pose check",
+        );
+        group.bench_function(*name, |b| {
+            b.iter(|| {
+                let r = ws.solve(
+                    &arm,
+                    effects,
+                    black_box(&alpha),
+                    black_box(payload),
+                    opts,
+                    0,
+                );
+                black_box(r.is_ok());
+                black_box(ws.dmeasure)
+            });
+        });
+    }
+    group.finish();
+}
+
+criterion_group!(benches, bench_batch, bench_single);
+criterion_main!(benches);

@@ -4,7 +4,7 @@
 use crate::arm::Arm;
 use crate::effects::Deformation;
 use crate::error::{ArmError, Result};
-use crate::geometry::{angle, close_triangle, rot, V2};
+use crate::geometry::{angle, close_triangle, rot, wrap_pi, V2};
 use crate::kinematics::Frames;
 
 /// Closes the loaded pose.
@@ -42,7 +42,8 @@ pub fn close_pose(
                 length: new_length[i],
             },
         )?;
-        let al = theta - angle(a);
+        // The solution nearest the unloaded angle, not merely equal to it modulo 2π.
+        let al = fr.alpha[i] + wrap_pi(theta - angle(a) - fr.alpha[i]);
         alpha_out[i] = al;
         let (s, c) = al.sin_cos();
         let to_global = |v: V2| V2::new(c * v.x - s * v.y, s * v.x + c * v.y);

@@ -8,7 +8,7 @@ use rayon::prelude::*;
 use crate::arm::Arm;
 use crate::effects::{Deformation, EffectContext, EffectSet};
 use crate::error::{ArmError, Result};
-use crate::geometry::{wrap_pi, V2};
+use crate::geometry::V2;
 use crate::kinematics::Frames;
 use crate::pose::close_pose;
 use crate::statics::{solve_forces, ActuatorLines, Forces};
@@ -320,6 +320,7 @@ fn split_output<'a>(out: BatchOutput<'a>, n: usize, rows: usize) -> Vec<BatchOut
     chunks
 }
 
+#[allow(clippy::needless_range_loop)] // i indexes six parallel arrays
 fn solve_chunk(
     arm: &Arm,
     effects: &EffectSet,
@@ -344,7 +345,7 @@ fn solve_chunk(
             out.reaction_n[2 * j] = ws.loaded.r[i].x;
             out.reaction_n[2 * j + 1] = ws.loaded.r[i].y;
             out.dforce_n[j] = ws.delta.f[i];
-            out.dalpha_deg[j] = wrap_pi(ws.new_alpha[i] - alpha[i]).to_degrees();
+            out.dalpha_deg[j] = (ws.new_alpha[i] - alpha[i]).to_degrees();
             out.dl_mm[j] = ws.body_dl[i];
             out.dlength_mm[j] = ws.new_length[i] - ws.lines.length[i];
             out.length_mm[j] = ws.lines.length[i];

@@ -41,7 +41,7 @@ impl ActuatorLines {
             let v = fr.a[i] - fr.b[i];
             let l = v.norm();
             let ra = fr.a[i] - fr.joint[i];
-            if !(l > 1e-12 * (1.0 + ra.norm())) {
+            if l.is_nan() || l <= 1e-12 * (1.0 + ra.norm()) {
                 return Err(ArmError::ZeroLength {
                     row,
                     actuator: i + 1,
@@ -49,7 +49,7 @@ impl ActuatorLines {
             }
             let e = v / l;
             let h = cross(ra, e);
-            if !(h.abs() >= SINGULAR_TOL * ra.norm()) {
+            if h.is_nan() || h.abs() < SINGULAR_TOL * ra.norm() {
                 return Err(ArmError::Singular {
                     row,
                     actuator: i + 1,

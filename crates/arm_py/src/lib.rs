@@ -115,13 +115,13 @@ impl CoreArm {
         };
         let link_mass = vector(&link_mass, "link_mass", n)?;
         let mut links = Vec::with_capacity(n);
-        for i in 0..n {
+        for (i, &mass_kg) in link_mass.iter().enumerate() {
             links.push(Link {
                 next: p(next, i)?,
                 a: p(a, i)?,
                 b: p(b, i)?,
                 c: p(c, i)?,
-                mass_kg: link_mass[i],
+                mass_kg,
             });
         }
         let k = vector(&stiffness, "stiffness", n)?;
@@ -347,8 +347,11 @@ fn py_angles_from_lengths<'py>(
         Ok(())
     })
     .map_err(PyArmError)?;
-    Ok(out.into_pyarray(py).reshape([rows, n])?)
+    out.into_pyarray(py).reshape([rows, n])
 }
+
+/// Angles (deg) and reachability flags of an inverse-kinematics batch.
+type IkOut<'py> = (Bound<'py, numpy::PyArray2<f64>>, Bound<'py, PyArray1<bool>>);
 
 /// Inverse kinematics (3 links): target (N, 3) = load point x, y (mm) and α₃ (deg).
 /// Returns (alpha_deg (N, 3), reachable (N,)); unreachable rows are NaN.
@@ -358,7 +361,7 @@ fn py_inverse_kinematics<'py>(
     arm: &CoreArm,
     target: PyReadonlyArray2<'py, f64>,
     elbow: f64,
-) -> PyResult<(Bound<'py, numpy::PyArray2<f64>>, Bound<'py, PyArray1<bool>>)> {
+) -> PyResult<IkOut<'py>> {
     let arm = &arm.inner;
     let (t, rows) = matrix(&target, "target", 3)?;
     let mut out = vec![f64::NAN; rows * 3];

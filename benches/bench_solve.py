@@ -1,0 +1,318 @@
+"""Throughput of ``eodarm.solve``: compiled core vs numpy reference vs a pure-Python loop.
+
+Times ``eodarm.solve`` with ``backend="rust"`` and ``backend="numpy"`` on the example arm, for
+the baseline model and for all six effect kinds at once, and a plain-Python per-pose loop
+(floats and :mod:`math`, baseline model only) written below and checked against
+``eodarm.solve`` before it is timed. Every figure is the best of k calls, k growing until the
+calls have taken about a second. The pure-Python loop is timed at 1e3 and 1e4 poses only;
+larger sizes use its per-pose cost at the largest timed size (marked as extrapolated).
+
+Run from the repository root (``docs/benchmarks.md`` has the results)::
+
+    python3 benches/bench_solve.py                     # 1e3 … 1e6 poses
+    python3 benches/bench_solve.py --quick             # 1e3 … 1e5, shorter timing
+    python3 benches/bench_solve.py --sizes 1000,100000 --markdown results.md
+"""
+
+from __future__ import annotations
+
+import argparse
+import gc
+import math
+import os
+import platform
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from datetime import UTC, datetime
+from functools import partial
+from pathlib import Path
+
+import numpy as np
+import numpy.typing as npt
+
+import eodarm
+
+ROOT = Path(__file__).resolve().parent.parent
+ARM_FILE = ROOT / "examples" / "example_arm.toml"
+SIZES = (1_000, 10_000, 100_000, 1_000_000)
+PY_MAX = 10_000  # the pure-Python loop is timed up to this many poses, extrapolated beyond
+
+#: One effect of each kind, at the places and values of the criterion benchmark.
+ALL_EFFECTS = [
+    eodarm.Effect("actuator_compliance", "M1", stiffness_n_per_mm=1500.0),
+    eodarm.Effect("mount_compliance", "M2", stiffness_n_per_mm=4000.0),
+    eodarm.Effect("actuator_play", "M3", play_mm=0.05),
+    eodarm.Effect("joint_clearance", "O3", clearance_mm=0.15),
+    eodarm.Effect("link_bending", "L2", ei_n_mm2=2.0e10),
+    eodarm.Effect("base_compliance", "base", stiffness_nmm_per_rad=5.0e8),
+]
+MODELS: dict[str, list[eodarm.Effect]] = {"baseline": [], "all effects": ALL_EFFECTS}
+
+FloatArray = npt.NDArray[np.float64]
+Vec = tuple[float, float]
+
+
+# ------------------------------------------------------------------ the pure-Python baseline
+@dataclass(frozen=True)
+class PyArm:
+    """The arm as plain floats: per link (next, A, B, C, link mass), per actuator (k, mass)."""
+
+    g: float
+    o1: Vec
+    b0: Vec
+    links: tuple[tuple[Vec, Vec, Vec, Vec, float], ...]
+    acts: tuple[tuple[float, float], ...]
+    measure: Vec
+
+    @classmethod
+    def of(cls, arm: eodarm.Arm) -> PyArm:
+        links = tuple((lk.next, lk.A, lk.B or (0.0, 0.0), lk.C, lk.mass_kg) for lk in arm.links)
+        acts = tuple((a.stiffness_n_per_mm, a.mass_kg) for a in arm.actuators)
+        return cls(arm.g, arm.O1, arm.B0, links, acts, arm.measure)
+
+
+def _rot(s: float, c: float, p: Vec) -> Vec:
+    return (c * p[0] - s * p[1], s * p[0] + c * p[1])
+
+
+def _forces(
+    arm: PyArm,
+    o: list[Vec],
+    a: list[Vec],
+    b: list[Vec],
+    cm: list[Vec],
+    e: list[Vec],
+    h: list[float],
+    weights: bool,
+    payload: Vec,
+) -> tuple[list[float], list[Vec]]:
+    """Statics from the tip to the base: moments about O_i give F_i, force balance R_i."""
+    n = len(arm.links)
+    g = arm.g if weights else 0.0
+    f = [0.0] * n
+    r = [(0.0, 0.0)] * n
+    for i in range(n - 1, -1, -1):
+        ox, oy = o[i]
+        loads = [(cm[i], (0.0, -arm.links[i][4] * g)), (a[i], (0.0, -0.5 * arm.acts[i][1] * g))]
+        if i + 1 < n:
+            fi, ej, rj = f[i + 1], e[i + 1], r[i + 1]
+            loads.append((b[i + 1], (-fi * ej[0], -0.5 * arm.acts[i + 1][1] * g - fi * ej[1])))
+            loads.append((o[i + 1], (-rj[0], -rj[1])))
+        else:
+            loads.append((o[n], payload))
+        qx = qy = t = 0.0
+        for (px, py), (fx, fy) in loads:
+            qx += fx
+            qy += fy
+            t += (px - ox) * fy - (py - oy) * fx
+        f[i] = -t / h[i]
+        r[i] = (-qx - f[i] * e[i][0], -qy - f[i] * e[i][1])
+    return f, r
+
+
+def solve_pose_python(arm: PyArm, alpha_deg: Sequence[float], mass_kg: float) -> tuple[float, ...]:
+    """Baseline model of one pose in plain Python: (dx_mm, dy_mm, loaded forces F_1…F_n).
+
+    Forward kinematics, statics of the self-weight and the payload cases on the undeformed
+    pose, actuator springs ``Δℓ_i = −ΔF_i/k_i``, then every actuator triangle closed exactly
+    from the base out (law of cosines), on the side of the unloaded pose.
+    """
+    n = len(arm.links)
+    sc = [(math.sin(x), math.cos(x)) for x in map(math.radians, alpha_deg)]
+    o: list[Vec] = [arm.o1]  # joints O_1…O_n, then the load point
+    b: list[Vec] = [arm.b0]  # base pins B_0…B_{n−1} (one spare entry from the last link)
+    a: list[Vec] = []
+    cm: list[Vec] = []
+    for (s, c), (nxt, pa, pb, pc, _) in zip(sc, arm.links, strict=True):
+        ox, oy = o[-1]
+        for out, p in ((a, pa), (cm, pc), (b, pb), (o, nxt)):
+            x, y = _rot(s, c, p)
+            out.append((ox + x, oy + y))
+    x, y = _rot(*sc[-1], arm.measure)
+    meas = (o[n - 1][0] + x, o[n - 1][1] + y)
+    e: list[Vec] = []
+    ell: list[float] = []
+    h: list[float] = []
+    side: list[float] = []
+    for i in range(n):
+        vx, vy = a[i][0] - b[i][0], a[i][1] - b[i][1]
+        ln = math.hypot(vx, vy)
+        rx, ry = a[i][0] - o[i][0], a[i][1] - o[i][1]
+        e.append((vx / ln, vy / ln))
+        ell.append(ln)
+        h.append(rx * vy / ln - ry * vx / ln)
+        side.append(math.copysign(1.0, (b[i][0] - o[i][0]) * ry - (b[i][1] - o[i][1]) * rx))
+    fw, _ = _forces(arm, o, a, b, cm, e, h, True, (0.0, 0.0))
+    fd, _ = _forces(arm, o, a, b, cm, e, h, False, (0.0, -mass_kg * arm.g))
+    (ox, oy), (bx, by) = arm.o1, arm.b0
+    for i, (nxt, pa, pb, _, _) in enumerate(arm.links):
+        length = ell[i] - fd[i] / arm.acts[i][0]
+        dx, dy = bx - ox, by - oy
+        rho, d = math.hypot(*pa), math.hypot(dx, dy)
+        cos_t = (rho * rho + d * d - length * length) / (2.0 * rho * d)
+        if not -1.0 <= cos_t <= 1.0:
+            raise ValueError(f"actuator {i + 1} cannot close its triangle")
+        al = math.atan2(dy, dx) + side[i] * math.acos(cos_t) - math.atan2(pa[1], pa[0])
+        s, c = math.sin(al), math.cos(al)
+        x, y = _rot(s, c, pb if i + 1 < n else arm.measure)
+        bx, by = ox + x, oy + y  # the next base pin, or the measurement point on the last link
+        x, y = _rot(s, c, nxt)
+        ox, oy = ox + x, oy + y
+    return (bx - meas[0], by - meas[1], *(w + d for w, d in zip(fw, fd, strict=True)))
+
+
+def solve_python(arm: PyArm, alpha_deg: FloatArray, mass_kg: FloatArray) -> list[tuple[float, ...]]:
+    """The per-pose loop over a batch (inputs converted to lists of floats first)."""
+    return [
+        solve_pose_python(arm, row, m)
+        for row, m in zip(alpha_deg.tolist(), mass_kg.tolist(), strict=True)
+    ]
+
+
+# ------------------------------------------------------------------ timing
+def poses(rows: int, seed: int = 7) -> tuple[FloatArray, FloatArray]:
+    """Reproducible poses α ∈ [60, 110] × [0, 30] × [−10, 10]° and masses 0…7 kg."""
+    rng = np.random.default_rng(seed)
+    lo, hi = np.array([60.0, 0.0, -10.0]), np.array([110.0, 30.0, 10.0])
+    return lo + (hi - lo) * rng.random((rows, 3)), 7.0 * rng.random(rows)
+
+
+def best_time(call: Callable[[], object], budget_s: float, min_repeats: int) -> float:
+    """Best wall time of ``call`` over k ≥ ``min_repeats`` calls, until ``budget_s`` is spent."""
+    best, spent, k = math.inf, 0.0, 0
+    while k < min_repeats or (spent < budget_s and k < 1000):
+        gc.collect()
+        gc.disable()
+        t0 = time.perf_counter()
+        call()
+        dt = time.perf_counter() - t0
+        gc.enable()
+        best, spent, k = min(best, dt), spent + dt, k + 1
+    return best
+
+
+def verify(arm: eodarm.Arm, parm: PyArm) -> float:
+    """Largest |Δ| of dy_mm (mm) and of loaded forces (N, relative) vs ``eodarm.solve``."""
+    alpha, mass = poses(200, seed=11)
+    got = np.array(solve_python(parm, alpha, mass))
+    for backend in ("rust", "numpy"):
+        ref = eodarm.solve(arm, alpha, mass, backend=backend)
+        err_dy = float(np.max(np.abs(got[:, 1] - ref["dy_mm"])))
+        err_dx = float(np.max(np.abs(got[:, 0] - ref["dx_mm"])))
+        err_f = float(np.max(np.abs(got[:, 2:] - ref["force_n"]) / (1.0 + np.abs(ref["force_n"]))))
+        if max(err_dy, err_dx) > 1e-9 or err_f > 1e-12:
+            raise SystemExit(
+                f"pure-Python loop disagrees with backend={backend}: |Δdy| = {err_dy:.3g} mm, "
+                f"|Δdx| = {err_dx:.3g} mm, relative |ΔF| = {err_f:.3g}"
+            )
+    return err_dy
+
+
+def machine() -> list[str]:
+    info: dict[str, str] = {}
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            key, sep, value = line.partition(":")
+            if sep and key.strip() not in info:
+                info[key.strip()] = value.strip()
+    except OSError:
+        pass
+    cpu = info.get("model name", "unknown CPU")
+    if "cpu family" in info:
+        cpu += f" (family {info['cpu family']}, model {info.get('model', '?')})"
+    if "hypervisor" in info.get("flags", "").split():
+        cpu += ", virtual machine"
+    ncpu = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    rayon = os.environ.get("RAYON_NUM_THREADS")
+    threads = f"{rayon} (RAYON_NUM_THREADS)" if rayon else f"{ncpu} (rayon default: one per CPU)"
+    return [
+        f"- machine: {platform.machine()}, {ncpu} CPUs (nproc), {cpu}",
+        f"- python {platform.python_version()}, numpy {np.__version__}, "
+        f"eodarm {eodarm.__version__}",
+        f"- rayon threads: {threads}; the core goes parallel from 2048 poses",
+    ]
+
+
+def fmt_rate(x: float | None, extrapolated: bool = False) -> str:
+    if x is None:
+        return "—"
+    return f"{x:,.0f}{'*' if extrapolated else ''}"
+
+
+def fmt_ratio(x: float | None, extrapolated: bool = False) -> str:
+    if x is None:
+        return "—"
+    return f"{x:,.1f}×{'*' if extrapolated else ''}"
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n", 1)[0])
+    ap.add_argument("--sizes", help="comma-separated pose counts (default 1e3,1e4,1e5,1e6)")
+    ap.add_argument("--quick", action="store_true", help="1e3…1e5 poses, ~0.2 s per figure")
+    ap.add_argument("--markdown", type=Path, metavar="FILE", help="also write the table here")
+    args = ap.parse_args(argv)
+    sizes = tuple(int(float(s)) for s in args.sizes.split(",")) if args.sizes else SIZES
+    if args.quick and not args.sizes:
+        sizes = SIZES[:3]
+    budget, min_repeats = (0.2, 1) if args.quick else (1.0, 2)
+
+    arm = eodarm.Arm.from_toml(ARM_FILE)
+    parm = PyArm.of(arm)
+    err = verify(arm, parm)
+    load0 = os.getloadavg()
+    started = datetime.now(UTC).strftime("%Y-%m-%d %H:%M UTC")
+    print(f"pure-Python loop agrees with eodarm.solve: max |Δdy| = {err:.1e} mm on 200 poses")
+
+    py_rate: dict[int, float] = {}  # poses/s of the pure-Python loop at each timed size
+    py_sizes = sorted({s for s in sizes if s <= PY_MAX} or {min(PY_MAX, min(sizes))})
+    for rows in py_sizes:
+        alpha, mass = poses(rows)
+        py_rate[rows] = rows / best_time(partial(solve_python, parm, alpha, mass), budget, 1)
+        print(f"pure Python, {rows:>9,} poses: {py_rate[rows]:>12,.0f} poses/s")
+
+    header = (
+        "| model | poses | rust (poses/s) | numpy (poses/s) | pure Python (poses/s) "
+        "| rust/numpy | rust/pure Python |"
+    )
+    table = [header, "|---|---:|---:|---:|---:|---:|---:|"]
+    for model, effects in MODELS.items():
+        eodarm.solve(arm, poses(10)[0], 1.0, effects=effects)  # build the cached core arm
+        for rows in sizes:
+            alpha, mass = poses(rows)
+            rate: dict[str, float] = {}
+            for backend in ("rust", "numpy"):
+                call = partial(eodarm.solve, arm, alpha, mass, effects=effects, backend=backend)
+                t = best_time(call, budget, min_repeats)
+                rate[backend] = rows / t
+            extra = rows not in py_rate  # extrapolated from the largest timed size
+            py = None if effects else py_rate.get(rows, py_rate[py_sizes[-1]])
+            row = (
+                f"| {model} | {rows:,} | {fmt_rate(rate['rust'])} | {fmt_rate(rate['numpy'])} "
+                f"| {fmt_rate(py, extra)} | {fmt_ratio(rate['rust'] / rate['numpy'])} "
+                f"| {fmt_ratio(rate['rust'] / py if py else None, extra)} |"
+            )
+            table.append(row)
+            print(row, flush=True)
+
+    load1 = os.getloadavg()
+    notes = [
+        f"- run: {started}, `python3 benches/bench_solve.py"
+        f"{' --quick' if args.quick else ''}{' --sizes ' + args.sizes if args.sizes else ''}`",
+        *machine(),
+        f"- load average (1 min) before / after: {load0[0]:.2f} / {load1[0]:.2f}",
+        f"- best of k calls, k ≥ {min_repeats}, until ~{budget:g} s per figure; "
+        "each call is `eodarm.solve` (input checks, effects, output dict included)",
+        f"- pure Python: baseline model only, timed at {', '.join(f'{s:,}' for s in py_sizes)} "
+        "poses; * = extrapolated from the per-pose cost at the largest timed size",
+    ]
+    text = "\n".join([*notes, "", *table]) + "\n"
+    print()
+    print(text, end="")
+    if args.markdown:
+        args.markdown.write_text(text, encoding="utf-8")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,272 @@
+"""Hypothesis strategies for eodarm: valid random arms, poses, payloads and effects.
+
+This is the one place where random inputs are built; every property test draws from here.
+
+Design (why the inputs are always valid, without heavy filtering):
+
+* **Arms** (:func:`arms`) resemble real ones: links 150–600 mm long, actuator pins 40–150 mm
+  from their joint, offsets within ±80 mm, masses 0–5 kg, actuator stiffness 200–20000 N/mm
+  (log-uniform), an optional measurement point, an optional chassis pivot and an optional
+  section stiffness ``ei_n_mm2``. Every actuator's base pin sits at least 100 mm from the joint
+  its actuator turns (``|B0 − O1| ≥ 100``; on a link ``B`` lies ≥ 100 mm behind ``next``).
+* **Poses** (:func:`poses_for`) are *constructed*, not filtered: link by link from the base,
+  the angle φ_i at joint O_i between the actuator's base pin B_{i−1} and its pin A_i is drawn
+  in [35°, 145°] on either side. With |B_{i−1} − O_i| ≥ 100 mm and |A_i − O_i| ≤ 150 mm the
+  actuator's moment arm is then ``|h_i| = |D|·|A|·sin φ / ℓ ≥ 0.23·|A_i − O_i|`` and the
+  triangle (O_i, B_{i−1}, A_i) is far from degenerate (an angle change of up to ±35° still
+  closes it), so every pose is non-singular and well conditioned.
+* **Loads**: :func:`arm_and_poses` makes the arm physically plausible for the largest payload
+  the tests use (8 kg, or a force of that size in any direction) at the drawn poses: where the
+  drawn actuator is so soft that the payload would turn a triangle by more than 0.01 rad, its
+  stiffness is raised to that limit; the link's ``ei_n_mm2`` is raised likewise for bending.
+  (A 40 mm lever with a 200 N/mm actuator cannot carry 8 kg at 2 m; a real arm would not be
+  built so.)
+* **Effects** (:func:`effects_for`) draw parameters in physical ranges, never more than 4×
+  softer than the arm's own actuator stiffness / section stiffness. Together with the 0.01 rad
+  design limit, all effects at once turn a triangle by well under 0.35 rad, so every loaded
+  triangle still closes.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+from hypothesis import strategies as st
+from hypothesis.strategies import SearchStrategy
+
+import eodarm
+from eodarm import reference
+
+#: Largest payload mass the tests apply (kg).
+MAX_PAYLOAD_KG = 8.0
+#: Rotation (rad) of any actuator triangle that the largest payload may cause with the arm's own
+#: stiffnesses (actuators and link sections) at the drawn poses.
+DESIGN_TURN = 0.01
+#: Angle at the joint between the actuator's base pin and its link pin (degrees).
+PHI_RANGE = (35.0, 145.0)
+#: An actuator stiffness that does not deform measurably (N/mm).
+RIGID = 1e18
+
+ELASTIC = ("actuator_compliance", "mount_compliance", "link_bending", "base_compliance")
+ALL_KINDS = tuple(eodarm.CATALOGUE)
+
+
+def _f(lo: float, hi: float) -> SearchStrategy[float]:
+    return st.floats(lo, hi, allow_nan=False, allow_infinity=False)
+
+
+def _log(lo: float, hi: float) -> SearchStrategy[float]:
+    """Log-uniform floats in [lo, hi]."""
+    return _f(math.log(lo), math.log(hi)).map(lambda t: min(max(math.exp(t), lo), hi))
+
+
+def _rot(theta: float, v: np.ndarray) -> np.ndarray:
+    c, s = math.cos(theta), math.sin(theta)
+    return np.array([c * v[0] - s * v[1], s * v[0] + c * v[1]])
+
+
+# ---------------------------------------------------------------------------- arms
+@st.composite
+def arm_dicts(draw: Any, n: int | SearchStrategy[int] = st.integers(1, 4)) -> dict[str, Any]:
+    """A valid arm as the dict of its arm file (see :func:`arms`)."""
+    n_links = draw(n) if isinstance(n, SearchStrategy) else int(n)
+    o1 = [draw(_f(-100.0, 100.0)), draw(_f(-100.0, 100.0))]
+    r_b0 = draw(_f(100.0, 350.0))
+    t_b0 = math.radians(draw(_f(-180.0, 180.0)))
+    b0 = [o1[0] + r_b0 * math.cos(t_b0), o1[1] + r_b0 * math.sin(t_b0)]
+    base: dict[str, Any] = {"O1": o1, "B0": b0}
+    if draw(st.booleans()):
+        base["pivot"] = [o1[0] + draw(_f(-300.0, 300.0)), o1[1] + draw(_f(-300.0, 300.0))]
+    links = []
+    for i in range(n_links):
+        last = i == n_links - 1
+        length = draw(_f(150.0, 600.0))
+        rho = draw(_f(40.0, 150.0))  # |A|: actuator pin distance from the joint
+        y_a = draw(_f(-1.0, 1.0)) * min(80.0, 0.9 * rho)
+        x_a = math.copysign(math.sqrt(rho * rho - y_a * y_a), draw(st.sampled_from([1.0, -1.0])))
+        link: dict[str, Any] = {
+            "next": [length, draw(_f(-40.0, 40.0))],
+            "A": [x_a, y_a],
+        }
+        if not last:
+            # the next actuator's base pin: ≥ 100 mm behind the next joint
+            link["B"] = [draw(_f(-150.0, length - 100.0)), draw(_f(-80.0, 80.0))]
+        link["C"] = [draw(_f(-50.0, length)), draw(_f(-80.0, 80.0))]
+        link["mass_kg"] = draw(_f(0.0, 5.0))
+        if last and draw(st.booleans()):
+            link["measure"] = [draw(_f(0.0, length)), draw(_f(-80.0, 80.0))]
+        if draw(st.booleans()):
+            link["ei_n_mm2"] = draw(_log(1e8, 1e11))
+        links.append(link)
+    actuators = [
+        {"stiffness_n_per_mm": draw(_log(200.0, 20000.0)), "mass_kg": draw(_f(0.0, 5.0))}
+        for _ in range(n_links)
+    ]
+    d: dict[str, Any] = {"name": "random-arm", "base": base, "link": links, "actuator": actuators}
+    if draw(st.booleans()):
+        d["g"] = draw(_f(9.7, 9.9))
+    return d
+
+
+def arms(n: int | SearchStrategy[int] = st.integers(1, 4)) -> SearchStrategy[eodarm.Arm]:
+    """Random valid arms of ``n`` links, built with :meth:`eodarm.Arm.from_dict`.
+
+    Their stiffnesses are as drawn; for loads use :func:`arm_and_poses`, which makes them
+    plausible for the payloads the tests apply.
+    """
+    return arm_dicts(n).map(eodarm.Arm.from_dict)
+
+
+# ---------------------------------------------------------------------------- poses
+def pose_from_joint_angles(arm: eodarm.Arm, sides: list[float], phis_deg: list[float]) -> list[float]:
+    """Absolute angles (deg) that put A_i at angle ``side·φ_i`` from B_{i−1}, seen from O_i."""
+    o = np.array(arm.O1, dtype=float)
+    b = np.array(arm.B0, dtype=float)
+    out = []
+    for i, lk in enumerate(arm.links):
+        d = b - o
+        a = np.array(lk.A, dtype=float)
+        al = math.atan2(d[1], d[0]) + sides[i] * math.radians(phis_deg[i]) - math.atan2(a[1], a[0])
+        al = (al + math.pi) % (2.0 * math.pi) - math.pi
+        out.append(math.degrees(al))
+        if lk.B is not None:
+            b = o + _rot(al, np.array(lk.B, dtype=float))
+        o = o + _rot(al, np.array(lk.next, dtype=float))
+    return out
+
+
+@st.composite
+def poses_for(draw: Any, arm: eodarm.Arm, min_size: int = 1, max_size: int = 8) -> np.ndarray:
+    """(N, n) well-conditioned unloaded poses (degrees) of ``arm`` (see the module notes)."""
+    rows = draw(st.integers(min_size, max_size))
+    out = []
+    for _ in range(rows):
+        sides = [draw(st.sampled_from([1.0, -1.0])) for _ in range(arm.n)]
+        phis = [draw(_f(*PHI_RANGE)) for _ in range(arm.n)]
+        out.append(pose_from_joint_angles(arm, sides, phis))
+    return np.array(out, dtype=float).reshape(rows, arm.n)
+
+
+def masses(rows: int, max_kg: float = MAX_PAYLOAD_KG) -> SearchStrategy[np.ndarray]:
+    """(rows,) payload masses in [0, max_kg] kg."""
+    return st.lists(_f(0.0, max_kg), min_size=rows, max_size=rows).map(np.array)
+
+
+@st.composite
+def payload_vectors(draw: Any, rows: int, g: float = 9.81) -> np.ndarray:
+    """(rows, 2) payload forces (N) of any direction, at most the weight of the largest payload."""
+    out = []
+    for _ in range(rows):
+        mag = draw(_f(0.0, MAX_PAYLOAD_KG * g))
+        t = math.radians(draw(_f(-180.0, 180.0)))
+        out.append([mag * math.cos(t), mag * math.sin(t)])
+    return np.array(out, dtype=float).reshape(rows, 2)
+
+
+# ---------------------------------------------------------------------------- plausible loads
+def moment_arms(arm: eodarm.Arm, alpha_deg: np.ndarray) -> np.ndarray:
+    """|h_i| (N, n): distance from joint O_i to actuator i's line, mm."""
+    geo = eodarm.forward(arm, alpha_deg, backend="numpy")
+    n = arm.n
+    r = geo["A"] - geo["O"][:, :n]
+    e = (geo["A"] - geo["B"]) / geo["length_mm"][..., None]
+    return np.abs(r[..., 0] * e[..., 1] - r[..., 1] * e[..., 0])
+
+
+def _with(d: dict[str, Any], **actuator_or_link: Any) -> dict[str, Any]:
+    out = {**d, "base": dict(d["base"])}
+    out["link"] = [dict(lk) for lk in d["link"]]
+    out["actuator"] = [dict(a) for a in d["actuator"]]
+    for key, values in actuator_or_link.items():
+        table = "actuator" if key == "stiffness_n_per_mm" else "link"
+        for row, v in zip(out[table], values, strict=True):
+            row[key] = float(v)
+    return out
+
+
+def make_plausible(d: dict[str, Any], alpha_deg: np.ndarray) -> dict[str, Any]:
+    """Raise actuator stiffness and link EI where the largest payload, in any direction, would
+    turn an actuator triangle of a drawn pose by more than :data:`DESIGN_TURN` rad."""
+    arm0 = eodarm.Arm.from_dict(d)
+    n = arm0.n
+    p_max = MAX_PAYLOAD_KG * arm0.g
+    h = moment_arms(arm0, alpha_deg)  # (N, n)
+    unit = [
+        reference.statics(arm0, alpha_deg, np.array(p), self_weight=False)["force_n"]
+        for p in ([1.0, 0.0], [0.0, 1.0])
+    ]
+    gain = np.hypot(unit[0], unit[1])  # |ΔF_i| per N of payload, worst direction
+    k_need = (gain * p_max / (DESIGN_TURN * h)).max(axis=0)
+    k = [max(a["stiffness_n_per_mm"], float(kn)) for a, kn in zip(d["actuator"], k_need, strict=True)]
+
+    # Bending: response of all links bent at a huge test EI with rigid actuators, linear in 1/EI.
+    ei_test = 1e16
+    rigid = eodarm.Arm.from_dict(_with(d, stiffness_n_per_mm=[RIGID] * n))
+    effs = [eodarm.Effect("link_bending", f"L{i + 1}", ei_n_mm2=ei_test) for i in range(n)]
+    turn = 0.0
+    for p in ([p_max, 0.0], [0.0, p_max], [-p_max, 0.0], [0.0, -p_max]):
+        out = reference.solve_payload(rigid, alpha_deg, np.array(p), effs, self_weight=False)
+        rel = np.diff(np.radians(out["dalpha_deg"]), axis=1, prepend=0.0)
+        turn = max(turn, float(np.abs(rel).max()))
+    ei_need = ei_test * turn / DESIGN_TURN
+    ei = [max(lk.get("ei_n_mm2", 1e8), ei_need) for lk in d["link"]]
+    return _with(d, stiffness_n_per_mm=k, ei_n_mm2=ei)
+
+
+@st.composite
+def arm_and_poses(
+    draw: Any, max_links: int = 4, max_poses: int = 8, min_links: int = 1
+) -> tuple[eodarm.Arm, np.ndarray, np.ndarray]:
+    """(arm, alpha_deg (N, n), mass_kg (N,)): a plausible arm, well-conditioned poses, payloads
+    of 0–8 kg. Every actuator has |h_i| ≥ 0.23·|A_i − O_i| in every pose."""
+    d = draw(arm_dicts(st.integers(min_links, max_links)))
+    arm0 = eodarm.Arm.from_dict(d)
+    alpha = draw(poses_for(arm0, max_size=max_poses))
+    mass = draw(masses(alpha.shape[0]))
+    return eodarm.Arm.from_dict(make_plausible(d, alpha)), alpha, mass
+
+
+# ---------------------------------------------------------------------------- effects
+def effect_places(arm: eodarm.Arm, kinds: tuple[str, ...] = ALL_KINDS) -> list[tuple[str, str]]:
+    """Every (effect, place) that may sit on ``arm`` (no bending where A_x ≈ 0)."""
+    out = []
+    for name in kinds:
+        letter = eodarm.CATALOGUE[name].place_letter
+        if letter == "":
+            out.append((name, "base"))
+            continue
+        for i, lk in enumerate(arm.links):
+            if name == "link_bending" and abs(lk.A[0]) <= 0.05 * math.hypot(*lk.A):
+                continue
+            out.append((name, f"{letter}{i + 1}"))
+    return out
+
+
+def effect_value(draw: Any, arm: eodarm.Arm, name: str, at: str) -> eodarm.Effect:
+    """One effect with a physically plausible parameter (see the module notes)."""
+    i = int(at[1:]) - 1 if at != "base" else 0
+    if name in ("actuator_compliance", "mount_compliance"):
+        lo = max(200.0, arm.actuators[i].stiffness_n_per_mm / 4.0)
+        value = draw(_log(lo, max(20000.0, 4.0 * lo)))
+    elif name in ("actuator_play", "joint_clearance"):
+        value = draw(_f(0.0, 0.3))
+    elif name == "link_bending":
+        lo = max(1e8, (arm.links[i].ei_n_mm2 or 4e8) / 4.0)
+        value = draw(_log(lo, max(1e11, 4.0 * lo)))
+    else:
+        value = draw(_log(1e7, 1e9))
+    return eodarm.Effect(name, at, **{eodarm.CATALOGUE[name].param: value})
+
+
+@st.composite
+def effects_for(
+    draw: Any, arm: eodarm.Arm, kinds: tuple[str, ...] = ALL_KINDS, max_size: int = 6
+) -> list[eodarm.Effect]:
+    """0–``max_size`` distinct effects (any of ``kinds``, any valid place) for ``arm``."""
+    places = effect_places(arm, kinds)
+    chosen = draw(
+        st.lists(st.sampled_from(places), unique=True, max_size=min(max_size, len(places)))
+    )
+    return [effect_value(draw, arm, name, at) for name, at in chosen]
