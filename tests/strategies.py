@@ -270,3 +270,19 @@ def effects_for(
         st.lists(st.sampled_from(places), unique=True, max_size=min(max_size, len(places)))
     )
     return [effect_value(draw, arm, name, at) for name, at in chosen]
+
+
+# ---------------------------------------------------------------------------- arm variants
+def rigid_copy(arm: eodarm.Arm) -> eodarm.Arm:
+    """The same arm with actuators that do not deform measurably (k = 1e18 N/mm)."""
+    d = arm.to_dict()
+    for a in d["actuator"]:
+        a["stiffness_n_per_mm"] = RIGID
+    return eodarm.Arm.from_dict(d)
+
+
+def measuring_at_load_point(arm: eodarm.Arm) -> eodarm.Arm:
+    """The same arm with its measurement point at the load point."""
+    d = arm.to_dict()
+    d["link"][-1].pop("measure", None)
+    return eodarm.Arm.from_dict(d)

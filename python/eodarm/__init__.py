@@ -13,6 +13,9 @@ with an independent numpy reference.
 from .arm import Actuator, Arm, Link
 from .effects import CATALOGUE, Effect
 from .errors import ArmFileError, EffectError, EodarmError, InputError
+from .diagnose import Diagnosis, diagnose
+from .fit import FitResult, Slot, cross_validate, fit
+from .measurements import Measurements, read_measurements
 from .solver import (
     angles_from_lengths,
     forward,
@@ -29,15 +32,23 @@ __all__ = [
     "Actuator",
     "Arm",
     "ArmFileError",
+    "Diagnosis",
     "Effect",
     "EffectError",
     "EodarmError",
+    "FitResult",
     "InputError",
     "Link",
+    "Measurements",
+    "Slot",
     "__version__",
     "angles_from_lengths",
+    "cross_validate",
+    "diagnose",
+    "fit",
     "forward",
     "inverse_kinematics",
+    "read_measurements",
     "solve",
     "solve_payload",
     "stroke_violations",

@@ -35,6 +35,7 @@ def solve(
     places: npt.NDArray[np.int64],
     values: npt.NDArray[np.float64],
     self_weight: bool,
+    nan_on_failure: bool = False,
 ) -> dict[str, npt.NDArray[np.float64]]: ...
 def forward(
     arm: CoreArm, alpha_deg: npt.NDArray[np.float64]
@@ -45,3 +46,15 @@ def angles_from_lengths(
 def inverse_kinematics(
     arm: CoreArm, target: npt.NDArray[np.float64], elbow: float
 ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.bool_]]: ...
+def jacobian(
+    arm: CoreArm,
+    alpha_deg: npt.NDArray[np.float64],
+    payload_n: npt.NDArray[np.float64],
+    model_codes: npt.NDArray[np.int64],
+    model_places: npt.NDArray[np.int64],
+    model_thetas: npt.NDArray[np.float64],
+    probe_codes: npt.NDArray[np.int64],
+    probe_places: npt.NDArray[np.int64],
+    self_weight: bool,
+    nan_on_failure: bool = False,
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...

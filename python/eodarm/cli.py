@@ -11,6 +11,7 @@ import json
 import sys
 from collections.abc import Sequence
 from importlib import resources
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -19,6 +20,10 @@ from .arm import Arm
 from .effects import CATALOGUE, Effect
 from .errors import EodarmError
 from .solver import solve
+
+if TYPE_CHECKING:
+    from .fit import FitResult, Slot
+    from .measurements import Measurements
 
 __all__ = ["main"]
 
@@ -109,6 +114,358 @@ def _cmd_solve(args: argparse.Namespace) -> int:
     return 0
 
 
+# ----------------------------------------------------------------- compare / fit / diagnose
+def _note(msg: str) -> None:
+    print(f"eodarm: {msg}", file=sys.stderr)
+
+
+def _read(path: str, arm: Arm) -> Measurements:
+    from .measurements import read_measurements
+
+    meas = read_measurements(path, arm.n)
+    if meas.defaulted:
+        from .measurements import default_sigma
+
+        parts = ", ".join(f"{ch} {default_sigma(ch):g}" for ch in meas.defaulted)
+        _note(f"no sigma given for {parts}: using the default noise levels (docs/diagnosis.md)")
+    return meas
+
+
+def _model(specs: list[str] | None, allow_values: bool) -> list[Effect | Slot]:
+    """--add EFFECT@PLACE (fitted) or EFFECT@PLACE=VALUE (fixed / starting value)."""
+    from .fit import Slot
+
+    out: list[Effect | Slot] = []
+    for spec in specs or []:
+        if "=" in spec:
+            if not allow_values:
+                raise EodarmError(f"--add '{spec}': give EFFECT@PLACE only; it is fitted")
+            out.append(_valued_effect(spec))
+        else:
+            out.append(Slot.parse(spec))
+    return out
+
+
+def _fmt(x: float, unit: str = "") -> str:
+    if x is None or not np.isfinite(x):
+        return "—"
+    return f"{x:.4g}{unit}"
+
+
+def _rms_line(rms: dict[str, float]) -> str:
+    return "  ".join(f"{ch} {v:.4g}" for ch, v in rms.items())
+
+
+def _by(result: FitResult, key: str) -> dict[str, dict[str, float]]:
+    meas = result.problem.meas
+    labels = meas.config if key == "config" else np.asarray(meas.mass_kg)
+    out: dict[str, dict[str, float]] = {}
+    for lab in dict.fromkeys(labels.tolist()):
+        out[str(lab)] = result.rms(np.asarray(labels) == lab)
+    return out
+
+
+def _worst(result: FitResult, k: int = 8) -> list[dict[str, Any]]:
+    from .fit import outlier_table
+
+    z = np.abs(result.z)
+    z[~result.problem.use] = np.nan
+    flat = np.argsort(np.nan_to_num(z, nan=-1.0), axis=None)[::-1][:k]
+    mask = np.zeros_like(result.problem.use)
+    mask.flat[flat] = True
+    mask &= np.isfinite(z)
+    rows = outlier_table(result, mask)
+    return sorted(rows, key=lambda r: -abs(r["z"]))
+
+
+def _print_table(head: list[str], rows: list[list[str]]) -> None:
+    widths = [
+        max(len(h), *(len(r[i]) for r in rows)) if rows else len(h) for i, h in enumerate(head)
+    ]
+    print("  ".join(h.rjust(w) for h, w in zip(head, widths, strict=True)))
+    for r in rows:
+        print("  ".join(c.rjust(w) for c, w in zip(r, widths, strict=True)))
+
+
+def _describe_data(meas: Measurements) -> str:
+    masses = "/".join(f"{m:g}" for m in dict.fromkeys(np.asarray(meas.mass_kg).tolist()))
+    return (
+        f"{meas.n_rows} states, {len(meas.configs)} configurations, payloads {masses} kg, "
+        f"{meas.n_values} values on {', '.join(meas.measured_channels)}"
+    )
+
+
+def _plots(
+    dirname: str | None,
+    meas: Measurements,
+    before: FitResult,
+    after: FitResult,
+    effects: list[Effect],
+    arm: Arm,
+    self_weight: bool,
+    steps: list[dict[str, Any]] | None = None,
+) -> None:
+    if not dirname:
+        return
+    from pathlib import Path
+
+    from . import plots
+
+    out = Path(dirname)
+    out.mkdir(parents=True, exist_ok=True)
+    written = []
+    p = out / "measured_vs_model.png"
+    plots.measured_vs_model(meas, {"before": before, "after": after}, path=p)
+    written.append(p)
+    p = out / "residual_vs_payload.png"
+    plots.residual_vs_payload(meas, before, after, path=p)
+    written.append(p)
+    if effects:
+        p = out / "deflection_share.png"
+        plots.deflection_share(arm, meas, effects, self_weight=self_weight, path=p)
+        written.append(p)
+    if steps:
+        p = out / "ladder.png"
+        plots.ladder(steps, path=p)
+        written.append(p)
+    _note("wrote " + ", ".join(str(w) for w in written))
+
+
+def _cmd_compare(args: argparse.Namespace) -> int:
+    from .fit import FitWarning, find_outliers, fit, outlier_table
+
+    arm = _load_arm(args.arm)
+    meas = _read(args.measurements, arm)
+    sw = not args.no_self_weight
+    model = _model(args.add, allow_values=True)
+    fixed = [m for m in model if isinstance(m, Effect)]
+    free = [m for m in model if not isinstance(m, Effect)]
+    import warnings
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", FitWarning)
+        res = fit(arm, meas, [*fixed, *free], self_weight=sw) if free else None
+        from .fit import compare
+
+        if res is None:
+            res = compare(arm, meas, fixed, self_weight=sw)
+        flagged = find_outliers(res)
+        outliers = outlier_table(res, flagged)
+        if flagged.any() and free:
+            res = fit(arm, meas, [*fixed, *free], self_weight=sw, exclude=flagged)
+            outliers = outlier_table(res, flagged)
+    for w in caught:
+        _note(str(w.message))
+    base = compare(arm, meas, [], self_weight=sw)
+    doc = {
+        "model": [m.key for m in model],
+        "rms": res.rms(),
+        "chi2_per_dof": res.chi2_per_dof,
+        "by_config": _by(res, "config"),
+        "by_payload": _by(res, "mass"),
+        "worst": _worst(res),
+        "outliers": outliers,
+    }
+    if res.slots:
+        doc["estimate"] = res.summary()["effects"]
+    if args.json:
+        print(json.dumps(doc))
+    else:
+        print(
+            f"compare {meas.source} with arm '{arm.name}', model: baseline"
+            + "".join(f" + {m.key}" for m in model)
+        )
+        print(_describe_data(meas))
+        print(
+            f"chi2/dof = {res.chi2_per_dof:.4g}  ({res.problem.n_values} values, "
+            f"{res.n_params} fitted parameters)"
+        )
+        print(f"RMS       {_rms_line(res.rms())}")
+        chans = list(res.rms())
+        for key, title in (("by_config", "configuration"), ("by_payload", "payload kg")):
+            print(f"\nRMS by {title}:")
+            _print_table(
+                [title, *chans],
+                [[lab, *(_fmt(v.get(c, np.nan)) for c in chans)] for lab, v in doc[key].items()],
+            )
+        print("\nworst cells (measured − model, in σ):")
+        _print_table(
+            ["line", "config", "kg", "channel", "measured", "model", "z"],
+            [
+                [
+                    str(r["line"]),
+                    r["config"],
+                    f"{r['mass_kg']:g}",
+                    r["channel"],
+                    _fmt(r["measured"]),
+                    _fmt(r["model"]),
+                    f"{r['z']:+.1f}",
+                ]
+                for r in doc["worst"]
+            ],
+        )
+        if outliers:
+            print(
+                "\noutliers (> 4σ after the fit, left out of it): "
+                + "; ".join(f"line {r['line']} {r['channel']} z={r['z']:+.1f}" for r in outliers)
+            )
+    _plots(args.plot, meas, base, res, fixed + list(res.effects), arm, sw)
+    return 0
+
+
+def _cmd_fit(args: argparse.Namespace) -> int:
+    import warnings
+
+    from .fit import FitWarning, compare, cross_validate, find_outliers, fit, outlier_table
+
+    arm = _load_arm(args.arm)
+    meas = _read(args.measurements, arm)
+    sw = not args.no_self_weight
+    model = _model(args.add, allow_values=True)
+    if not model:
+        raise EodarmError("fit needs at least one --add EFFECT@PLACE")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", FitWarning)
+        res = fit(arm, meas, model, self_weight=sw)
+        flagged = find_outliers(res)
+        outliers = outlier_table(res, flagged) if flagged.any() else []
+        if flagged.any():
+            res = fit(arm, meas, model, self_weight=sw, exclude=flagged)
+            outliers = outlier_table(res, flagged)
+        cv = cross_validate(arm, meas, res.slots, self_weight=sw) if args.cv else None
+        cv0 = cross_validate(arm, meas, [], self_weight=sw) if args.cv else None
+    for w in {str(w.message) for w in caught}:
+        _note(w)
+    before = compare(arm, meas, [], self_weight=sw)
+    summ = res.summary()
+    doc: dict[str, Any] = {
+        "effects": summ["effects"],
+        "before": {"rms": before.rms(), "chi2_per_dof": before.chi2_per_dof},
+        "after": {"rms": res.rms(), "chi2_per_dof": res.chi2_per_dof},
+    }
+    if cv is not None:
+        doc["cv"] = {"rms": cv["rms"]}
+    if args.json:
+        print(json.dumps(doc))
+    else:
+        print(f"fit {meas.source} with arm '{arm.name}'")
+        print(_describe_data(meas))
+        rows = []
+        for i, s in enumerate(res.slots):
+            flag = "  (at bound)" if res.at_bound[i] else ""
+            rows.append([s.key, s.kind.param, _fmt(res.estimate(i)), _fmt(res.stderr(i)) + flag])
+        _print_table(["effect", "parameter", "estimate", "stderr"], rows)
+        print(f"\nbefore  chi2/dof {before.chi2_per_dof:10.4g}   RMS {_rms_line(before.rms())}")
+        print(f"after   chi2/dof {res.chi2_per_dof:10.4g}   RMS {_rms_line(res.rms())}")
+        if cv is not None and cv0 is not None:
+            print(f"CV (leave one configuration out)  baseline RMS {_rms_line(cv0['rms'])}")
+            print(f"CV (leave one configuration out)  fitted   RMS {_rms_line(cv['rms'])}")
+        if outliers:
+            print(
+                "outliers (> 4σ, left out of the fit): "
+                + "; ".join(f"line {r['line']} {r['channel']} z={r['z']:+.1f}" for r in outliers)
+            )
+    steps = None
+    if cv is not None and cv0 is not None:
+        steps = [
+            {
+                "label": "baseline",
+                "rms": before.rms(),
+                "cv_rms": cv0["rms"],
+                "chi2_per_dof": before.chi2_per_dof,
+            },
+            {
+                "label": " + ".join(s.key for s in res.slots),
+                "rms": res.rms(),
+                "cv_rms": cv["rms"],
+                "chi2_per_dof": res.chi2_per_dof,
+            },
+        ]
+    _plots(args.plot, meas, before, res, list(res.effects), arm, sw, steps)
+    return 0
+
+
+def _cmd_diagnose(args: argparse.Namespace) -> int:
+    from .diagnose import diagnose
+
+    arm = _load_arm(args.arm)
+    meas = _read(args.measurements, arm)
+    sw = not args.no_self_weight
+    model = _model(args.add, allow_values=False)
+    d = diagnose(arm, meas, model, self_weight=sw, max_set=args.max_set)
+    if args.json:
+        print(json.dumps(d.to_json()))
+    else:
+        _print_diagnosis(d, arm, meas)
+    best = d.suggested_fit or d.baseline
+    _plots(args.plot, meas, d.baseline, best, list(best.effects), arm, sw)
+    return 0
+
+
+def _print_diagnosis(d: Any, arm: Arm, meas: Measurements) -> None:
+    print(
+        f"diagnose {meas.source} with arm '{arm.name}', model: baseline"
+        + "".join(f" + {s.key}" for s in d.model)
+    )
+    print(_describe_data(meas))
+    print(
+        f"baseline: chi2/dof {d.baseline.chi2_per_dof:.4g} (p = {d.p_baseline:.2g})   "
+        f"RMS {_rms_line(d.baseline.rms())}"
+    )
+    print(f"verdict: {d.verdict.upper()}", end="")
+    if d.verdict == "adequate":
+        print(" — the model explains the data within their noise; nothing is missing")
+    else:
+        print(
+            f" — suggested: {' + '.join(s.key for s in d.suggested) or '(none)'}"
+            f"  ({d.sets_searched} candidate sets searched)"
+        )
+    if d.suggested_fit is not None:
+        f = d.suggested_fit
+        for i, s in enumerate(f.slots):
+            print(f"    {s.key:28s} {s.kind.param} = {_fmt(f.estimate(i))} ± {_fmt(f.stderr(i))}")
+        print(f"    chi2/dof {f.chi2_per_dof:.4g}   RMS {_rms_line(f.rms())}")
+    print("\nranking (each candidate added alone, parameter fitted):")
+    chans = list(d.baseline.rms())
+    rows = []
+    for i, c in enumerate(d.ranking):
+        j = c.fit.slots.index(c.slot)
+        rms = c.fit.rms()
+        rows.append(
+            [
+                str(i + 1),
+                c.slot.key,
+                f"{c.slot.kind.param}={_fmt(c.fit.estimate(j))}",
+                f"{c.fit.chi2_per_dof:.4g}",
+                *(_fmt(rms.get(ch, np.nan)) for ch in chans),
+                ", ".join(c.confused_with),
+            ]
+        )
+    _print_table(["#", "effect@place", "estimate", "chi2/dof", *chans, "confused with"], rows)
+    for a in d.advice:
+        x, y = a["pair"]
+        print(f"\n{x} and {y} cannot be told apart with these channels and poses.")
+        if a["channel"]:
+            print(
+                f"  measure {a['channel']['channel']}: it separates them by "
+                f"chi2 = {a['channel']['chi2_separation']:.3g} on the same poses"
+            )
+        pose = a["pose"]
+        if pose and pose["chi2_separation"] > 3.84:
+            ang = ", ".join(f"{v:.1f}" for v in pose["alpha_deg"])
+            print(
+                f"  or add the pose alpha = ({ang}) deg at {pose['mass_kg']:g} kg: "
+                f"chi2 = {pose['chi2_separation']:.3g} between them on the measured channels"
+            )
+        elif pose:
+            print("  no reachable pose separates them on the measured channels alone")
+    if d.outliers:
+        print(
+            "\noutliers (> 4σ after the best fit, left out): "
+            + "; ".join(f"line {r['line']} {r['channel']} z={r['z']:+.1f}" for r in d.outliers)
+        )
+
+
 def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog="eodarm",
@@ -146,6 +503,68 @@ def _parser() -> argparse.ArgumentParser:
     s.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     s.add_argument("--compact", action="store_true", help="with --json: no indentation")
     s.set_defaults(func=_cmd_solve)
+
+    def data_cmd(name: str, helptext: str, desc: str) -> argparse.ArgumentParser:
+        c = sub.add_parser(name, help=helptext, description=desc)
+        c.add_argument("measurements", metavar="MEAS.csv", help="measurement file (CONTRACT §3)")
+        c.add_argument("--arm", metavar="ARM.toml", help="arm file (default: the bundled example)")
+        c.add_argument("--json", action="store_true", help="print one JSON object on stdout")
+        c.add_argument("--plot", metavar="DIR", help="write PNG figures into DIR")
+        c.add_argument(
+            "--no-self-weight",
+            action="store_true",
+            help="the measured arm carried no self-weight in the model",
+        )
+        return c
+
+    c = data_cmd(
+        "compare",
+        "model vs measurements: residuals, RMS, chi2, worst rows, outliers",
+        "Compare the model (baseline, plus --add effects) with the measurements.",
+    )
+    c.add_argument(
+        "--add",
+        action="append",
+        metavar="EFFECT@PLACE[=VALUE]",
+        help="an effect in the model: fixed at VALUE, or fitted without one",
+    )
+    c.set_defaults(func=_cmd_compare)
+    c = data_cmd(
+        "diagnose",
+        "rank every candidate effect; find the missing set",
+        "Rank every candidate effect x place not in the model by how well it explains "
+        "the measurements, and search sets of up to three for the smallest that does.",
+    )
+    c.add_argument(
+        "--add",
+        action="append",
+        metavar="EFFECT@PLACE",
+        help="an effect already in the model (its parameter is fitted)",
+    )
+    c.add_argument(
+        "--max-set",
+        type=int,
+        default=3,
+        choices=(1, 2, 3),
+        help="largest set searched for 'suggested' (default 3)",
+    )
+    c.set_defaults(func=_cmd_diagnose)
+    c = data_cmd(
+        "fit",
+        "fit the parameters of the added effects",
+        "Least-squares fit of the --add effects' parameters, with bounds.",
+    )
+    c.add_argument(
+        "--add",
+        action="append",
+        metavar="EFFECT@PLACE[=START]",
+        help="an effect to fit (repeat); =START gives a starting value",
+    )
+    c.add_argument("--cv", choices=("config",), help="leave-one-configuration-out cross-validation")
+    c.set_defaults(func=_cmd_fit)
+    from .synth import add_parser as add_synth
+
+    add_synth(sub)
     return p
 
 
@@ -158,10 +577,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 2
     try:
         return int(args.func(args))
-    except EodarmError as exc:
+    except (EodarmError, ValueError) as exc:  # ValueError: e.g. eodarm._core.CoreError
         print(f"eodarm: error: {exc}", file=sys.stderr)
         return 2
-    except ValueError as exc:  # e.g. eodarm._core.CoreError
+    except BrokenPipeError:  # e.g. `eodarm diagnose ... | head`
+        sys.stderr.close()
+        return 0
+    except OSError as exc:
         print(f"eodarm: error: {exc}", file=sys.stderr)
         return 2
 

@@ -83,5 +83,16 @@ pub enum ArmError {
     Unsupported(String),
 }
 
+impl ArmError {
+    /// Whether this is a property of one pose (singular, zero length, cannot close) rather
+    /// than of the input as a whole.
+    pub fn is_pose_failure(&self) -> bool {
+        matches!(
+            self,
+            Self::Singular { .. } | Self::ZeroLength { .. } | Self::Unreachable { .. }
+        )
+    }
+}
+
 /// Result alias of the core.
 pub type Result<T> = std::result::Result<T, ArmError>;

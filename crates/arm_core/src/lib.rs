@@ -9,7 +9,8 @@
 //! * [`effects`]: the catalogue of physical effects (compliance, play, clearance, bending,
 //!   base tilt), one module each;
 //! * [`pose`]: the loaded pose, closed exactly;
-//! * [`solve`]: all of it for many poses at once, in parallel.
+//! * [`solve`]: all of it for many poses at once, in parallel;
+//! * [`sensitivity`]: predicted channels and their derivatives by effect parameter, for fits.
 //!
 //! Units: mm, N, kg, rad inside (degrees at the batch API). Global frame: x forward, y up,
 //! angles counter-clockwise. `docs/model.md` in the repository derives every equation.
@@ -20,6 +21,7 @@ pub mod error;
 pub mod geometry;
 pub mod kinematics;
 pub mod pose;
+pub mod sensitivity;
 pub mod solve;
 pub mod statics;
 

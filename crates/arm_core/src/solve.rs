@@ -23,11 +23,17 @@ pub const CHUNK: usize = 1024;
 pub struct SolveOptions {
     /// Include link and actuator weights in both states (the seed's Table 5 did not).
     pub self_weight: bool,
+    /// Fill a pose that cannot be solved (singular, or a triangle that cannot close) with
+    /// NaN instead of failing the batch: a sweep's workspace mask.
+    pub nan_on_failure: bool,
 }
 
 impl Default for SolveOptions {
     fn default() -> Self {
-        Self { self_weight: true }
+        Self {
+            self_weight: true,
+            nan_on_failure: false,
+        }
     }
 }
 
@@ -326,7 +332,7 @@ fn solve_chunk(
     effects: &EffectSet,
     input: BatchInput<'_>,
     opts: SolveOptions,
-    out: BatchOutput<'_>,
+    mut out: BatchOutput<'_>,
     first_row: usize,
 ) -> Result<()> {
     let n = arm.n();
@@ -338,7 +344,13 @@ fn solve_chunk(
             *a = d.to_radians();
         }
         let payload = V2::new(input.payload_n[2 * p], input.payload_n[2 * p + 1]);
-        ws.solve(arm, effects, &alpha, payload, opts, row)?;
+        if let Err(e) = ws.solve(arm, effects, &alpha, payload, opts, row) {
+            if !opts.nan_on_failure || !e.is_pose_failure() {
+                return Err(e);
+            }
+            fill_nan(&mut out, p, n);
+            continue;
+        }
         for i in 0..n {
             let j = p * n + i;
             out.force_n[j] = ws.loaded.f[i];
@@ -354,4 +366,20 @@ fn solve_chunk(
         out.dy_mm[p] = ws.dmeasure.y;
     }
     Ok(())
+}
+
+fn fill_nan(out: &mut BatchOutput<'_>, p: usize, n: usize) {
+    for s in [
+        &mut *out.force_n,
+        &mut *out.dforce_n,
+        &mut *out.dalpha_deg,
+        &mut *out.dl_mm,
+        &mut *out.dlength_mm,
+        &mut *out.length_mm,
+    ] {
+        s[p * n..(p + 1) * n].fill(f64::NAN);
+    }
+    out.reaction_n[2 * p * n..2 * (p + 1) * n].fill(f64::NAN);
+    out.dx_mm[p] = f64::NAN;
+    out.dy_mm[p] = f64::NAN;
 }

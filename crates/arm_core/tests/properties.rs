@@ -111,8 +111,18 @@ struct Out {
 fn solve(arm: &Arm, eff: Vec<Effect>, alpha: &[f64], p: V2, self_weight: bool) -> Out {
     let set = EffectSet::new(arm, eff).unwrap();
     let mut ws = Workspace::new(arm);
-    ws.solve(arm, &set, alpha, p, SolveOptions { self_weight }, 0)
-        .unwrap();
+    ws.solve(
+        arm,
+        &set,
+        alpha,
+        p,
+        SolveOptions {
+            self_weight,
+            ..Default::default()
+        },
+        0,
+    )
+    .unwrap();
     let dalpha = ws.new_alpha.iter().zip(alpha).map(|(a, b)| a - b).collect();
     Out {
         d: ws.dmeasure,

@@ -78,15 +78,15 @@ impl Beam {
     }
 }
 
-impl Mechanism for LinkBending {
-    fn label(&self) -> String {
-        format!("link_bending@L{}", self.link + 1)
-    }
-    fn check(&self, arm: &Arm) -> Result<()> {
+impl LinkBending {
+    /// Checks the place and that the beam's two supports (O_i and the abscissa of A_i) differ.
+    ///
+    /// # Errors
+    /// [`ArmError::InvalidEffect`].
+    pub fn check_supports(&self, arm: &Arm) -> Result<()> {
         check_place(&self.label(), self.link, arm)?;
-        check_param(&self.label(), "ei_n_mm2", self.ei, false)?;
-        let xa = arm.links[self.link].a.x;
-        if xa.abs() <= 1e-9 * (1.0 + arm.links[self.link].a.norm()) {
+        let a = arm.links[self.link].a;
+        if a.x.abs() <= 1e-9 * (1.0 + a.norm()) {
             return Err(ArmError::InvalidEffect {
                 effect: self.label(),
                 reason: "pin A lies at x = 0 of the link, so the beam's two supports coincide"
@@ -94,6 +94,16 @@ impl Mechanism for LinkBending {
             });
         }
         Ok(())
+    }
+}
+
+impl Mechanism for LinkBending {
+    fn label(&self) -> String {
+        format!("link_bending@L{}", self.link + 1)
+    }
+    fn check(&self, arm: &Arm) -> Result<()> {
+        check_param(&self.label(), "ei_n_mm2", self.ei, false)?;
+        self.check_supports(arm)
     }
     fn apply(&self, ctx: &EffectContext<'_>, def: &mut Deformation) {
         let (k, arm, fr, d) = (self.link, ctx.arm, ctx.frames, ctx.delta);

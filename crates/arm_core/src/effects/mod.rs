@@ -213,6 +213,26 @@ impl EffectSet {
         Ok(Self { effects })
     }
 
+    /// Builds a set without checking parameters (places and duplicates are still checked).
+    /// Used for finite differences, where a parameter may step below zero.
+    ///
+    /// # Errors
+    /// [`ArmError::InvalidEffect`] for a place beyond the arm or an effect given twice.
+    pub fn new_unchecked(arm: &Arm, effects: Vec<Effect>) -> Result<Self> {
+        for (i, e) in effects.iter().enumerate() {
+            if let Effect::LinkBending(b) = e {
+                b.check_supports(arm)?;
+            }
+            if effects[..i].iter().any(|p| p.label() == e.label()) {
+                return Err(ArmError::InvalidEffect {
+                    effect: e.label(),
+                    reason: "given twice".into(),
+                });
+            }
+        }
+        Ok(Self { effects })
+    }
+
     /// The baseline model: no effect.
     pub fn empty() -> Self {
         Self::default()

@@ -1,0 +1,480 @@
+"""Which physical effect is missing? Rank every candidate, search sets, name confusions.
+
+The procedure (docs/diagnosis.md explains it with the statistics):
+
+1. Fit the model's own effects (``--add``): the *baseline*.
+2. Ask the core for the sensitivity of every measured channel to every candidate effect
+   × place not in the model, at the baseline (one compiled call).
+3. Every set of up to three candidates is fitted on the linearised problem, exactly and
+   within bounds, all sets at once; the best sets of each size, and every single candidate,
+   are then refitted with the exact nonlinear model.
+4. Verdict: the baseline is *adequate* when its χ² is consistent with the noise
+   (p ≥ 0.001) and no candidate improves it significantly (likelihood-ratio Δχ² beyond the
+   0.1 % quantile of χ²₁, Bonferroni-corrected for the number of candidates, and BIC).
+   Otherwise *missing*, and ``suggested`` is the smallest set whose fit is consistent with
+   the noise, or, if none is, the set with the lowest BIC.
+5. Two candidates are *confused* when either can reproduce the other's fitted contribution
+   to within the noise (residual χ² < 3.84, the 95 % point of χ²₁) on the given channels and
+   poses, while that contribution itself is detectable (χ² > 3.84).
+6. Cells more than 4σ off after the best fit (at most 2 % of them) are named as outliers and
+   left out of a second pass.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+import warnings
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from .arm import Arm
+from .effects import CATALOGUE, candidate_places
+from .errors import EodarmError
+from .fit import FitResult, FitWarning, Problem, Slot, fit, outlier_table
+from .measurements import Measurements, default_sigma
+
+__all__ = ["Candidate", "Diagnosis", "all_slots", "diagnose"]
+
+# When the data cannot tell two candidates apart (equal χ² to 1e-9), prefer the one that does
+# not overrule the arm file: an unknown mount or joint over a changed actuator body stiffness.
+TIE_ORDER = (
+    "mount_compliance",
+    "joint_clearance",
+    "actuator_play",
+    "link_bending",
+    "base_compliance",
+    "actuator_compliance",
+)
+P_PASS = 1e-3  # χ² test: a model "explains the data within noise" when p ≥ this
+CONFUSION_CHI2 = 3.841458820694124  # 95 % point of χ² with 1 dof
+OUTLIER_Z = 4.0
+
+
+def all_slots(n: int) -> list[Slot]:
+    """Every effect × place of the catalogue on an n-link arm (5n + 1 of them)."""
+    return [Slot(name, at) for name in CATALOGUE for at in candidate_places(name, n)]
+
+
+@dataclass
+class Candidate:
+    """One candidate added alone to the model, its parameter fitted."""
+
+    slot: Slot
+    fit: FitResult
+    delta_chi2: float
+    confused_with: list[str] = field(default_factory=list)
+
+    def to_json(self) -> dict[str, Any]:
+        i = self.fit.slots.index(self.slot)
+        value = self.fit.estimate(i)
+        return {
+            "effect": self.slot.name,
+            "at": self.slot.at,
+            "estimate": {self.slot.kind.param: value if math.isfinite(value) else None},
+            "rms": self.fit.rms(),
+            "chi2_per_dof": self.fit.chi2_per_dof,
+            "confused_with": list(self.confused_with),
+        }
+
+
+@dataclass
+class Diagnosis:
+    """Result of :func:`diagnose`; ``to_json()`` is the CLI's JSON (CONTRACT §6)."""
+
+    model: list[Slot]
+    baseline: FitResult
+    verdict: str
+    suggested: list[Slot]
+    suggested_fit: FitResult | None
+    ranking: list[Candidate]
+    outliers: list[dict[str, Any]]
+    advice: list[dict[str, Any]]
+    p_baseline: float
+    sets_searched: int
+
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "model": [s.key for s in self.model],
+            "baseline": {
+                "rms": self.baseline.rms(),
+                "chi2_per_dof": self.baseline.chi2_per_dof,
+            },
+            "verdict": self.verdict,
+            "suggested": [s.key for s in self.suggested],
+            "ranking": [c.to_json() for c in self.ranking],
+        }
+
+
+def _chi2_sf(x: float, dof: int) -> float:
+    from scipy.stats import chi2
+
+    return float(chi2.sf(x, dof))
+
+
+def _chi2_isf(p: float, dof: int) -> float:
+    from scipy.stats import chi2
+
+    return float(chi2.isf(p, dof))
+
+
+def _bounded_qp_batch(
+    g: npt.NDArray[np.float64],
+    b: npt.NDArray[np.float64],
+    lo: npt.NDArray[np.float64],
+    hi: npt.NDArray[np.float64],
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+    """min ½dᵀGd − bᵀd s.t. lo ≤ d ≤ hi, for K small problems at once (K, k, k).
+
+    Exact: every pattern of variables held at a bound is tried (≤ 3^k faces, small k), and the
+    feasible face solution of least objective is the global optimum of this convex problem.
+    """
+    kset, k = b.shape
+    best = np.full(kset, np.inf)
+    best_d = np.zeros((kset, k))
+    ridge = np.eye(k) * 1e-12
+    # 0: free, 1: at the lower bound, 2: at the upper bound (only where one is finite).
+    options = [(0, 1, 2) if np.isfinite(hi[:, j]).any() else (0, 1) for j in range(k)]
+    for pattern in itertools.product(*options):
+        pat = np.array(pattern)
+        held = np.where(pat == 1, lo, np.where(pat == 2, hi, 0.0))
+        valid = np.isfinite(held).all(axis=1)
+        if not valid.any():
+            continue
+        d = np.where(np.isfinite(held), held, 0.0)
+        free = np.flatnonzero(pat == 0)
+        fixed = np.flatnonzero(pat != 0)
+        if free.size:
+            gff = g[:, free][:, :, free] + ridge[: free.size, : free.size]
+            rhs = b[:, free] - np.einsum("kij,kj->ki", g[:, free][:, :, fixed], d[:, fixed])
+            sol = np.linalg.solve(gff, rhs[..., None])[..., 0]
+            d[:, free] = sol
+            valid &= np.all(sol >= lo[:, free] - 1e-12, axis=1)
+            valid &= np.all(sol <= hi[:, free] + 1e-12, axis=1)
+        obj = 0.5 * np.einsum("ki,kij,kj->k", d, g, d) - np.einsum("ki,ki->k", b, d)
+        better = valid & (obj < best)
+        best[better] = obj[better]
+        best_d[better] = d[better]
+    return best_d, best
+
+
+def diagnose(
+    arm: Arm,
+    meas: Measurements,
+    model: Sequence[Slot | str] = (),
+    self_weight: bool = True,
+    max_set: int = 3,
+    candidates: Sequence[Slot | str] | None = None,
+    refine_per_size: int = 3,
+    outliers: bool = True,
+    advise: bool = True,
+) -> Diagnosis:
+    """Rank every candidate effect × place, search sets of up to ``max_set``, and decide.
+
+    Parameters
+    ----------
+    arm, meas : the arm and the measurements.
+    model : effects already in the model (their parameters are fitted).
+    candidates : the candidates to consider (default: every effect × place not in the model).
+    max_set : the largest set searched for ``suggested`` (≤ 3 is cheap; sets are exact).
+    outliers : name cells > 4σ off after the best fit and run a second pass without them.
+    advise : for confused pairs, search for the channel and the pose that separate them.
+    """
+    model_slots = [Slot.of(s) for s in model]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", FitWarning)
+        first = _diagnose_pass(
+            arm, meas, model_slots, self_weight, max_set, candidates, refine_per_size, None
+        )
+        found: list[dict[str, Any]] = []
+        if outliers:
+            best = first.suggested_fit or first.baseline
+            z = np.abs(best.z)
+            flagged = np.isfinite(z) & (z > OUTLIER_Z)
+            budget = max(1, int(0.02 * best.problem.n_values))
+            if 0 < flagged.sum() <= budget:
+                second = _diagnose_pass(
+                    arm,
+                    meas,
+                    model_slots,
+                    self_weight,
+                    max_set,
+                    candidates,
+                    refine_per_size,
+                    flagged,
+                )
+                final = second.suggested_fit or second.baseline
+                found = outlier_table(final, flagged)
+                first = second
+        first.outliers = found
+        if advise and first.ranking:
+            first.advice = _advice(arm, meas, first, self_weight)
+    return first
+
+
+def _diagnose_pass(
+    arm: Arm,
+    meas: Measurements,
+    model_slots: list[Slot],
+    self_weight: bool,
+    max_set: int,
+    candidates: Sequence[Slot | str] | None,
+    refine_per_size: int,
+    exclude: npt.NDArray[np.bool_] | None,
+) -> Diagnosis:
+    prob = Problem(arm, meas, self_weight=self_weight, exclude=exclude)
+    if prob.n_values == 0:
+        raise EodarmError(f"{meas.source}: no measured values to diagnose")
+    base = fit(arm, meas, model_slots, problem=prob)
+    taken = {s.key for s in model_slots}
+    if candidates is None:
+        cands = [s for s in all_slots(arm.n) if s.key not in taken]
+    else:
+        cands = [Slot.of(s) for s in candidates if Slot.of(s).key not in taken]
+    m, k = len(model_slots), len(cands)
+    probes = model_slots + cands
+    y0, jac = prob.evaluate(list(zip(model_slots, base.theta, strict=True)), probes)
+    r0 = prob.whiten(y0)
+    a = prob.whiten_jac(jac)
+    norms = np.linalg.norm(a, axis=0)
+    norms[norms == 0] = 1.0
+    an = a / norms
+    gram = an.T @ an
+    bvec = an.T @ r0
+    chi2_0 = float(r0 @ r0)
+    lo = np.empty(m + k)
+    hi = np.empty(m + k)
+    for j, s in enumerate(probes):
+        start = base.theta[j] if j < m else prob.neutral(s)
+        blo, bhi = prob.bounds(s)
+        lo[j], hi[j] = (blo - start) * norms[j], (bhi - start) * norms[j]
+
+    def solve_sets(sets: list[tuple[int, ...]]) -> tuple[npt.NDArray[Any], npt.NDArray[Any]]:
+        idx = np.array([tuple(range(m)) + tuple(m + c for c in st) for st in sets], dtype=int)
+        g = gram[idx[:, :, None], idx[:, None, :]]
+        d, obj = _bounded_qp_batch(g, bvec[idx], lo[idx], hi[idx])
+        return d, chi2_0 + 2 * obj
+
+    # Exact refits of a set with the nonlinear model, from the linearised solution.
+    cache: dict[tuple[int, ...], FitResult] = {}
+
+    def refine(st: tuple[int, ...], d: npt.NDArray[np.float64]) -> FitResult:
+        if st not in cache:
+            slots = model_slots + [cands[c] for c in st]
+            cols = list(range(m)) + [m + c for c in st]
+            start = (
+                np.array([base.theta[j] if j < m else prob.neutral(probes[j]) for j in cols])
+                + d / norms[cols]
+            )
+            cache[st] = fit(arm, meas, slots, problem=prob, start=start)
+        return cache[st]
+
+    singles = [(c,) for c in range(k)]
+    d1, chi1 = solve_sets(singles)
+    ranking = []
+    for c in range(k):
+        res = refine((c,), d1[c])
+        ranking.append(Candidate(cands[c], res, base.chi2 - res.chi2))
+    _rank(ranking)
+
+    # Verdict.
+    n_val = prob.n_values
+    p_base = _chi2_sf(base.chi2, base.dof)
+    lrt = _chi2_isf(1e-3 / max(k, 1), 1)
+
+    # Confusions, on the linearised columns with the model's columns projected out.
+    _confusions(ranking, cands, an[:, :m], an[:, m:], norms[m:], prob, max(lrt, math.log(n_val)))
+    best1 = ranking[0] if ranking else None
+    significant = best1 is not None and best1.delta_chi2 > max(lrt, math.log(n_val))
+    verdict = "missing" if (p_base < P_PASS or significant) else "adequate"
+
+    suggested: list[Slot] = []
+    suggested_fit: FitResult | None = None
+    searched = k
+    if verdict == "missing":
+        tried: list[FitResult] = []
+        for size in range(1, min(max_set, k) + 1):
+            sets = list(itertools.combinations(range(k), size))
+            searched += len(sets) if size > 1 else 0
+            d, chis = solve_sets(sets) if size > 1 else (d1, chi1)
+            order = np.argsort(chis)[:refine_per_size]
+            fits = [refine(sets[i], d[i]) for i in order]
+            # a set whose extra member does nothing is not a set of this size
+            fits = [f for f in fits if not any(f.at_bound[m:])] or fits[:1]
+            bestf = _best_set(fits, m)
+            tried.append(bestf)
+            if _chi2_sf(bestf.chi2, bestf.dof) >= P_PASS and not any(bestf.at_bound[m:]):
+                suggested_fit = bestf
+                break
+        if suggested_fit is None and tried:
+            bic = [f.chi2 + f.n_params * math.log(n_val) for f in tried]
+            base_bic = base.chi2 + base.n_params * math.log(n_val)
+            i = int(np.argmin(bic))
+            if bic[i] < base_bic:
+                suggested_fit = tried[i]
+        if suggested_fit is not None:
+            suggested = suggested_fit.slots[m:]
+    return Diagnosis(
+        model=model_slots,
+        baseline=base,
+        verdict=verdict,
+        suggested=suggested,
+        suggested_fit=suggested_fit,
+        ranking=ranking,
+        outliers=[],
+        advice=[],
+        p_baseline=p_base,
+        sets_searched=searched,
+    )
+
+
+def _best_set(fits: list[FitResult], m: int) -> FitResult:
+    """Least χ²; sets equal in χ² (to 1e-9) are broken by TIE_ORDER of their members."""
+    quantum = 1e-9 * max([abs(f.chi2) for f in fits] + [1e-300])
+    return min(
+        fits,
+        key=lambda f: (
+            round(f.chi2 / quantum),
+            sorted(TIE_ORDER.index(s.name) for s in f.slots[m:]),
+        ),
+    )
+
+
+def _rank(ranking: list[Candidate]) -> None:
+    """Best (least χ²) first; χ² equal to 1e-9 of the largest are ties, broken by TIE_ORDER."""
+    quantum = 1e-9 * max([abs(c.fit.chi2) for c in ranking] + [1e-300])
+    ranking.sort(
+        key=lambda c: (round(c.fit.chi2 / quantum), TIE_ORDER.index(c.slot.name), c.slot.at)
+    )
+
+
+def _confusions(
+    ranking: list[Candidate],
+    cands: list[Slot],
+    am: npt.NDArray[np.float64],
+    ac: npt.NDArray[np.float64],
+    cnorm: npt.NDArray[np.float64],
+    prob: Problem,
+    detectable: float,
+) -> None:
+    """Fill ``confused_with``: B reproduces A's significant contribution within the noise.
+
+    A's contribution (whitened, the model's own columns projected out) must itself be
+    significant (χ² above ``detectable``), and B's best imitation must leave less than
+    χ²₁(95 %) of it and less than a tenth of it unexplained.
+    """
+    if am.shape[1]:
+        q, _ = np.linalg.qr(am)
+        ac = ac - q @ (q.T @ ac)
+    index = {s.key: j for j, s in enumerate(cands)}
+    contrib = np.zeros_like(ac)
+    for cand in ranking:
+        j = index[cand.slot.key]
+        t = cand.fit.theta[-1]
+        contrib[:, j] = ac[:, j] * (t - prob.neutral(cand.slot)) * cnorm[j]
+    for cand in ranking:
+        j = index[cand.slot.key]
+        v = contrib[:, j]
+        vv = float(v @ v)
+        if vv <= detectable:
+            continue
+        out = []
+        for other in ranking:
+            i = index[other.slot.key]
+            if i == j:
+                continue
+            col = ac[:, i]
+            cc = float(col @ col)
+            if cc == 0:
+                continue
+            lo_i = (prob.bounds(other.slot)[0] - prob.neutral(other.slot)) * cnorm[i]
+            coef = max(float(col @ v) / cc, lo_i)
+            resid = v - coef * col
+            left = float(resid @ resid)
+            if left < CONFUSION_CHI2 and left < 0.1 * vv:
+                out.append(other.slot.key)
+        cand.confused_with = out
+
+
+def _advice(
+    arm: Arm, meas: Measurements, diag: Diagnosis, self_weight: bool
+) -> list[dict[str, Any]]:
+    """For the leading candidate's confusions: the channel and the pose that separate them."""
+    from .synth import random_configs
+
+    top = diag.ranking[0]
+    if not top.confused_with:
+        return []
+    prob = diag.baseline.problem
+    model = list(zip(diag.model, diag.baseline.theta, strict=True))
+    rows_all = np.arange(meas.n_rows)
+    out = []
+    measured = set(meas.measured_channels)
+    rng = np.random.default_rng(0)
+    lo = meas.alpha_deg.min(axis=0) - 15.0
+    hi = meas.alpha_deg.max(axis=0) + 15.0
+    try:
+        poses = random_configs(arm, 400, rng, alpha_ranges=list(zip(lo, hi, strict=True)))
+    except EodarmError:
+        poses = np.zeros((0, arm.n))
+    mass = float(np.max(meas.mass_kg))
+    sig = np.array([default_sigma(ch) for ch in meas.channels])
+    for other_key in top.confused_with[:3]:
+        other = next(c for c in diag.ranking if c.slot.key == other_key)
+        # B refitted alone to the data already; compare the two fitted models.
+        ya, _ = prob.evaluate([*model, (top.slot, float(top.fit.theta[-1]))], rows=rows_all)
+        yb, _ = prob.evaluate([*model, (other.slot, float(other.fit.theta[-1]))], rows=rows_all)
+        sep = (((ya - yb) / sig) ** 2).sum(axis=0)
+        unmeasured = [c for c, ch in enumerate(meas.channels) if ch not in measured]
+        channel = None
+        if unmeasured:
+            c = max(unmeasured, key=lambda c: sep[c])
+            channel = {"channel": meas.channels[c], "chi2_separation": float(sep[c])}
+        pose = None
+        if len(poses):
+            sub = _problem_at(arm, poses, mass, self_weight)
+            pa, _ = sub.evaluate(
+                [*model, (top.slot, float(top.fit.theta[-1]))], nan_on_failure=True
+            )
+            pb, _ = sub.evaluate(
+                [*model, (other.slot, float(other.fit.theta[-1]))], nan_on_failure=True
+            )
+            cols = [c for c, ch in enumerate(meas.channels) if ch in measured]
+            score = (((pa - pb)[:, cols] / sig[cols]) ** 2).sum(axis=1)
+            score[~np.isfinite(score)] = -1.0  # poses where either model bottoms out
+            i = int(np.argmax(score))
+            pose = {
+                "alpha_deg": [float(x) for x in poses[i]],
+                "mass_kg": mass,
+                "chi2_separation": float(score[i]),
+            }
+        out.append({"pair": [top.slot.key, other.slot.key], "channel": channel, "pose": pose})
+    return out
+
+
+def _problem_at(arm: Arm, alpha: npt.NDArray[np.float64], mass: float, sw: bool) -> Problem:
+    """A measurement-less Problem at given poses (for predictions only)."""
+    from .measurements import channel_names
+
+    n = len(alpha)
+    chans = channel_names(arm.n)
+    meas = Measurements.from_arrays(
+        config=np.array([f"p{i}" for i in range(n)]),
+        alpha_deg=alpha,
+        mass_kg=np.full(n, mass),
+        values={ch: np.full(n, np.nan) for ch in chans},
+        sigma=None,
+        source="<poses>",
+    )
+    return Problem(arm, meas, self_weight=sw)
+
+
+def describe(param: str, value: float) -> str:
+    """A parameter value as text (``inf`` stiffness → 'rigid')."""
+    if not math.isfinite(value):
+        return "rigid (absent)"
+    return f"{value:.4g}"

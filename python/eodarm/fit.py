@@ -1,0 +1,508 @@
+"""Fitting effect parameters to measurements: bounded Gauss–Newton on compliance-like θ.
+
+Every effect is fitted through a parameter θ in which its deflection is (nearly) linear:
+
+=====================  ==========================  =====================================
+effect                 θ                           physical bound
+=====================  ==========================  =====================================
+actuator_compliance    1/stiffness_n_per_mm        θ ≥ 0 (θ = 0: rigid body)
+mount_compliance       1/stiffness_n_per_mm        θ ≥ 0 (θ = 0: rigid mount, absent)
+actuator_play          play_mm                     0 ≤ θ ≤ 5 mm
+joint_clearance        clearance_mm                0 ≤ θ ≤ 5 mm
+link_bending           1/ei_n_mm2                  θ ≥ 0 (θ = 0: rigid link)
+base_compliance        1/stiffness_nmm_per_rad     θ ≥ 0 (θ = 0: rigid base)
+=====================  ==========================  =====================================
+
+The compiled core returns the model's channels and their sensitivities ∂y/∂θ for any set of
+places in one call (:func:`eodarm._core.jacobian`); each Gauss–Newton step is then a small
+bounded linear least-squares problem. Residuals are whitened by the measurement σ.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from .arm import Arm
+from .effects import CATALOGUE, Effect, EffectKind
+from .errors import EodarmError
+from .measurements import Measurements
+
+__all__ = [
+    "FitResult",
+    "FitWarning",
+    "Problem",
+    "Slot",
+    "compare",
+    "cross_validate",
+    "find_outliers",
+    "fit",
+    "outlier_table",
+    "param_from_theta",
+    "theta_from_param",
+]
+
+THETA_MAX = {"actuator_play": 5.0, "joint_clearance": 5.0}
+
+
+@dataclass(frozen=True)
+class Slot:
+    """An effect kind at a place, without a value: what a fit or a diagnosis varies."""
+
+    name: str
+    at: str
+
+    @classmethod
+    def parse(cls, spec: str) -> Slot:
+        """``"joint_clearance@O3"`` → Slot (validated against the catalogue)."""
+        name, sep, at = spec.partition("@")
+        if not sep or name not in CATALOGUE:
+            raise EodarmError(
+                f"'{spec}' is not of the form EFFECT@PLACE with EFFECT one of "
+                f"{', '.join(CATALOGUE)}"
+            )
+        kind = CATALOGUE[name]
+        Effect(name, at, **{kind.param: 1.0})  # validates the place's form
+        return cls(name, at)
+
+    @classmethod
+    def of(cls, effect: Effect | Slot | str) -> Slot:
+        if isinstance(effect, Slot):
+            return effect
+        if isinstance(effect, Effect):
+            return cls(effect.name, effect.at)
+        return cls.parse(effect)
+
+    @property
+    def kind(self) -> EffectKind:
+        return CATALOGUE[self.name]
+
+    @property
+    def key(self) -> str:
+        return f"{self.name}@{self.at}"
+
+    def index(self, n: int) -> int:
+        return Effect(self.name, self.at, **{self.kind.param: 1.0}).index(n)
+
+    def __str__(self) -> str:
+        return self.key
+
+
+def theta_from_param(name: str, value: float) -> float:
+    """θ of a physical parameter value (``inf`` stiffness → 0)."""
+    if CATALOGUE[name].compliance_like:
+        return 0.0 if math.isinf(value) else 1.0 / value
+    return float(value)
+
+
+def param_from_theta(name: str, theta: float) -> float:
+    """Physical parameter of a θ (θ = 0 of a compliance → ``inf``)."""
+    if CATALOGUE[name].compliance_like:
+        return math.inf if theta <= 0 else 1.0 / theta
+    return float(theta)
+
+
+class Problem:
+    """An arm, measurements and the whitened residual machinery shared by fits.
+
+    Parameters
+    ----------
+    arm : the arm.
+    meas : the measurements (their ``n`` must equal the arm's).
+    self_weight : include weights in both states (as the measured arm carried them).
+    exclude : optional boolean (N, C) mask of measured cells to leave out (outliers).
+    """
+
+    def __init__(
+        self,
+        arm: Arm,
+        meas: Measurements,
+        self_weight: bool = True,
+        exclude: npt.NDArray[np.bool_] | None = None,
+    ) -> None:
+        if meas.n != arm.n:
+            raise EodarmError(
+                f"{meas.source}: the measurements are for a {meas.n}-link arm, "
+                f"the arm '{arm.name}' has {arm.n} links"
+            )
+        self.arm = arm
+        self.meas = meas
+        self.self_weight = self_weight
+        self.alpha = np.ascontiguousarray(meas.alpha_deg, dtype=float)
+        self.payload = np.zeros((meas.n_rows, 2))
+        self.payload[:, 1] = -np.asarray(meas.mass_kg, dtype=float) * arm.g
+        use = np.isfinite(meas.values)
+        if exclude is not None:
+            use &= ~exclude
+        self.use = use
+        self.obs = meas.values[use]
+        self.sig = meas.sigma[use]
+        self.n_values = int(use.sum())
+
+    # --------------------------------------------------------------- evaluation
+    def evaluate(
+        self,
+        model: Sequence[tuple[Slot, float]],
+        probes: Sequence[Slot] = (),
+        rows: npt.NDArray[np.intp] | None = None,
+        nan_on_failure: bool = False,
+    ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+        """Channels (N, C) of the model with θ values, and ∂y/∂θ (N, C, P) for ``probes``.
+
+        With ``nan_on_failure`` a pose the model cannot solve is NaN instead of an error.
+        """
+        from . import _core
+        from .solver import _core_arm
+
+        n = self.arm.n
+        alpha, payload = self.alpha, self.payload
+        if rows is not None:
+            alpha = np.ascontiguousarray(alpha[rows])
+            payload = np.ascontiguousarray(payload[rows])
+        mc = np.array([CATALOGUE[s.name].code for s, _ in model], dtype=np.int64)
+        mp = np.array([s.index(n) for s, _ in model], dtype=np.int64)
+        mt = np.array([t for _, t in model], dtype=float)
+        pc = np.array([CATALOGUE[s.name].code for s in probes], dtype=np.int64)
+        pp = np.array([s.index(n) for s in probes], dtype=np.int64)
+        return _core.jacobian(
+            _core_arm(self.arm),
+            alpha,
+            payload,
+            mc,
+            mp,
+            mt,
+            pc,
+            pp,
+            self.self_weight,
+            nan_on_failure,
+        )
+
+    def neutral(self, slot: Slot) -> float:
+        """θ of a slot when it is not in the model."""
+        if slot.name == "actuator_compliance":
+            return 1.0 / self.arm.actuators[slot.index(self.arm.n)].stiffness_n_per_mm
+        return 0.0
+
+    @staticmethod
+    def bounds(slot: Slot) -> tuple[float, float]:
+        return 0.0, THETA_MAX.get(slot.name, math.inf)
+
+    def whiten(self, y: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
+        """Whitened residual (obs − y)/σ over the used cells."""
+        return (self.obs - y[self.use]) / self.sig
+
+    def whiten_jac(self, jac: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
+        return jac[self.use] / self.sig[:, None]
+
+
+@dataclass
+class FitResult:
+    """The outcome of fitting a model's effect parameters to measurements."""
+
+    problem: Problem
+    slots: list[Slot]
+    theta: npt.NDArray[np.float64]
+    theta_stderr: npt.NDArray[np.float64]
+    at_bound: list[bool]
+    prediction: npt.NDArray[np.float64]  # (N, C)
+    chi2: float
+    iterations: int
+    warnings: list[str] = field(default_factory=list)
+    fixed: list[Effect] = field(default_factory=list)  # effects held at given values
+
+    @property
+    def effects(self) -> list[Effect]:
+        """The fitted effects (a stiffness stuck at θ = 0 is left out: it is absent)."""
+        out = []
+        for s, t in zip(self.slots, self.theta, strict=True):
+            value = param_from_theta(s.name, float(t))
+            if math.isfinite(value) and (value > 0 or s.kind.allow_zero):
+                out.append(Effect(s.name, s.at, **{s.kind.param: value}))
+        return out
+
+    @property
+    def n_params(self) -> int:
+        return len(self.slots)
+
+    @property
+    def dof(self) -> int:
+        return max(self.problem.n_values - self.n_params, 1)
+
+    @property
+    def chi2_per_dof(self) -> float:
+        return self.chi2 / self.dof
+
+    @property
+    def residual(self) -> npt.NDArray[np.float64]:
+        """Measured minus model (N, C); NaN where not measured."""
+        return self.problem.meas.values - self.prediction
+
+    @property
+    def z(self) -> npt.NDArray[np.float64]:
+        """Residual in units of σ (N, C)."""
+        return self.residual / self.problem.meas.sigma
+
+    def rms(self, rows: npt.NDArray[np.bool_] | None = None) -> dict[str, float]:
+        """RMS residual per measured channel (mm or deg), over the used cells."""
+        return _rms(self.residual, self.problem.use, self.problem.meas.channels, rows)
+
+    def estimate(self, i: int) -> float:
+        return param_from_theta(self.slots[i].name, float(self.theta[i]))
+
+    def stderr(self, i: int) -> float:
+        """Standard error of the physical parameter (delta method through θ)."""
+        s, t, e = self.slots[i], float(self.theta[i]), float(self.theta_stderr[i])
+        if s.kind.compliance_like:
+            return math.inf if t <= 0 else e / (t * t)
+        return e
+
+    def summary(self) -> dict[str, Any]:
+        """Contract-shaped summary: effects with estimate and stderr, rms and χ²/dof."""
+        return {
+            "effects": [
+                {
+                    "effect": s.name,
+                    "at": s.at,
+                    "estimate": {s.kind.param: _json_num(self.estimate(i))},
+                    "stderr": {s.kind.param: _json_num(self.stderr(i))},
+                }
+                for i, s in enumerate(self.slots)
+            ],
+            "rms": self.rms(),
+            "chi2_per_dof": self.chi2_per_dof,
+        }
+
+
+def _json_num(x: float) -> float | None:
+    return float(x) if math.isfinite(x) else None
+
+
+def _rms(
+    residual: npt.NDArray[np.float64],
+    use: npt.NDArray[np.bool_],
+    channels: Sequence[str],
+    rows: npt.NDArray[np.bool_] | None = None,
+) -> dict[str, float]:
+    out: dict[str, float] = {}
+    for c, ch in enumerate(channels):
+        m = use[:, c] if rows is None else use[:, c] & rows
+        if m.any():
+            out[ch] = float(np.sqrt(np.mean(residual[m, c] ** 2)))
+    return out
+
+
+def fit(
+    arm: Arm,
+    meas: Measurements,
+    effects: Iterable[Effect | Slot | str] = (),
+    self_weight: bool = True,
+    exclude: npt.NDArray[np.bool_] | None = None,
+    problem: Problem | None = None,
+    start: Sequence[float] | None = None,
+    max_iter: int = 30,
+) -> FitResult:
+    """Least-squares fit of the effects' parameters, within their physical bounds.
+
+    Parameters
+    ----------
+    arm, meas : the arm and the measurements.
+    effects : the effects to fit (``Effect`` values give the starting point; ``Slot`` or
+        ``"effect@place"`` start from the effect being absent).
+    self_weight : as :func:`eodarm.solve`.
+    exclude : (N, C) mask of cells left out (outliers).
+
+    Returns
+    -------
+    FitResult
+        θ, standard errors (from the covariance ``(JᵀJ)⁻¹`` scaled by ``max(1, χ²/dof)``),
+        prediction, χ². A parameter at a bound is flagged, with a warning in
+        ``result.warnings``.
+    """
+    prob = problem or Problem(arm, meas, self_weight=self_weight, exclude=exclude)
+    given = list(effects)
+    slots = [Slot.of(e) for e in given]
+    keys = [s.key for s in slots]
+    if len(set(keys)) != len(keys):
+        raise EodarmError(f"an effect is given twice: {keys}")
+    for s in slots:
+        s.index(arm.n)
+    theta = np.array(
+        [
+            theta_from_param(e.name, e.value) if isinstance(e, Effect) else prob.neutral(s)
+            for s, e in zip(slots, given, strict=True)
+        ],
+        dtype=float,
+    )
+    if start is not None:
+        theta = np.asarray(start, dtype=float).copy()
+    lo = np.array([prob.bounds(s)[0] for s in slots])
+    hi = np.array([prob.bounds(s)[1] for s in slots])
+    theta = np.clip(theta, lo, hi)
+
+    def at(th: npt.NDArray[np.float64]) -> tuple[Any, Any, float]:
+        y, jac = prob.evaluate(list(zip(slots, th, strict=True)), slots)
+        r = prob.whiten(y)
+        return y, jac, float(r @ r)
+
+    y, jac, chi2 = at(theta)
+    it = 0
+    for it in range(1, max_iter + 1):  # noqa: B007
+        if not slots:
+            break
+        r = prob.whiten(y)
+        a = prob.whiten_jac(jac)
+        step = _bounded_step(a, r, lo - theta, hi - theta)
+        # Backtrack if the exact model disagrees with the linear one (rare: it is ~linear).
+        lam = 1.0
+        accepted = False
+        for _ in range(8):
+            trial = np.clip(theta + lam * step, lo, hi)
+            y2, jac2, chi2b = at(trial)
+            if chi2b <= chi2 * (1 + 1e-12) + 1e-12:
+                accepted = True
+                break
+            lam *= 0.5
+        if not accepted:
+            break
+        improvement = chi2 - chi2b
+        theta, y, jac, chi2 = trial, y2, jac2, chi2b
+        if improvement <= 1e-9 * max(chi2, 1.0):
+            break
+    # Covariance of θ from the whitened Jacobian at the solution.
+    stderr = np.full(len(slots), np.nan)
+    at_bound = [bool(theta[i] <= lo[i] + 1e-15 or theta[i] >= hi[i]) for i in range(len(slots))]
+    notes: list[str] = []
+    if slots:
+        a = prob.whiten_jac(jac)
+        free = ~np.array(at_bound)
+        dof = max(prob.n_values - len(slots), 1)
+        scale = max(1.0, chi2 / dof)
+        if free.any():
+            af = a[:, free]
+            cov = np.linalg.pinv(af.T @ af) * scale
+            stderr[free] = np.sqrt(np.clip(np.diag(cov), 0, None))
+        for i, s in enumerate(slots):
+            if at_bound[i]:
+                # Half-normal bound: how far θ could go before χ² rises by 1.
+                col = a[:, i]
+                stderr[i] = math.sqrt(scale) / max(float(np.linalg.norm(col)), 1e-300)
+                where = "its upper bound" if theta[i] >= hi[i] else "its lower bound (absent)"
+                notes.append(f"{s.key}: parameter stuck at {where}; the data do not want it")
+        for msg in notes:
+            warnings.warn(msg, FitWarning, stacklevel=2)
+    return FitResult(prob, slots, theta, stderr, at_bound, y, chi2, it, notes)
+
+
+class FitWarning(UserWarning):
+    """A fitted parameter sits at a physical bound."""
+
+
+def _bounded_step(
+    a: npt.NDArray[np.float64],
+    r: npt.NDArray[np.float64],
+    lo: npt.NDArray[np.float64],
+    hi: npt.NDArray[np.float64],
+) -> npt.NDArray[np.float64]:
+    """argmin ||r − a·d|| subject to lo ≤ d ≤ hi (columns scaled for conditioning)."""
+    from scipy.optimize import lsq_linear
+
+    norms = np.linalg.norm(a, axis=0)
+    norms[norms == 0] = 1.0
+    res = lsq_linear(a / norms, r, bounds=(lo * norms, hi * norms), method="bvls")
+    return np.asarray(res.x) / norms
+
+
+def find_outliers(result: FitResult, z_max: float = 4.0, share: float = 0.02) -> np.ndarray:
+    """Cells more than ``z_max`` σ off the fit, if they are few (≤ ``share`` of the values).
+
+    Many large residuals mean a model that is wrong, not a few typos: then nothing is flagged.
+    Returns a boolean (N, C) mask.
+    """
+    z = np.abs(result.z)
+    flagged = np.isfinite(z) & (z > z_max) & result.problem.use
+    budget = max(1, int(share * result.problem.n_values))
+    if flagged.sum() > budget:
+        return np.zeros_like(flagged)
+    return flagged
+
+
+def outlier_table(result: FitResult, mask: np.ndarray) -> list[dict[str, Any]]:
+    """The flagged cells as rows: file line, configuration, payload, channel, values, z."""
+    meas = result.problem.meas
+    z = result.z
+    rows = []
+    for r, c in zip(*np.nonzero(mask), strict=True):
+        rows.append(
+            {
+                "line": int(meas.line[r]),
+                "config": str(meas.config[r]),
+                "mass_kg": float(meas.mass_kg[r]),
+                "channel": meas.channels[c],
+                "measured": float(meas.values[r, c]),
+                "model": float(result.prediction[r, c]),
+                "z": float(z[r, c]),
+            }
+        )
+    return rows
+
+
+def compare(
+    arm: Arm,
+    meas: Measurements,
+    effects: Sequence[Effect] = (),
+    self_weight: bool = True,
+) -> FitResult:
+    """The model with fixed effects against the measurements (nothing fitted)."""
+    prob = Problem(arm, meas, self_weight=self_weight)
+    slots = [Slot.of(e) for e in effects]
+    theta = np.array([theta_from_param(e.name, e.value) for e in effects], dtype=float)
+    y, _ = prob.evaluate(list(zip(slots, theta, strict=True)))
+    r = prob.whiten(y)
+    # A fixed model has no fitted parameters: report it with zero of them.
+    return FitResult(
+        prob, [], np.zeros(0), np.zeros(0), [], y, float(r @ r), 0, fixed=list(effects)
+    )
+
+
+def cross_validate(
+    arm: Arm,
+    meas: Measurements,
+    effects: Sequence[Effect | Slot | str],
+    self_weight: bool = True,
+    by: str = "config",
+) -> dict[str, Any]:
+    """Leave one configuration out: fit without it, predict it.
+
+    Returns ``{"rms": {channel: rms over every held-out cell}, "per_config": {label: rms}}``.
+    """
+    if by != "config":
+        raise EodarmError(f"--cv {by}: only 'config' is supported")
+    configs = list(meas.configs)
+    if len(configs) < 2:
+        raise EodarmError("cross-validation needs at least two configurations")
+    slots = [Slot.of(e) for e in effects]
+    full = Problem(arm, meas, self_weight=self_weight)
+    resid = np.full_like(meas.values, np.nan)
+    per: dict[str, dict[str, float]] = {}
+    for label in configs:
+        held = np.asarray(meas.config) == label
+        train = Problem(
+            arm,
+            meas,
+            self_weight=self_weight,
+            exclude=np.broadcast_to(held[:, None], meas.values.shape),
+        )
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", FitWarning)
+            res = fit(arm, meas, slots, problem=train)
+        rows = np.flatnonzero(held)
+        y, _ = full.evaluate(list(zip(slots, res.theta, strict=True)), rows=rows)
+        resid[rows] = meas.values[rows] - y
+        per[label] = _rms(resid, full.use, meas.channels, held)
+    return {"rms": _rms(resid, full.use, meas.channels), "per_config": per, "residual": resid}

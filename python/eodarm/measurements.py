@@ -1,0 +1,797 @@
+"""Measured deflections: reading, validating and writing the measurement file (CONTRACT §3).
+
+A measurement file has one row per *state* (a configuration × a payload). Every value is a
+difference, loaded minus unloaded, measured on the arm whose unloaded angles the row gives.
+:class:`Measurements` holds such a file as arrays, with ``NaN`` where a channel was not
+measured, and a standard deviation for every measured value.
+
+Channels of an n-link arm, in this fixed order (:func:`channel_names`)::
+
+    dx_mm, dy_mm, dalpha1_deg … dalphaN_deg, dl1_mm … dlN_mm
+
+Default noise levels
+--------------------
+Where a file gives no ``sigma_<channel>`` column, or leaves a sigma cell empty next to a
+measured value, the value gets the default standard deviation of its channel family
+(:data:`DEFAULT_SIGMA`), and the channel is recorded in :attr:`Measurements.defaulted` so
+that the tools can say so:
+
+* ``dx_mm``, ``dy_mm``: **0.02 mm**. The displacement of the measure point is read by a laser
+  (triangulation) displacement sensor; industrial ones repeat to about 0.01–0.02 mm.
+* ``dalphaK_deg``: **0.02°**. Link angles are read by inclinometers or angle readouts that
+  resolve 0.1°; one quantised reading has a standard deviation of 0.1°/√12 ≈ 0.03°, and the
+  average of several readings brings that to about 0.02°.
+* ``dlK_mm``: **0.002 mm**. Each actuator's own length change is read by an inductive
+  displacement sensor (LVDT-like) between its fixed and moving parts, good to about a µm.
+
+What the reader promises
+------------------------
+* Header names are exact. Unknown columns are ignored, with one :class:`UserWarning` listing
+  them. A column that belongs to a link the arm does not have (``dalpha4_deg`` for a 3-link
+  arm) is refused: the data belong to another arm.
+* Numbers are parsed strictly (decimal notation, optional exponent; no ``nan``/``inf``, no
+  thousands separators, no decimal commas). An empty cell in a channel column means "not
+  measured"; an empty required cell is an error.
+* Every bad row is collected and the file is refused with one :class:`MeasurementFileError`
+  whose one-line message names the file and, for each bad row, its line and column. Nothing is
+  silently dropped: a row that measures no channel is kept (it contributes nothing). Entirely
+  blank lines are not rows and are skipped.
+* Comment lines are not part of the contract and are not supported.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+import re
+import warnings
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, TextIO
+
+import numpy as np
+import numpy.typing as npt
+
+from .errors import EodarmError
+
+if TYPE_CHECKING:
+    import pandas as pd
+
+__all__ = [
+    "DEFAULT_SIGMA",
+    "MeasurementFileError",
+    "Measurements",
+    "channel_family",
+    "channel_link",
+    "channel_names",
+    "channel_values",
+    "default_sigma",
+    "expand_channels",
+    "from_dataframe",
+    "read_measurements",
+]
+
+#: Default standard deviation of one measured value, per channel family (mm or degrees).
+#: See the module docstring for where the numbers come from.
+DEFAULT_SIGMA: dict[str, float] = {
+    "dx_mm": 0.02,
+    "dy_mm": 0.02,
+    "dalpha_deg": 0.02,
+    "dl_mm": 0.002,
+}
+
+#: Most bad rows listed in one error message; the rest are counted.
+MAX_LISTED = 10
+
+_CHANNEL = re.compile(r"^(?:(dx_mm|dy_mm)|dalpha([1-9][0-9]*)_deg|dl([1-9][0-9]*)_mm)$")
+_ALPHA = re.compile(r"^alpha([1-9][0-9]*)_deg$")
+_NUMBER = re.compile(r"^[+-]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][+-]?[0-9]+)?$")
+_NONFINITE = {"nan", "+nan", "-nan", "inf", "+inf", "-inf", "infinity", "+infinity", "-infinity"}
+_FAMILY_ALIASES = {
+    "dx": "dx_mm",
+    "dx_mm": "dx_mm",
+    "dy": "dy_mm",
+    "dy_mm": "dy_mm",
+    "dalpha": "dalpha_deg",
+    "dalpha_deg": "dalpha_deg",
+    "dl": "dl_mm",
+    "dl_mm": "dl_mm",
+}
+
+Cell = str | float | None
+FloatArray = npt.NDArray[np.float64]
+
+
+class MeasurementFileError(EodarmError):
+    """A measurement file (or table) is malformed; the one-line message names the source and,
+    for every bad row, its line number and column."""
+
+
+# ---------------------------------------------------------------------------- channels
+def channel_names(n: int) -> list[str]:
+    """The measurement channels of an ``n``-link arm, in the fixed order of the contract.
+
+    >>> channel_names(2)
+    ['dx_mm', 'dy_mm', 'dalpha1_deg', 'dalpha2_deg', 'dl1_mm', 'dl2_mm']
+    """
+    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
+        raise EodarmError(f"the number of links must be an integer >= 1, got {n!r}")
+    k = range(1, int(n) + 1)
+    return ["dx_mm", "dy_mm", *(f"dalpha{i}_deg" for i in k), *(f"dl{i}_mm" for i in k)]
+
+
+def channel_family(channel: str) -> str:
+    """The family of a channel: ``"dx_mm"``, ``"dy_mm"``, ``"dalpha_deg"`` or ``"dl_mm"``.
+
+    Raises
+    ------
+    EodarmError
+        If ``channel`` is not a channel name.
+    """
+    m = _CHANNEL.match(channel) if isinstance(channel, str) else None
+    if m is None:
+        raise EodarmError(
+            f"'{channel}' is not a measurement channel (dx_mm, dy_mm, dalphaK_deg, dlK_mm)"
+        )
+    if m.group(1):
+        return m.group(1)
+    return "dalpha_deg" if m.group(2) else "dl_mm"
+
+
+def channel_link(channel: str) -> int | None:
+    """The 1-based link (or actuator) number of a channel, ``None`` for ``dx_mm``/``dy_mm``."""
+    m = _CHANNEL.match(channel) if isinstance(channel, str) else None
+    if m is None:
+        raise EodarmError(f"'{channel}' is not a measurement channel")
+    k = m.group(2) or m.group(3)
+    return int(k) if k else None
+
+
+def default_sigma(channel: str) -> float:
+    """Default standard deviation of one value of ``channel`` (mm, or degrees for angles)."""
+    return DEFAULT_SIGMA[channel_family(channel)]
+
+
+def expand_channels(spec: str | Iterable[str] | None, n: int) -> list[str]:
+    """Channel names from a user's selection, in the fixed channel order, without repeats.
+
+    Parameters
+    ----------
+    spec : ``None`` or ``"all"`` for every channel; otherwise channel names and family names
+        (``dx``/``dx_mm``, ``dy``/``dy_mm``, ``dalpha``/``dalpha_deg`` for every link's angle,
+        ``dl``/``dl_mm`` for every actuator), as an iterable or one comma-separated string.
+    n : number of links.
+
+    Raises
+    ------
+    EodarmError
+        On an unknown name or a channel of a link beyond ``n``.
+    """
+    every = channel_names(n)
+    if spec is None:
+        return every
+    items = spec.split(",") if isinstance(spec, str) else list(spec)
+    chosen: set[str] = set()
+    for raw in items:
+        item = str(raw).strip()
+        if not item:
+            continue
+        if item == "all":
+            chosen.update(every)
+        elif item in _FAMILY_ALIASES:
+            fam = _FAMILY_ALIASES[item]
+            chosen.update(c for c in every if channel_family(c) == fam)
+        elif item in every:
+            chosen.add(item)
+        else:
+            link = channel_link(item) if _CHANNEL.match(item) else None
+            if link is not None:
+                raise EodarmError(f"channel '{item}': the arm has only {n} links")
+            raise EodarmError(
+                f"unknown channel '{item}'; expected 'all', dx_mm, dy_mm, dalpha, dl "
+                f"or one of {', '.join(every)}"
+            )
+    if not chosen:
+        raise EodarmError("no channel selected")
+    return [c for c in every if c in chosen]
+
+
+def channel_values(out: Mapping[str, Any], channels: Sequence[str]) -> FloatArray:
+    """Arrange a solver result (:func:`eodarm.solve`) as a (N, C) array of ``channels``.
+
+    ``dx_mm``/``dy_mm`` come from ``out["dx_mm"]``/``out["dy_mm"]``, ``dalphaK_deg`` from
+    column K−1 of ``out["dalpha_deg"]`` and ``dlK_mm`` from column K−1 of ``out["dl_mm"]``.
+    """
+    cols = []
+    for ch in channels:
+        fam, k = channel_family(ch), channel_link(ch)
+        a = np.asarray(out[fam], dtype=float)
+        cols.append(a if k is None else a[:, k - 1])
+    rows = len(np.asarray(out["dx_mm"]))
+    return np.column_stack(cols) if cols else np.zeros((rows, 0))
+
+
+# ---------------------------------------------------------------------------- the data
+@dataclass(frozen=True, eq=False)
+class Measurements:
+    """Measured states of an ``n``-link arm: one row per configuration × payload.
+
+    Build one with :func:`read_measurements`, :func:`from_dataframe`,
+    :meth:`Measurements.from_arrays` or :func:`eodarm.synth.synth`. The arrays are read-only.
+
+    Attributes
+    ----------
+    source : where the data came from (file name, ``"<arrays>"``, ``"<synth>"`` …).
+    n : number of links of the arm the data belong to.
+    config : (N,) str, configuration label of each state.
+    alpha_deg : (N, n) float, unloaded absolute link angles, degrees.
+    mass_kg : (N,) float, payload mass, kg (≥ 0).
+    channels : every channel of an n-link arm (:func:`channel_names`), the columns of
+        ``values`` and ``sigma``.
+    values : (N, C) float, loaded minus unloaded, mm or degrees; ``NaN`` = not measured.
+    sigma : (N, C) float, standard deviation of each measured value (same unit); ``NaN``
+        where not measured.
+    line : (N,) int, 1-based line of each state in its file (the header is line 1); for data
+        that did not come from a file, the line it would have in :meth:`to_csv`'s output.
+    sigma_default : (N, C) bool, ``True`` where a measured value's sigma is the default of
+        its channel (:func:`default_sigma`) because the source gave none.
+    sigma_columns : whether :meth:`to_csv` writes ``sigma_`` columns.
+    """
+
+    source: str
+    n: int
+    config: npt.NDArray[np.str_]
+    alpha_deg: FloatArray
+    mass_kg: FloatArray
+    channels: tuple[str, ...]
+    values: FloatArray
+    sigma: FloatArray
+    line: npt.NDArray[np.int64]
+    # None means "no default sigmas"; __post_init__ replaces it by the (N, C) array
+    sigma_default: npt.NDArray[np.bool_] = field(default=None)  # type: ignore[arg-type]
+    sigma_columns: bool = True
+
+    def __post_init__(self) -> None:
+        n = int(self.n)
+        channels = tuple(channel_names(n))
+        if tuple(self.channels) != channels:
+            raise EodarmError(f"{self.source}: channels must be {channels}, got {self.channels}")
+        labels = [str(c) for c in np.asarray(self.config, dtype=object).ravel()]
+        config = np.array(labels, dtype=str)
+        rows, c = config.shape[0], len(channels)
+        try:
+            alpha = np.array(self.alpha_deg, dtype=float).reshape(rows, n)
+            mass = np.array(self.mass_kg, dtype=float).reshape(rows)
+            values = np.array(self.values, dtype=float).reshape(rows, c)
+            sigma = np.array(self.sigma, dtype=float).reshape(rows, c)
+            line = np.array(self.line, dtype=np.int64).reshape(rows)
+            dflt = (
+                np.zeros((rows, c), dtype=bool)
+                if self.sigma_default is None
+                else np.array(self.sigma_default, dtype=bool).reshape(rows, c)
+            )
+        except (TypeError, ValueError) as exc:
+            raise EodarmError(
+                f"{self.source}: arrays do not fit {rows} rows of a {n}-link arm ({exc})"
+            ) from None
+        measured = ~np.isnan(values)
+        dflt &= measured
+        if not (np.isfinite(alpha).all() and np.isfinite(mass).all() and (mass >= 0).all()):
+            raise EodarmError(f"{self.source}: angles and masses must be finite, masses >= 0")
+        if np.isinf(values).any():
+            raise EodarmError(f"{self.source}: measured values must be finite")
+        s = sigma[measured]
+        if not (np.isfinite(s).all() and (s > 0).all()):
+            raise EodarmError(f"{self.source}: every measured value needs a finite sigma > 0")
+        sigma[~measured] = np.nan
+        for name, arr in (
+            ("config", config),
+            ("alpha_deg", alpha),
+            ("mass_kg", mass),
+            ("values", values),
+            ("sigma", sigma),
+            ("line", line),
+            ("sigma_default", dflt),
+        ):
+            arr.setflags(write=False)
+            object.__setattr__(self, name, arr)
+        object.__setattr__(self, "n", n)
+        object.__setattr__(self, "channels", channels)
+        object.__setattr__(self, "sigma_columns", bool(self.sigma_columns))
+
+    # ------------------------------------------------------------------ views
+    @property
+    def n_rows(self) -> int:
+        """Number of states (rows)."""
+        return int(self.config.shape[0])
+
+    @property
+    def measured(self) -> npt.NDArray[np.bool_]:
+        """(N, C) bool: where a value was measured."""
+        return ~np.isnan(self.values)
+
+    @property
+    def measured_channels(self) -> tuple[str, ...]:
+        """Channels with at least one measured value, in channel order."""
+        return tuple(self.channels[j] for j in np.flatnonzero(self.measured.any(axis=0)))
+
+    @property
+    def n_values(self) -> int:
+        """Number of measured values (non-NaN cells of :attr:`values`)."""
+        return int(self.measured.sum())
+
+    @property
+    def configs(self) -> tuple[str, ...]:
+        """Configuration labels, each once, in order of first appearance."""
+        return tuple(dict.fromkeys(self.config.tolist()))
+
+    @property
+    def defaulted(self) -> tuple[str, ...]:
+        """Channels where at least one measured value got its default sigma."""
+        return tuple(self.channels[j] for j in np.flatnonzero(self.sigma_default.any(axis=0)))
+
+    def index(self, channel: str) -> int:
+        """Column of ``channel`` in :attr:`values` and :attr:`sigma`."""
+        try:
+            return self.channels.index(channel)
+        except ValueError:
+            raise EodarmError(
+                f"{self.source}: '{channel}' is not a channel of a {self.n}-link arm"
+            ) from None
+
+    # ------------------------------------------------------------------ derived sets
+    def subset(self, rows: npt.ArrayLike) -> Measurements:
+        """The states selected by a boolean mask (N,) or by integer indices (in that order)."""
+        sel = np.asarray(rows)
+        if sel.dtype == bool:
+            if sel.shape != (self.n_rows,):
+                raise EodarmError(
+                    f"{self.source}: mask of shape {sel.shape} for {self.n_rows} rows"
+                )
+            idx = np.flatnonzero(sel)
+        elif sel.size == 0:
+            idx = np.zeros(0, dtype=np.int64)
+        elif np.issubdtype(sel.dtype, np.integer):
+            idx = sel.astype(np.int64).ravel()
+            if ((idx < -self.n_rows) | (idx >= self.n_rows)).any():
+                raise EodarmError(f"{self.source}: row index out of range 0…{self.n_rows - 1}")
+        else:
+            raise EodarmError(f"{self.source}: subset needs a bool mask or integer indices")
+        return replace(
+            self,
+            config=self.config[idx],
+            alpha_deg=self.alpha_deg[idx],
+            mass_kg=self.mass_kg[idx],
+            values=self.values[idx],
+            sigma=self.sigma[idx],
+            line=self.line[idx],
+            sigma_default=self.sigma_default[idx],
+        )
+
+    def to_dataframe(self) -> pd.DataFrame:
+        """One row per state: ``config``, ``alpha1_deg``…, ``mass_kg``, each measured channel
+        followed by its ``sigma_`` column (the sigma used, defaults included), ``line``."""
+        import pandas as pd
+
+        data: dict[str, Any] = {"config": self.config.astype(object)}
+        for i in range(self.n):
+            data[f"alpha{i + 1}_deg"] = self.alpha_deg[:, i]
+        data["mass_kg"] = self.mass_kg
+        for ch in self.measured_channels:
+            j = self.index(ch)
+            data[ch] = self.values[:, j]
+            data["sigma_" + ch] = self.sigma[:, j]
+        data["line"] = self.line
+        return pd.DataFrame(data)
+
+    def to_csv(self, path: str | Path | TextIO, sigma_columns: bool | None = None) -> None:
+        """Write the measurement file of CONTRACT §3.
+
+        Columns: ``config``, ``alpha1_deg``…, ``mass_kg``, the measured channels, then the
+        ``sigma_`` columns (unless ``sigma_columns`` — default :attr:`sigma_columns` — is
+        false). A cell is empty where a value was not measured, and a sigma cell is empty where
+        the sigma was the default, so that :func:`read_measurements` gives back the same
+        values, sigmas and defaults. Numbers are written with ``repr`` (exact round trip).
+        """
+        with_sigma = self.sigma_columns if sigma_columns is None else bool(sigma_columns)
+        chans = self.measured_channels
+        cols = [self.index(c) for c in chans]
+        given = self.measured & ~self.sigma_default
+        sig_cols = [j for j in cols if with_sigma and given[:, j].any()]
+        header = ["config", *(f"alpha{i + 1}_deg" for i in range(self.n)), "mass_kg"]
+        header += list(chans) + ["sigma_" + self.channels[j] for j in sig_cols]
+
+        def num(x: float) -> str:
+            return "" if math.isnan(x) else repr(float(x))
+
+        def write(f: TextIO) -> None:
+            w = csv.writer(f, lineterminator="\n")
+            w.writerow(header)
+            for r in range(self.n_rows):
+                row = [str(self.config[r])]
+                row += [num(a) for a in self.alpha_deg[r]]
+                row.append(num(self.mass_kg[r]))
+                row += [num(self.values[r, j]) for j in cols]
+                row += [num(self.sigma[r, j]) if given[r, j] else "" for j in sig_cols]
+                w.writerow(row)
+
+        if isinstance(path, (str, Path)):
+            try:
+                with open(path, "w", encoding="utf-8", newline="") as f:
+                    write(f)
+            except OSError as exc:
+                raise EodarmError(f"{path}: cannot write: {exc.strerror or exc}") from None
+        else:
+            write(path)
+
+    # ------------------------------------------------------------------ constructors
+    @classmethod
+    def from_arrays(
+        cls,
+        config: str | Sequence[str] | npt.ArrayLike,
+        alpha_deg: npt.ArrayLike,
+        mass_kg: npt.ArrayLike,
+        values: Mapping[str, npt.ArrayLike],
+        sigma: Mapping[str, npt.ArrayLike | float] | None = None,
+        source: str = "<arrays>",
+    ) -> Measurements:
+        """Measurements from arrays, validated exactly like a file.
+
+        Parameters
+        ----------
+        config : (N,) labels, or one label for every row.
+        alpha_deg : (N, n) unloaded absolute angles, degrees; n is taken from its shape.
+        mass_kg : scalar or (N,) payload masses, kg.
+        values : channel name → (N,) measured values (mm or degrees); ``NaN`` = not measured.
+        sigma : channel name → (N,) or scalar standard deviation; missing channels or ``NaN``
+            next to a measured value get the default (recorded in :attr:`defaulted`).
+        source : name used in error messages.
+
+        Raises
+        ------
+        MeasurementFileError
+            Naming the row (as the line it would have in a file, header = line 1) and column.
+        """
+        alpha = np.asarray(alpha_deg, dtype=float)
+        if alpha.ndim == 1:
+            alpha = alpha[None, :]
+        if alpha.ndim != 2 or alpha.shape[1] < 1:
+            raise MeasurementFileError(f"{source}: alpha_deg must be (N, n), got {alpha.shape}")
+        rows, n = alpha.shape
+        if rows == 0:
+            raise MeasurementFileError(f"{source}: no rows")
+        if isinstance(config, str):
+            labels = [config] * rows
+        else:
+            labels = [str(c) for c in np.asarray(config, dtype=object).ravel()]
+        if len(labels) != rows:
+            raise MeasurementFileError(f"{source}: {len(labels)} config labels for {rows} rows")
+
+        def column(arr: npt.ArrayLike, what: str) -> FloatArray:
+            try:
+                return np.broadcast_to(np.asarray(arr, dtype=float), (rows,))
+            except (TypeError, ValueError):
+                raise MeasurementFileError(
+                    f"{source}: {what} must be a number or {rows} numbers"
+                ) from None
+
+        header = ["config", *(f"alpha{i + 1}_deg" for i in range(n)), "mass_kg"]
+        cols = [alpha[:, i] for i in range(n)] + [column(mass_kg, "mass_kg")]
+        for name, table, kind in (("values", values, ""), ("sigma", sigma or {}, "sigma_")):
+            for ch, arr in table.items():
+                header.append(kind + str(ch))
+                cols.append(column(arr, f"{name}['{ch}']"))
+        body: list[tuple[int, list[Cell]]] = [
+            (r + 2, [labels[r], *(float(c[r]) for c in cols)]) for r in range(rows)
+        ]
+        return _build(header, body, n, source, unknown_is_error=True)
+
+
+# ---------------------------------------------------------------------------- reading
+def read_measurements(path: str | Path | TextIO, n: int) -> Measurements:
+    """Read and validate a measurement file (CONTRACT §3) for an ``n``-link arm.
+
+    Parameters
+    ----------
+    path : file name, or an open text (or binary, UTF-8) file.
+    n : number of links of the arm (``arm.n``).
+
+    Returns
+    -------
+    Measurements
+        Values in mm and degrees; ``line`` holds each state's line in the file.
+
+    Raises
+    ------
+    MeasurementFileError
+        If the file cannot be read, is empty or header-only, misses a required column, has a
+        column for a link beyond ``n``, or has bad rows (all of them listed in one message with
+        their lines and columns).
+
+    Warns
+    -----
+    UserWarning
+        Once, listing the columns that are not part of the contract (they are ignored).
+    """
+    channel_names(n)
+    if isinstance(path, (str, Path)):
+        source = str(path)
+        try:
+            with open(path, encoding="utf-8-sig", newline="") as f:
+                text = f.read()
+        except OSError as exc:
+            raise MeasurementFileError(
+                f"{source}: cannot read measurement file: {exc.strerror or exc}"
+            ) from None
+        except UnicodeDecodeError as exc:
+            raise MeasurementFileError(f"{source}: not a UTF-8 text file ({exc.reason})") from None
+    else:
+        source = str(getattr(path, "name", "<stream>"))
+        raw = path.read()
+        if isinstance(raw, bytes):
+            try:
+                raw = raw.decode("utf-8-sig")
+            except UnicodeDecodeError as exc:
+                raise MeasurementFileError(
+                    f"{source}: not a UTF-8 text file ({exc.reason})"
+                ) from None
+        text = raw.removeprefix("\ufeff")
+
+    reader = csv.reader(io.StringIO(text, newline=""), strict=True)
+    records: list[tuple[int, list[str]]] = []
+    prev = 0
+    try:
+        for cells in reader:
+            start, prev = prev + 1, reader.line_num
+            if cells:  # an entirely blank line is not a row
+                records.append((start, cells))
+    except csv.Error as exc:
+        raise MeasurementFileError(
+            f"{source}: line {reader.line_num}: not valid CSV ({exc})"
+        ) from None
+    if not records:
+        raise MeasurementFileError(
+            f"{source}: line 1: the file is empty (expected a header with config, "
+            f"alpha1_deg…alpha{n}_deg, mass_kg)"
+        )
+    (hline, header), body = records[0], records[1:]
+    if hline != 1:
+        raise MeasurementFileError(f"{source}: line 1: is blank; the header must be line 1")
+    return _build(header, list(body), n, source, stacklevel=3)
+
+
+def from_dataframe(df: pd.DataFrame, n: int, source: str = "<DataFrame>") -> Measurements:
+    """Measurements from a pandas DataFrame with the file's columns, validated like a file.
+
+    ``NaN``/``None`` cells are empty cells; string cells are parsed as in a file; numbers are
+    taken as they are. Row r is reported as line r + 2 (as if written to a CSV with its header),
+    unless the frame has an integer ``line`` column (as :meth:`Measurements.to_dataframe`
+    writes), which is then used.
+    """
+    import pandas as pd
+
+    channel_names(n)
+    cols = list(df.columns)
+    header = [c if isinstance(c, str) else repr(c) for c in cols]
+    lines: list[int]
+    if "line" in header:
+        j = header.index("line")
+        raw = df.iloc[:, j]
+        if not pd.api.types.is_integer_dtype(raw.dtype):
+            raise MeasurementFileError(f"{source}: column 'line' must hold integers")
+        lines = [int(x) for x in raw]
+        keep = [i for i in range(len(header)) if i != j]
+    else:
+        lines = [r + 2 for r in range(len(df))]
+        keep = list(range(len(header)))
+    header = [header[i] for i in keep]
+    body: list[tuple[int, list[Cell]]] = []
+    jc = header.index("config") if "config" in header else -1
+    for r, row in enumerate(df.itertuples(index=False, name=None)):
+        cells = [_df_cell(row[i]) for i in keep]
+        if jc >= 0 and cells[jc] is not None:
+            cells[jc] = str(row[keep[jc]])  # a label, even when it looks like a number
+        body.append((lines[r], cells))
+    return _build(header, body, n, source, stacklevel=3)
+
+
+def _df_cell(x: Any) -> Cell:
+    if x is None or (isinstance(x, float) and math.isnan(x)):
+        return None
+    if isinstance(x, (bool, np.bool_)):
+        return str(x)  # a boolean is not a number: reported as such
+    if isinstance(x, (int, float, np.integer, np.floating)):
+        return float(x)
+    try:
+        import pandas as pd
+
+        if pd.isna(x):
+            return None
+    except (TypeError, ValueError):
+        pass
+    return str(x)
+
+
+# ---------------------------------------------------------------------------- the validator
+def _build(
+    header: Sequence[str],
+    body: Sequence[tuple[int, Sequence[Cell]]],
+    n: int,
+    source: str,
+    *,
+    unknown_is_error: bool = False,
+    stacklevel: int = 3,
+) -> Measurements:
+    """Validate a table (header + rows of cells) and build :class:`Measurements`."""
+    channels = channel_names(n)
+    chan_set = set(channels)
+    alphas = [f"alpha{i + 1}_deg" for i in range(n)]
+    required = ["config", *alphas, "mass_kg"]
+
+    # ---- header: every problem at once, on line 1
+    problems: list[str] = []
+    seen: dict[str, int] = {}
+    for j, name in enumerate(header):
+        if name in seen:
+            problems.append(f"column '{name}' appears twice")
+        else:
+            seen[name] = j
+    missing = [c for c in required if c not in seen]
+    if missing:
+        problems.append("missing required column(s) " + ", ".join(f"'{c}'" for c in missing))
+    unknown: list[str] = []
+    foreign: list[str] = []
+    for name in seen:
+        if name in required or name in chan_set:
+            continue
+        base = name.removeprefix("sigma_")
+        if name.startswith("sigma_") and base in chan_set:
+            if base not in seen:
+                problems.append(f"column '{name}' has no channel column '{base}'")
+            continue
+        m_ch, m_al = _CHANNEL.match(base), _ALPHA.match(name)
+        k = channel_link(base) if m_ch else (int(m_al.group(1)) if m_al else None)
+        if k is not None and k > n:
+            foreign.append(name)
+        else:
+            unknown.append(name)
+    if foreign:
+        problems.append(
+            "column(s) "
+            + ", ".join(f"'{c}'" for c in foreign)
+            + f" belong to a link beyond the arm's {n} (the data are for another arm)"
+        )
+    if unknown and unknown_is_error:
+        problems.append(
+            "unknown column(s) "
+            + ", ".join(f"'{c}'" for c in unknown)
+            + f" (channels: {', '.join(channels)})"
+        )
+    if problems:
+        raise MeasurementFileError(f"{source}: line 1 (header): " + "; ".join(problems))
+    if not body:
+        raise MeasurementFileError(f"{source}: no data rows after the header (line 1)")
+    if unknown:
+        warnings.warn(
+            f"{source}: ignoring column(s) not in the measurement-file contract: "
+            + ", ".join(f"'{c}'" for c in unknown),
+            UserWarning,
+            stacklevel=stacklevel,
+        )
+
+    # ---- rows
+    rows = len(body)
+    ncol = len(header)
+    c_of = {ch: j for j, ch in enumerate(channels)}
+    present = [(c_of[ch], seen[ch], seen.get("sigma_" + ch)) for ch in channels if ch in seen]
+    config = ["" for _ in range(rows)]
+    alpha = np.zeros((rows, n))
+    mass = np.zeros(rows)
+    values = np.full((rows, len(channels)), np.nan)
+    sigma = np.full((rows, len(channels)), np.nan)
+    dflt = np.zeros((rows, len(channels)), dtype=bool)
+    line = np.zeros(rows, dtype=np.int64)
+    bad: list[str] = []
+    for r, (ln, cells) in enumerate(body):
+        line[r] = ln
+        if len(cells) != ncol:
+            bad.append(f"line {ln}: {len(cells)} cells, the header has {ncol} columns")
+            continue
+        errs: list[str] = []
+        label = _label(cells[seen["config"]])
+        if not label.strip():
+            errs.append("config is empty")
+        config[r] = label
+        for i, name in enumerate(alphas):
+            x, why = _number(cells[seen[name]])
+            if why:
+                errs.append(f"{name} {why}")
+            elif x is None:
+                errs.append(f"{name} is empty (unknown config angle)")
+            else:
+                alpha[r, i] = x
+        x, why = _number(cells[seen["mass_kg"]])
+        if why:
+            errs.append(f"mass_kg {why}")
+        elif x is None:
+            errs.append("mass_kg is empty")
+        elif x < 0:
+            errs.append(f"mass_kg '{_show(cells[seen['mass_kg']])}' is negative")
+        else:
+            mass[r] = x
+        for c, jv, js in present:
+            ch = channels[c]
+            v, why = _number(cells[jv])
+            if why:
+                errs.append(f"{ch} {why}")
+                v = None
+            s: float | None = None
+            if js is not None:
+                s, why = _number(cells[js])
+                if why:
+                    errs.append(f"sigma_{ch} {why}")
+                    s = None
+                elif s is not None and s <= 0:
+                    errs.append(f"sigma_{ch} '{_show(cells[js])}' must be > 0")
+                    s = None
+            if v is None:
+                continue
+            values[r, c] = v
+            if s is None:
+                sigma[r, c] = default_sigma(ch)
+                dflt[r, c] = True
+            else:
+                sigma[r, c] = s
+        if errs:
+            bad.append(f"line {ln}: " + ", ".join(errs))
+    if bad:
+        listed = "; ".join(bad[:MAX_LISTED])
+        more = f"; …and {len(bad) - MAX_LISTED} more" if len(bad) > MAX_LISTED else ""
+        raise MeasurementFileError(f"{source}: {len(bad)} bad row(s): {listed}{more}")
+    return Measurements(
+        source=source,
+        n=n,
+        config=np.array(config, dtype=str),
+        alpha_deg=alpha,
+        mass_kg=mass,
+        channels=tuple(channels),
+        values=values,
+        sigma=sigma,
+        line=line,
+        sigma_default=dflt,
+    )
+
+
+def _label(cell: Cell) -> str:
+    if cell is None or (isinstance(cell, float) and math.isnan(cell)):
+        return ""
+    return cell if isinstance(cell, str) else repr(cell)
+
+
+def _show(cell: Cell) -> str:
+    return repr(cell) if isinstance(cell, float) else str(cell).strip()
+
+
+def _number(cell: Cell) -> tuple[float | None, str]:
+    """(value, "") for a number, (None, "") for an empty cell, (None, why) otherwise."""
+    if cell is None:
+        return None, ""
+    if isinstance(cell, float):
+        if math.isnan(cell):
+            return None, ""
+        if math.isinf(cell):
+            return None, f"'{cell!r}' is not finite"
+        return cell, ""
+    text = cell.strip()
+    if not text:
+        return None, ""
+    if _NUMBER.match(text):
+        x = float(text)
+        if math.isinf(x):
+            return None, f"'{text}' is not finite"
+        return x, ""
+    if text.lower() in _NONFINITE:
+        return None, f"'{text}' is not finite"
+    return None, f"'{text}' is not a number"

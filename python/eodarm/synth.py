@@ -1,0 +1,458 @@
+"""The virtual test bench: measurement files of a known arm with known hidden effects.
+
+:func:`synth` solves the model (:func:`eodarm.solve`) with some effects *hidden* in it, adds
+Gaussian noise of a stated standard deviation to every measured channel and returns
+:class:`~eodarm.measurements.Measurements`, exactly what :func:`~eodarm.measurements.
+read_measurements` would give for a real bench. Whatever a diagnosis finds in such data can
+be checked against the truth. :func:`random_configs` draws well-conditioned poses to measure.
+
+Command line (registered by :func:`add_parser`)::
+
+    eodarm synth --arm ARM.toml [--configs K | --alpha A1,A2,A3 ...] [--masses 1.5,5,6.5]
+                 [--hidden EFFECT@PLACE=VALUE ...] [--channels dx_mm,dy_mm,dalpha,dl | all]
+                 [--noise 1.0] [--sigma CHANNEL=VALUE ...] [--seed 0] [--no-self-weight]
+                 [--no-sigma-columns] [-o OUT.csv]
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+from collections.abc import Iterable, Mapping, Sequence
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from .arm import Arm
+from .effects import CATALOGUE, Effect, as_effects
+from .errors import EodarmError
+from .measurements import (
+    Measurements,
+    channel_family,
+    channel_names,
+    channel_values,
+    default_sigma,
+    expand_channels,
+)
+from .solver import forward, solve, stroke_violations
+
+__all__ = ["add_parser", "cmd_synth", "moment_arm_ratio", "random_configs", "synth"]
+
+#: Default ranges of the absolute link angles drawn by :func:`random_configs` (degrees):
+#: link 1, link 2, and every further link.
+DEFAULT_RANGES: tuple[tuple[float, float], ...] = ((40.0, 130.0), (-40.0, 60.0), (-30.0, 30.0))
+#: Payload masses of the seed's tests (kg), the CLI's default.
+DEFAULT_MASSES = (1.5, 5.0, 6.5)
+
+
+# ---------------------------------------------------------------------------- poses
+def moment_arm_ratio(arm: Arm, alpha_deg: npt.ArrayLike) -> npt.NDArray[np.float64]:
+    """|h_i| / |A_i − O_i| for every actuator of N poses, (N, n), dimensionless.
+
+    ``h_i = (A_i − O_i) × unit(A_i − B_{i−1})`` is actuator i's moment arm about its joint;
+    the ratio is the sine of the angle at A_i between the link pin's radius and the actuator
+    line. Near 0 the actuator passes through its joint and the pose is (nearly) singular.
+    """
+    geo = forward(arm, alpha_deg)
+    o = geo["O"][:, : arm.n]
+    r = geo["A"] - o
+    e = geo["A"] - geo["B"]
+    e = e / np.linalg.norm(e, axis=-1, keepdims=True)
+    h = r[..., 0] * e[..., 1] - r[..., 1] * e[..., 0]
+    return np.abs(h) / np.linalg.norm(r, axis=-1)
+
+
+def random_configs(
+    arm: Arm,
+    k: int,
+    rng: np.random.Generator | int | None = None,
+    alpha_ranges: Sequence[tuple[float, float]] | None = None,
+    *,
+    min_moment_ratio: float = 0.2,
+    max_draws: int = 200_000,
+) -> npt.NDArray[np.float64]:
+    """``k`` reachable, well-conditioned configurations (unloaded absolute angles, degrees).
+
+    Angles are drawn uniformly in ``alpha_ranges`` and a pose is kept when
+
+    * every actuator's moment arm about its joint is at least ``min_moment_ratio`` (20 %) of
+      the distance |A_i − O_i| from the joint to its pin (:func:`moment_arm_ratio`): the
+      actuator is far from passing through the joint, so forces stay moderate;
+    * every pin-to-pin length lies within the arm's stroke limits, where set;
+    * the load point is ahead of the first joint (x > O1.x).
+
+    Parameters
+    ----------
+    arm : the arm.
+    k : number of configurations wanted (≥ 1).
+    rng : a numpy Generator, or a seed for one.
+    alpha_ranges : (lo, hi) in degrees per link; default α1 ∈ [40, 130], α2 ∈ [−40, 60],
+        α3… ∈ [−30, 30].
+    min_moment_ratio : smallest accepted |h_i| / |A_i − O_i|.
+    max_draws : poses drawn at most before giving up.
+
+    Returns
+    -------
+    (k, n) array of angles, degrees, in the order they were found.
+
+    Raises
+    ------
+    EodarmError
+        If fewer than ``k`` poses pass after ``max_draws`` draws; the message says which
+        condition rejected them (e.g. a stroke that the ranges never reach).
+    """
+    if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or k < 1:
+        raise EodarmError(f"random_configs: k must be an integer >= 1, got {k!r}")
+    n = arm.n
+    if alpha_ranges is None:
+        ranges = [DEFAULT_RANGES[min(i, len(DEFAULT_RANGES) - 1)] for i in range(n)]
+    else:
+        ranges = [tuple(map(float, r)) for r in alpha_ranges]  # type: ignore[misc]
+        if len(ranges) != n or any(len(r) != 2 for r in ranges):
+            raise EodarmError(f"random_configs: need {n} (lo, hi) angle ranges, got {ranges}")
+        if not all(math.isfinite(a) and math.isfinite(b) and a <= b for a, b in ranges):
+            raise EodarmError(f"random_configs: bad angle ranges {ranges} (need lo <= hi)")
+    gen = rng if isinstance(rng, np.random.Generator) else np.random.default_rng(rng)
+    lo = np.array([r[0] for r in ranges])
+    hi = np.array([r[1] for r in ranges])
+
+    found: list[npt.NDArray[np.float64]] = []
+    count = 0
+    drawn = 0
+    rejected = {"moment": 0, "stroke": 0, "behind": 0}
+    lmin = np.full(n, np.inf)
+    lmax = np.full(n, -np.inf)
+    batch = max(256, 8 * k)
+    while count < k and drawn < max_draws:
+        m = min(batch, max_draws - drawn)
+        drawn += m
+        alpha = lo + (hi - lo) * gen.random((m, n))
+        geo = forward(arm, alpha)
+        length = geo["length_mm"]
+        lmin = np.minimum(lmin, length.min(axis=0))
+        lmax = np.maximum(lmax, length.max(axis=0))
+        ok_moment = (moment_arm_ratio(arm, alpha) >= min_moment_ratio).all(axis=1)
+        ok_stroke = (stroke_violations(arm, length) == 0).all(axis=1)
+        ok_ahead = geo["O"][:, n, 0] > arm.O1[0]
+        rejected["moment"] += int((~ok_moment).sum())
+        rejected["stroke"] += int((~ok_stroke).sum())
+        rejected["behind"] += int((~ok_ahead).sum())
+        good = alpha[ok_moment & ok_stroke & ok_ahead]
+        found.append(good)
+        count += good.shape[0]
+    if count < k:
+        why = [
+            f"moment arm < {min_moment_ratio:g}·|A−O| in {rejected['moment']}",
+            f"outside the stroke in {rejected['stroke']}",
+            f"load point behind O1 in {rejected['behind']}",
+        ]
+        strokes = []
+        for i, act in enumerate(arm.actuators):
+            a, b = act.min_length_mm, act.max_length_mm
+            if (a is not None and lmax[i] < a) or (b is not None and lmin[i] > b):
+                strokes.append(
+                    f"actuator {i + 1} spans {lmin[i]:.0f}–{lmax[i]:.0f} mm over these angles "
+                    f"but its stroke is {a if a is not None else '-inf'}–"
+                    f"{b if b is not None else 'inf'} mm"
+                )
+        raise EodarmError(
+            f"random_configs: found {count} of {k} configurations in {drawn} draws "
+            f"(angle ranges {[list(r) for r in ranges]} deg); rejected: "
+            + ", ".join(why)
+            + ("; " + "; ".join(strokes) if strokes else "")
+        )
+    return np.ascontiguousarray(np.concatenate(found)[:k])
+
+
+# ---------------------------------------------------------------------------- data
+def synth(
+    arm: Arm,
+    alpha_deg: npt.ArrayLike,
+    masses: npt.ArrayLike,
+    hidden: Effect | Iterable[Effect] = (),
+    channels: str | Iterable[str] | None = None,
+    sigma: Mapping[str, float] | None = None,
+    noise: float = 1.0,
+    seed: int | np.random.SeedSequence | None = 0,
+    self_weight: bool = True,
+    configs: Sequence[str] | None = None,
+    sigma_columns: bool = True,
+) -> Measurements:
+    """Synthetic measurements: the model with ``hidden`` effects, plus Gaussian noise.
+
+    Parameters
+    ----------
+    arm : the arm.
+    alpha_deg : (K, n) unloaded absolute angles of K configurations, degrees.
+    masses : (M,) payload masses, kg. Every configuration is measured with every payload:
+        N = K·M states, configuration-major (row ``i·M + j`` is configuration i, mass j).
+    hidden : the effects present in the "real" arm (the truth is
+        ``eodarm.solve(arm, alpha, mass, effects=hidden, self_weight=self_weight)``).
+    channels : channels measured (:func:`~eodarm.measurements.expand_channels`: names,
+        families ``dalpha``/``dl``, or ``"all"``); default all. The others are ``NaN``.
+    sigma : standard deviation per channel (mm or degrees); a key may also be a family
+        (``dx_mm``, ``dy_mm``, ``dalpha``, ``dl``), an exact channel name wins. Channels not
+        given get ``default_sigma(channel) * noise``. A given sigma is used as it is.
+    noise : multiple of the default noise levels (> 0); use a tiny value (e.g. 1e-9) for
+        practically exact data.
+    seed : seed of the noise generator. The noise of a channel does not depend on which other
+        channels are measured.
+    self_weight : include link and actuator weights in both states.
+    configs : K labels; default ``"c1"``, ``"c2"``, ….
+    sigma_columns : whether :meth:`Measurements.to_csv` writes the ``sigma_`` columns. Without
+        them a reader falls back to the default levels (which differ from the true ones when
+        ``noise != 1``).
+
+    Returns
+    -------
+    Measurements
+        ``sigma`` holds the standard deviation of the noise actually added (source
+        ``"<synth>"``).
+
+    Raises
+    ------
+    EodarmError
+        On bad masses, channels, sigmas, noise or labels; the solver's own errors (singular
+        pose, a triangle that cannot close, a bad effect) pass through.
+    """
+    n = arm.n
+    alpha = np.asarray(alpha_deg, dtype=float)
+    if alpha.ndim == 1 and alpha.shape[0] == n:
+        alpha = alpha[None, :]
+    if alpha.ndim != 2 or alpha.shape[1] != n or alpha.shape[0] < 1:
+        raise EodarmError(f"synth: alpha_deg must be (K, {n}), got shape {alpha.shape}")
+    mass = np.atleast_1d(np.asarray(masses, dtype=float))
+    if mass.ndim != 1 or mass.size < 1:
+        raise EodarmError(f"synth: masses must be a list of payload masses, got {masses!r}")
+    if not (np.isfinite(mass).all() and (mass >= 0).all()):
+        raise EodarmError(f"synth: payload masses must be finite and >= 0, got {mass.tolist()}")
+    kc, mm = alpha.shape[0], mass.shape[0]
+    labels = [f"c{i + 1}" for i in range(kc)] if configs is None else [str(c) for c in configs]
+    if len(labels) != kc:
+        raise EodarmError(f"synth: {len(labels)} config labels for {kc} configurations")
+    if any(not lb.strip() for lb in labels):
+        raise EodarmError("synth: config labels must not be empty")
+    if not (math.isfinite(noise) and noise > 0):
+        raise EodarmError(f"synth: noise must be finite and > 0, got {noise!r}")
+    chosen = expand_channels(channels, n)
+    every = channel_names(n)
+    sig = _sigmas(sigma or {}, every, noise)
+
+    rows_alpha = np.repeat(alpha, mm, axis=0)
+    rows_mass = np.tile(mass, kc)
+    truth = channel_values(
+        solve(arm, rows_alpha, rows_mass, effects=as_effects(hidden), self_weight=self_weight),
+        every,
+    )
+    gen = np.random.default_rng(seed)
+    z = gen.standard_normal(truth.shape)  # drawn for every channel: selection-independent
+    values = truth + z * sig
+    sigma_arr = np.broadcast_to(sig, truth.shape).copy()
+    off = np.array([c not in chosen for c in every])
+    values[:, off] = np.nan
+    sigma_arr[:, off] = np.nan
+    return Measurements(
+        source="<synth>",
+        n=n,
+        config=np.repeat(np.array(labels, dtype=str), mm),
+        alpha_deg=rows_alpha,
+        mass_kg=rows_mass,
+        channels=tuple(every),
+        values=values,
+        sigma=sigma_arr,
+        line=np.arange(2, kc * mm + 2),
+        sigma_default=np.zeros(truth.shape, dtype=bool),
+        sigma_columns=sigma_columns,
+    )
+
+
+def _sigmas(given: Mapping[str, float], every: list[str], noise: float) -> np.ndarray:
+    """Per-channel sigma from exact names, then families, then the scaled defaults."""
+    fam_of = {"dx": "dx_mm", "dy": "dy_mm", "dalpha": "dalpha_deg", "dl": "dl_mm"}
+    exact: dict[str, float] = {}
+    family: dict[str, float] = {}
+    for key, val in given.items():
+        try:
+            s = float(val)
+        except (TypeError, ValueError):
+            raise EodarmError(f"sigma for '{key}': {val!r} is not a number") from None
+        if not (math.isfinite(s) and s > 0):
+            raise EodarmError(f"sigma for '{key}' must be finite and > 0, got {val!r}")
+        if key in every:
+            exact[key] = s
+        elif key in fam_of or key in fam_of.values():
+            family[fam_of.get(key, key)] = s
+        else:
+            raise EodarmError(
+                f"sigma for '{key}': not a channel of this arm ({', '.join(every)}) "
+                "nor a family (dx_mm, dy_mm, dalpha, dl)"
+            )
+    out = []
+    for ch in every:
+        fam = channel_family(ch)
+        out.append(exact.get(ch, family.get(fam, default_sigma(ch) * noise)))
+    return np.array(out)
+
+
+# ---------------------------------------------------------------------------- CLI
+def add_parser(subparsers: Any) -> argparse.ArgumentParser:
+    """Register the ``synth`` subcommand on an argparse ``add_subparsers()`` object."""
+    p: argparse.ArgumentParser = subparsers.add_parser(
+        "synth",
+        help="write a synthetic measurement file (the model with hidden effects + noise)",
+        description="Virtual test bench: solve the arm with hidden effects for configurations "
+        "× payloads, add Gaussian noise and write a measurement CSV (CONTRACT §3).",
+    )
+    p.add_argument("--arm", metavar="ARM.toml", help="arm file (default: the bundled example)")
+    poses = p.add_mutually_exclusive_group()
+    poses.add_argument(
+        "--configs",
+        type=int,
+        metavar="K",
+        help="number of random well-conditioned configurations (default 16)",
+    )
+    poses.add_argument(
+        "--alpha",
+        action="append",
+        metavar="A1,A2,...",
+        help="unloaded absolute link angles in degrees (repeat for more configurations)",
+    )
+    p.add_argument(
+        "--masses",
+        default="1.5,5,6.5",
+        metavar="M1,M2,...",
+        help="payload masses in kg, each applied to every configuration (default 1.5,5,6.5)",
+    )
+    p.add_argument(
+        "--hidden",
+        action="append",
+        metavar="EFFECT@PLACE=VALUE",
+        help="an effect present in the synthetic arm, e.g. joint_clearance@O3=0.15 (repeatable)",
+    )
+    p.add_argument(
+        "--channels",
+        default="all",
+        metavar="LIST",
+        help="measured channels: names or families dx_mm,dy_mm,dalpha,dl, or 'all' (default)",
+    )
+    p.add_argument(
+        "--noise",
+        type=float,
+        default=1.0,
+        help="multiple of the default noise levels (default 1.0)",
+    )
+    p.add_argument(
+        "--sigma",
+        action="append",
+        metavar="CHANNEL=VALUE",
+        help="noise standard deviation of a channel or family, mm or deg (repeatable)",
+    )
+    p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    p.add_argument("--no-self-weight", action="store_true", help="drop link/actuator weights")
+    p.add_argument(
+        "--no-sigma-columns",
+        action="store_true",
+        help="do not write sigma_ columns (readers then use the default noise levels)",
+    )
+    p.add_argument("-o", "--output", metavar="OUT.csv", help="output file (default: stdout)")
+    p.set_defaults(func=cmd_synth)
+    return p
+
+
+def cmd_synth(args: argparse.Namespace) -> int:
+    """Run ``eodarm synth``: write the CSV, report on stderr, return the exit status 0.
+
+    Raises
+    ------
+    EodarmError
+        With a one-line reason (the main CLI prints it and exits with status 2).
+    """
+    if args.arm is None:
+        from .cli import _bundled_arm  # late: cli imports this module
+
+        arm = _bundled_arm()
+    else:
+        arm = Arm.from_toml(args.arm)
+    n = arm.n
+    masses = _floats(args.masses, "--masses")
+    if not masses:
+        raise EodarmError("--masses: give at least one payload mass")
+    hidden = [_hidden_effect(s) for s in args.hidden or []]
+    sigma: dict[str, float] = {}
+    for spec in args.sigma or []:
+        key, _, value = spec.partition("=")
+        try:
+            sigma[key.strip()] = float(value)
+        except ValueError:
+            raise EodarmError(
+                f"--sigma '{spec}': expected CHANNEL=VALUE, e.g. dy_mm=0.01"
+            ) from None
+    if args.alpha:
+        alpha = np.array([_angles(a, n) for a in args.alpha])
+    else:
+        k = 16 if args.configs is None else args.configs
+        if k < 1:
+            raise EodarmError(f"--configs: need at least 1 configuration, got {k}")
+        # configurations from their own stream, so that they do not share draws with the noise
+        alpha = random_configs(arm, k, np.random.default_rng([1, args.seed]))
+    meas = synth(
+        arm,
+        alpha,
+        masses,
+        hidden=hidden,
+        channels=args.channels,
+        sigma=sigma,
+        noise=args.noise,
+        seed=args.seed,
+        self_weight=not args.no_self_weight,
+        sigma_columns=not args.no_sigma_columns,
+    )
+    if args.output:
+        meas.to_csv(args.output)
+        where = args.output
+    else:
+        meas.to_csv(sys.stdout)
+        sys.stdout.flush()
+        where = "stdout"
+    model = ", ".join(f"{e.key}={e.value:g}" for e in hidden) or "none"
+    print(
+        f"eodarm: wrote {meas.n_rows} states ({alpha.shape[0]} configs × {len(masses)} "
+        f"payloads, {len(meas.measured_channels)} channels; hidden: {model}) to {where}",
+        file=sys.stderr,
+    )
+    return 0
+
+
+def _floats(text: str, what: str) -> list[float]:
+    try:
+        vals = [float(t) for t in text.replace(";", ",").split(",") if t.strip()]
+    except ValueError:
+        raise EodarmError(f"{what} '{text}': expected comma-separated numbers") from None
+    if not all(math.isfinite(v) for v in vals):
+        raise EodarmError(f"{what} '{text}': numbers must be finite")
+    return vals
+
+
+def _angles(text: str, n: int) -> list[float]:
+    vals = _floats(text, "--alpha")
+    if len(vals) != n:
+        raise EodarmError(f"--alpha '{text}': expected {n} angles for a {n}-link arm")
+    return vals
+
+
+def _hidden_effect(spec: str) -> Effect:
+    """``EFFECT@PLACE=VALUE`` → Effect."""
+    head, sep, value = spec.partition("=")
+    name = head.partition("@")[0].strip()
+    if not sep or name not in CATALOGUE:
+        raise EodarmError(
+            f"--hidden '{spec}': expected EFFECT@PLACE=VALUE with EFFECT one of "
+            f"{', '.join(CATALOGUE)}, e.g. joint_clearance@O3=0.15"
+        )
+    try:
+        x = float(value)
+    except ValueError:
+        raise EodarmError(f"--hidden '{spec}': '{value}' is not a number") from None
+    return Effect.parse(head.strip(), **{CATALOGUE[name].param: x})
