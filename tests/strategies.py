@@ -120,7 +120,9 @@ def arms(n: int | SearchStrategy[int] = st.integers(1, 4)) -> SearchStrategy[eod
 
 
 # ---------------------------------------------------------------------------- poses
-def pose_from_joint_angles(arm: eodarm.Arm, sides: list[float], phis_deg: list[float]) -> list[float]:
+def pose_from_joint_angles(
+    arm: eodarm.Arm, sides: list[float], phis_deg: list[float]
+) -> list[float]:
     """Absolute angles (deg) that put A_i at angle ``side·φ_i`` from B_{i−1}, seen from O_i."""
     o = np.array(arm.O1, dtype=float)
     b = np.array(arm.B0, dtype=float)
@@ -199,7 +201,9 @@ def make_plausible(d: dict[str, Any], alpha_deg: np.ndarray) -> dict[str, Any]:
     ]
     gain = np.hypot(unit[0], unit[1])  # |ΔF_i| per N of payload, worst direction
     k_need = (gain * p_max / (DESIGN_TURN * h)).max(axis=0)
-    k = [max(a["stiffness_n_per_mm"], float(kn)) for a, kn in zip(d["actuator"], k_need, strict=True)]
+    k = [
+        max(a["stiffness_n_per_mm"], float(kn)) for a, kn in zip(d["actuator"], k_need, strict=True)
+    ]
 
     # Bending: response of all links bent at a huge test EI with rigid actuators, linear in 1/EI.
     ei_test = 1e16

@@ -13,6 +13,8 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+
+import eodarm
 from strategies import (
     arm_and_poses,
     arms,
@@ -20,8 +22,6 @@ from strategies import (
     payload_vectors,
     poses_for,
 )
-
-import eodarm
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "example_arm.toml"
 SOLVE_KEYS = {
@@ -160,7 +160,9 @@ def test_inverse_kinematics_reaches_target_on_both_elbows(case) -> None:
     scale = 1e-9 * max(1.0, float(np.abs(geo["O"]).max()))
     recovered = np.zeros(alpha.shape[0], dtype=bool)
     for elbow in (-1, 1):
-        out = {b: eodarm.inverse_kinematics(arm, target, elbow, backend=b) for b in ("rust", "numpy")}
+        out = {
+            b: eodarm.inverse_kinematics(arm, target, elbow, backend=b) for b in ("rust", "numpy")
+        }
         for b, ik in out.items():
             assert ik["reachable"].all(), b
             # the returned pose puts the load point on the target with the asked last angle

@@ -13,6 +13,8 @@ from pathlib import Path
 import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
+
+import eodarm
 from strategies import (
     ELASTIC,
     MAX_PAYLOAD_KG,
@@ -24,8 +26,6 @@ from strategies import (
     poses_for,
     rigid_copy,
 )
-
-import eodarm
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "example_arm.toml"
 MOTION_KEYS = ("dx_mm", "dy_mm", "dalpha_deg", "dl_mm", "dlength_mm")
@@ -117,7 +117,10 @@ def test_every_link_is_in_equilibrium(case, self_weight, data) -> None:
     # the loads are linear: the change of force is the response to the payload alone
     alone = eodarm.solve_payload(arm, alpha, payload, [], self_weight=False)
     np.testing.assert_allclose(
-        out["dforce_n"], alone["force_n"], rtol=0, atol=1e-9 * max(1.0, np.abs(out["force_n"]).max())
+        out["dforce_n"],
+        alone["force_n"],
+        rtol=0,
+        atol=1e-9 * max(1.0, np.abs(out["force_n"]).max()),
     )
 
 
@@ -262,7 +265,11 @@ def test_actuator_play_changes_pin_length_by_at_most_p(case, self_weight, p, dat
     arm, alpha, mass = case
     j = data.draw(st.integers(0, arm.n - 1), label="actuator index")
     out = eodarm.solve(
-        arm, alpha, mass, [eodarm.Effect("actuator_play", f"M{j + 1}", play_mm=p)], self_weight=self_weight
+        arm,
+        alpha,
+        mass,
+        [eodarm.Effect("actuator_play", f"M{j + 1}", play_mm=p)],
+        self_weight=self_weight,
     )
     bare = eodarm.solve(arm, alpha, mass, [], self_weight=self_weight)
     # the actuator's own sensor does not see the play
@@ -395,8 +402,12 @@ def test_softer_actuator_sags_more_in_proportion_to_its_compliance() -> None:
     """Halving an actuator's stiffness doubles its body's length change."""
     arm = eodarm.Arm.from_toml(EXAMPLE)
     alpha = np.array([[80.0, 10.0, 0.0], [95.0, 25.0, -5.0]])
-    one = eodarm.solve(arm, alpha, 5.0, [eodarm.Effect("actuator_compliance", "M2", stiffness_n_per_mm=800.0)])
-    two = eodarm.solve(arm, alpha, 5.0, [eodarm.Effect("actuator_compliance", "M2", stiffness_n_per_mm=400.0)])
+    one = eodarm.solve(
+        arm, alpha, 5.0, [eodarm.Effect("actuator_compliance", "M2", stiffness_n_per_mm=800.0)]
+    )
+    two = eodarm.solve(
+        arm, alpha, 5.0, [eodarm.Effect("actuator_compliance", "M2", stiffness_n_per_mm=400.0)]
+    )
     np.testing.assert_allclose(two["dl_mm"][:, 1], 2.0 * one["dl_mm"][:, 1], rtol=1e-12)
     assert (two["dy_mm"] < one["dy_mm"]).all() and (one["dy_mm"] < 0).all()
     assert math.isclose(float(two["dl_mm"][0, 0]), float(one["dl_mm"][0, 0]), rel_tol=1e-12)

@@ -11,9 +11,9 @@ with an independent numpy reference.
 """
 
 from .arm import Actuator, Arm, Link
+from .diagnose import Diagnosis, diagnose
 from .effects import CATALOGUE, Effect
 from .errors import ArmFileError, EffectError, EodarmError, InputError
-from .diagnose import Diagnosis, diagnose
 from .fit import FitResult, Slot, cross_validate, fit
 from .measurements import Measurements, read_measurements
 from .solver import (

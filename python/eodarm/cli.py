@@ -232,7 +232,7 @@ def _plots(
 
 
 def _cmd_compare(args: argparse.Namespace) -> int:
-    from .fit import FitWarning, find_outliers, fit, outlier_table
+    from .fit import FitWarning, outlier_table, robust_fit
 
     arm = _load_arm(args.arm)
     meas = _read(args.measurements, arm)
@@ -244,16 +244,19 @@ def _cmd_compare(args: argparse.Namespace) -> int:
 
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", FitWarning)
-        res = fit(arm, meas, [*fixed, *free], self_weight=sw) if free else None
         from .fit import compare
 
-        if res is None:
+        if free:
+            res, flagged = robust_fit(arm, meas, [*fixed, *free], self_weight=sw)
+        else:
             res = compare(arm, meas, fixed, self_weight=sw)
-        flagged = find_outliers(res)
+            # with nothing to fit, flag cells only if they are few and the rest agree
+            _, flagged = (
+                robust_fit(arm, meas, [], self_weight=sw)
+                if not fixed
+                else (res, np.zeros(meas.values.shape, dtype=bool))
+            )
         outliers = outlier_table(res, flagged)
-        if flagged.any() and free:
-            res = fit(arm, meas, [*fixed, *free], self_weight=sw, exclude=flagged)
-            outliers = outlier_table(res, flagged)
     for w in caught:
         _note(str(w.message))
     base = compare(arm, meas, [], self_weight=sw)
@@ -316,7 +319,7 @@ def _cmd_compare(args: argparse.Namespace) -> int:
 def _cmd_fit(args: argparse.Namespace) -> int:
     import warnings
 
-    from .fit import FitWarning, compare, cross_validate, find_outliers, fit, outlier_table
+    from .fit import FitWarning, compare, cross_validate, outlier_table, robust_fit
 
     arm = _load_arm(args.arm)
     meas = _read(args.measurements, arm)
@@ -326,12 +329,8 @@ def _cmd_fit(args: argparse.Namespace) -> int:
         raise EodarmError("fit needs at least one --add EFFECT@PLACE")
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", FitWarning)
-        res = fit(arm, meas, model, self_weight=sw)
-        flagged = find_outliers(res)
-        outliers = outlier_table(res, flagged) if flagged.any() else []
-        if flagged.any():
-            res = fit(arm, meas, model, self_weight=sw, exclude=flagged)
-            outliers = outlier_table(res, flagged)
+        res, flagged = robust_fit(arm, meas, model, self_weight=sw)
+        outliers = outlier_table(res, flagged)
         cv = cross_validate(arm, meas, res.slots, self_weight=sw) if args.cv else None
         cv0 = cross_validate(arm, meas, [], self_weight=sw) if args.cv else None
     for w in {str(w.message) for w in caught}:

@@ -192,28 +192,50 @@ def diagnose(
         )
         found: list[dict[str, Any]] = []
         if outliers:
-            best = first.suggested_fit or first.baseline
-            z = np.abs(best.z)
-            flagged = np.isfinite(z) & (z > OUTLIER_Z)
-            budget = max(1, int(0.02 * best.problem.n_values))
-            if 0 < flagged.sum() <= budget:
-                second = _diagnose_pass(
-                    arm,
-                    meas,
-                    model_slots,
-                    self_weight,
-                    max_set,
-                    candidates,
-                    refine_per_size,
-                    flagged,
-                )
-                final = second.suggested_fit or second.baseline
-                found = outlier_table(final, flagged)
-                first = second
+            first, found = _without_outliers(
+                first, arm, meas, model_slots, self_weight, max_set, candidates, refine_per_size
+            )
         first.outliers = found
         if advise and first.ranking:
             first.advice = _advice(arm, meas, first, self_weight)
     return first
+
+
+def _without_outliers(
+    first: Diagnosis,
+    arm: Arm,
+    meas: Measurements,
+    model_slots: list[Slot],
+    self_weight: bool,
+    max_set: int,
+    candidates: Sequence[Slot | str] | None,
+    refine_per_size: int,
+) -> tuple[Diagnosis, list[dict[str, Any]]]:
+    """Leave out the worst cell while it is > 4σ off the best model, and diagnose again.
+
+    Accepted only if, with at most 2 % of the values left out, the best model then explains
+    the rest within the noise; otherwise the first diagnosis stands and nothing is flagged.
+    """
+    current = first
+    mask = np.zeros(meas.values.shape, dtype=bool)
+    budget = max(1, int(0.02 * first.baseline.problem.n_values))
+    for _ in range(budget):
+        best = current.suggested_fit or current.baseline
+        z = np.abs(best.z)
+        z[~best.problem.use] = 0.0
+        worst = np.unravel_index(int(np.argmax(np.nan_to_num(z))), z.shape)
+        if not z[worst] > OUTLIER_Z:
+            break
+        mask[worst] = True
+        current = _diagnose_pass(
+            arm, meas, model_slots, self_weight, max_set, candidates, refine_per_size, mask
+        )
+    if not mask.any():
+        return first, []
+    best = current.suggested_fit or current.baseline
+    if _chi2_sf(best.chi2, best.dof) < P_PASS:
+        return first, []
+    return current, outlier_table(best, mask)
 
 
 def _diagnose_pass(

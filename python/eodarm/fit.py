@@ -41,7 +41,6 @@ __all__ = [
     "Slot",
     "compare",
     "cross_validate",
-    "find_outliers",
     "fit",
     "outlier_table",
     "param_from_theta",
@@ -418,18 +417,38 @@ def _bounded_step(
     return np.asarray(res.x) / norms
 
 
-def find_outliers(result: FitResult, z_max: float = 4.0, share: float = 0.02) -> np.ndarray:
-    """Cells more than ``z_max`` σ off the fit, if they are few (≤ ``share`` of the values).
+def robust_fit(
+    arm: Arm,
+    meas: Measurements,
+    effects: Sequence[Effect | Slot | str] = (),
+    self_weight: bool = True,
+    z_max: float = 4.0,
+    share: float = 0.02,
+) -> tuple[FitResult, npt.NDArray[np.bool_]]:
+    """Fit, then leave out the worst cell while it is more than ``z_max`` σ off, and refit.
 
-    Many large residuals mean a model that is wrong, not a few typos: then nothing is flagged.
-    Returns a boolean (N, C) mask.
+    At most ``share`` of the values (at least one) may be left out, and only if the fit
+    without them is consistent with the noise (χ² p ≥ 0.001): a few typos are named, but a
+    model that is wrong everywhere is not "cleaned" into agreement. Returns the fit and the
+    (N, C) mask of left-out cells (all False when none).
     """
-    z = np.abs(result.z)
-    flagged = np.isfinite(z) & (z > z_max) & result.problem.use
-    budget = max(1, int(share * result.problem.n_values))
-    if flagged.sum() > budget:
-        return np.zeros_like(flagged)
-    return flagged
+    from scipy.stats import chi2 as chi2_dist
+
+    res = fit(arm, meas, list(effects), self_weight=self_weight)
+    mask = np.zeros(meas.values.shape, dtype=bool)
+    budget = max(1, int(share * res.problem.n_values))
+    trial, tmask = res, mask.copy()
+    for _ in range(budget):
+        z = np.abs(trial.z)
+        z[~trial.problem.use] = 0.0
+        worst = np.unravel_index(int(np.argmax(np.nan_to_num(z))), z.shape)
+        if not z[worst] > z_max:
+            break
+        tmask[worst] = True
+        trial = fit(arm, meas, list(effects), self_weight=self_weight, exclude=tmask)
+    if tmask.any() and chi2_dist.sf(trial.chi2, trial.dof) >= 1e-3:
+        return trial, tmask
+    return res, mask
 
 
 def outlier_table(result: FitResult, mask: np.ndarray) -> list[dict[str, Any]]:
