@@ -206,14 +206,22 @@ def make_plausible(d: dict[str, Any], alpha_deg: np.ndarray) -> dict[str, Any]:
     ]
 
     # Bending: response of all links bent at a huge test EI with rigid actuators, linear in 1/EI.
+    # Both the turn of every triangle and the load point's displacement over the arm's reach
+    # (a link bent like a long overhanging beam moves the next joint sideways) are bounded.
     ei_test = 1e16
-    rigid = eodarm.Arm.from_dict(_with(d, stiffness_n_per_mm=[RIGID] * n))
+    rigid = _with(d, stiffness_n_per_mm=[RIGID] * n)
+    rigid["link"][-1].pop("measure", None)
+    rigid_arm = eodarm.Arm.from_dict(rigid)
+    reach = np.linalg.norm(
+        np.diff(eodarm.forward(rigid_arm, alpha_deg, backend="numpy")["O"], axis=1), axis=-1
+    ).sum(axis=1)
     effs = [eodarm.Effect("link_bending", f"L{i + 1}", ei_n_mm2=ei_test) for i in range(n)]
     turn = 0.0
     for p in ([p_max, 0.0], [0.0, p_max], [-p_max, 0.0], [0.0, -p_max]):
-        out = reference.solve_payload(rigid, alpha_deg, np.array(p), effs, self_weight=False)
+        out = reference.solve_payload(rigid_arm, alpha_deg, np.array(p), effs, self_weight=False)
         rel = np.diff(np.radians(out["dalpha_deg"]), axis=1, prepend=0.0)
-        turn = max(turn, float(np.abs(rel).max()))
+        shift = np.hypot(out["dx_mm"], out["dy_mm"]) / reach
+        turn = max(turn, float(np.abs(rel).max()), float(shift.max()))
     ei_need = ei_test * turn / DESIGN_TURN
     ei = [max(lk.get("ei_n_mm2", 1e8), ei_need) for lk in d["link"]]
     return _with(d, stiffness_n_per_mm=k, ei_n_mm2=ei)

@@ -104,7 +104,7 @@ def _num(x: float, digits: int = 3) -> str:
     """A number for a label: ``digits`` significant figures, ``∞`` for infinity."""
     if not math.isfinite(x):
         return "∞" if x > 0 else ("−∞" if x < 0 else "n/a")
-    return f"{x:.{digits}g}"
+    return f"{x:.{digits}g}".replace("-", "−")
 
 
 def effect_label(effect: Effect) -> str:
@@ -185,8 +185,20 @@ def _config_rows(meas: Measurements) -> list[npt.NDArray[np.intp]]:
     return [np.flatnonzero(np.asarray(meas.config) == c) for c in meas.configs]
 
 
-def _angles(alpha: npt.ArrayLike) -> str:
-    return ", ".join(f"{a:.0f}" for a in np.asarray(alpha, dtype=float)) + "°"
+def _angles(alpha: npt.ArrayLike, digits: int = 0) -> str:
+    """Angles as ``"86, 55, −21°"``."""
+    a = np.asarray(alpha, dtype=float)
+    return ", ".join(f"{v:.{digits}f}".replace("-", "−") for v in a) + "°"
+
+
+def _free_corner(x: npt.ArrayLike, y: npt.ArrayLike, lim: tuple[float, float]) -> str:
+    """``"upper left"`` or ``"lower right"``: the corner of a square panel with fewer points."""
+    span = lim[1] - lim[0] or 1.0
+    u = (np.asarray(x, dtype=float) - lim[0]) / span
+    v = (np.asarray(y, dtype=float) - lim[0]) / span
+    upper_left = int(np.sum((u < 0.55) & (v > 0.6)))
+    lower_right = int(np.sum((u > 0.45) & (v < 0.4)))
+    return "upper left" if upper_left <= lower_right else "lower right"
 
 
 # ---------------------------------------------------------------------------- figures
@@ -273,7 +285,9 @@ def measured_vs_model(
         ax.set_title(channel_title(ch), fontsize="medium")
         ax.set_xlabel(f"measured {_short(ch)} [{unit}]")
         ax.set_ylabel(f"model {_short(ch)} [{unit}]")
-        ax.legend(fontsize="small", loc="upper left", framealpha=0.85)
+        ys = np.concatenate([f.prediction[m, c] for f in fits.values()])
+        xs = np.tile(x, len(fits))
+        ax.legend(fontsize="small", loc=_free_corner(xs, ys, lim), framealpha=0.85)
     fig.suptitle(f"Measured vs model ({meas.source}, {meas.n_rows} states; bars ±σ)")
     return _finish(fig, path)
 
@@ -350,6 +364,15 @@ def residual_vs_payload(
             ax.set_ylabel(f"residual {_short(ch)} [{unit}]", fontsize="small")
         if i + ncols >= k:
             ax.set_xlabel("payload [kg]", fontsize="small")
+    # Before and after differ by orders of magnitude; on a linear axis the ±σ band and the
+    # fitted residuals would be a flat line. Linear within ±3σ, logarithmic beyond.
+    s0 = float(np.nanmedian(meas.sigma[meas.measured[:, c], c]))
+    both = np.abs(np.concatenate([res_b, res_a]))
+    worst = float(np.max(both[np.isfinite(both)], initial=0.0))
+    symlog = worst > 30 * s0
+    if symlog:
+        for ax in axes:
+            ax.set_yscale("symlog", linthresh=3 * s0, linscale=1.5)
     handles = [
         Line2D([], [], ls="--", marker="o", mfc="none", color=GREY),
         Line2D([], [], ls="-", marker="o", color=PALETTE[0]),
@@ -361,7 +384,10 @@ def residual_vs_payload(
         "±1σ of the measurement",
     ]
     fig.legend(handles, names, loc="outside lower center", ncols=2, fontsize="small")
-    fig.suptitle(f"Residual of {_short(ch)} (measured − model) against payload, per configuration")
+    title = f"Residual of {_short(ch)} (measured − model) against payload, per configuration"
+    if symlog:
+        title += f"\ny axis linear within ±3σ (±{_num(3 * s0, 2)} {unit}), logarithmic beyond"
+    fig.suptitle(title)
     return _finish(fig, path)
 
 
@@ -413,8 +439,10 @@ def ladder(
     )
     chi = np.array([float(s["chi2_per_dof"]) for s in steps])
 
-    long = max(len(lb) for lb in labels) > 12 or sum(len(lb) for lb in labels) > 60
-    fig = _figure(max(6.5, 1.6 * len(steps) + 3.0), 5.0 if long else 4.2)
+    width = max(6.5, 1.9 * len(steps) + 2.5)
+    # Rotate the step labels when they would not fit side by side (about 0.08 in a character).
+    long = max(len(lb) for lb in labels) * 0.08 > 0.85 * (width - 2.0) / len(steps)
+    fig = _figure(width, 5.0 if long else 4.4)
     ax = fig.add_subplot()
     ax.plot(x, rms, "-o", color=PALETTE[0], lw=2, ms=6, label=f"RMS {_short(channel)}", gid="rms")
     values = [rms]
@@ -434,22 +462,25 @@ def ladder(
     allv = allv[np.isfinite(allv) & (allv > 0)]
     if allv.size and allv.max() / allv.min() > 20:
         ax.set_yscale("log")
-    for xi, r in zip(x, rms, strict=True):
+        ax.set_ylim(allv.min() / 1.8, allv.max() * 2.5)
+    elif allv.size:
+        ax.set_ylim(0.0, allv.max() * 1.25)
+    for xi, r, c in zip(x, rms, cv, strict=True):
+        cv_below = math.isfinite(c) and c <= r
         ax.annotate(
             _num(r),
             (xi, r),
             textcoords="offset points",
-            xytext=(7, 5),
+            xytext=(8, -12 if math.isfinite(c) and not cv_below else 4),
             fontsize="small",
             color=PALETTE[0],
         )
-    for xi, r in zip(x, cv, strict=True):
-        if math.isfinite(r):
+        if math.isfinite(c):
             ax.annotate(
-                _num(r),
-                (xi, r),
+                _num(c),
+                (xi, c),
                 textcoords="offset points",
-                xytext=(7, -12),
+                xytext=(8, -12 if cv_below else 4),
                 fontsize="small",
                 color=PALETTE[1],
             )
@@ -459,17 +490,28 @@ def ladder(
         ax.tick_params(axis="x", labelrotation=25)
         for t in ax.get_xticklabels():
             t.set_horizontalalignment("right")
-    ax.set_xlim(-0.4, len(steps) - 0.4)
+    ax.set_xlim(-0.45, len(steps) - 0.55)
     ax.grid(True, lw=0.4, alpha=0.5)
 
     ax2 = ax.twinx()
     ax2.plot(x, chi, ":D", color=PALETTE[2], lw=1.4, ms=5, label="χ²/dof (right axis)", gid="chi2")
-    ax2.axhline(1.0, color=PALETTE[2], lw=0.8, alpha=0.6)
+    ax2.axhline(1.0, color=PALETTE[2], lw=0.8, alpha=0.6, ls="-.")
     ax2.set_yscale("log")
     finite = chi[np.isfinite(chi) & (chi > 0)]
     if finite.size:
-        ax2.set_ylim(min(0.5, finite.min() / 2), max(2.0, finite.max() * 2))
-    ax2.set_ylabel("χ²/dof (log)", color=PALETTE[2])
+        ax2.set_ylim(min(0.4, finite.min() / 2.5), max(2.5, finite.max() * 4))
+    for xi, v in zip(x, chi, strict=True):
+        if math.isfinite(v):
+            ax2.annotate(
+                f"χ²/dof {_num(v)}",
+                (xi, v),
+                textcoords="offset points",
+                xytext=(-8, 2),
+                ha="right",
+                fontsize="x-small",
+                color=PALETTE[2],
+            )
+    ax2.set_ylabel("χ²/dof (log; 1 = within the noise)", color=PALETTE[2])
     ax2.tick_params(axis="y", colors=PALETTE[2])
 
     h1, l1 = ax.get_legend_handles_labels()
@@ -543,11 +585,13 @@ def deflection_share(
         )
         up += pos
         down += neg
-    ax.plot(x, total, "D", color="k", ms=6, label="total, all effects together", gid="total")
+    (marker,) = ax.plot(
+        x, total, "D", color="k", ms=6, label="total, all effects together", gid="total"
+    )
     if k <= 16:
         for xi, t in zip(x, total, strict=True):
             ax.annotate(
-                f"{t:.2f}",
+                f"{t:.2f}".replace("-", "−"),
                 (xi, t),
                 textcoords="offset points",
                 xytext=(0, -13 if t < 0 else 6),
@@ -564,7 +608,14 @@ def deflection_share(
     ax.set_xlabel("configuration")
     ax.set_ylabel("contribution to dy of the measure point [mm]")
     ax.grid(True, axis="y", lw=0.4, alpha=0.5)
-    fig.legend(loc="outside lower center", fontsize="small", ncols=1 if len(parts) > 3 else 2)
+    handles = [cont for cont in ax.containers if not str(cont.get_label()).startswith("_")]
+    fig.legend(
+        [*handles, marker],
+        [*(str(h.get_label()) for h in handles), str(marker.get_label())],
+        loc="outside lower center",
+        fontsize="small",
+        ncols=1 if len(parts) > 3 else 2,
+    )
     sw = "with" if self_weight else "without"
     ax.set_title(f"Who makes the sag: contributions to dy at payload {m:g} kg ({sw} self-weight)")
     return _finish(fig, path)
@@ -641,8 +692,8 @@ def arm_pose(
     ax.grid(True, lw=0.4, alpha=0.5)
     ax.set_xlabel("x [mm] (forward)")
     ax.set_ylabel("y [mm] (up)")
-    ax.set_title(title, fontsize="medium")
-    fig.legend(loc="outside right upper", fontsize="small")
+    fig.suptitle(title, fontsize="medium")
+    ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), fontsize="small", borderaxespad=0)
     return _finish(fig, path)
 
 

@@ -1,0 +1,101 @@
+"""Time `eodarm diagnose` work: all 16 candidates of a 3-link arm on 64 states x 8 channels.
+
+Usage: python benches/bench_diagnose.py [--repeat 5] [--markdown FILE]
+
+The target of issue 3 is under 2 s for the whole diagnosis (ranking, every set of up to three
+candidates, confusions, next-measurement advice). Timings are the best and the median of the
+repeats, in one process after a warm-up run (imports and first calls excluded).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import platform
+import statistics
+import time
+from pathlib import Path
+
+import numpy as np
+
+import eodarm
+from eodarm.diagnose import diagnose
+from eodarm.synth import random_configs, synth
+
+EXAMPLE = Path(__file__).resolve().parent.parent / "examples" / "example_arm.toml"
+
+
+def cpu_model() -> str:
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or "unknown"
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__)
+    ap.add_argument("--repeat", type=int, default=5)
+    ap.add_argument("--markdown", type=Path)
+    args = ap.parse_args()
+    arm = eodarm.Arm.from_toml(EXAMPLE)
+    cfg = random_configs(arm, 16, np.random.default_rng(0))
+    hidden = [
+        eodarm.Effect("joint_clearance", "O2", clearance_mm=0.15),
+        eodarm.Effect("mount_compliance", "M1", stiffness_n_per_mm=2500.0),
+    ]
+    cases = {
+        "2 hidden, 8 channels": synth(arm, cfg, [1.5, 3.0, 5.0, 6.5], hidden=hidden, seed=1),
+        "2 hidden, no dl (confusions + advice)": synth(
+            arm, cfg, [1.5, 3.0, 5.0, 6.5], hidden=hidden, channels=["dx", "dy", "dalpha"], seed=1
+        ),
+        "3 hidden (every set of up to 3 searched)": synth(
+            arm,
+            cfg,
+            [1.5, 3.0, 5.0, 6.5],
+            hidden=[*hidden, eodarm.Effect("link_bending", "L2", ei_n_mm2=2e9)],
+            seed=1,
+        ),
+        "nothing hidden": synth(arm, cfg, [1.5, 3.0, 5.0, 6.5], hidden=[], seed=1),
+    }
+    rows = []
+    for label, meas in cases.items():
+        diagnose(arm, meas)  # warm-up
+        times = []
+        for _ in range(args.repeat):
+            t = time.perf_counter()
+            d = diagnose(arm, meas)
+            times.append(time.perf_counter() - t)
+        rows.append(
+            (
+                label,
+                meas.n_rows,
+                len(meas.measured_channels),
+                len(d.ranking),
+                d.sets_searched,
+                min(times),
+                statistics.median(times),
+                d.verdict,
+            )
+        )
+    lines = [
+        f"machine: {os.cpu_count()} cores, {cpu_model()}, Python {platform.python_version()}, "
+        f"numpy {np.__version__}",
+        "",
+        "| case | states | channels | candidates | sets searched | best s | median s | verdict |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for r in rows:
+        lines.append(
+            f"| {r[0]} | {r[1]} | {r[2]} | {r[3]} | {r[4]} | {r[5]:.3f} | {r[6]:.3f} | {r[7]} |"
+        )
+    text = "\n".join(lines)
+    print(text)
+    if args.markdown:
+        args.markdown.write_text(text + "\n")
+
+
+if __name__ == "__main__":
+    main()
