@@ -17,10 +17,9 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests"))
 
-from arms import ARMS  # noqa: E402
-
-from eodarm.diagnose import diagnose  # noqa: E402
-from eodarm.synth import random_configs, synth  # noqa: E402
+from arms import ARMS
+from eodarm.diagnose import diagnose
+from eodarm.synth import random_configs, synth
 
 
 def main() -> None:
