@@ -194,14 +194,6 @@ def test_inverse_kinematics_unreachable_target_on_both_backends() -> None:
             assert np.isfinite(ik["alpha_deg"][1]).all()
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason=(
-        "BUG: inverse_kinematics returns different angles per backend: the numpy reference "
-        "wraps α1, α2 into [−180°, 180°) (as its docstring states) but the Rust core "
-        "(kinematics.rs inverse_kinematics) does not, e.g. 187.77° vs −172.23°"
-    ),
-)
 def test_inverse_kinematics_backends_return_identical_angles() -> None:
     arm = eodarm.Arm.from_toml(EXAMPLE)
     target = np.array([[-600.0, 300.0, 170.0], [600.0, 500.0, 0.0]])

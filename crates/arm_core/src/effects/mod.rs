@@ -279,12 +279,16 @@ pub(crate) fn check_place(label: &str, index: usize, arm: &Arm) -> Result<()> {
     }
 }
 
-/// `sign(x)` with `sign(0) = 0`.
+/// A force below this magnitude (N) has no physical direction: play and clearance stay
+/// centred rather than follow rounding noise (docs/model.md).
+pub const FORCE_ZERO_N: f64 = 1e-9;
+
+/// `sign(x)`, 0 for `|x| < FORCE_ZERO_N`.
 #[inline]
 pub(crate) fn sign0(x: f64) -> f64 {
-    if x > 0.0 {
+    if x >= FORCE_ZERO_N {
         1.0
-    } else if x < 0.0 {
+    } else if x <= -FORCE_ZERO_N {
         -1.0
     } else {
         0.0

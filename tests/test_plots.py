@@ -1,0 +1,356 @@
+"""Figures (eodarm.plots) and the HTML report (eodarm.report).
+
+Promises tested here: every figure shows what it says (one panel per measured channel or per
+configuration, one series per model, units on the axes, the plotted numbers are the fitted
+ones, the bars of the sag add up to what the solver says); nothing is written unless a path is
+given, and then a PNG at 120 dpi; no global matplotlib state is touched; the report is one
+self-contained HTML file that names the verdict and every ranked candidate.
+"""
+
+from __future__ import annotations
+
+import base64
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import matplotlib
+import numpy as np
+import pytest
+from matplotlib.figure import Figure
+
+import eodarm
+from eodarm import plots
+from eodarm.cli import _bundled_arm
+from eodarm.diagnose import Diagnosis, diagnose
+from eodarm.errors import EodarmError
+from eodarm.fit import compare
+from eodarm.measurements import Measurements
+from eodarm.report import build_ladder, write_report
+from eodarm.synth import random_configs, synth
+
+HIDDEN = eodarm.Effect("joint_clearance", "O2", clearance_mm=0.12)
+MASSES = (1.5, 5.0, 6.5)
+PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
+
+
+@pytest.fixture(scope="module")
+def arm() -> eodarm.Arm:
+    return _bundled_arm()
+
+
+@pytest.fixture(scope="module")
+def meas(arm: eodarm.Arm) -> Measurements:
+    poses = random_configs(arm, 5, np.random.default_rng(3))
+    return synth(arm, poses, MASSES, hidden=[HIDDEN], channels="dx_mm,dy_mm,dalpha", seed=4)
+
+
+@pytest.fixture(scope="module")
+def diag(arm: eodarm.Arm, meas: Measurements) -> Diagnosis:
+    return diagnose(arm, meas)
+
+
+@pytest.fixture(scope="module")
+def steps(arm: eodarm.Arm, meas: Measurements, diag: Diagnosis) -> list[dict]:
+    return build_ladder(arm, meas, diag)
+
+
+def by_gid(ax: matplotlib.axes.Axes, gid: str) -> matplotlib.lines.Line2D:
+    found = [ln for ln in ax.get_lines() if ln.get_gid() == gid]
+    assert len(found) == 1, f"expected one line '{gid}', found {len(found)}"
+    return found[0]
+
+
+def unit_of(channel: str) -> str:
+    return "[deg]" if channel.endswith("_deg") else "[mm]"
+
+
+# ---------------------------------------------------------------------------- the data used
+def test_the_diagnosis_finds_the_hidden_effect(diag: Diagnosis) -> None:
+    # the figures below tell this story; it must be the true one
+    assert diag.verdict == "missing"
+    assert [s.key for s in diag.suggested] == [HIDDEN.key]
+
+
+# ---------------------------------------------------------------------------- measured vs model
+def test_measured_vs_model_has_one_panel_per_channel_and_one_series_per_model(
+    meas: Measurements, diag: Diagnosis
+) -> None:
+    fits = {"baseline": diag.baseline, "fitted": diag.suggested_fit}
+    fig = plots.measured_vs_model(meas, fits)
+    assert isinstance(fig, Figure)
+    assert len(fig.axes) == len(meas.measured_channels) == 5
+    for ax, ch in zip(fig.axes, meas.measured_channels, strict=True):
+        assert unit_of(ch) in ax.get_xlabel() and unit_of(ch) in ax.get_ylabel()
+        assert ax.get_xlabel().startswith("measured") and ax.get_ylabel().startswith("model")
+        c = meas.index(ch)
+        rows = meas.measured[:, c]
+        legend = [t.get_text() for t in ax.get_legend().get_texts()]
+        for label, f in fits.items():
+            line = by_gid(ax, f"model:{label}")
+            # x = measured, y = this model's value, in the measurement's row order
+            np.testing.assert_allclose(line.get_xdata(), meas.values[rows, c])
+            np.testing.assert_allclose(line.get_ydata(), f.prediction[rows, c])
+            rms = f.rms()[ch]
+            assert any(t.startswith(f"{label}: RMS {plots._num(rms)}") for t in legend)
+        assert "y = x" in legend
+    # the fitted model is within noise, the baseline is not
+    assert diag.suggested_fit.rms()["dy_mm"] < 0.1 * diag.baseline.rms()["dy_mm"]
+
+
+def test_measured_vs_model_refuses_a_fit_of_other_data(
+    arm: eodarm.Arm, meas: Measurements, diag: Diagnosis
+) -> None:
+    other = synth(arm, meas.alpha_deg[:3], [2.0], hidden=[HIDDEN])
+    with pytest.raises(EodarmError, match="other data"):
+        plots.measured_vs_model(meas, {"a": diag.baseline, "b": compare(arm, other)})
+
+
+# ---------------------------------------------------------------------------- residuals
+def test_residual_vs_payload_has_one_panel_per_configuration(
+    meas: Measurements, diag: Diagnosis
+) -> None:
+    before, after = diag.baseline, diag.suggested_fit
+    fig = plots.residual_vs_payload(meas, before, after)
+    assert len(fig.axes) == len(meas.configs) == 5
+    c = meas.index("dy_mm")  # the default channel when dy is measured
+    assert "dy" in fig.get_suptitle()
+    first = fig.axes[0]
+    for ax, label in zip(fig.axes, meas.configs, strict=True):
+        assert first.get_shared_y_axes().joined(first, ax)
+        assert ax.get_title().startswith(label)
+        rows = np.flatnonzero(meas.config == label)
+        rows = rows[np.argsort(meas.mass_kg[rows])]
+        b, a = by_gid(ax, "before"), by_gid(ax, "after")
+        np.testing.assert_allclose(b.get_xdata(), meas.mass_kg[rows])
+        np.testing.assert_allclose(b.get_ydata(), before.residual[rows, c])
+        np.testing.assert_allclose(a.get_ydata(), after.residual[rows, c])
+        assert b.get_linestyle() == "--" and a.get_linestyle() == "-"
+        assert b.get_markerfacecolor() == "none"
+    assert "[mm]" in fig.axes[0].get_ylabel()
+    assert "[kg]" in fig.axes[-1].get_xlabel()
+
+
+def test_residual_vs_payload_defaults_to_the_worst_channel_without_dy(arm: eodarm.Arm) -> None:
+    poses = random_configs(arm, 2, np.random.default_rng(8))
+    hidden = eodarm.Effect("mount_compliance", "M2", stiffness_n_per_mm=1500.0)
+    m = synth(arm, poses, MASSES, hidden=[hidden], channels="dalpha")
+    base = compare(arm, m)
+    worst = max(
+        m.measured_channels,
+        key=lambda ch: np.sqrt(np.nanmean(base.z[:, m.index(ch)] ** 2)),
+    )
+    assert plots.main_channel(m, base) == worst
+    fig = plots.residual_vs_payload(m, base, base)
+    assert len(fig.axes) == 2
+    assert "[deg]" in fig.axes[0].get_ylabel()
+    c = m.index(worst)
+    rows = np.flatnonzero(m.config == m.configs[0])
+    np.testing.assert_allclose(by_gid(fig.axes[0], "before").get_ydata(), base.residual[rows, c])
+    with pytest.raises(EodarmError, match="not measured"):
+        plots.residual_vs_payload(m, base, base, channel="dy_mm")
+
+
+# ---------------------------------------------------------------------------- ladder
+def test_ladder_follows_the_diagnosis(diag: Diagnosis, steps: list[dict]) -> None:
+    assert steps[0]["label"] == "baseline"
+    assert steps[0]["rms"] == pytest.approx(diag.baseline.rms())
+    assert [s["label"] for s in steps[1:]] == [f"+ {s.key}" for s in diag.suggested]
+    assert steps[-1]["effects"] == [s.key for s in diag.suggested]
+    assert steps[-1]["chi2_per_dof"] == pytest.approx(diag.suggested_fit.chi2_per_dof, rel=1e-3)
+    chi = [s["chi2_per_dof"] for s in steps]
+    assert chi == sorted(chi, reverse=True)
+    # predicting a configuration it was not fitted on is no better than fitting it
+    for s in steps:
+        assert s["cv_rms"]["dy_mm"] >= s["rms"]["dy_mm"] * (1 - 1e-9)
+
+
+def test_ladder_plots_the_steps_numbers(steps: list[dict]) -> None:
+    fig = plots.ladder(steps, channel="dy_mm")
+    ax = next(a for a in fig.axes if any(ln.get_gid() == "rms" for ln in a.get_lines()))
+    np.testing.assert_allclose(by_gid(ax, "rms").get_ydata(), [s["rms"]["dy_mm"] for s in steps])
+    np.testing.assert_allclose(
+        by_gid(ax, "cv_rms").get_ydata(), [s["cv_rms"]["dy_mm"] for s in steps]
+    )
+    ax2 = next(a for a in fig.axes if a is not ax)
+    assert ax2.get_yscale() == "log"
+    np.testing.assert_allclose(by_gid(ax2, "chi2").get_ydata(), [s["chi2_per_dof"] for s in steps])
+    assert "[mm]" in ax.get_ylabel()
+    ticks = [t.get_text() for t in ax.get_xticklabels()]
+    assert [t.split("\n")[0] for t in ticks] == [s["label"] for s in steps]
+
+
+def test_ladder_without_cross_validation_draws_no_cv_line() -> None:
+    steps = [
+        {"label": "baseline", "rms": {"dx_mm": 0.5}, "cv_rms": None, "chi2_per_dof": 300.0},
+        {"label": "+ x@y", "rms": {"dx_mm": 0.02}, "cv_rms": None, "chi2_per_dof": 1.1},
+    ]
+    fig = plots.ladder(steps, channel="dx_mm")
+    gids = {ln.get_gid() for a in fig.axes for ln in a.get_lines()}
+    assert "rms" in gids and "cv_rms" not in gids
+    with pytest.raises(EodarmError, match="dy_mm"):
+        plots.ladder(steps, channel="dy_mm")
+
+
+# ---------------------------------------------------------------------------- sag shares
+def test_deflection_share_bars_add_up_to_the_solver(
+    arm: eodarm.Arm, meas: Measurements, diag: Diagnosis
+) -> None:
+    extra = eodarm.Effect("base_compliance", "base", stiffness_nmm_per_rad=5e7)
+    effects = [*diag.suggested_fit.effects, extra]
+    fig = plots.deflection_share(arm, meas, effects)
+    (ax,) = fig.axes
+    rows = [int(np.flatnonzero(meas.config == c)[0]) for c in meas.configs]
+    alpha = meas.alpha_deg[rows]
+    mass = float(np.max(meas.mass_kg))
+    base = eodarm.solve(arm, alpha, mass)["dy_mm"]
+    expected = [base] + [
+        eodarm.solve(arm, alpha, mass, effects=[e])["dy_mm"] - base for e in effects
+    ]
+    # per component: one container of positive parts and one of negative parts
+    assert len(ax.containers) == 2 * (1 + len(effects))
+    for j, want in enumerate(expected):
+        pos, neg = ax.containers[2 * j], ax.containers[2 * j + 1]
+        got = np.array([p.get_height() for p in pos]) + np.array([p.get_height() for p in neg])
+        np.testing.assert_allclose(got, want, atol=1e-12)
+    total = eodarm.solve(arm, alpha, mass, effects=effects)["dy_mm"]
+    np.testing.assert_allclose(by_gid(ax, "total").get_ydata(), total)
+    legend = " ".join(t.get_text() for t in fig.legends[0].get_texts())
+    assert "baseline" in legend and all(e.key in legend for e in effects)
+    assert "[mm]" in ax.get_ylabel()
+    assert [t.get_text() for t in ax.get_xticklabels()] == list(meas.configs)
+    assert f"{mass:g} kg" in ax.get_title()
+
+
+# ---------------------------------------------------------------------------- arm pose
+def test_arm_pose_draws_the_joints_and_the_loaded_pose(arm: eodarm.Arm, meas: Measurements) -> None:
+    alpha = meas.alpha_deg[0]
+    geo = eodarm.forward(arm, alpha)
+    plain = plots.arm_pose(arm, alpha)
+    (ax,) = plain.axes
+    joints = next(ln for ln in ax.get_lines() if ln.get_label() == "joints")
+    np.testing.assert_allclose(np.c_[joints.get_xdata(), joints.get_ydata()], geo["O"][0, : arm.n])
+    assert "[mm]" in ax.get_xlabel() and "[mm]" in ax.get_ylabel()
+    assert not any("loaded" in str(ln.get_label()) for ln in ax.get_lines())
+
+    out = eodarm.solve(arm, alpha[None, :], 6.5, effects=[HIDDEN])
+    fig = plots.arm_pose(arm, alpha, out=out, scale=20.0)
+    (ax,) = fig.axes
+    assert "approximate" in fig.get_suptitle() and "×20" in fig.get_suptitle()
+    loaded = [ln for ln in ax.get_lines() if str(ln.get_label()).startswith("loaded: links")]
+    assert loaded and loaded[0].get_linestyle() == "--"
+    moved = eodarm.forward(arm, alpha + 20.0 * out["dalpha_deg"][0])["O"][0]
+    np.testing.assert_allclose(loaded[0].get_xydata(), moved[:2])
+    with pytest.raises(EodarmError, match="one row"):
+        plots.arm_pose(arm, alpha, out=eodarm.solve(arm, meas.alpha_deg[:2], 6.5))
+
+
+# ---------------------------------------------------------------------------- files
+def all_figures(
+    arm: eodarm.Arm, meas: Measurements, diag: Diagnosis, steps: list[dict], tmp: Path | None
+) -> dict[str, Figure]:
+    def at(name: str) -> Path | None:
+        return None if tmp is None else tmp / f"{name}.png"
+
+    f0, f1 = diag.baseline, diag.suggested_fit
+    out = eodarm.solve(arm, meas.alpha_deg[:1], 6.5, effects=f1.effects)
+    return {
+        "mvm": plots.measured_vs_model(meas, {"baseline": f0, "fitted": f1}, path=at("mvm")),
+        "rvp": plots.residual_vs_payload(meas, f0, f1, path=at("rvp")),
+        "ladder": plots.ladder(steps, path=at("ladder")),
+        "share": plots.deflection_share(arm, meas, f1.effects, path=at("share")),
+        "pose": plots.arm_pose(arm, meas.alpha_deg[0], out=out, path=at("pose")),
+    }
+
+
+def test_nothing_is_written_without_a_path(
+    arm: eodarm.Arm,
+    meas: Measurements,
+    diag: Diagnosis,
+    steps: list[dict],
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    rc = matplotlib.rcParams.copy()
+    figs = all_figures(arm, meas, diag, steps, None)
+    assert all(isinstance(f, Figure) for f in figs.values())
+    assert list(tmp_path.iterdir()) == []
+    # compare the stored values: RcParams' own == would resolve the backend itself
+    assert dict.__eq__(matplotlib.rcParams, rc)
+
+
+def test_a_png_at_120_dpi_is_written_when_asked(
+    arm: eodarm.Arm, meas: Measurements, diag: Diagnosis, steps: list[dict], tmp_path: Path
+) -> None:
+    figs = all_figures(arm, meas, diag, steps, tmp_path)
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(f"{k}.png" for k in figs)
+    for name, fig in figs.items():
+        data = (tmp_path / f"{name}.png").read_bytes()
+        assert data.startswith(PNG_MAGIC)
+        width, height = int.from_bytes(data[16:20], "big"), int.from_bytes(data[20:24], "big")
+        w_in, h_in = fig.get_size_inches()
+        assert (width, height) == (round(w_in * 120), round(h_in * 120))
+
+
+def test_importing_and_plotting_leaves_pyplot_alone() -> None:
+    # pyplot is where global figure state and backend switching live; a library must not
+    # pull it in (nor, through it, pick a GUI backend for the caller)
+    code = (
+        "import sys; import eodarm.plots as p; import eodarm.report; "
+        "p.ladder([{'label': 'a', 'rms': {'dy_mm': 1.0}, 'cv_rms': None, 'chi2_per_dof': 2.0}])"
+        ".savefig(__import__('io').BytesIO()); "
+        "print('matplotlib.pyplot' in sys.modules)"
+    )
+    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert res.stdout.split() == ["False"]
+
+
+# ---------------------------------------------------------------------------- report
+def test_the_report_is_one_self_contained_html_file(
+    arm: eodarm.Arm, meas: Measurements, diag: Diagnosis, steps: list[dict], tmp_path: Path
+) -> None:
+    path = write_report(
+        tmp_path / "report.html",
+        arm,
+        meas,
+        diag,
+        steps=steps,
+        cv=True,
+        extra_sections=[("Bench notes", "<p>laser re-zeroed</p>")],
+    )
+    assert path == tmp_path / "report.html"
+    assert [p.name for p in tmp_path.iterdir()] == ["report.html"]
+    text = path.read_text(encoding="utf-8")
+    assert text.startswith("<!DOCTYPE html>")
+    # every image is embedded; nothing is fetched, nothing runs
+    srcs = re.findall(r'\bsrc="([^"]*)"', text)
+    assert len(srcs) >= 5
+    for src in srcs:
+        assert src.startswith("data:image/png;base64,")
+        assert base64.b64decode(src.split(",", 1)[1]).startswith(PNG_MAGIC)
+    lowered = text.lower()
+    for banned in ("<script", "<link", "http://", "https://", "url(", "@import"):
+        assert banned not in lowered
+    # the story: verdict, suggestion, every candidate, the estimate, the extra section
+    assert f'class="verdict {diag.verdict}"' in text
+    for cand in diag.ranking:
+        assert f"<td>{cand.slot.key}</td>" in text
+    est = diag.suggested_fit.estimate(0)
+    assert f"{est:.5g}" in text
+    assert "Bench notes" in text and "<p>laser re-zeroed</p>" in text
+    assert "RMS cross-validated" in text
+
+
+def test_the_report_of_an_adequate_model_says_so(arm: eodarm.Arm, tmp_path: Path) -> None:
+    poses = random_configs(arm, 3, np.random.default_rng(5))
+    m = synth(arm, poses, MASSES, channels="dx_mm,dy_mm", seed=2)
+    d = diagnose(arm, m)
+    assert d.verdict == "adequate" and not d.suggested
+    steps = build_ladder(arm, m, d, cv=False)
+    assert len(steps) == 1 and steps[0]["cv_rms"] is None
+    text = write_report(tmp_path / "r.html", arm, m, d, steps=steps).read_text(encoding="utf-8")
+    assert 'class="verdict adequate"' in text
+    assert "nothing is missing" in text
+    assert all(f"<td>{c.slot.key}</td>" in text for c in d.ranking)
