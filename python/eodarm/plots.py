@@ -313,7 +313,8 @@ def residual_vs_payload(
     Parameters
     ----------
     meas : the measurements.
-    before, after : two fits to ``meas`` (typically the baseline and the fitted model).
+    before, after : two fits to ``meas`` (typically the baseline and the fitted model); the
+        same fit object twice draws that one model alone.
     channel : the channel; default :func:`main_channel` (``dy_mm`` when measured, else the
         channel with the largest baseline RMS in units of σ).
     path : where to write a PNG (120 dpi); nothing is written when ``None``.
@@ -342,6 +343,7 @@ def residual_vs_payload(
     fig = _figure(max(2.9 * ncols, 6.5), 2.35 * nrows + 1.2)
     axes = _grid(fig, k, ncols, sharex=True, sharey=True)
     res_b, res_a = before.residual[:, c], after.residual[:, c]
+    same = after is before  # one model only: draw it once
     left_out = False
     for i, (ax, label, rows) in enumerate(zip(axes, configs, _config_rows(meas), strict=True)):
         rows = rows[meas.measured[rows, c]]
@@ -353,7 +355,8 @@ def residual_vs_payload(
         elif rows.size:
             ax.axhspan(-float(sig.max()), float(sig.max()), color=PALETTE[0], alpha=0.15, lw=0)
         ax.axhline(0.0, color="k", lw=0.6)
-        ax.plot(m, res_b[rows], ls="--", marker="o", mfc="none", color=GREY, ms=5, gid="before")
+        if not same:
+            ax.plot(m, res_b[rows], ls="--", marker="o", mfc="none", color=GREY, ms=5, gid="before")
         ax.plot(m, res_a[rows], ls="-", marker="o", color=PALETTE[0], ms=4.5, gid="after")
         out = ~after.problem.use[rows, c]
         if out.any():
@@ -364,7 +367,7 @@ def residual_vs_payload(
         ax.text(
             0.03,
             0.04,
-            f"RMS {_num(rb, 2)} → {_num(ra, 2)} {unit}",
+            f"RMS {_num(ra, 2)} {unit}" if same else f"RMS {_num(rb, 2)} → {_num(ra, 2)} {unit}",
             transform=ax.transAxes,
             fontsize="x-small",
             color="0.2",
@@ -406,6 +409,9 @@ def residual_vs_payload(
         f"after: {_model_name(after)} (RMS {_num(after.rms().get(ch, math.nan))} {unit})",
         "±1σ of the measurement",
     ]
+    if same:
+        del handles[0], names[0]
+        names[0] = f"{_model_name(after)} (RMS {_num(after.rms().get(ch, math.nan))} {unit})"
     if left_out:
         handles.append(Line2D([], [], ls="none", marker="o", ms=10, mfc="none", mec="k"))
         names.append("left out of the fit (outlier)")
@@ -610,12 +616,12 @@ def deflection_share(
     x = np.arange(k, dtype=float)
     up = np.zeros(k)
     down = np.zeros(k)
-    width = 0.62
+    bar_w = 0.62
     for name, v, colour in parts:
         pos, neg = np.clip(v, 0, None), np.clip(v, None, 0)
-        ax.bar(x, pos, width, bottom=up, color=colour, label=name, edgecolor="white", lw=0.5)
+        ax.bar(x, pos, bar_w, bottom=up, color=colour, label=name, edgecolor="white", lw=0.5)
         ax.bar(
-            x, neg, width, bottom=down, color=colour, label="_" + name, edgecolor="white", lw=0.5
+            x, neg, bar_w, bottom=down, color=colour, label="_" + name, edgecolor="white", lw=0.5
         )
         up += pos
         down += neg
@@ -653,7 +659,10 @@ def deflection_share(
         ncols=1 if len(parts) > 3 else 2,
     )
     sw = "with" if self_weight else "without"
-    ax.set_title(f"Who makes the sag: contributions to dy at payload {m:g} kg ({sw} self-weight)")
+    ax.set_title(
+        f"Who makes the sag? Contributions to dy at payload {m:g} kg\n"
+        f"(each effect alone minus the baseline; {sw} self-weight)"
+    )
     return _finish(fig, path)
 
 

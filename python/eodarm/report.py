@@ -93,7 +93,8 @@ def build_ladder(
     diagnosis : the result of :func:`eodarm.diagnose.diagnose`.
     self_weight : as :func:`eodarm.solve`.
     cv : add the leave-one-configuration-out RMS (:func:`eodarm.fit.cross_validate`) of every
-        step; only done when the data have at least two configurations.
+        step; only done when the data have at least two configurations. (Cross-validation
+        uses every measured cell, outliers included.)
 
     Returns
     -------
@@ -104,6 +105,11 @@ def build_ladder(
         ``warnings`` (parameters stuck at a bound).
     """
     prob = diagnosis.baseline.problem
+    if prob.meas.values.shape != meas.values.shape:
+        raise EodarmError(
+            f"build_ladder: the diagnosis was made on {prob.meas.n_rows} rows, "
+            f"the measurements have {meas.n_rows}"
+        )
     excluded = np.isfinite(meas.values) & ~prob.use
     exclude = excluded if excluded.any() else None
     gain = {c.slot.key: c.delta_chi2 for c in diagnosis.ranking}

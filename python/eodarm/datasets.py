@@ -1,0 +1,273 @@
+"""Bundled data sets: ``eodarm.datasets.load("seed2022")``.
+
+``seed2022`` is the bomb-disposal arm of Ștefan et al., *Electronics* 2022, 11, 2355: its
+Tables 1–9 as published (``paper_tables/``), every interpretation in ``NOTES.md``, the arm as
+printed (``arm_published.toml``), the arm calibrated on Table 5 (``arm.toml``, see
+:func:`seed2022_calibration`) and the measurements of Tables 3–4 in the measurement-file
+format (``measurements.csv``).
+"""
+
+from __future__ import annotations
+
+import shutil
+from dataclasses import dataclass, field
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from .arm import Arm
+from .errors import EodarmError
+from .measurements import Measurements, read_measurements
+
+__all__ = [
+    "SEED2022_SIGMA",
+    "Dataset",
+    "export",
+    "load",
+    "names",
+    "seed2022_calibration",
+    "seed2022_measurements",
+]
+
+_DESCRIPTIONS = {
+    "seed2022": "Ștefan et al. 2022, Electronics 11, 2355: 3-link EOD arm, 5 configurations × "
+    "3 payloads, measured angles, motor displacements and effector sag (Tables 1–9)",
+}
+
+# Standard deviations stated for the seed measurements (docs/seed-reproduction.md, NOTES.md).
+SEED2022_SIGMA = {
+    # Angles printed to 0.1°: a difference of two rounded readings has σ = 0.1/√6 ≈ 0.041°;
+    # rounded up for the unstated accuracy of the angle measurement itself.
+    "dalpha_deg": 0.05,
+    # Motor sensors (HBM WA 200 mm): the printed readings fall by up to 0.002 mm when the load
+    # rises (configuration 4, motor 1: 0.034 → 0.032), which bounds their repeatability.
+    "dl_mm": 0.005,
+    # Laser sag: the paper states a 0.5 mm margin for the chassis on its rubber tracks; half of
+    # it is taken as σ.
+    "dy_mm": 0.25,
+}
+
+
+def names() -> list[str]:
+    """The bundled data sets."""
+    return list(_DESCRIPTIONS)
+
+
+def _root(name: str) -> Path:
+    if name not in _DESCRIPTIONS:
+        raise EodarmError(f"unknown data set '{name}'; bundled: {', '.join(_DESCRIPTIONS)}")
+    return Path(str(resources.files("eodarm").joinpath("data", name)))
+
+
+@dataclass
+class Dataset:
+    """A bundled data set."""
+
+    name: str
+    description: str
+    root: Path
+    arm: Arm
+    arm_published: Arm
+    measurements: Measurements
+    tables: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def notes(self) -> str:
+        return (self.root / "NOTES.md").read_text(encoding="utf-8")
+
+
+def load(name: str = "seed2022") -> Dataset:
+    """Load a bundled data set (tables as pandas DataFrames)."""
+    import pandas as pd
+
+    root = _root(name)
+    arm = Arm.from_toml(root / "arm.toml")
+    published = Arm.from_toml(root / "arm_published.toml")
+    tables = {p.stem: pd.read_csv(p) for p in sorted(root.glob("table*.csv"))}
+    meas = read_measurements(root / "measurements.csv", arm.n)
+    return Dataset(name, _DESCRIPTIONS[name], root, arm, published, meas, tables)
+
+
+def export(name: str, directory: str | Path) -> list[Path]:
+    """Write the data set's files into ``directory`` (created if needed).
+
+    Writes ``arm_published.toml``, ``arm.toml``, ``measurements.csv``, ``NOTES.md`` and
+    ``paper_tables/table1.csv`` … ``table9.csv``. Returns the paths written.
+    """
+    root = _root(name)
+    out = Path(directory)
+    (out / "paper_tables").mkdir(parents=True, exist_ok=True)
+    written = []
+    for fname in ("arm_published.toml", "arm.toml", "measurements.csv", "NOTES.md"):
+        shutil.copyfile(root / fname, out / fname)
+        written.append(out / fname)
+    for p in sorted(root.glob("table*.csv")):
+        shutil.copyfile(p, out / "paper_tables" / p.name)
+        written.append(out / "paper_tables" / p.name)
+    return written
+
+
+# ------------------------------------------------------------------ building seed2022
+def seed2022_measurements(tables: dict[str, Any]) -> Measurements:
+    """Tables 3 and 4 as a measurement file (CONTRACT §3).
+
+    * ``alphaK_deg``: Table 3's unloaded angles (configuration 3's α1 = 89.9, not Table 2's 0.1);
+    * ``dalphaK_deg``: loaded − unloaded (Table 3), as printed (configuration 2's α1 rises);
+    * ``dlK_mm``: Table 4's motors with the signs of §6: motor 1 stretched (+), motors 2 and 3
+      compressed (−); configuration 5's missing motor-3 cells stay empty (not measured);
+    * ``dy_mm``: −sag (Table 4), a sag is negative;
+    * σ as in :data:`SEED2022_SIGMA`, stated in ``sigma_`` columns.
+    """
+    t3 = tables["table3"].sort_values(["config", "mass_kg"]).reset_index(drop=True)
+    t4 = tables["table4"].sort_values(["config", "mass_kg"]).reset_index(drop=True)
+    if not np.array_equal(
+        t3[["config", "mass_kg"]].to_numpy(), t4[["config", "mass_kg"]].to_numpy()
+    ):
+        raise EodarmError("seed2022: Tables 3 and 4 list different states")
+    n = len(t3)
+    values: dict[str, npt.NDArray[np.float64]] = {}
+    sigma: dict[str, npt.NDArray[np.float64]] = {}
+    for k in (1, 2, 3):
+        values[f"dalpha{k}_deg"] = (
+            t3[f"alpha{k}_loaded_deg"] - t3[f"alpha{k}_unloaded_deg"]
+        ).to_numpy(dtype=float)
+        sigma[f"dalpha{k}_deg"] = np.full(n, SEED2022_SIGMA["dalpha_deg"])
+        sign = 1.0 if k == 1 else -1.0
+        values[f"dl{k}_mm"] = sign * t4[f"motor{k}_mm"].to_numpy(dtype=float)
+        sigma[f"dl{k}_mm"] = np.full(n, SEED2022_SIGMA["dl_mm"])
+    values["dy_mm"] = -t4["sag_mm"].to_numpy(dtype=float)
+    sigma["dy_mm"] = np.full(n, SEED2022_SIGMA["dy_mm"])
+    # round away float noise of the subtraction (inputs have one decimal)
+    for k in (1, 2, 3):
+        values[f"dalpha{k}_deg"] = np.round(values[f"dalpha{k}_deg"], 6)
+    for ch in values:
+        sigma[ch] = np.where(np.isfinite(values[ch]), sigma[ch], np.nan)
+    alpha = t3[[f"alpha{k}_unloaded_deg" for k in (1, 2, 3)]].to_numpy(dtype=float)
+    return Measurements.from_arrays(
+        config=np.array([f"c{c}" for c in t3["config"]]),
+        alpha_deg=alpha,
+        mass_kg=t3["mass_kg"].to_numpy(dtype=float),
+        values=values,
+        sigma=sigma,
+        source="seed2022/measurements.csv",
+    )
+
+
+def seed2022_published_dict() -> dict[str, Any]:
+    """Table 1 as printed (NOTES.md for each split), the paper's 500 N/mm springs, no masses.
+
+    B0 is not published; it is filled in by :func:`seed2022_calibration`.
+    """
+    return {
+        "name": "seed2022-published",
+        "g": 9.81,
+        "base": {"O1": [0.0, 0.0], "B0": [-500.0, -50.0]},
+        "link": [
+            {
+                "next": [500.0, 0.0],
+                "A": [80.94, 65.0],
+                "B": [-50.0, -44.0],
+                "C": [230.12, -2.4],
+                "mass_kg": 0.0,
+            },
+            {
+                "next": [400.0, 0.0],
+                "A": [90.5, -51.0],
+                "B": [-128.0, 0.0],
+                "C": [165.5, -1.3],
+                "mass_kg": 0.0,
+            },
+            {
+                "next": [400.0, 0.0],
+                "A": [44.8, -31.4],
+                "C": [230.12, -2.4],
+                "measure": [300.0, -44.0],
+                "mass_kg": 0.0,
+            },
+        ],
+        "actuator": [{"stiffness_n_per_mm": 500.0, "mass_kg": 0.0} for _ in range(3)],
+    }
+
+
+# Masses assumed for the measured arm (none is published; NOTES.md). Link 3's is the 28.8 N
+# that Table 5 carries at O3 (divided by the paper's g = 10).
+SEED2022_ASSUMED_MASSES = {
+    "link": [3.0, 2.5, 2.88],
+    "actuator": [1.5, 1.2, 1.0],
+}
+
+
+def seed2022_calibration(tables: dict[str, Any]) -> dict[str, Any]:
+    """Calibrate the printed geometry on Table 5 (self-weight off, as the paper says).
+
+    Fitted: B0 (unknown, free), the paper's g (prior 9.81 ± 0.5), the payload point on arm 3
+    (printed O4 = (400, 0), prior ± 200 mm), the garbled cells A1 and B2 (± 5 mm), the clearly
+    printed pins and link lengths (± 0.5 mm, their rounding), and a lumped weight at O3
+    (Table 5's offsets in F1 and F2, which no geometry produces with self-weight off: it is
+    modelled as link 3's mass at its joint, contributing no moment to arm 3).
+
+    Returns the :class:`~eodarm.calibrate.Calibration` of every parameter and the two arms:
+    ``published`` (Table 1 with the calibrated B0) and ``calibrated`` (the measured arm:
+    calibrated geometry, the real g = 9.81, assumed masses).
+    """
+    from .calibrate import GeomParam, calibrate_geometry
+
+    t3 = tables["table3"].sort_values(["config", "mass_kg"]).reset_index(drop=True)
+    t5 = tables["table5"].sort_values(["config", "mass_kg"]).reset_index(drop=True)
+    alpha = t3[[f"alpha{k}_unloaded_deg" for k in (1, 2, 3)]].to_numpy(dtype=float)
+    mass = t3["mass_kg"].to_numpy(dtype=float)
+    forces = t5[["F1_N", "F2_N", "F3_N"]].to_numpy(dtype=float)
+    d = seed2022_published_dict()
+    d["link"][2]["C"] = [0.0, 0.0]  # the O3 lump: a weight at the joint of arm 3
+    start = Arm.from_dict(d, source="seed2022 Table 1")
+
+    def payload(a: Arm) -> npt.NDArray[np.float64]:
+        return np.column_stack([np.zeros_like(mass), -mass * a.g])
+
+    params = [
+        GeomParam("base.B0.x", 1000.0, -550.0),
+        GeomParam("base.B0.y", 1000.0, -60.0),
+        GeomParam("g", 0.5),
+        GeomParam("link[3].next.x", 200.0),
+        GeomParam("link[3].next.y", 200.0),
+        GeomParam("link[3].mass_kg", 10.0),
+        GeomParam("link[1].A.x", 5.0),
+        GeomParam("link[1].A.y", 5.0),
+        GeomParam("link[2].B.x", 5.0),
+        GeomParam("link[2].B.y", 5.0),
+        GeomParam("link[1].B.x", 0.5),
+        GeomParam("link[1].B.y", 0.5),
+        GeomParam("link[2].A.x", 0.5),
+        GeomParam("link[2].A.y", 0.5),
+        GeomParam("link[3].A.x", 0.5),
+        GeomParam("link[3].A.y", 0.5),
+        GeomParam("link[1].next.x", 0.5),
+        GeomParam("link[2].next.x", 0.5),
+    ]
+    cal = calibrate_geometry(
+        start,
+        alpha,
+        None,
+        forces,
+        params,
+        force_sigma=0.05,
+        self_weight=True,
+        payload_fn=payload,
+    )
+    b0 = [float(cal.value[0]), float(cal.value[1])]
+    pub = seed2022_published_dict()
+    pub["base"]["B0"] = b0
+    published = Arm.from_dict(pub, source="seed2022 arm_published")
+    measured = cal.arm.to_dict()
+    measured["name"] = "seed2022"
+    measured["g"] = 9.81
+    measured["link"][2]["C"] = list(seed2022_published_dict()["link"][2]["C"])
+    for i, m in enumerate(SEED2022_ASSUMED_MASSES["link"]):
+        measured["link"][i]["mass_kg"] = m
+    for i, m in enumerate(SEED2022_ASSUMED_MASSES["actuator"]):
+        measured["actuator"][i]["mass_kg"] = m
+    calibrated = Arm.from_dict(measured, source="seed2022 arm")
+    return {"calibration": cal, "published": published, "calibrated": calibrated}
