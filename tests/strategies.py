@@ -273,6 +273,12 @@ def effect_value(draw: Any, arm: eodarm.Arm, name: str, at: str) -> eodarm.Effec
 
 
 @st.composite
+def effect_at(draw: Any, arm: eodarm.Arm, name: str, at: str) -> eodarm.Effect:
+    """One effect ``name`` at place ``at`` of ``arm`` with a plausible parameter."""
+    return effect_value(draw, arm, name, at)
+
+
+@st.composite
 def effects_for(
     draw: Any, arm: eodarm.Arm, kinds: tuple[str, ...] = ALL_KINDS, max_size: int = 6
 ) -> list[eodarm.Effect]:

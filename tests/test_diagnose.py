@@ -273,3 +273,20 @@ def test_cli_bad_input_exits_2_with_one_line(
     assert out.stdout == ""
     lines = out.stderr.strip().splitlines()
     assert len(lines) == 1 and needle in lines[0]
+
+
+def test_standard_errors_of_parameters_of_very_different_scale() -> None:
+    """θ of play (mm) and of bending (1/EI ~ 1e-9) fitted together: each error is right."""
+    arm = example_arm()
+    hidden = [
+        eodarm.Effect("actuator_play", "M3", play_mm=0.05),
+        eodarm.Effect("link_bending", "L2", ei_n_mm2=5e8),
+    ]
+    meas = synth(arm, configs(arm), MASSES, hidden=hidden, seed=8)
+    both = fit(arm, meas, ["actuator_play@M3", "link_bending@L2"])
+    se_play, se_bend = both.stderr(0), both.stderr(1)
+    # An unscaled covariance once reported ±1e-20 mm here; the truth is ~1e-4 mm.
+    assert 1e-5 < se_play < 1e-2, se_play
+    assert 0 < se_bend < 0.2 * 5e8
+    assert abs(both.estimate(0) - 0.05) < 5 * se_play
+    assert abs(both.estimate(1) - 5e8) < 5 * se_bend

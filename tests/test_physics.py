@@ -20,6 +20,7 @@ from strategies import (
     MAX_PAYLOAD_KG,
     arm_and_poses,
     arms,
+    effect_at,
     effects_for,
     measuring_at_load_point,
     payload_vectors,
@@ -378,12 +379,11 @@ def test_sensor_sees_the_actuator_body_only(case, self_weight, data) -> None:
     pin-to-pin length only."""
     arm, alpha, mass = case
     j = data.draw(st.integers(0, arm.n - 1), label="actuator index")
-    k_body = data.draw(st.floats(200.0, 20000.0), label="k_body")
-    k_mount = data.draw(st.floats(200.0, 20000.0), label="k_mount")
     effects = [
-        eodarm.Effect("actuator_compliance", f"M{j + 1}", stiffness_n_per_mm=k_body),
-        eodarm.Effect("mount_compliance", f"M{j + 1}", stiffness_n_per_mm=k_mount),
+        data.draw(effect_at(arm, "actuator_compliance", f"M{j + 1}"), label="body"),
+        data.draw(effect_at(arm, "mount_compliance", f"M{j + 1}"), label="mount"),
     ]
+    k_body, k_mount = effects[0].value, effects[1].value
     out = eodarm.solve(arm, alpha, mass, effects, self_weight=self_weight)
     k = np.array([a.stiffness_n_per_mm for a in arm.actuators])
     k[j] = k_body

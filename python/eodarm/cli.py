@@ -465,6 +465,25 @@ def _print_diagnosis(d: Any, arm: Arm, meas: Measurements) -> None:
         )
 
 
+def _cmd_datasets(args: argparse.Namespace) -> int:
+    from . import datasets
+
+    if args.action == "list":
+        for name in datasets.names():
+            ds = datasets.load(name)
+            print(f"{name}\t{ds.description}")
+        return 0
+    if args.action == "export":
+        if not args.name or not args.directory:
+            raise EodarmError("usage: eodarm datasets export NAME DIR")
+        written = datasets.export(args.name, args.directory)
+        for p in written:
+            print(p)
+        _note(f"wrote {len(written)} files of '{args.name}' to {args.directory}")
+        return 0
+    raise EodarmError(f"unknown datasets action '{args.action}'")
+
+
 def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog="eodarm",
@@ -564,6 +583,16 @@ def _parser() -> argparse.ArgumentParser:
     from .synth import add_parser as add_synth
 
     add_synth(sub)
+    ds = sub.add_parser(
+        "datasets",
+        help="bundled data sets: list, export",
+        description="List the bundled data sets, or export one (arm files, measurements, "
+        "the paper's tables and the provenance notes) into a directory.",
+    )
+    ds.add_argument("action", choices=("list", "export"))
+    ds.add_argument("name", nargs="?", help="data set name, e.g. seed2022")
+    ds.add_argument("directory", nargs="?", metavar="DIR", help="where to write (export)")
+    ds.set_defaults(func=_cmd_datasets)
     return p
 
 

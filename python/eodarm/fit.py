@@ -383,9 +383,14 @@ def fit(
         dof = max(prob.n_values - len(slots), 1)
         scale = max(1.0, chi2 / dof)
         if free.any():
+            # Scale the columns first: θ of different effects differ by 1e8 (mm vs 1/EI),
+            # and an unscaled pseudo-inverse would cut the small directions off.
             af = a[:, free]
-            cov = np.linalg.pinv(af.T @ af) * scale
-            stderr[free] = np.sqrt(np.clip(np.diag(cov), 0, None))
+            norms = np.linalg.norm(af, axis=0)
+            norms[norms == 0] = 1.0
+            an = af / norms
+            cov_n = np.linalg.pinv(an.T @ an) * scale
+            stderr[free] = np.sqrt(np.clip(np.diag(cov_n), 0, None)) / norms
         for i, s in enumerate(slots):
             if at_bound[i]:
                 # Half-normal bound: how far θ could go before χ² rises by 1.

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import math
 import os
+import textwrap
 from collections.abc import Mapping, Sequence
 from typing import Any, Literal
 
@@ -94,6 +95,12 @@ def channel_title(channel: str) -> str:
         "dalpha_deg": f"dα{k}: angle of link {k}",
         "dl_mm": f"dl{k}: body of actuator {k}",
     }[fam]
+
+
+def _source(meas: Measurements) -> str:
+    """The data's source, shortened to its last two path parts for titles."""
+    parts = str(meas.source).replace("\\", "/").split("/")
+    return "/".join(parts[-2:])
 
 
 def _short(channel: str) -> str:
@@ -297,7 +304,7 @@ def measured_vs_model(
         ys = np.concatenate([f.prediction[m, c] for f in fits.values()])
         xs = np.tile(x, len(fits))
         ax.legend(fontsize="small", loc=_free_corner(xs, ys, lim), framealpha=0.85)
-    fig.suptitle(f"Measured vs model ({meas.source}, {meas.n_rows} states; bars ±σ)")
+    fig.suptitle(f"Measured vs model ({_source(meas)}, {meas.n_rows} states; bars ±σ)")
     return _finish(fig, path)
 
 
@@ -415,7 +422,14 @@ def residual_vs_payload(
     if left_out:
         handles.append(Line2D([], [], ls="none", marker="o", ms=10, mfc="none", mec="k"))
         names.append("left out of the fit (outlier)")
-    fig.legend(handles, names, loc="outside lower center", ncols=2, fontsize="small")
+    names = [textwrap.fill(nm, 70) for nm in names]
+    fig.legend(
+        handles,
+        names,
+        loc="outside lower center",
+        ncols=1 if max(map(len, names)) > 60 else 2,
+        fontsize="small",
+    )
     title = f"Residual of {_short(ch)} (measured − model) against payload, per configuration"
     if symlog:
         title += f"\ny axis linear within ±3σ (±{_num(3 * s0, 2)} {unit}), logarithmic beyond"
@@ -557,7 +571,7 @@ def ladder(
     h2, l2 = ax2.get_legend_handles_labels()
     ax.legend(h1 + h2, l1 + l2, fontsize="small", loc="upper right", framealpha=0.9)
     ax.set_title(f"Error ladder: {_short(channel)} as effects are added")
-    ax.set_xlabel("model (each step adds one effect; all parameters refitted)")
+    ax.set_xlabel("model (each step adds effects to the previous one; all parameters refitted)")
     return _finish(fig, path)
 
 
@@ -610,7 +624,11 @@ def deflection_share(
     total = dy(effects)
 
     k = len(labels)
-    width = min(14.0, max(6.5, 0.55 * k + 4.0))
+    # the legend sits below the axes: the figure must be as wide as its longest entry
+    # (about 0.075 in a character at "small" size), two entries a row when they fit
+    entry = 0.075 * max(len(name) for name, _, _ in parts) + 0.6
+    width = min(14.0, max(6.5, 0.55 * k + 4.0, entry + 0.4))
+    legend_cols = 2 if 2 * entry <= width - 0.3 else 1
     fig = _figure(width, 4.8)
     ax = fig.add_subplot()
     x = np.arange(k, dtype=float)
@@ -656,7 +674,7 @@ def deflection_share(
         [*(str(h.get_label()) for h in handles), str(marker.get_label())],
         loc="outside lower center",
         fontsize="small",
-        ncols=1 if len(parts) > 3 else 2,
+        ncols=legend_cols,
     )
     sw = "with" if self_weight else "without"
     ax.set_title(
