@@ -49,6 +49,8 @@ PHI_RANGE = (35.0, 145.0)
 #: An actuator stiffness that does not deform measurably (N/mm).
 RIGID = 1e18
 
+#: Default number of links of a random arm.
+LINK_COUNTS = st.integers(1, 4)
 ELASTIC = ("actuator_compliance", "mount_compliance", "link_bending", "base_compliance")
 ALL_KINDS = tuple(eodarm.CATALOGUE)
 
@@ -69,7 +71,7 @@ def _rot(theta: float, v: np.ndarray) -> np.ndarray:
 
 # ---------------------------------------------------------------------------- arms
 @st.composite
-def arm_dicts(draw: Any, n: int | SearchStrategy[int] = st.integers(1, 4)) -> dict[str, Any]:
+def arm_dicts(draw: Any, n: int | SearchStrategy[int] = LINK_COUNTS) -> dict[str, Any]:
     """A valid arm as the dict of its arm file (see :func:`arms`)."""
     n_links = draw(n) if isinstance(n, SearchStrategy) else int(n)
     o1 = [draw(_f(-100.0, 100.0)), draw(_f(-100.0, 100.0))]
@@ -110,7 +112,7 @@ def arm_dicts(draw: Any, n: int | SearchStrategy[int] = st.integers(1, 4)) -> di
     return d
 
 
-def arms(n: int | SearchStrategy[int] = st.integers(1, 4)) -> SearchStrategy[eodarm.Arm]:
+def arms(n: int | SearchStrategy[int] = LINK_COUNTS) -> SearchStrategy[eodarm.Arm]:
     """Random valid arms of ``n`` links, built with :meth:`eodarm.Arm.from_dict`.
 
     Their stiffnesses are as drawn; for loads use :func:`arm_and_poses`, which makes them

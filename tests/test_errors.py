@@ -4,8 +4,9 @@ from both backends, and the compiled core never panics across the boundary (CONT
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
 import numpy as np
 import pytest
@@ -24,7 +25,7 @@ def refused(fn: Callable[..., Any], *args: Any, **kwargs: Any) -> str:
         fn(*args, **kwargs)
     except (KeyboardInterrupt, SystemExit):
         raise
-    except BaseException as exc:  # noqa: BLE001 - a PanicException is a BaseException
+    except BaseException as exc:  # a PanicException is a BaseException, not an Exception
         assert type(exc).__name__ != "PanicException", f"the core panicked: {exc}"
         assert isinstance(exc, ValueError), f"{type(exc).__name__}: {exc}"
         msg = str(exc)
@@ -61,7 +62,7 @@ def singular_angle(arm: eodarm.Arm, alpha: list[float], i: int) -> float:
 
 # ---------------------------------------------------------------------------- arm files
 def test_bad_toml_syntax_names_the_file(tmp_path: Path) -> None:
-    path = write_arm(tmp_path, edit(EXAMPLE_TEXT, 'B0 = [250.0, -40.0]', "B0 = [250.0, -40.0"))
+    path = write_arm(tmp_path, edit(EXAMPLE_TEXT, "B0 = [250.0, -40.0]", "B0 = [250.0, -40.0"))
     msg = refused(eodarm.Arm.from_toml, path)
     assert str(path) in msg and "TOML" in msg
 
@@ -139,9 +140,7 @@ def test_nan_angle_names_the_row(arm: eodarm.Arm, backend: str) -> None:
     alpha[2, 1] = np.inf
     assert "pose row 2" in refused(eodarm.solve, arm, alpha, 2.0, backend=backend)
     assert "pose row 2" in refused(eodarm.forward, arm, alpha, backend=backend)
-    assert "pose row 2" in refused(
-        eodarm.solve_payload, arm, alpha, [0.0, -10.0], backend=backend
-    )
+    assert "pose row 2" in refused(eodarm.solve_payload, arm, alpha, [0.0, -10.0], backend=backend)
 
 
 @pytest.mark.parametrize("backend", BACKENDS)
@@ -300,8 +299,13 @@ def test_effect_beyond_the_arm(arm: eodarm.Arm, backend: str) -> None:
 
 @pytest.mark.parametrize(
     ("name", "at"),
-    [("joint_clearance", "M1"), ("actuator_play", "O1"), ("base_compliance", "O1"),
-     ("link_bending", "L0"), ("mount_compliance", "Mx")],
+    [
+        ("joint_clearance", "M1"),
+        ("actuator_play", "O1"),
+        ("base_compliance", "O1"),
+        ("link_bending", "L0"),
+        ("mount_compliance", "Mx"),
+    ],
 )
 def test_effect_at_a_wrong_kind_of_place(name: str, at: str) -> None:
     param = eodarm.CATALOGUE[name].param
@@ -433,14 +437,24 @@ def test_negative_length_is_refused(arm: eodarm.Arm, backend: str) -> None:
 
 @pytest.mark.parametrize("backend", BACKENDS)
 def test_inverse_kinematics_input_errors(arm: eodarm.Arm, backend: str) -> None:
-    msg = refused(eodarm.inverse_kinematics, arm, [[600.0, 500.0, 0.0], [np.nan, 0, 0]], backend=backend)
+    msg = refused(
+        eodarm.inverse_kinematics, arm, [[600.0, 500.0, 0.0], [np.nan, 0, 0]], backend=backend
+    )
     assert "pose row 1" in msg and "target" in msg
-    assert "elbow" in refused(eodarm.inverse_kinematics, arm, [[600.0, 500.0, 0.0]], 0, backend=backend)
+    assert "elbow" in refused(
+        eodarm.inverse_kinematics, arm, [[600.0, 500.0, 0.0]], 0, backend=backend
+    )
     two = eodarm.Arm.from_dict(
         {
             "base": {"O1": [0.0, 0.0], "B0": [200.0, -100.0]},
             "link": [
-                {"next": [400.0, 0.0], "A": [90.0, 40.0], "B": [-40.0, -40.0], "C": [200.0, 0.0], "mass_kg": 1.0},
+                {
+                    "next": [400.0, 0.0],
+                    "A": [90.0, 40.0],
+                    "B": [-40.0, -40.0],
+                    "C": [200.0, 0.0],
+                    "mass_kg": 1.0,
+                },
                 {"next": [300.0, 0.0], "A": [60.0, -30.0], "C": [150.0, 0.0], "mass_kg": 1.0},
             ],
             "actuator": [{"stiffness_n_per_mm": 1000.0, "mass_kg": 0.0}] * 2,

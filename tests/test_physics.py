@@ -276,7 +276,9 @@ def test_actuator_play_changes_pin_length_by_at_most_p(case, self_weight, p, dat
     extra = out["dlength_mm"] - out["dl_mm"]
     atol = 1e-12 * out["length_mm"].max()  # dlength is ℓ′ − ℓ, rounded at ~1e-14 of ℓ
     assert (np.abs(extra) <= p + atol).all()
-    np.testing.assert_allclose(extra[:, j], -p * np.where(np.abs(out["force_n"][:, j]) < 1e-9, 0.0, np.sign(out["force_n"][:, j])), rtol=0, atol=atol)
+    # −p·sign(F_j, loaded), with sign(0) = 0 (an unloaded actuator has no side of its play)
+    expect = -p * np.sign(out["force_n"][:, j])
+    np.testing.assert_allclose(extra[:, j], expect, rtol=0, atol=atol)
     others = [i for i in range(arm.n) if i != j]
     np.testing.assert_allclose(extra[:, others], 0.0, atol=atol)
 

@@ -9,6 +9,7 @@ format (``measurements.csv``).
 
 from __future__ import annotations
 
+import dataclasses
 import shutil
 from dataclasses import dataclass, field
 from importlib import resources
@@ -87,7 +88,9 @@ def load(name: str = "seed2022") -> Dataset:
     arm = Arm.from_toml(root / "arm.toml")
     published = Arm.from_toml(root / "arm_published.toml")
     tables = {p.stem: pd.read_csv(p) for p in sorted(root.glob("table*.csv"))}
-    meas = read_measurements(root / "measurements.csv", arm.n)
+    meas = dataclasses.replace(
+        read_measurements(root / "measurements.csv", arm.n), source=f"{name}/measurements.csv"
+    )
     return Dataset(name, _DESCRIPTIONS[name], root, arm, published, meas, tables)
 
 

@@ -97,6 +97,13 @@ class Diagnosis:
     p_baseline: float
     sets_searched: int
 
+    @property
+    def suggested_explains(self) -> bool:
+        """Whether the suggested set explains the data within their noise (χ² p ≥ 0.001);
+        otherwise it is the set the information criterion (BIC) prefers."""
+        f = self.suggested_fit
+        return f is not None and _chi2_sf(f.chi2, f.dof) >= P_PASS
+
     def to_json(self) -> dict[str, Any]:
         return {
             "model": [s.key for s in self.model],

@@ -536,11 +536,17 @@ def ladder(
                 zorder=6,
             )
     ax.set_ylabel(f"RMS of {_short(channel)} residual [{unit}]")
-    ax.set_xticks(x, [f"{lb}\nχ²/dof {_num(v)}" for lb, v in zip(labels, chi, strict=True)])
-    if long:
-        ax.tick_params(axis="x", labelrotation=25)
-        for t in ax.get_xticklabels():
-            t.set_horizontalalignment("right")
+    # Long labels ("+ a@M1 + b@M2 + c@M3") are wrapped at the "+" into lines, never rotated:
+    # a rotated label of 70 characters takes more room than the plot.
+    width = max(14, int(90 / max(len(steps), 1)))
+
+    def wrap(lb: str) -> str:
+        if len(lb) <= width:
+            return lb
+        words = lb.replace(" + ", " +\u00a0").split(" ")
+        return textwrap.fill(" ".join(words), width).replace("\u00a0", " ")
+
+    ax.set_xticks(x, [f"{wrap(lb)}\nχ²/dof {_num(v)}" for lb, v in zip(labels, chi, strict=True)])
     ax.set_xlim(-0.45, len(steps) - 0.55)
     ax.grid(True, lw=0.4, alpha=0.5)
 

@@ -49,7 +49,8 @@ body { font-family: "DejaVu Sans", Helvetica, Arial, sans-serif; color: #222;
 h1 { font-size: 1.6em; border-bottom: 3px solid #1f77b4; padding-bottom: .2em; }
 h2 { font-size: 1.25em; margin-top: 2em; border-bottom: 1px solid #ccc; }
 h3 { font-size: 1.05em; margin-bottom: .3em; }
-table { border-collapse: collapse; margin: .5em 0 1em 0; font-size: .9em; }
+table { border-collapse: collapse; margin: .5em 0 1em 0; font-size: .9em; display: block;
+        overflow-x: auto; max-width: 100%; }
 th, td { border: 1px solid #ccc; padding: .25em .6em; text-align: left; vertical-align: top; }
 th { background: #f0f3f7; }
 td.num { text-align: right; font-variant-numeric: tabular-nums; white-space: nowrap; }
@@ -152,9 +153,11 @@ def _num(x: float, digits: int = 4) -> str:
     return f"{x:.{digits}g}"
 
 
-def _param(param: str, unit: str, value: float) -> str:
+def _param(param: str, unit: str, value: float, name: str = "") -> str:
     if not math.isfinite(value):
-        return f"{param} = ∞ (rigid: absent)"
+        # θ = 0: for an actuator body that is a rigid body, for anything else no effect.
+        what = "rigid body" if name == "actuator_compliance" else "rigid: absent"
+        return f"{param} = ∞ ({what})"
     return f"{param} = {_num(value)} {unit}"
 
 
@@ -217,7 +220,7 @@ def _row(left: str, right: str) -> str:
 def _estimate(cand: Candidate) -> str:
     i = cand.fit.slots.index(cand.slot)
     kind = cand.slot.kind
-    return _param(kind.param, kind.unit, cand.fit.estimate(i))
+    return _param(kind.param, kind.unit, cand.fit.estimate(i), cand.slot.name)
 
 
 def _nice_scale(max_dalpha_deg: float, target_deg: float = 8.0) -> float:
@@ -260,6 +263,9 @@ def write_report(
     cv: Mapping[str, Any] | bool | None = None,
     title: str | None = None,
     extra_sections: Sequence[tuple[str, str]] | None = None,
+    final_fit: FitResult | None = None,
+    rounds: Sequence[Diagnosis] | None = None,
+    intro_html: str | None = None,
 ) -> Path:
     """Write the diagnosis as one self-contained HTML file.
 
@@ -275,6 +281,11 @@ def write_report(
     title : the page title; default ``"eodarm diagnosis: <arm> / <source>"``.
     extra_sections : ``(heading, html)`` pairs appended at the end; the heading is escaped,
         the html is inserted as given.
+    final_fit : the model the report ends with, when it is not the first diagnosis's
+        suggested set (e.g. after several rounds, :func:`eodarm.workflow.investigate`); the
+        fitted model, residual and share sections then show it, and ``cv`` belongs to it.
+    rounds : every round of diagnosis (the first is ``diagnosis``), summarised in a table.
+    intro_html : a paragraph shown under the title (inserted as given).
 
     Returns
     -------
@@ -284,7 +295,7 @@ def write_report(
     from . import plots
 
     base = diagnosis.baseline
-    best = diagnosis.suggested_fit
+    best = final_fit if final_fit is not None else diagnosis.suggested_fit
     final = best if best is not None else base
     self_weight = base.problem.self_weight
     main = plots.main_channel(meas, base)
@@ -314,10 +325,14 @@ def write_report(
         )
         + "</p>",
     ]
+    if intro_html:
+        parts.append(intro_html)
     parts += _data_section(arm, meas, self_weight)
     parts += _baseline_section(meas, diagnosis, main)
     parts += _diagnosis_section(meas, diagnosis, main, unit)
-    parts += _fitted_section(meas, diagnosis, cv)
+    if rounds and len(rounds) > 1:
+        parts += _rounds_section(rounds, main)
+    parts += _fitted_section(meas, diagnosis, cv, final_fit)
     if steps:
         parts += _ladder_section(steps, main, unit)
     parts += _residual_section(meas, base, final, main)
@@ -436,11 +451,19 @@ def _diagnosis_section(meas: Measurements, d: Diagnosis, main: str, unit: str) -
             "The baseline explains the data within their noise and no candidate improves it "
             "significantly: nothing is missing."
         )
-    elif d.suggested:
+    elif d.suggested and d.suggested_explains:
         story = (
             "The baseline does not explain the data. The smallest set of effects that does "
             f"(searched over {d.sets_searched} sets, not just the top of the ranking) is "
             f"<b>{_e(', '.join(sorted(sugg, key=[s.key for s in d.suggested].index)))}</b>."
+        )
+    elif d.suggested:
+        story = (
+            "The baseline does not explain the data, and no set of up to three effects explains "
+            f"it within the noise (searched over {d.sets_searched} sets). Of those sets, the "
+            "information criterion (BIC: χ² + k ln N) prefers "
+            f"<b>{_e(', '.join(sorted(sugg, key=[s.key for s in d.suggested].index)))}</b>; "
+            "more is missing than one round can add (see the further rounds below)."
         )
     else:
         story = "The baseline does not explain the data, and no set of candidates does better."
@@ -528,8 +551,13 @@ def _diagnosis_section(meas: Measurements, d: Diagnosis, main: str, unit: str) -
     return out
 
 
-def _fitted_section(meas: Measurements, d: Diagnosis, cv: Mapping[str, Any] | None) -> list[str]:
-    best = d.suggested_fit
+def _fitted_section(
+    meas: Measurements,
+    d: Diagnosis,
+    cv: Mapping[str, Any] | None,
+    final: FitResult | None = None,
+) -> list[str]:
+    best = final if final is not None else d.suggested_fit
     out = ["<h2>4. The fitted model</h2>"]
     if best is None:
         out.append("<p>No effect is suggested; the baseline stands as it is.</p>")
@@ -595,6 +623,32 @@ def _fitted_section(meas: Measurements, d: Diagnosis, cv: Mapping[str, Any] | No
             '<p class="warn">' + "<br>".join(_e(w) for w in best.warnings) + "</p>",
         )
     return out
+
+
+def _rounds_section(rounds: Sequence[Diagnosis], main: str) -> list[str]:
+    rows = []
+    for i, d in enumerate(rounds):
+        top = ", ".join(c.slot.key for c in d.ranking[:3])
+        rows.append(
+            [
+                str(i + 1),
+                ", ".join(s.key for s in d.model) or "baseline",
+                _Num(d.baseline.chi2_per_dof),
+                _Num(d.baseline.rms().get(main, math.nan), 4),
+                d.verdict,
+                ", ".join(s.key for s in d.suggested) or "—",
+                top,
+            ]
+        )
+    return [
+        "<h2>3b. Further rounds</h2>",
+        "<p>One diagnosis searches sets of up to three effects. Each further round adds the "
+        "suggested set to the model, refits, and diagnoses again.</p>",
+        _table(
+            ["round", "model", "χ²/dof", f"RMS {main}", "verdict", "suggested", "best alone"],
+            rows,
+        ),
+    ]
 
 
 def _ladder_section(steps: Sequence[Mapping[str, Any]], main: str, unit: str) -> list[str]:
