@@ -290,3 +290,29 @@ def test_standard_errors_of_parameters_of_very_different_scale() -> None:
     assert 0 < se_bend < 0.2 * 5e8
     assert abs(both.estimate(0) - 0.05) < 5 * se_play
     assert abs(both.estimate(1) - 5e8) < 5 * se_bend
+
+
+def test_cli_compare_writes_every_residual(two_hidden_csv: str, tmp_path: Path) -> None:
+    res = tmp_path / "res.csv"
+    out = run_cli(
+        "compare",
+        two_hidden_csv,
+        "--arm",
+        str(ARMS_FILE),
+        "--add",
+        "joint_clearance@O2",
+        "--add",
+        "mount_compliance@M1",
+        "--residuals",
+        str(res),
+        "--json",
+    )
+    assert out.returncode == 0, out.stderr
+    doc = json.loads(out.stdout)
+    table = np.genfromtxt(res, delimiter=",", names=True, dtype=None, encoding="utf-8")
+    meas = eodarm.read_measurements(two_hidden_csv, 3)
+    assert len(table) == meas.n_rows
+    # each residual is measured minus model, and their RMS is the one reported
+    np.testing.assert_allclose(table["residual_dy_mm"], table["dy_mm"] - table["model_dy_mm"])
+    rms = float(np.sqrt(np.mean(table["residual_dy_mm"] ** 2)))
+    assert rms == pytest.approx(doc["rms"]["dy_mm"], rel=1e-9)

@@ -271,6 +271,9 @@ def _cmd_compare(args: argparse.Namespace) -> int:
     }
     if res.slots:
         doc["estimate"] = res.summary()["effects"]
+    if args.residuals:
+        _write_residuals(args.residuals, res, flagged)
+        _note(f"wrote every row's residuals to {args.residuals}")
     if args.json:
         print(json.dumps(doc))
     else:
@@ -314,6 +317,37 @@ def _cmd_compare(args: argparse.Namespace) -> int:
             )
     _plots(args.plot, meas, base, res, fixed + list(res.effects), arm, sw)
     return 0
+
+
+def _write_residuals(path: str, res: FitResult, flagged: Any) -> None:
+    """Every state's measured value, model value, residual and z for each measured channel."""
+    import csv
+
+    meas = res.problem.meas
+    chans = list(meas.measured_channels)
+    cols = [meas.channels.index(ch) for ch in chans]
+    with open(path, "w", newline="", encoding="utf-8") as fh:
+        wr = csv.writer(fh)
+        head = ["line", "config", "mass_kg"]
+        for ch in chans:
+            head += [ch, f"model_{ch}", f"residual_{ch}", f"z_{ch}", f"outlier_{ch}"]
+        wr.writerow(head)
+        z = res.z
+        for r in range(meas.n_rows):
+            row: list[Any] = [int(meas.line[r]), str(meas.config[r]), float(meas.mass_kg[r])]
+            for c in cols:
+                v = meas.values[r, c]
+                if np.isfinite(v):
+                    row += [
+                        repr(float(v)),
+                        repr(float(res.prediction[r, c])),
+                        repr(float(v - res.prediction[r, c])),
+                        f"{z[r, c]:.4g}",
+                        int(bool(flagged[r, c])),
+                    ]
+                else:
+                    row += ["", repr(float(res.prediction[r, c])), "", "", ""]
+            wr.writerow(row)
 
 
 def _cmd_fit(args: argparse.Namespace) -> int:
@@ -615,6 +649,11 @@ def _parser() -> argparse.ArgumentParser:
         action="append",
         metavar="EFFECT@PLACE[=VALUE]",
         help="an effect in the model: fixed at VALUE, or fitted without one",
+    )
+    c.add_argument(
+        "--residuals",
+        metavar="FILE.csv",
+        help="write every row's measured, model, residual and z for each channel",
     )
     c.set_defaults(func=_cmd_compare)
     c = data_cmd(
