@@ -56,7 +56,7 @@ def assert_same(rust: dict[str, np.ndarray], ref: dict[str, np.ndarray], keys: s
 
 
 # ---------------------------------------------------------------------------- solve
-@settings(max_examples=250, deadline=None)
+@settings(max_examples=500, deadline=None)
 @given(case=arm_and_poses(), self_weight=st.booleans(), data=st.data())
 def test_solve_rust_equals_numpy(case, self_weight, data) -> None:
     arm, alpha, mass = case
@@ -69,7 +69,7 @@ def test_solve_rust_equals_numpy(case, self_weight, data) -> None:
     assert rust["dx_mm"].shape == (n_rows,)
 
 
-@settings(max_examples=120, deadline=None)
+@settings(max_examples=250, deadline=None)
 @given(case=arm_and_poses(), self_weight=st.booleans(), data=st.data())
 def test_solve_payload_any_direction_rust_equals_numpy(case, self_weight, data) -> None:
     arm, alpha, _ = case

@@ -228,20 +228,7 @@ def test_loaded_triangle_that_cannot_close_names_row_and_actuator(backend: str) 
     "backend",
     [
         "rust",
-        pytest.param(
-            "numpy",
-            marks=pytest.mark.xfail(
-                strict=True,
-                reason=(
-                    "BUG: the numpy reference does not check for coincident actuator pins: "
-                    "reference._unit_and_check divides by ℓ = 0 (RuntimeWarning 'invalid value "
-                    "in divide'), its singular test |h| < tol is False for NaN, and the pose "
-                    "then fails later with a misleading 'cannot close its triangle' (or, for "
-                    "ℓ ~ 1e-15, returns finite garbage); the Rust core refuses it as "
-                    "'actuator 1 has coincident pins'"
-                ),
-            ),
-        ),
+        "numpy",
     ],
 )
 def test_pose_with_coincident_actuator_pins_is_refused(backend: str) -> None:
@@ -258,15 +245,6 @@ def test_pose_with_coincident_actuator_pins_is_refused(backend: str) -> None:
     assert "close" not in msg  # the cause is the pose, not a load
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason=(
-        "BUG: the backends refuse different poses as singular. docs/model.md §3 and the numpy "
-        "reference refuse |h_i| < 1e-9·ℓ_i·|A_i − O_i| (mm², dimensionally odd), the Rust core "
-        "(statics.rs, SINGULAR_TOL) refuses |h_i| < 1e-9·|A_i − O_i|; for 1e-9 < |h|/|A−O| < "
-        "1e-9·ℓ (ℓ in mm) numpy raises and Rust returns forces of ~1e8× the normal size"
-    ),
-)
 def test_both_backends_refuse_the_same_nearly_singular_pose(arm: eodarm.Arm) -> None:
     bad = list(GOOD_POSE)
     bad[0] = singular_angle(arm, bad, 0) + math.degrees(5e-8)  # |h| ≈ 3e-8·|A1 − O1|
@@ -374,29 +352,16 @@ def test_unknown_backend_in_solve(arm: eodarm.Arm) -> None:
     assert "'Rust'" in msg
 
 
-UNCHECKED_BACKEND = pytest.mark.xfail(
-    strict=True,
-    reason=(
-        "BUG: forward, angles_from_lengths and inverse_kinematics (solver.py) do not check "
-        "`backend`: any other string silently runs the numpy reference (forward, "
-        "angles_from_lengths) or the Rust core (inverse_kinematics), unlike solve"
-    ),
-)
-
-
-@UNCHECKED_BACKEND
 def test_unknown_backend_in_forward(arm: eodarm.Arm) -> None:
     assert "'fortran'" in refused(eodarm.forward, arm, [GOOD_POSE], backend="fortran")
 
 
-@UNCHECKED_BACKEND
 def test_unknown_backend_in_angles_from_lengths(arm: eodarm.Arm) -> None:
     lengths = eodarm.forward(arm, [GOOD_POSE])["length_mm"]
     msg = refused(eodarm.angles_from_lengths, arm, lengths, GOOD_POSE, backend="fortran")
     assert "'fortran'" in msg
 
 
-@UNCHECKED_BACKEND
 def test_unknown_backend_in_inverse_kinematics(arm: eodarm.Arm) -> None:
     msg = refused(eodarm.inverse_kinematics, arm, [[600.0, 500.0, 0.0]], backend="fortran")
     assert "'fortran'" in msg
@@ -414,17 +379,7 @@ def test_lengths_that_cannot_close_name_row_and_actuator(arm: eodarm.Arm, backen
 @pytest.mark.parametrize(
     "backend",
     [
-        pytest.param(
-            "rust",
-            marks=pytest.mark.xfail(
-                strict=True,
-                reason=(
-                    "BUG: the Rust core's angles_from_lengths accepts negative lengths: "
-                    "close_triangle only uses len², so −ℓ returns the pose of +ℓ; the numpy "
-                    "reference refuses 'length_mm of actuator K must be > 0'"
-                ),
-            ),
-        ),
+        "rust",
         "numpy",
     ],
 )

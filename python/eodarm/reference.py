@@ -193,10 +193,16 @@ def _unit_and_check(
     n = geo["A"].shape[1]
     d = geo["A"] - geo["B"]
     ell = geo["length_mm"]
-    e = d / ell[..., None]
     r = geo["A"] - geo["O"][:, :n]
+    r_norm = np.linalg.norm(r, axis=-1)
+    zero = ~(ell > 1e-12 * (1.0 + r_norm))
+    if zero.any():
+        row, i = _first_row(zero)
+        raise InputError(f"pose row {row}: actuator {i + 1} has coincident pins (zero length)")
+    e = d / ell[..., None]
     h = _cross(r, e)
-    bad = np.abs(h) < SINGULAR_RTOL * ell * np.linalg.norm(r, axis=-1)
+    # |h| is a length (mm): compared with the pin's distance |A − O|, a dimensionless test.
+    bad = ~(np.abs(h) >= SINGULAR_RTOL * r_norm)
     if bad.any():
         row, i = _first_row(bad)
         raise InputError(

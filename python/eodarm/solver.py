@@ -98,11 +98,10 @@ def solve_payload(
         from . import _core
 
         return _core.solve(_core_arm(arm), alpha, payload, codes, places, values, self_weight)
-    if backend == "numpy":
-        from . import reference
+    _check_backend(backend)
+    from . import reference
 
-        return reference.solve_payload(arm, alpha, payload, effs, self_weight=self_weight)
-    raise InputError(f"backend must be 'rust' or 'numpy', got {backend!r}")
+    return reference.solve_payload(arm, alpha, payload, effs, self_weight=self_weight)
 
 
 def forward(arm: Arm, alpha_deg: npt.ArrayLike, backend: Backend = "rust") -> Arrays:
@@ -113,6 +112,7 @@ def forward(arm: Arm, alpha_deg: npt.ArrayLike, backend: Backend = "rust") -> Ar
     ``C`` (N, n, 2): centres of mass; ``measure`` (N, 2); ``length_mm`` (N, n) pin-to-pin.
     """
     alpha = _poses(alpha_deg, arm.n, "alpha_deg")
+    _check_backend(backend)
     if backend == "rust":
         from . import _core
 
@@ -137,6 +137,7 @@ def angles_from_lengths(
     ref = _poses(alpha_ref_deg, arm.n, "alpha_ref_deg")
     if ref.shape[0] == 1 and length.shape[0] != 1:
         ref = np.ascontiguousarray(np.broadcast_to(ref, length.shape))
+    _check_backend(backend)
     if backend == "rust":
         from . import _core
 
@@ -164,6 +165,7 @@ def inverse_kinematics(
     ``alpha_deg`` (N, 3) (NaN where unreachable), ``length_mm`` (N, 3) and ``reachable`` (N,).
     """
     t = _poses(target, 3, "target")
+    _check_backend(backend)
     if elbow not in (-1, 1):
         raise InputError(f"elbow must be -1 or +1, got {elbow!r}")
     if arm.n != 3:
@@ -195,6 +197,11 @@ def stroke_violations(arm: Arm, length_mm: npt.ArrayLike) -> npt.NDArray[np.int8
 
 
 # ---------------------------------------------------------------------------- helpers
+def _check_backend(backend: str) -> None:
+    if backend not in ("rust", "numpy"):
+        raise InputError(f"backend must be 'rust' or 'numpy', got {backend!r}")
+
+
 def _poses(values: npt.ArrayLike, n: int, name: str) -> npt.NDArray[np.float64]:
     """(N, n) contiguous float64, or a clear InputError naming the shape or the row."""
     try:

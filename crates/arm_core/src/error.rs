@@ -60,7 +60,8 @@ pub enum ArmError {
     },
     /// The actuator triangle cannot be closed with the requested pin-to-pin length.
     #[error(
-        "pose row {row}: actuator {actuator} cannot close its triangle with length {length:.6} mm"
+        "pose row {row}: actuator {actuator} cannot close its triangle with length {} mm",
+        fmt_mm(*.length)
     )]
     Unreachable {
         /// 0-based row.
@@ -91,6 +92,15 @@ impl ArmError {
             self,
             Self::Singular { .. } | Self::ZeroLength { .. } | Self::Unreachable { .. }
         )
+    }
+}
+
+/// A length for a message: fixed point when sensible, scientific when absurd (1e300 mm).
+fn fmt_mm(x: f64) -> String {
+    if x.is_finite() && x.abs() < 1e6 {
+        format!("{x:.6}")
+    } else {
+        format!("{x:.3e}")
     }
 }
 

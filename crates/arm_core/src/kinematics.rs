@@ -117,6 +117,16 @@ pub fn angles_from_lengths(
     let mut o = arm.o1;
     let mut base_pin = arm.b0;
     for (i, link) in arm.links.iter().enumerate() {
+        if !(length[i] > 0.0) {
+            return Err(ArmError::OutOfRange {
+                row,
+                what: format!(
+                    "length_mm of actuator {} must be > 0, got {}",
+                    i + 1,
+                    length[i]
+                ),
+            });
+        }
         let side = reference.side(i);
         let theta = close_triangle(base_pin - o, link.a.norm(), length[i], side).ok_or(
             ArmError::Unreachable {
