@@ -117,7 +117,7 @@ pub fn angles_from_lengths(
     let mut o = arm.o1;
     let mut base_pin = arm.b0;
     for (i, link) in arm.links.iter().enumerate() {
-        if !(length[i] > 0.0) {
+        if length[i].is_nan() || length[i] <= 0.0 {
             return Err(ArmError::OutOfRange {
                 row,
                 what: format!(
