@@ -1,10 +1,23 @@
 """Type stubs of the private native module ``eodarm._core`` (built from crates/arm_py)."""
 
+from typing import final
+
 import numpy as np
 import numpy.typing as npt
 
+__all__ = [
+    "CoreArm",
+    "CoreError",
+    "angles_from_lengths",
+    "forward",
+    "inverse_kinematics",
+    "jacobian",
+    "solve",
+]
+
 class CoreError(ValueError): ...
 
+@final
 class CoreArm:
     def __new__(
         cls,

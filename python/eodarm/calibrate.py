@@ -126,7 +126,7 @@ class Calibration:
 def calibrate_geometry(
     arm: Arm,
     alpha_deg: npt.ArrayLike,
-    payload_n: npt.ArrayLike,
+    payload_n: npt.ArrayLike | None,
     force_n: npt.ArrayLike,
     params: Sequence[GeomParam],
     force_sigma: float = 0.05,
@@ -172,7 +172,12 @@ def calibrate_geometry(
 
     def forces(x: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
         a = build(x)
-        pay = payload_fn(a) if payload_fn is not None else np.asarray(payload_n, dtype=float)
+        if payload_fn is not None:
+            pay = payload_fn(a)
+        elif payload_n is not None:
+            pay = np.asarray(payload_n, dtype=float)
+        else:
+            raise EodarmError("calibration: give payload_n or payload_fn")
         return solve_payload(a, alpha, pay, [], self_weight=self_weight)["force_n"]
 
     def resid(x: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
