@@ -35,7 +35,7 @@ import numpy.typing as npt
 from .arm import Arm
 from .effects import CATALOGUE, candidate_places
 from .errors import EodarmError
-from .fit import FitResult, FitWarning, Problem, Slot, fit, outlier_table
+from .fit import FitResult, FitWarning, Problem, Slot, fit, outlier_table, peel_outliers
 from .measurements import Measurements, default_sigma
 
 __all__ = ["Candidate", "Diagnosis", "all_slots", "diagnose"]
@@ -223,26 +223,18 @@ def _without_outliers(
     Accepted only if, with at most 2 % of the values left out, the best model then explains
     the rest within the noise; otherwise the first diagnosis stands and nothing is flagged.
     """
-    current = first
-    mask = np.zeros(meas.values.shape, dtype=bool)
-    budget = max(1, int(0.02 * first.baseline.problem.n_values))
-    for _ in range(budget):
-        best = current.suggested_fit or current.baseline
-        z = np.abs(best.z)
-        z[~best.problem.use] = 0.0
-        worst = np.unravel_index(int(np.argmax(np.nan_to_num(z))), z.shape)
-        if not z[worst] > OUTLIER_Z:
-            break
-        mask[worst] = True
-        current = _diagnose_pass(
-            arm, meas, model_slots, self_weight, max_set, candidates, refine_per_size, mask
-        )
+    current, mask = peel_outliers(
+        first,
+        lambda m: _diagnose_pass(
+            arm, meas, model_slots, self_weight, max_set, candidates, refine_per_size, m
+        ),
+        lambda d: d.suggested_fit or d.baseline,
+        OUTLIER_Z,
+        0.02,
+    )
     if not mask.any():
         return first, []
-    best = current.suggested_fit or current.baseline
-    if _chi2_sf(best.chi2, best.dof) < P_PASS:
-        return first, []
-    return current, outlier_table(best, mask)
+    return current, outlier_table(current.suggested_fit or current.baseline, mask)
 
 
 def _diagnose_pass(

@@ -22,9 +22,9 @@ from __future__ import annotations
 
 import math
 import warnings
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 import numpy.typing as npt
@@ -46,6 +46,8 @@ __all__ = [
     "param_from_theta",
     "theta_from_param",
 ]
+
+T = TypeVar("T")
 
 THETA_MAX = {"actuator_play": 5.0, "joint_clearance": 5.0}
 
@@ -437,23 +439,49 @@ def robust_fit(
     model that is wrong everywhere is not "cleaned" into agreement. Returns the fit and the
     (N, C) mask of left-out cells (all False when none).
     """
+    res = fit(arm, meas, list(effects), self_weight=self_weight)
+    return peel_outliers(
+        res,
+        lambda mask: fit(arm, meas, list(effects), self_weight=self_weight, exclude=mask),
+        lambda r: r,
+        z_max,
+        share,
+    )
+
+
+def peel_outliers(
+    first: T,
+    refit: Callable[[npt.NDArray[np.bool_]], T],
+    best_of: Callable[[T], FitResult],
+    z_max: float = 4.0,
+    share: float = 0.02,
+) -> tuple[T, npt.NDArray[np.bool_]]:
+    """Leave out the worst cell while it is more than ``z_max`` σ off, and redo the work.
+
+    ``first`` is the work on all cells, ``refit(mask)`` redoes it without the masked cells and
+    ``best_of`` gives the fit whose residuals judge the cells. At most ``share`` of the values
+    (at least one) are left out, and only if the best fit is then consistent with the noise
+    (χ² p ≥ 0.001); otherwise ``first`` stands and the mask is all False.
+    """
     from scipy.stats import chi2 as chi2_dist
 
-    res = fit(arm, meas, list(effects), self_weight=self_weight)
-    mask = np.zeros(meas.values.shape, dtype=bool)
-    budget = max(1, int(share * res.problem.n_values))
-    trial, tmask = res, mask.copy()
+    base = best_of(first)
+    mask = np.zeros(base.problem.meas.values.shape, dtype=bool)
+    budget = max(1, int(share * base.problem.n_values))
+    current = first
     for _ in range(budget):
-        z = np.abs(trial.z)
-        z[~trial.problem.use] = 0.0
+        best = best_of(current)
+        z = np.abs(best.z)
+        z[~best.problem.use] = 0.0
         worst = np.unravel_index(int(np.argmax(np.nan_to_num(z))), z.shape)
         if not z[worst] > z_max:
             break
-        tmask[worst] = True
-        trial = fit(arm, meas, list(effects), self_weight=self_weight, exclude=tmask)
-    if tmask.any() and chi2_dist.sf(trial.chi2, trial.dof) >= 1e-3:
-        return trial, tmask
-    return res, mask
+        mask[worst] = True
+        current = refit(mask.copy())
+    best = best_of(current)
+    if mask.any() and chi2_dist.sf(best.chi2, best.dof) >= 1e-3:
+        return current, mask
+    return first, np.zeros_like(mask)
 
 
 def outlier_table(result: FitResult, mask: np.ndarray) -> list[dict[str, Any]]:
