@@ -717,14 +717,14 @@ def _doc_literal_pose(
     pv = np.array(arm.pivot)
     dphi = float(cross(o[n] - pv, payload)) / kb if kb else 0.0
     new = [0.0] * n
-    op = pv + rot(dphi, np.array(arm.O1) + clear[0] * u[0] - pv)
+    op = pv + rot(dphi, np.array(arm.O1) - pv) + clear[0] * u[0]  # global offset (model.md §4)
     bp = pv + rot(dphi, np.array(arm.B0) - pv)
     for i in range(n):
         if i > 0:
-            off = clear[i] * rot(-al[i - 1], u[i])
+            off = clear[i] * u[i]
             nxt, bb = arr["next"][i - 1], arr["B"][i - 1]
             bp = op + rot(new[i - 1], bb + bend(i - 1, bb))
-            op = op + rot(new[i - 1], nxt + bend(i - 1, nxt) + off)
+            op = op + rot(new[i - 1], nxt + bend(i - 1, nxt)) + off
         al_pin = arr["A"][i] + bend(i, arr["A"][i])
         rho = float(np.linalg.norm(al_pin))
         d = bp - op

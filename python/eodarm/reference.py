@@ -549,16 +549,13 @@ def solve_payload(
     d_length = d_body + d_mount + d_play
     ell_new = ell + d_length
 
-    # --- joint clearance: offset c_i u_i in body i−1's frame (chassis frame = global)
+    # --- joint clearance: offset c_i u_i, a global vector (the force of the undeformed statics)
     r_loaded = st["reaction_n"]
     r_norm = np.linalg.norm(r_loaded, axis=-1)
     pressed = r_norm >= FORCE_ZERO_N
     safe = np.where(pressed, r_norm, 1.0)
     u = np.where(pressed[..., None], -r_loaded / safe[..., None], 0.0)  # (N, n, 2)
-    clear_local = np.empty_like(u)
-    clear_local[:, 0] = par["clearance"][0] * u[:, 0]
-    for i in range(1, n):
-        clear_local[:, i] = par["clearance"][i] * _rotate(-alpha[:, i - 1], u[:, i])
+    clear = par["clearance"][None, :, None] * u  # (N, n, 2), global
 
     # --- link bending: displacement fields of the local points that matter
     zero = np.zeros((n_rows, 2))
@@ -597,12 +594,12 @@ def solve_payload(
     # --- close the loaded pose from the base to the tip
     side = np.sign(_cross(geo["B"] - geo["O"][:, :n], geo["A"] - geo["O"][:, :n]))  # (N, n)
     alpha_new = np.empty_like(alpha)
-    o_new = pivot + _rotate(dphi, arr["O1"] + clear_local[:, 0] - pivot)
+    o_new = pivot + _rotate(dphi, arr["O1"] - pivot) + clear[:, 0]
     b_new = pivot + _rotate(dphi, arr["B0"] - pivot)
     for i in range(n):
         if i > 0:
             prev_o, prev_a = o_new, alpha_new[:, i - 1]
-            o_new = prev_o + _rotate(prev_a, arr["next"][i - 1] + d_next[i - 1] + clear_local[:, i])
+            o_new = prev_o + _rotate(prev_a, arr["next"][i - 1] + d_next[i - 1]) + clear[:, i]
             b_new = prev_o + _rotate(prev_a, arr["B"][i - 1] + d_b[i - 1])
         a_loc = arr["A"][i] + d_a[i]  # (N, 2)
         rho = np.linalg.norm(a_loc, axis=-1)

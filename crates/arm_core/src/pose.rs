@@ -27,8 +27,8 @@ pub fn close_pose(
     let pv = arm.pivot;
     let tilt = def.base_tilt;
     let chassis = |p: V2| pv + rot(tilt, p - pv);
-    // Joint of link 1 (offset in the chassis frame) and actuator 1's chassis pin.
-    let mut o = chassis(arm.o1 + def.joint_offset[0]);
+    // Joint of link 1 (its clearance offset is global) and actuator 1's chassis pin.
+    let mut o = chassis(arm.o1) + def.joint_offset[0];
     let mut base_pin = chassis(arm.b0);
     let mut measure = V2::zeros();
     for (i, link) in arm.links.iter().enumerate() {
@@ -49,7 +49,7 @@ pub fn close_pose(
         let to_global = |v: V2| V2::new(c * v.x - s * v.y, s * v.x + c * v.y);
         if i + 1 < n {
             base_pin = o + to_global(link.b + shift.b);
-            o += to_global(link.next + shift.next + def.joint_offset[i + 1]);
+            o += to_global(link.next + shift.next) + def.joint_offset[i + 1];
         } else {
             measure = o + to_global(arm.measure + shift.measure);
         }

@@ -1,7 +1,7 @@
 //! `joint_clearance@Oi`: radial clearance c of joint pin O_i, concentric when unloaded.
 //! Loaded, link i's pin centre sits c away from the bore centre of body i−1, along the force
-//! that link i presses onto body i−1 (−R_i). The offset lives in body i−1's frame, so it turns
-//! with that body (see docs/model.md).
+//! that link i presses onto body i−1 (−R_i). That force comes from the statics of the
+//! undeformed pose, a global vector, so the offset is global too (see docs/model.md).
 
 use super::{check_param, check_place, Deformation, EffectContext, Mechanism, FORCE_ZERO_N};
 use crate::arm::Arm;
@@ -33,10 +33,6 @@ impl Mechanism for JointClearance {
             return; // no force, no preferred side of the clearance
         }
         let u: V2 = press * (self.clearance / m);
-        def.joint_offset[i] += if i == 0 {
-            u
-        } else {
-            ctx.frames.to_local(i - 1, u)
-        };
+        def.joint_offset[i] += u;
     }
 }

@@ -62,7 +62,7 @@ pub struct Deformation {
     pub body_compliance: Vec<f64>,
     /// Further pin-to-pin length change of each actuator, unseen by its sensor (mm).
     pub extra_length: Vec<f64>,
-    /// Offset of link i's joint from its bore, in the frame of body i−1 (mm).
+    /// Offset of link i's joint from its bore in body i−1, global frame (mm).
     pub joint_offset: Vec<V2>,
     /// Bending displacement of each link's pins, in its frame (mm).
     pub pin_shift: Vec<PinShift>,
