@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import re
 import sys
 import time
 from collections.abc import Iterable, Iterator, Mapping
@@ -939,6 +940,9 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         "payload capacity and the dominant effect. Without --arm: the bundled seed2022 arm; "
         "without a grid: alpha1 40:130:46, alpha2 -20:40:31, alpha3 -20:20:21 (degrees).",
     )
+    # let "--alpha3 -20:20:21" read the range as a value, not as an option (argparse only
+    # knows plain negative numbers); "--alpha3=-20:20:21" works regardless
+    p._negative_number_matcher = re.compile(r"^-\d+$|^-\d*\.\d+$|^-[\d.]+(:[-\d.]+)+$|^-[\d.]+,")
     p.add_argument("--arm", metavar="ARM.toml", help="arm file (default: the bundled seed arm)")
     for k in range(1, _MAX_LINKS + 1):
         p.add_argument(
