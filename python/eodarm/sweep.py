@@ -214,16 +214,18 @@ def _singular(geo: Mapping[str, FloatArray], n: int) -> BoolArray:
     """Poses (N,) where an actuator has coincident pins or passes through its joint.
 
     The core's tests (statics.rs): ℓ ≤ 1e-12·(1 + |A−O|), or |h| < 1e-9·|A−O| with
-    h = (A − O) × unit(A − B) the moment arm.
+    h = (A − O) × unit(A − B) the moment arm (compared here squared, without dividing by ℓ).
     """
-    ra = geo["A"] - geo["O"][:, :n]
-    v = geo["A"] - geo["B"]
-    ell = np.hypot(v[..., 0], v[..., 1])
-    rn = np.hypot(ra[..., 0], ra[..., 1])
-    with np.errstate(invalid="ignore", divide="ignore"):
-        h = (ra[..., 0] * v[..., 1] - ra[..., 1] * v[..., 0]) / ell
-    bad = ~(ell > 1e-12 * (1.0 + rn)) | ~(np.abs(h) >= 1e-9 * rn)
-    return np.asarray(bad.any(axis=1))
+    a, o, b = geo["A"], geo["O"], geo["B"]
+    bad = np.zeros(a.shape[0], dtype=bool)
+    for i in range(n):
+        rx, ry = a[:, i, 0] - o[:, i, 0], a[:, i, 1] - o[:, i, 1]
+        vx, vy = a[:, i, 0] - b[:, i, 0], a[:, i, 1] - b[:, i, 1]
+        rn2 = rx * rx + ry * ry
+        ell2 = vx * vx + vy * vy
+        cross = rx * vy - ry * vx  # = h·ℓ
+        bad |= ~(ell2 > 1e-24 * (1.0 + np.sqrt(rn2)) ** 2) | ~(cross * cross >= 1e-18 * rn2 * ell2)
+    return bad
 
 
 def _kernel(
