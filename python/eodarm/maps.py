@@ -633,7 +633,7 @@ def capacity_map(
         ]
         ax2.legend(
             handles=handles,
-            loc="lower left",
+            loc="best",
             fontsize=8,
             framealpha=0.9,
             title="binding limit",

@@ -991,6 +991,13 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     p.add_argument("-o", "--output", metavar="OUT.nc|OUT.zarr", help="write the Dataset")
     p.add_argument("--plot", metavar="DIR", help="write the four maps as PNGs into DIR")
     p.add_argument(
+        "--plot-prefix",
+        default="",
+        metavar="TEXT",
+        help="prefix of the map file names (sag.png, forces.png, capacity.png, "
+        "dominant_effect.png)",
+    )
+    p.add_argument(
         "--plot-mass",
         type=float,
         metavar="KG",
@@ -1170,6 +1177,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
             max_payload_kg=args.max_payload,
             ds=ds if reduce is None and plot_mass in mass else None,
             note=_note,
+            prefix=args.plot_prefix,
         )
         _note("wrote " + ", ".join(str(w) for w in written))
     return 0
@@ -1184,9 +1192,14 @@ def _summary(ds: xr.Dataset) -> None:
     ok = float(ds["ok"].mean())
     print(f"reachable poses: {100 * reach:.1f} %   solved cells: {100 * ok:.1f} %")
     if ds.attrs["reduce"] == "none" or ds.attrs["reduce"].split()[0] in ("max", "min"):
-        dy = ds["dy_mm"].where(ds["reachable"])
-        if bool(np.isfinite(dy).any()):
-            print(f"dy over reachable poses: {float(dy.min()):.4g} … {float(dy.max()):.4g} mm")
+        dy = ds["dy_mm"].where(ds["reachable"]).values
+        dy = dy[np.isfinite(dy)]
+        if dy.size:
+            q = np.quantile(dy, [0.02, 0.5, 0.98])
+            print(
+                f"dy over reachable poses: {dy.min():.4g} … {dy.max():.4g} mm "
+                f"(2 %, 50 %, 98 %: {q[0]:.4g}, {q[1]:.4g}, {q[2]:.4g} mm)"
+            )
         f = abs(ds["force_n"].where(ds["reachable"]))
         for i in ds["actuator"].values:
             fi = f.sel(actuator=i)
