@@ -320,6 +320,18 @@ def test_a_lengths_grid_puts_the_actuators_at_the_asked_lengths(arm: eodarm.Arm)
     np.testing.assert_allclose(ds["dy_mm"].values.ravel()[exists], sol["dy_mm"], rtol=1e-12)
 
 
+def test_masking_a_lengths_grid_keeps_its_poses_and_drops_their_cells(arm: eodarm.Arm) -> None:
+    g = {"l1": [1.0, 200.0, 300.0], "l2": [500.0], "l3": [500.0]}  # no pose, out of stroke, ok
+    plain = sweep_fn(arm, lengths=g, mass_kg=[1.0])
+    masked = sweep_fn(arm, lengths=g, mass_kg=[1.0], mask_unreachable=True)
+    for key in ("alpha_deg", "length_mm", "effector_x_mm", "reachable"):
+        np.testing.assert_array_equal(masked[key].values, plain[key].values, err_msg=key)
+    assert plain["ok"].values.ravel().tolist() == [False, True, True]
+    assert masked["ok"].values.ravel().tolist() == [False, False, True]
+    assert np.isnan(masked["dy_mm"].values.ravel()[:2]).all()
+    assert np.isfinite(masked["alpha_deg"].values[1]).all()
+
+
 def test_lengths_that_cannot_assemble_the_arm_are_not_ok(arm: eodarm.Arm) -> None:
     ds = sweep_fn(arm, lengths={"l1": [1.0, 300.0], "l2": [500.0], "l3": [500.0]}, mass_kg=[1.0])
     assert ds["ok"].values.ravel().tolist() == [False, True]

@@ -34,6 +34,7 @@ import math
 import re
 import sys
 import time
+import uuid
 from collections.abc import Iterable, Iterator, Mapping
 from dataclasses import dataclass
 from functools import lru_cache
@@ -507,6 +508,7 @@ def _chunk(job: _Job, start: int, stop: int) -> dict[str, npt.NDArray[Any]]:
         geo = forward(arm, run)
         geo_len, geo_eff = geo["length_mm"], geo["O"][:, n]
         keep &= (stroke_violations(arm, geo_len) == 0).all(axis=1) & ~_singular(geo, n)
+    pose_alpha = alpha  # the poses themselves (NaN where none), before any placeholder
     if not keep.all():
         alpha = np.where(keep[:, None], alpha, _placeholder(arm))
     codes, places, values = effect_arrays(job.effects, n)
@@ -541,7 +543,7 @@ def _chunk(job: _Job, start: int, stop: int) -> dict[str, npt.NDArray[Any]]:
         res["reachable"] = reach
         res["length_mm"], res["effector_x_mm"], res["effector_y_mm"] = length, ex, ey
         if job.grid.kind != "alpha":
-            res["alpha_deg"] = alpha if exists is None else np.where(exists[:, None], alpha, np.nan)
+            res["alpha_deg"] = np.asarray(pose_alpha, dtype=float)
     return res
 
 
@@ -809,10 +811,12 @@ def _run(
 
         client = scheduler
         [remote_job] = client.scatter([job], broadcast=True)
+        tag = uuid.uuid4().hex  # task keys unique to this sweep
         futures = {
-            client.submit(
-                _chunk, remote_job, a, b, pure=False, key=f"eodarm-sweep-{a}-{id(job)}"
-            ): (a, b)
+            client.submit(_chunk, remote_job, a, b, pure=False, key=f"eodarm-sweep-{tag}-{a}"): (
+                a,
+                b,
+            )
             for a, b in spans
         }
         try:
