@@ -24,6 +24,7 @@ from .solver import (
     solve_payload,
     stroke_violations,
 )
+from .sweep import sweep
 
 __version__ = "0.1.0"
 
@@ -52,4 +53,5 @@ __all__ = [
     "solve",
     "solve_payload",
     "stroke_violations",
+    "sweep",
 ]

@@ -1,0 +1,859 @@
+"""Workspace maps of a sweep: sag, actuator forces, payload capacity, the dominant effect.
+
+Each map draws every reachable pose of a sweep (:func:`eodarm.sweep`) as a dot at its
+unloaded load point (x, y) in the global frame, coloured by a quantity. Many poses of a grid
+land near the same (x, y) (the last link's angle is free, for one); the dots are drawn in
+order of the quantity, so that where poses overlap **the worst one is on top** (largest sag,
+largest |force|, smallest capacity, largest deflection). Unreachable poses (out of stroke,
+singular, a loaded pose that cannot close) are not drawn.
+
+Like :mod:`eodarm.plots`, every function returns a :class:`matplotlib.figure.Figure` on its
+own Agg canvas and writes a PNG (120 dpi) only when ``path=`` is given.
+
+* :func:`sag_map`: the vertical displacement dy of the measure point at one payload.
+* :func:`force_maps`: each actuator's loaded force at one payload.
+* :func:`capacity_map` (numbers from :func:`payload_capacity`): the largest payload before an
+  actuator reaches its force limit or a stroke limit, and which limit it is.
+* :func:`dominant_effect_map` (numbers from :func:`effect_contributions`): which mechanism
+  moves the measure point most, each alone on top of the baseline.
+
+:func:`render_all` writes the four (``eodarm sweep --plot DIR``).
+"""
+
+from __future__ import annotations
+
+import math
+import textwrap
+import tomllib
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import numpy.typing as npt
+
+try:
+    from matplotlib.axes import Axes
+    from matplotlib.colors import BoundaryNorm, ListedColormap, LogNorm, Normalize
+    from matplotlib.figure import Figure
+    from matplotlib.legend import Legend
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Patch
+except ImportError as exc:  # pragma: no cover - depends on the environment
+    raise ImportError(
+        "eodarm.maps needs matplotlib: pip install 'eodarm[plot]' (or matplotlib>=3.8)"
+    ) from exc
+
+from .arm import Arm
+from .effects import Effect, as_effects
+from .errors import EodarmError
+from .plots import PALETTE, PathLike, _figure, _finish
+from .solver import forward
+from .sweep import grid_kwargs, grid_of, sweep
+
+if TYPE_CHECKING:
+    import xarray as xr
+
+__all__ = [
+    "assume_max_force",
+    "capacity_map",
+    "dominant_effect_map",
+    "effect_contributions",
+    "force_maps",
+    "payload_capacity",
+    "render_all",
+    "sag_map",
+]
+
+FloatArray = npt.NDArray[np.float64]
+GridLike = "xr.Dataset | Mapping[str, npt.ArrayLike]"
+#: Label of the baseline's own deflection in the dominant-effect map.
+SPRINGS = "actuator springs (baseline)"
+#: Numerical zero of a force (N), as in the model (docs/model.md §4).
+F_EPS = 1e-9
+
+
+# ---------------------------------------------------------------------------- helpers
+def _arm_of(ds: xr.Dataset) -> Arm:
+    text = ds.attrs.get("arm_toml")
+    if not text:
+        raise EodarmError("this Dataset does not carry its arm (attrs['arm_toml']); pass arm=")
+    return Arm.from_dict(tomllib.loads(str(text)), source=f"sweep of {ds.attrs.get('arm')}")
+
+
+def _select_mass(ds: xr.Dataset, mass: float | None) -> tuple[xr.Dataset, float]:
+    if "mass_kg" not in ds.dims:
+        raise EodarmError(
+            "this map needs a sweep with a mass_kg dimension (not reduced over the payload)"
+        )
+    masses = np.asarray(ds["mass_kg"].values, dtype=float)
+    m = float(masses.max()) if mass is None else float(mass)
+    hit = np.flatnonzero(np.isclose(masses, m, rtol=0.0, atol=1e-12))
+    if hit.size == 0:
+        listed = ", ".join(f"{v:g}" for v in masses)
+        raise EodarmError(f"payload {m:g} kg is not in the sweep (mass_kg: {listed})")
+    return ds.isel(mass_kg=int(hit[0])), float(masses[hit[0]])
+
+
+def _points(ds: xr.Dataset, var: xr.DataArray) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Flat (x, y, value) of the reachable, solved poses of a per-pose variable."""
+    for key in ("effector_x_mm", "effector_y_mm"):
+        if key not in ds:
+            raise EodarmError(
+                "this map needs the effector positions: a sweep not reduced over an angle"
+            )
+    ok = ds["reachable"]
+    if "ok" in ds and "mass_kg" not in ds["ok"].dims:
+        ok = ok & ds["ok"]
+    dims = list(ds["effector_x_mm"].dims)
+    x = ds["effector_x_mm"].transpose(*dims).values.reshape(-1)
+    y = ds["effector_y_mm"].transpose(*dims).values.reshape(-1)
+    v = var.transpose(*dims).values.reshape(-1).astype(float)
+    keep = ok.transpose(*dims).values.reshape(-1) & np.isfinite(v) & np.isfinite(x)
+    return x[keep], y[keep], v[keep]
+
+
+class _Canvas:
+    """The common frame of the maps: bounds in mm, the pixel grid, the arm drawn thin.
+
+    Poses are binned into square pixels of ``width`` mm over the bounds of the reachable load
+    points; each pixel takes the value of the worst pose that lands in it.
+    """
+
+    def __init__(self, arm: Arm, xs: FloatArray, ys: FloatArray, ref: FloatArray | None) -> None:
+        self.arm = arm
+        self.ref = ref if ref is not None and np.isfinite(ref).all() else None
+        px = [arm.O1[0], arm.B0[0]]
+        py = [arm.O1[1], arm.B0[1]]
+        self.geo = forward(arm, self.ref[None, :]) if self.ref is not None else None
+        if self.geo is not None:
+            px += [*self.geo["O"][0, :, 0], *self.geo["B"][0, :, 0]]
+            py += [*self.geo["O"][0, :, 1], *self.geo["B"][0, :, 1]]
+        if xs.size:
+            px += [float(xs.min()), float(xs.max())]
+            py += [float(ys.min()), float(ys.max())]
+        x0, x1, y0, y1 = min(px), max(px), min(py), max(py)
+        pad = 0.05 * max(x1 - x0, y1 - y0, 1.0)
+        self.bounds = (x0 - pad, x1 + pad, y0 - pad, y1 + pad)
+        # pixels: about sqrt(count / 5) across the larger side of the points' box, 24…160
+        span = max(float(np.ptp(xs)) if xs.size else 0.0, float(np.ptp(ys)) if ys.size else 0.0)
+        nb = int(np.clip(np.sqrt(max(xs.size, 1) / 5.0), 24, 160))
+        self.width = max(span / nb, 1e-6 * max(x1 - x0, 1.0))
+
+    @property
+    def aspect(self) -> float:
+        x0, x1, y0, y1 = self.bounds
+        return (y1 - y0) / (x1 - x0)
+
+    def raster(
+        self, x: FloatArray, y: FloatArray, value: FloatArray, worst: FloatArray
+    ) -> tuple[FloatArray, FloatArray, np.ma.MaskedArray[Any, Any]]:
+        """Pixel edges and an image whose every pixel holds the value of its worst pose."""
+        x0, _, y0, _ = self.bounds
+        w = self.width
+        ix = np.floor((x - x0) / w).astype(np.int64)
+        iy = np.floor((y - y0) / w).astype(np.int64)
+        nx, ny = int(ix.max(initial=0)) + 1, int(iy.max(initial=0)) + 1
+        img = np.full((ny, nx), np.nan)
+        if x.size:
+            cell = iy * nx + ix
+            order = np.lexsort((worst, cell))  # by pixel, then by worst: the last one wins
+            last = np.r_[cell[order][1:] != cell[order][:-1], True]
+            pick = order[last]
+            img.flat[cell[pick]] = value[pick]
+        xe = x0 + w * np.arange(nx + 1, dtype=float)
+        ye = y0 + w * np.arange(ny + 1, dtype=float)
+        return xe, ye, np.ma.masked_invalid(img)
+
+    def draw(
+        self,
+        ax: Axes,
+        x: FloatArray,
+        y: FloatArray,
+        value: FloatArray,
+        worst: FloatArray,
+        **kw: Any,
+    ) -> Any:
+        xe, ye, img = self.raster(x, y, value, worst)
+        mesh = ax.pcolormesh(xe, ye, img, shading="flat", rasterized=True, **kw)
+        self.frame(ax)
+        return mesh
+
+    def frame(self, ax: Axes) -> None:
+        """Equal axes in mm, the chassis pins and the arm drawn thin at its middle pose."""
+        x0, x1, y0, y1 = self.bounds
+        ax.set_xlim(x0, x1)
+        ax.set_ylim(y0, y1)
+        ax.set_aspect("equal", adjustable="box")
+        ax.set_xlabel("x (mm)")
+        ax.set_ylabel("y (mm)")
+        ax.grid(True, color="0.88", lw=0.6)
+        ax.set_axisbelow(True)
+        if self.geo is not None:
+            o = self.geo["O"][0]
+            ax.plot(o[:, 0], o[:, 1], "-", color="0.2", lw=1.3, zorder=3)
+            ax.plot(o[:-1, 0], o[:-1, 1], "o", ms=3.5, mfc="white", mec="0.2", zorder=4)
+            for a, b in zip(self.geo["A"][0], self.geo["B"][0], strict=True):
+                ax.plot([a[0], b[0]], [a[1], b[1]], "-", color="0.45", lw=0.9, zorder=3)
+        ax.plot(*self.arm.O1, marker="^", color="k", ms=7, zorder=5, ls="none")
+        ax.plot(*self.arm.B0, marker="s", color="k", ms=4, zorder=5, ls="none")
+
+    def legend(self, ax: Axes) -> None:
+        """The key to the arm drawing, added without replacing another legend."""
+        handles = [
+            Line2D(
+                [],
+                [],
+                color="0.2",
+                lw=1.3,
+                marker="o",
+                ms=3.5,
+                mfc="white",
+                label="arm, middle pose of the grid",
+            ),
+            Line2D([], [], color="0.45", lw=0.9, label="actuators"),
+            Line2D([], [], color="k", marker="^", ls="none", ms=7, label="O1 (first joint)"),
+            Line2D([], [], color="k", marker="s", ls="none", ms=4, label="B0 (chassis pin)"),
+        ]
+        leg = Legend(
+            ax,
+            handles,
+            [str(h.get_label()) for h in handles],
+            loc="upper left",
+            fontsize=7,
+            framealpha=0.9,
+        )
+        ax.add_artist(leg)
+
+    def note(self, ax: Axes | Figure, ds: xr.Dataset, shown: int, worst: str) -> None:
+        """Say how many poses are drawn and what a pixel shows (in an axes, or under a figure)."""
+        total = int(np.prod([ds.sizes[d] for d in ds["reachable"].dims]))
+        text = (
+            f"{shown:,} of {total:,} poses reachable and solved; each {self.width:.3g} mm "
+            f"pixel shows its {worst} pose"
+        )
+        if isinstance(ax, Figure):
+            ax.supxlabel(text, fontsize=7, color="0.25")
+            return
+        ax.text(
+            0.99,
+            0.01,
+            text,
+            transform=ax.transAxes,
+            ha="right",
+            va="bottom",
+            fontsize=7,
+            color="0.25",
+            bbox={"fc": "white", "ec": "none", "alpha": 0.8, "pad": 1.0},
+        )
+
+
+def _robust(values: FloatArray, lo_q: float, hi_q: float) -> tuple[float, float, str]:
+    """Colour limits at quantiles (so near-singular poses do not flatten the scale), and the
+    colour bar's ``extend``."""
+    lo, hi = (float(v) for v in np.quantile(values, [lo_q, hi_q]))
+    if hi <= lo:
+        lo, hi = lo - 0.5, hi + 0.5
+    below, above = bool(values.min() < lo), bool(values.max() > hi)
+    extend = "both" if below and above else "min" if below else "max" if above else "neither"
+    return lo, hi, extend
+
+
+def _ref_pose(ds: xr.Dataset, arm_n: int) -> FloatArray | None:
+    """The middle pose of the grid (its angles), for drawing the arm."""
+    if ds.attrs.get("grid", "alpha") != "alpha":
+        if "alpha_deg" not in ds:
+            return None
+        a = ds["alpha_deg"]
+        mid = {d: a.sizes[d] // 2 for d in a.dims if d != "link"}
+        return np.asarray(a.isel(mid).values, dtype=float)
+    out = np.empty(arm_n)
+    for i in range(arm_n):
+        name = f"alpha{i + 1}"
+        if name not in ds.coords:
+            return None
+        c = np.atleast_1d(ds[name].values)
+        out[i] = float(c[len(c) // 2])
+    return out
+
+
+def _title(
+    ds: xr.Dataset, what: str, mass: float | None, model: str | None = None, width: float = 9.0
+) -> str:
+    """Two or more lines: what, arm and payload; the model, wrapped to a figure ``width`` in."""
+    payload = f", payload {mass:g} kg" if mass is not None else ""
+    sw = "" if ds.attrs.get("self_weight", 1) else "; no self-weight"
+    text = f"model: {model or ds.attrs.get('model', '?')}{sw}"
+    return f"{what} — arm '{ds.attrs.get('arm', '?')}'{payload}\n" + "\n".join(
+        textwrap.wrap(text, int(11 * width))
+    )
+
+
+# ---------------------------------------------------------------------------- sag
+def sag_map(
+    ds: xr.Dataset,
+    mass: float | None = None,
+    *,
+    path: PathLike | None = None,
+) -> Figure:
+    """Effector sag over the reachable workspace: dy of the measure point at one payload.
+
+    Parameters
+    ----------
+    ds : a sweep (:func:`eodarm.sweep`) not reduced over the payload or an angle.
+    mass : the payload, kg, one of ``ds.mass_kg`` (default: the largest).
+    path : where to write a PNG (120 dpi).
+
+    Returns
+    -------
+    Figure
+        The reachable load points binned into pixels, each coloured by the largest sag (most
+        negative dy, mm) of the poses that reach it. The colour scale spans the 1st–100th
+        percentile so that the few near-singular poses do not flatten it; the colour bar's
+        arrow marks the poses beyond.
+    """
+    arm = _arm_of(ds)
+    sel, m = _select_mass(ds, mass)
+    x, y, dy = _points(sel, sel["dy_mm"])
+    cv = _Canvas(arm, x, y, _ref_pose(ds, arm.n))
+    fig = _figure(8.4, 7.0 * cv.aspect + 1.6)
+    ax = fig.add_subplot()
+    if dy.size:
+        sag = -dy
+        clipped = False
+        if sag.min() > 0 and sag.max() > 10 * sag.min():  # spans decades: log scale of the sag
+            mesh = cv.draw(ax, x, y, sag, sag, cmap="viridis_r", norm=LogNorm(sag.min(), sag.max()))
+            cb = fig.colorbar(mesh, ax=ax, shrink=0.9)
+            cb.set_label("sag −dy of the measure point (mm, down; log scale)")
+        else:
+            lo, hi, extend = _robust(dy, 0.02, 0.98)
+            clipped = extend != "neither"
+            mesh = cv.draw(ax, x, y, dy, -dy, cmap="viridis", norm=Normalize(lo, hi))
+            cb = fig.colorbar(mesh, ax=ax, shrink=0.9, extend=extend)
+            cb.set_label("dy of the measure point (mm, negative = down)")
+        ax.text(
+            0.99,
+            0.06,
+            f"dy from {dy.min():.3g} to {dy.max():.3g} mm, median {np.median(dy):.3g} mm"
+            + ("\ncolours span 2–98 % of the poses; arrows: beyond" if clipped else ""),
+            transform=ax.transAxes,
+            ha="right",
+            va="bottom",
+            fontsize=8,
+            bbox={"fc": "white", "ec": "none", "alpha": 0.8, "pad": 1.0},
+        )
+    else:
+        cv.frame(ax)
+    cv.legend(ax)
+    cv.note(ax, sel, dy.size, "most sagging")
+    fig.suptitle(_title(ds, "Sag of the measure point", m, width=7.0), fontsize=10)
+    return _finish(fig, path)
+
+
+# ---------------------------------------------------------------------------- forces
+def force_maps(
+    ds: xr.Dataset,
+    mass: float | None = None,
+    *,
+    path: PathLike | None = None,
+) -> Figure:
+    """Each actuator's loaded force over the reachable workspace, one panel per actuator.
+
+    Each panel has its own colour scale spanning 2–98 % of its poses (arrows: the
+    near-singular poses beyond, whose forces would flatten a full scale): red for compression,
+    blue for tension, diverging around zero when the force changes sign. Each pixel shows the
+    pose of largest |F|. An actuator's ``max_force_n``, when set, is in its panel's title and
+    marked on its colour bar.
+    """
+    arm = _arm_of(ds)
+    sel, m = _select_mass(ds, mass)
+    n = arm.n
+    pts = [_points(sel, sel["force_n"].sel(actuator=i + 1)) for i in range(n)]
+    xs = np.concatenate([p[0] for p in pts])
+    ys = np.concatenate([p[1] for p in pts])
+    cv = _Canvas(arm, xs, ys, _ref_pose(ds, arm.n))
+    ncols = min(n, 3)
+    nrows = math.ceil(n / ncols)
+    fig = _figure(5.0 * ncols + 0.6, (4.8 * cv.aspect + 1.3) * nrows + 1.0)
+    axes = list(fig.subplots(nrows, ncols, squeeze=False).flat)
+    for i, ax in enumerate(axes):
+        if i >= n:
+            fig.delaxes(ax)
+            continue
+        x, y, f = pts[i]
+        lim = arm.actuators[i].max_force_n
+        if f.size:
+            lo, hi, extend = _robust(f, 0.02, 0.98)
+            if lo < 0 < hi:
+                top = max(-lo, hi)
+                cmap, norm = "RdBu_r", Normalize(-top, top)
+            elif hi <= 0:
+                cmap, norm = "Blues_r", Normalize(lo, hi)
+            else:
+                cmap, norm = "Reds", Normalize(lo, hi)
+            mesh = cv.draw(ax, x, y, f, np.abs(f), cmap=cmap, norm=norm)
+            cb = fig.colorbar(
+                mesh, ax=ax, orientation="horizontal", shrink=0.85, pad=0.02, extend=extend
+            )
+            cb.set_label(f"F{i + 1} (N), 2–98 % of poses", fontsize=8)
+            if lim is not None:
+                for v in (-lim, lim):
+                    if (
+                        norm.vmin is not None
+                        and norm.vmax is not None
+                        and norm.vmin <= v <= norm.vmax
+                    ):
+                        cb.ax.axvline(v, color="k", lw=1.2)
+        else:
+            cv.frame(ax)
+        extra = f"; limit ±{lim:g} N" if lim is not None else ""
+        rng = f"{f.min():.0f} … {f.max():.0f} N" if f.size else "no reachable pose"
+        ax.set_title(f"actuator {i + 1}: F{i + 1} from {rng}{extra}", fontsize=9)
+    cv.legend(axes[0])
+    cv.note(fig, sel, pts[0][2].size, "largest-|F|")
+    fig.suptitle(
+        _title(ds, "Loaded actuator forces (+ compression, − tension)", m, width=15.0),
+        fontsize=10,
+    )
+    return _finish(fig, path)
+
+
+# ---------------------------------------------------------------------------- capacity
+def assume_max_force(arm: Arm, max_force_n: float) -> Arm:
+    """A copy of ``arm`` where every actuator without ``max_force_n`` gets this one (N)."""
+    if not (math.isfinite(max_force_n) and max_force_n > 0):
+        raise EodarmError(f"max_force_n must be finite and > 0, got {max_force_n!r}")
+    d = arm.to_dict()
+    for a in d["actuator"]:
+        a.setdefault("max_force_n", float(max_force_n))
+    return Arm.from_dict(d, source=arm.source)
+
+
+def _as_sweep_kwargs(grid: Any) -> dict[str, Any]:
+    if isinstance(grid, Mapping):
+        if {"alpha_deg", "lengths", "effector"} & set(grid):
+            return dict(grid)
+        return grid_kwargs(grid)
+    return grid_of(grid)
+
+
+def payload_capacity(
+    arm: Arm,
+    grid: Any,
+    *,
+    effects: Effect | Iterable[Effect] | None = (),
+    self_weight: bool = True,
+    max_payload_kg: float = 100.0,
+    probe_kg: float = 1.0,
+    **sweep_kw: Any,
+) -> xr.Dataset:
+    """The largest payload each pose carries before an actuator reaches a limit.
+
+    Statics are solved on the undeformed geometry, so each loaded force is affine in the
+    payload: F_i(m) = F_i(0) + m·s_i, with F_i(0) the self-weight force and s_i found from a
+    sweep at 0 and ``probe_kg``. The force limit is reached at the smallest m ≥ 0 with
+    |F_i(m)| = ``max_force_n``. The loaded pin-to-pin length is
+    ℓ_i(m) = ℓ_i − m·s_i·(1/k_body + 1/k_mount) − p·sign(F_i(m)) (body springs from the arm
+    file or ``actuator_compliance``, ``mount_compliance``, ``actuator_play``; model §4), and the
+    stroke limit is reached at the smallest m ≥ 0 where it leaves
+    [``min_length_mm``, ``max_length_mm``] (play jumps where F_i changes sign). The capacity is
+    the smallest of these over every actuator and limit, capped at ``max_payload_kg``.
+
+    Poses that are not reachable unloaded (out of stroke, singular) have NaN. Whether the
+    loaded pose still closes at the capacity is not checked (it does, unless the capacity is
+    near a singular pose).
+
+    Parameters
+    ----------
+    arm : the arm; actuators without ``max_force_n`` (and without stroke limits) are not
+        limited by them (:func:`assume_max_force` sets one).
+    grid : a sweep's Dataset (its grid is reused), a grid dict (``{"alpha1": …}``), or
+        :func:`eodarm.sweep` keyword arguments (``{"alpha_deg": {…}}``).
+    effects, self_weight : the model.
+    max_payload_kg : the cap, kg.
+    probe_kg : the second payload of the sweep, kg (> 0).
+
+    Returns
+    -------
+    xarray.Dataset
+        ``capacity_kg`` (grid…), ``limit`` (grid…): the code of the binding limit, −1 where
+        NaN; ``attrs["limit_labels"]`` names the codes: ``F1 force`` … ``Fn force``,
+        ``l1 stroke`` … ``ln stroke``, then ``cap``; plus the sweep's ``reachable``,
+        ``effector_x_mm``, ``effector_y_mm``.
+    """
+    if not (math.isfinite(max_payload_kg) and max_payload_kg > 0):
+        raise EodarmError(f"max_payload_kg must be finite and > 0, got {max_payload_kg!r}")
+    if not (math.isfinite(probe_kg) and probe_kg > 0):
+        raise EodarmError(f"probe_kg must be finite and > 0, got {probe_kg!r}")
+    effs = list(as_effects(effects))
+    kw = {**_as_sweep_kwargs(grid), **sweep_kw}
+    ds = sweep(arm, mass_kg=[0.0, probe_kg], effects=effs, self_weight=self_weight, **kw)
+    n = arm.n
+    f = ds["force_n"].transpose(..., "mass_kg", "actuator").values
+    f0, f1 = f[..., 0, :], f[..., 1, :]
+    s = (f1 - f0) / probe_kg  # N per kg
+    ell0 = ds["length_mm"].values
+    kb = np.array([a.stiffness_n_per_mm for a in arm.actuators], dtype=float)
+    km = np.full(n, np.inf)
+    play = np.zeros(n)
+    for e in effs:
+        i = e.index(n)
+        if e.name == "actuator_compliance":
+            kb[i] = e.value
+        elif e.name == "mount_compliance":
+            km[i] = e.value
+        elif e.name == "actuator_play":
+            play[i] = e.value
+    comp = 1.0 / kb + 1.0 / km  # mm per N
+    fmax = np.array([np.inf if a.max_force_n is None else a.max_force_n for a in arm.actuators])
+    lo = np.array([-np.inf if a.min_length_mm is None else a.min_length_mm for a in arm.actuators])
+    hi = np.array([np.inf if a.max_length_mm is None else a.max_length_mm for a in arm.actuators])
+    m_force = _force_limit(f0, s, fmax)
+    m_stroke = _stroke_limit(ell0, f0, s, comp, play, lo, hi)
+    cand = np.concatenate(
+        [m_force, m_stroke, np.full((*m_force.shape[:-1], 1), max_payload_kg)], -1
+    )
+    cand = np.minimum(cand, max_payload_kg)
+    which = np.argmin(cand, axis=-1)
+    # a cap tie goes to the cap
+    which = np.where(cand.min(axis=-1) >= max_payload_kg, 2 * n, which)
+    cap = cand.min(axis=-1)
+    good = ds["reachable"].values & np.isfinite(f0).all(-1) & np.isfinite(s).all(-1)
+    cap = np.where(good, cap, np.nan)
+    which = np.where(good, which, -1)
+    dims = list(ds["reachable"].dims)
+    labels = [f"F{i + 1} force" for i in range(n)] + [f"l{i + 1} stroke" for i in range(n)]
+    out = ds[["reachable", "effector_x_mm", "effector_y_mm"]].copy()
+    out["capacity_kg"] = (
+        dims,
+        cap,
+        {"units": "kg", "long_name": "largest payload before an actuator limit (capped)"},
+    )
+    out["limit"] = (dims, which.astype(np.int64), {"long_name": "binding limit (see limit_labels)"})
+    out = out.drop_vars(["mass_kg"], errors="ignore")
+    out.attrs.update(
+        ds.attrs,
+        limit_labels=", ".join([*labels, "cap"]),
+        max_payload_kg=float(max_payload_kg),
+        max_force_n=np.where(np.isfinite(fmax), fmax, -1.0),
+    )
+    return out
+
+
+def _force_limit(f0: FloatArray, s: FloatArray, fmax: FloatArray) -> FloatArray:
+    """Smallest m ≥ 0 with |f0 + m·s| = fmax (0 if already beyond, inf if never)."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        up = (fmax - f0) / s  # reaches +fmax, for s > 0
+        down = (-fmax - f0) / s  # reaches −fmax, for s < 0
+    m = np.where(s > 0, up, np.where(s < 0, down, np.inf))
+    m = np.where(np.abs(f0) >= fmax, 0.0, m)
+    return np.where(np.isfinite(fmax), np.maximum(m, 0.0), np.inf)
+
+
+def _stroke_limit(
+    ell0: FloatArray,
+    f0: FloatArray,
+    s: FloatArray,
+    comp: FloatArray,
+    play: FloatArray,
+    lo: FloatArray,
+    hi: FloatArray,
+) -> FloatArray:
+    """Smallest m ≥ 0 where ℓ0 − m·s·comp − play·sign(f0 + m·s) leaves [lo, hi]."""
+    rate = -s * comp  # mm per kg
+    sgn0 = _sign(f0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        m_flip = np.where(s != 0, -f0 / s, np.inf)
+    m_flip = np.where(m_flip > 0, m_flip, np.inf)  # where the force changes sign
+    sgn1 = np.where(np.isfinite(m_flip), np.sign(s), sgn0)
+    best = np.full(ell0.shape, np.inf)
+    for a, b, sg in (
+        (np.zeros_like(m_flip), m_flip, sgn0),
+        (m_flip, np.full_like(m_flip, np.inf), sgn1),
+    ):
+        start = ell0 - play * sg  # length at m = 0 of this piece's line
+        at_a = start + rate * np.where(np.isfinite(a), a, 0.0)
+        out_at_a = np.isfinite(a) & ((at_a < lo) | (at_a > hi))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            to_lo = np.where(rate < 0, (lo - start) / rate, np.inf)
+            to_hi = np.where(rate > 0, (hi - start) / rate, np.inf)
+        hit = np.minimum(np.where(to_lo >= a, to_lo, np.inf), np.where(to_hi >= a, to_hi, np.inf))
+        hit = np.where(hit < b, hit, np.inf)
+        piece = np.where(out_at_a, a, hit)
+        best = np.minimum(best, piece)
+    return np.where(np.isnan(best), np.inf, best)
+
+
+def _sign(f: FloatArray) -> FloatArray:
+    return np.where(np.abs(f) < F_EPS, 0.0, np.sign(f))
+
+
+def capacity_map(
+    arm: Arm,
+    grid: Any,
+    *,
+    effects: Effect | Iterable[Effect] | None = (),
+    self_weight: bool = True,
+    max_payload_kg: float = 100.0,
+    path: PathLike | None = None,
+    **sweep_kw: Any,
+) -> Figure:
+    """Payload capacity over the reachable workspace (:func:`payload_capacity`).
+
+    Two panels: the capacity (kg; where poses overlap the smallest is on top) and which limit
+    binds (an actuator's force limit, its stroke, or the cap).
+    """
+    cap = payload_capacity(
+        arm,
+        grid,
+        effects=effects,
+        self_weight=self_weight,
+        max_payload_kg=max_payload_kg,
+        **sweep_kw,
+    )
+    labels = str(cap.attrs["limit_labels"]).split(", ")
+    x, y, c = _points(cap, cap["capacity_kg"])
+    _, _, lim = _points(cap, cap["limit"].where(cap["limit"] >= 0))
+    cv = _Canvas(arm, x, y, _ref_pose(cap, arm.n))
+    fig = _figure(13.6, 5.6 * cv.aspect + 2.0)
+    ax1, ax2 = fig.subplots(1, 2)
+    if c.size:
+        mesh = cv.draw(ax1, x, y, c, -c, cmap="plasma", norm=Normalize(0.0, max(c.max(), 1e-9)))
+        cb = fig.colorbar(mesh, ax=ax1, shrink=0.9)
+        cb.set_label(f"payload capacity (kg), capped at {max_payload_kg:g}")
+        used = sorted({int(v) for v in lim})
+        colours = [PALETTE[k % len(PALETTE)] if labels[k] != "cap" else "0.75" for k in used]
+        remap = np.searchsorted(used, lim.astype(int)).astype(float)
+        cmap = ListedColormap(colours)
+        norm = BoundaryNorm(np.arange(len(used) + 1) - 0.5, len(used))
+        cv.draw(ax2, x, y, remap, -c, cmap=cmap, norm=norm)
+        handles = [
+            Patch(color=col, label=f"{labels[k]} ({100 * np.mean(lim == k):.0f} % of poses)")
+            for k, col in zip(used, colours, strict=True)
+        ]
+        ax2.legend(
+            handles=handles,
+            loc="best",
+            fontsize=8,
+            framealpha=0.9,
+            title="binding limit",
+            title_fontsize=8,
+        )
+    else:
+        cv.frame(ax1)
+        cv.frame(ax2)
+    cv.legend(ax1)
+    cv.note(ax1, cap, c.size, "smallest-capacity")
+    limits = []
+    for i, a in enumerate(arm.actuators):
+        parts = []
+        if a.max_force_n is not None:
+            parts.append(f"|F| ≤ {a.max_force_n:g} N")
+        if a.min_length_mm is not None or a.max_length_mm is not None:
+            lo = "−∞" if a.min_length_mm is None else f"{a.min_length_mm:g}"
+            hi = "∞" if a.max_length_mm is None else f"{a.max_length_mm:g}"
+            parts.append(f"stroke {lo}–{hi} mm")
+        limits.append(f"A{i + 1}: " + (", ".join(parts) or "no limit"))
+    ax1.set_title("Largest payload before any actuator limit", fontsize=10)
+    ax2.set_title("Which limit binds first", fontsize=10)
+    fig.suptitle(
+        _title(cap, "Payload capacity", None) + "\nlimits: " + "; ".join(limits), fontsize=10
+    )
+    return _finish(fig, path)
+
+
+# ---------------------------------------------------------------------------- dominant effect
+def effect_contributions(
+    arm: Arm,
+    grid: Any,
+    effects: Effect | Iterable[Effect] | None,
+    mass: float,
+    *,
+    self_weight: bool = True,
+    include_baseline: bool | None = None,
+    **sweep_kw: Any,
+) -> xr.Dataset:
+    """How far each effect alone moves the measure point, at each pose of a grid.
+
+    The baseline is the arm's spring model: its actuator springs, replaced by any
+    ``actuator_compliance`` among ``effects`` (that effect changes the springs rather than
+    adding a mechanism). Every other effect e is added alone to it, and its contribution is
+    |d(baseline + e) − d(baseline)|, d = (dx, dy) the measure point's displacement (mm). With
+    ``include_baseline`` the baseline's own |d| is a contender too (:data:`SPRINGS`); by
+    default only when there is no other effect.
+
+    Returns
+    -------
+    xarray.Dataset
+        ``contribution_mm`` (grid…, effect), ``dominant`` (grid…): index along ``effect`` of the
+        largest contribution, −1 where a pose is not reachable or not solved; the ``effect``
+        coordinate holds the labels; plus ``reachable``, ``effector_x_mm``, ``effector_y_mm``.
+    """
+
+    effs = list(as_effects(effects))
+    springs = [e for e in effs if e.name == "actuator_compliance"]
+    others = [e for e in effs if e.name != "actuator_compliance"]
+    if include_baseline is None:
+        include_baseline = not others
+    if not others and not include_baseline:
+        raise EodarmError("effect_contributions: no effect to compare")
+    kw = {**_as_sweep_kwargs(grid), **sweep_kw}
+    common = {"mass_kg": [float(mass)], "self_weight": self_weight, **kw}
+    base = sweep(arm, effects=springs, **common).isel(mass_kg=0)
+    d0x, d0y = base["dx_mm"].values, base["dy_mm"].values
+    labels: list[str] = []
+    contrib: list[FloatArray] = []
+    ok = base["ok"].values & base["reachable"].values
+    if include_baseline:
+        labels.append(SPRINGS)
+        contrib.append(np.hypot(d0x, d0y))
+    for e in others:
+        r = sweep(arm, effects=[*springs, e], **common).isel(mass_kg=0)
+        ok &= r["ok"].values
+        labels.append(f"{e.key} ({e.value:g} {e.kind.unit})")
+        contrib.append(np.hypot(r["dx_mm"].values - d0x, r["dy_mm"].values - d0y))
+    c = np.stack(contrib, axis=-1)
+    good = ok & np.isfinite(c).all(axis=-1)
+    dom = np.where(good, np.argmax(np.where(np.isfinite(c), c, -np.inf), axis=-1), -1)
+    dims = list(base["reachable"].dims)
+    out = base[["reachable", "effector_x_mm", "effector_y_mm"]].drop_vars("mass_kg")
+    out = out.assign_coords(effect=("effect", np.array(labels, dtype=object)))
+    out["contribution_mm"] = (
+        [*dims, "effect"],
+        np.where(good[..., None], c, np.nan),
+        {"units": "mm", "long_name": "displacement of the measure point by the effect alone"},
+    )
+    out["dominant"] = (dims, dom.astype(np.int64), {"long_name": "index of the largest effect"})
+    out["ok"] = (dims, good, {"long_name": "reachable and solved with every effect"})
+    out.attrs.update(
+        base.attrs,
+        payload_kg=float(mass),
+        model=" + ".join(["baseline", *(f"{e.key}={e.value:g}" for e in effs)]),
+        baseline_model=" + ".join(["arm springs", *(f"{e.key}={e.value:g}" for e in springs)]),
+        candidates=", ".join(f"{e.key}={e.value:g}" for e in others),
+    )
+    return out
+
+
+def dominant_effect_map(
+    arm: Arm,
+    grid: Any,
+    effects: Effect | Iterable[Effect] | None,
+    mass: float,
+    *,
+    self_weight: bool = True,
+    include_baseline: bool | None = None,
+    path: PathLike | None = None,
+    **sweep_kw: Any,
+) -> Figure:
+    """Which effect moves the measure point most, at each reachable pose (categorical).
+
+    Numbers from :func:`effect_contributions`; where poses overlap, the pose with the largest
+    dominant contribution is on top. The legend gives each effect's share of the poses.
+    """
+    con = effect_contributions(
+        arm,
+        grid,
+        effects,
+        mass,
+        self_weight=self_weight,
+        include_baseline=include_baseline,
+        **sweep_kw,
+    )
+    labels = [str(v) for v in con["effect"].values]
+    dom = con["dominant"].where(con["dominant"] >= 0)
+    x, y, d = _points(con, dom)
+    top = con["contribution_mm"].max("effect")
+    _, _, size = _points(con, top.where(con["dominant"] >= 0))
+    cv = _Canvas(arm, x, y, _ref_pose(con, arm.n))
+    fig = _figure(9.6, 7.0 * cv.aspect + 4.0)
+    ax = fig.add_subplot()
+    if d.size:
+        k = len(labels)
+        colours = [
+            ("0.6" if lab == SPRINGS else PALETTE[j % len(PALETTE)]) for j, lab in enumerate(labels)
+        ]
+        cmap = ListedColormap(colours)
+        norm = BoundaryNorm(np.arange(k + 1) - 0.5, k)
+        cv.draw(ax, x, y, d, size, cmap=cmap, norm=norm)
+        handles = [
+            Patch(color=colours[j], label=f"{labels[j]}: {100 * np.mean(d == j):.0f} % of poses")
+            for j in range(k)
+        ]
+        fig.legend(
+            handles=handles,
+            loc="outside lower center",
+            ncols=min(k, 2),
+            fontsize=8,
+            title="the largest |Δ(dx, dy)| of the measure point, each effect alone",
+            title_fontsize=8,
+        )
+    else:
+        cv.frame(ax)
+    cv.legend(ax)
+    cv.note(ax, con, d.size, "most deflected")
+    title = _title(con, "Which effect dominates the deflection", mass, width=8.0).split("\n")[0]
+    lines = textwrap.wrap(f"baseline: {con.attrs['baseline_model']}", 90)
+    lines += textwrap.wrap(f"each added alone: {con.attrs['candidates'] or 'none'}", 90)
+    fig.suptitle("\n".join([title, *lines]), fontsize=10)
+    return _finish(fig, path)
+
+
+# ---------------------------------------------------------------------------- all four
+def render_all(
+    arm: Arm,
+    grid: Mapping[str, Any],
+    effects: Sequence[Effect],
+    mass: float,
+    directory: PathLike,
+    *,
+    self_weight: bool = True,
+    assumed_max_force_n: float | None = None,
+    max_payload_kg: float = 100.0,
+    ds: xr.Dataset | None = None,
+    note: Callable[[str], None] | None = None,
+    prefix: str = "",
+) -> list[Path]:
+    """Write the four maps into ``directory``: ``sag.png``, ``forces.png``, ``capacity.png``,
+    ``dominant_effect.png`` (each name after ``prefix``).
+
+    ``grid`` is :func:`eodarm.sweep` keyword arguments (``{"alpha_deg": {…}}``); ``ds`` a sweep
+    of it that holds ``mass`` (else the grid is swept at ``mass``). Actuators without
+    ``max_force_n`` get ``assumed_max_force_n`` for the capacity map (when given; ``note`` is
+    told).
+    """
+    out = Path(directory)
+    out.mkdir(parents=True, exist_ok=True)
+    if ds is None or "mass_kg" not in ds.dims:
+        ds = sweep(arm, **grid, mass_kg=[mass], effects=effects, self_weight=self_weight)
+    written = []
+    p = out / f"{prefix}sag.png"
+    sag_map(ds, mass, path=p)
+    written.append(p)
+    p = out / f"{prefix}forces.png"
+    force_maps(ds, mass, path=p)
+    written.append(p)
+    cap_arm = arm
+    if assumed_max_force_n is not None:
+        missing = [str(i + 1) for i, a in enumerate(arm.actuators) if a.max_force_n is None]
+        if missing:
+            cap_arm = assume_max_force(arm, assumed_max_force_n)
+            if note is not None:
+                note(
+                    f"capacity map: actuator(s) {', '.join(missing)} have no max_force_n; "
+                    f"assuming {assumed_max_force_n:g} N"
+                )
+    p = out / f"{prefix}capacity.png"
+    capacity_map(
+        cap_arm,
+        grid,
+        effects=effects,
+        self_weight=self_weight,
+        max_payload_kg=max_payload_kg,
+        path=p,
+    )
+    written.append(p)
+    p = out / f"{prefix}dominant_effect.png"
+    dominant_effect_map(arm, grid, effects, mass, self_weight=self_weight, path=p)
+    written.append(p)
+    return written

@@ -1,0 +1,229 @@
+"""Workspace maps (eodarm.maps): sag, forces, payload capacity, the dominant effect.
+
+Promises tested here: the payload capacity is the payload at which the first actuator limit
+(force, either sign, or stroke) is reached, checked against ``eodarm.solve`` just below and
+just above it, and the binding limit is the one crossed; the dominant effect's numbers are
+``eodarm.solve`` differences; a map shows only reachable, solved poses and each pixel the
+worst pose that lands in it; one panel per actuator; nothing is written without a path.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+import xarray as xr
+from matplotlib.collections import QuadMesh
+from matplotlib.figure import Figure
+
+import eodarm
+from arms import example_arm
+from eodarm import maps
+from eodarm.errors import EodarmError
+
+E = eodarm.Effect
+GRID = {
+    "alpha1": np.linspace(30.0, 150.0, 9),
+    "alpha2": np.linspace(-50.0, 80.0, 7),
+    "alpha3": np.linspace(-45.0, 45.0, 5),
+}
+MODEL = [
+    E("mount_compliance", "M2", stiffness_n_per_mm=4000.0),
+    E("actuator_play", "M3", play_mm=0.4),
+    E("joint_clearance", "O3", clearance_mm=0.15),
+]
+
+
+@pytest.fixture(scope="module")
+def arm() -> eodarm.Arm:
+    return example_arm()  # stroke and force limits set
+
+
+@pytest.fixture(scope="module")
+def ds(arm: eodarm.Arm) -> xr.Dataset:
+    return eodarm.sweep(arm, alpha_deg=GRID, mass_kg=[1.5, 6.5], effects=MODEL)
+
+
+def poses() -> np.ndarray:
+    return np.stack(np.meshgrid(*GRID.values(), indexing="ij"), axis=-1).reshape(-1, 3)
+
+
+#: Soft actuator bodies, so that some poses reach a stroke limit before a force limit.
+SOFT = [E("actuator_compliance", f"M{i}", stiffness_n_per_mm=30.0) for i in (1, 2, 3)]
+
+
+def limits_crossed(arm: eodarm.Arm, alpha: np.ndarray, mass: float) -> list[int] | None:
+    """Codes of the limits beyond which the pose is at this payload (None: no solution)."""
+    try:
+        out = eodarm.solve(arm, alpha, mass, effects=[*SOFT, *MODEL])
+    except ValueError:
+        return None
+    crossed = []
+    length = out["length_mm"][0] + out["dlength_mm"][0]
+    for i, a in enumerate(arm.actuators):
+        if abs(out["force_n"][0, i]) > a.max_force_n * (1 + 1e-9):
+            crossed.append(i)
+        if length[i] < a.min_length_mm - 1e-9 or length[i] > a.max_length_mm + 1e-9:
+            crossed.append(arm.n + i)
+    return crossed
+
+
+def test_capacity_is_the_payload_where_the_first_limit_is_reached(arm: eodarm.Arm) -> None:
+    cap = maps.payload_capacity(arm, GRID, effects=[*SOFT, *MODEL], max_payload_kg=300.0)
+    c = cap["capacity_kg"].values.ravel()
+    lim = cap["limit"].values.ravel()
+    reach = cap["reachable"].values.ravel()
+    assert np.isnan(c[~reach]).all() and (lim[~reach] == -1).all()
+    alpha = poses()
+    checked = {"force": 0, "stroke": 0}
+    for p in np.flatnonzero(reach & (c < 300.0) & (c > 0.0)):
+        below = limits_crossed(arm, alpha[p], c[p] * (1 - 1e-7))
+        above = limits_crossed(arm, alpha[p], c[p] * (1 + 1e-7) + 1e-9)
+        if below is None or above is None:
+            continue  # the loaded pose does not close there (near a singular pose)
+        assert below == [], (p, c[p], below)
+        assert lim[p] in above, (p, c[p], lim[p], above)
+        checked["force" if lim[p] < arm.n else "stroke"] += 1
+    assert checked["force"] > 10 and checked["stroke"] > 3, checked
+
+
+def test_capacity_is_zero_where_self_weight_alone_is_too_much(arm: eodarm.Arm) -> None:
+    weak = maps.assume_max_force(
+        eodarm.Arm.from_dict(
+            {
+                **arm.to_dict(),
+                "actuator": [
+                    {k: v for k, v in a.items() if k != "max_force_n"}
+                    for a in arm.to_dict()["actuator"]
+                ],
+            }
+        ),
+        1.0,
+    )
+    cap = maps.payload_capacity(weak, GRID)
+    c = cap["capacity_kg"].values
+    assert (c[np.isfinite(c)] == 0.0).all() and np.isfinite(c).any()
+
+
+def test_capacity_is_capped(arm: eodarm.Arm) -> None:
+    strong = maps.assume_max_force(arm.replace(name="strong"), 1.0)  # keeps the arm's limits
+    assert strong.actuators == arm.actuators
+    cap = maps.payload_capacity(arm, GRID, max_payload_kg=0.5)
+    c = cap["capacity_kg"].values
+    assert np.nanmax(c) == 0.5
+    labels = str(cap.attrs["limit_labels"]).split(", ")
+    assert labels[-1] == "cap" and (cap["limit"].values[c == 0.5] == len(labels) - 1).all()
+
+
+def test_effect_contributions_are_solve_differences(arm: eodarm.Arm) -> None:
+    g = {"alpha1": [70.0, 100.0], "alpha2": [0.0, 30.0], "alpha3": [-10.0, 10.0]}
+    effects = [E("actuator_compliance", "M1", stiffness_n_per_mm=1500.0), *MODEL]
+    con = maps.effect_contributions(arm, g, effects, 5.0)
+    labels = [str(v) for v in con["effect"].values]
+    assert labels == [f"{e.key} ({e.value:g} {e.kind.unit})" for e in MODEL]
+    alpha = np.stack(np.meshgrid(*g.values(), indexing="ij"), axis=-1).reshape(-1, 3)
+    base = eodarm.solve(arm, alpha, 5.0, effects=effects[:1])
+    for j, e in enumerate(MODEL):
+        one = eodarm.solve(arm, alpha, 5.0, effects=[effects[0], e])
+        want = np.hypot(one["dx_mm"] - base["dx_mm"], one["dy_mm"] - base["dy_mm"])
+        got = con["contribution_mm"].values.reshape(-1, len(MODEL))[:, j]
+        np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-12)
+    dom = con["dominant"].values.ravel()
+    np.testing.assert_array_equal(
+        dom, np.argmax(con["contribution_mm"].values.reshape(-1, len(MODEL)), axis=1)
+    )
+
+
+def test_the_baseline_springs_compete_only_without_effects(arm: eodarm.Arm) -> None:
+    g = {"alpha1": [90.0], "alpha2": [10.0], "alpha3": [0.0]}
+    con = maps.effect_contributions(arm, g, [], 5.0)
+    assert [str(v) for v in con["effect"].values] == [maps.SPRINGS]
+    out = eodarm.solve(arm, [90.0, 10.0, 0.0], 5.0)
+    assert float(con["contribution_mm"].values.ravel()[0]) == pytest.approx(
+        float(np.hypot(out["dx_mm"][0], out["dy_mm"][0])), rel=1e-12
+    )
+
+
+def _mesh(fig: Figure, k: int = 0) -> np.ma.MaskedArray:
+    meshes = [c for ax in fig.axes for c in ax.collections if isinstance(c, QuadMesh)]
+    return np.ma.masked_invalid(np.ma.filled(meshes[k].get_array(), np.nan))
+
+
+def test_the_sag_map_shows_only_reachable_solved_poses(ds: xr.Dataset) -> None:
+    sel = ds.sel(mass_kg=6.5)
+    good = (sel["reachable"] & sel["ok"]).values
+    assert (~good).any() and good.any()
+    poisoned = ds.copy(deep=True)
+    poisoned["dy_mm"].values[~np.broadcast_to(good[..., None], ds["dy_mm"].shape)] = -1e6
+    img = _mesh(maps.sag_map(poisoned, 6.5))
+    shown = img.compressed()
+    assert shown.min() > -1e6
+    assert set(np.round(shown, 9)) <= set(np.round(sel["dy_mm"].values[good], 9))
+    # every pixel shows the most sagging pose that lands in it: the overall worst is there
+    assert shown.min() == pytest.approx(float(sel["dy_mm"].values[good].min()))
+
+
+def test_a_pixel_shows_its_worst_pose(arm: eodarm.Arm) -> None:
+    x = np.array([0.0, 0.1, 0.2, 50.0])
+    y = np.array([0.0, 0.1, 0.2, 50.0])
+    cv = maps._Canvas(arm, x, y, None)
+    value = np.array([1.0, 5.0, 3.0, 7.0])
+    _, _, img = cv.raster(x, y, value, worst=value)
+    assert sorted(img.compressed().tolist()) == [5.0, 7.0]
+    _, _, img = cv.raster(x, y, value, worst=-value)
+    assert sorted(img.compressed().tolist()) == [1.0, 7.0]
+
+
+def test_force_maps_have_one_panel_per_actuator_with_its_limit(ds: xr.Dataset) -> None:
+    fig = maps.force_maps(ds, 6.5)
+    panels = [ax for ax in fig.axes if ax.get_title().startswith("actuator")]
+    assert [ax.get_title().split(":")[0] for ax in panels] == [
+        "actuator 1",
+        "actuator 2",
+        "actuator 3",
+    ]
+    assert "limit ±4000 N" in panels[0].get_title()
+    sel = ds.sel(mass_kg=6.5)
+    good = (sel["reachable"] & sel["ok"]).values
+    f2 = sel["force_n"].sel(actuator=2).values[good]
+    img = _mesh(fig, 1).compressed()
+    assert img.max() == pytest.approx(f2[np.argmax(np.abs(f2))]) or img.min() == pytest.approx(
+        f2[np.argmax(np.abs(f2))]
+    )
+
+
+def test_capacity_and_dominant_maps_name_what_they_show(arm: eodarm.Arm) -> None:
+    fig = maps.capacity_map(arm, GRID, effects=MODEL)
+    legend = [
+        t.get_text() for ax in fig.axes if ax.get_legend() for t in ax.get_legend().get_texts()
+    ]
+    assert any(t.startswith("F") and "force" in t for t in legend)
+    assert "stroke 250–370 mm" in fig.get_suptitle()
+    fig = maps.dominant_effect_map(arm, GRID, MODEL, 6.5)
+    texts = [t.get_text() for leg in fig.legends for t in leg.get_texts()]
+    assert [t.split(" (")[0] for t in texts] == [e.key for e in MODEL]
+
+
+def test_maps_refuse_a_payload_not_swept_and_a_reduced_sweep(
+    ds: xr.Dataset, arm: eodarm.Arm
+) -> None:
+    with pytest.raises(
+        EodarmError, match=r"payload 3 kg is not in the sweep \(mass_kg: 1.5, 6.5\)"
+    ):
+        maps.sag_map(ds, 3.0)
+    red = eodarm.sweep(
+        arm, alpha_deg=GRID, mass_kg=[1.0], reduce={"op": "max", "dims": ["mass_kg"]}
+    )
+    with pytest.raises(EodarmError, match="mass_kg dimension"):
+        maps.force_maps(red)
+
+
+def test_a_map_is_written_only_when_asked(
+    ds: xr.Dataset, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    maps.sag_map(ds, 1.5)
+    assert list(tmp_path.iterdir()) == []
+    maps.sag_map(ds, 1.5, path=tmp_path / "sag.png")
+    assert (tmp_path / "sag.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
