@@ -689,9 +689,11 @@ def _parser() -> argparse.ArgumentParser:
     )
     c.add_argument("--cv", choices=("config",), help="leave-one-configuration-out cross-validation")
     c.set_defaults(func=_cmd_fit)
+    from .sweep import add_parser as add_sweep
     from .synth import add_parser as add_synth
 
     add_synth(sub)
+    add_sweep(sub)
     r = sub.add_parser(
         "report",
         help="the whole story as one HTML report (default: the bundled seed data)",
