@@ -1,0 +1,463 @@
+//! The block kernel of the sweep: the baseline model and the effects that only change
+//! actuator lengths (`actuator_compliance`, `mount_compliance`, `actuator_play`), for
+//! [`L`] poses at once in structure-of-arrays form so that LLVM vectorises the lane loops.
+//!
+//! It computes what [`crate::Workspace::solve`] computes (docs/model.md §2–§5), rearranged:
+//!
+//! * **Forward kinematics** with [`sincos_deg`] (cheap trigonometry, within a few ulp; see
+//!   [`super::trig`]); every vector of link i is `R(α_i)` times a per-arm constant.
+//! * **Statics** by the same tip-to-base recursion, for the self-weight case and for a unit
+//!   payload mass. Forces are linear in the payload, so for a mass m the change is
+//!   `ΔF = m·F_unit` and the loaded force `F_w + m·F_unit`.
+//! * **Exact closure without acos/atan2.** With a rigid chassis and rigid links, the vector
+//!   D_i = B_{i−1} − O_i turns with body i−1 (it is fixed for link 1), so the loaded angle is
+//!   `α′_i = α_i + Δα_{i−1} + s_i·(acos c′_i − acos c_i)` with
+//!   `c = (ρ² + |D|² − ℓ²)/(2ρ|D|)` (= D·R(α)a / (|D|ρ)) and `s_i` the side of the triangle.
+//!   The rotation δ = acos c′ − acos c has `sin δ = −Δc·(s + c(2c + Δc)/(s + s′))` and
+//!   `cos δ = c c′ + s s′` (s = √(1−c²), s′ = √(1−c′²), Δc = c′ − c = (ℓ² − ℓ′²)/(2ρ|D|) from
+//!   the length change directly), written so that nothing cancels for small δ. Rotations
+//!   compose as unit complex numbers kept as (sin, cos − 1), so the displacement of the
+//!   measure point `Σ (R(Δα_i) − I)·g_i` has no cancellation either. The output angle needs
+//!   δ itself: [`asin_small`] (series, < 1 ulp) for |sin δ| ≤ 0.125 and cos δ > 0, `atan2`
+//!   otherwise. A triangle that cannot close shows as `s′² < 0` (|c′| > 1 in the scalar core).
+//!
+//! The results agree with `Workspace::solve` to rounding (≈ 1e-13 relative on the deflections,
+//! whose magnitude is small against the positions they are differences of; the scalar core is
+//! the less accurate of the two there).
+
+// Lane loops index several `[link][lane]` arrays in step; `!(x >= t)` is meant: NaN fails.
+#![allow(clippy::needless_range_loop, clippy::neg_cmp_op_on_partial_ord)]
+
+use super::trig::{asin_small, sincos_deg, ASIN_SERIES_MAX};
+use crate::arm::Arm;
+use crate::effects::{Effect, EffectSet, FORCE_ZERO_N};
+use crate::statics::SINGULAR_TOL;
+
+/// Poses per block (lanes).
+pub const L: usize = 8;
+
+/// Per-arm constants of the kernel, for an arm of `N` links.
+#[derive(Debug, Clone)]
+pub struct FastArm<const N: usize> {
+    o1: [f64; 2],
+    /// D_1 = B_0 − O_1 (global, fixed).
+    d0: [f64; 2],
+    a: [[f64; 2]; N],
+    c: [[f64; 2]; N],
+    next: [[f64; 2]; N],
+    /// `b_i − next_i` in link i's frame: D_{i+1} before rotation (unused on the last link).
+    dloc: [[f64; 2]; N],
+    /// `b_i` in link i's frame.
+    b: [[f64; 2]; N],
+    measure: [f64; 2],
+    /// Zero-length threshold `1e-12·(1 + ρ)` and singular threshold `1e-9·ρ` (as the core).
+    len_tol: [f64; N],
+    arm_tol: [f64; N],
+    /// 1/(ρ|D|).
+    inv_rd: [f64; N],
+    /// 1/(2ρ|D|).
+    half_inv_rd: [f64; N],
+    /// Link weights and half actuator weights (N), zero without self-weight.
+    w_link: [f64; N],
+    w_half: [f64; N],
+    g: f64,
+    /// Body compliance (mm/N), series mount compliance (mm/N), play (mm).
+    body_c: [f64; N],
+    mount_c: [f64; N],
+    play: [f64; N],
+    /// Stroke limits (mm), ±∞ when absent.
+    lo: [f64; N],
+    hi: [f64; N],
+}
+
+fn p2(v: crate::V2) -> [f64; 2] {
+    [v.x, v.y]
+}
+
+impl<const N: usize> FastArm<N> {
+    /// The kernel's constants, or `None` when an effect is not length-only or `arm.n() != N`.
+    pub fn new(arm: &Arm, effects: &EffectSet, self_weight: bool) -> Option<Self> {
+        if arm.n() != N {
+            return None;
+        }
+        let z = [0.0; N];
+        let z2 = [[0.0; 2]; N];
+        let mut k = Self {
+            o1: p2(arm.o1),
+            d0: p2(arm.b0 - arm.o1),
+            a: z2,
+            c: z2,
+            next: z2,
+            dloc: z2,
+            b: z2,
+            measure: p2(arm.measure),
+            len_tol: z,
+            arm_tol: z,
+            inv_rd: z,
+            half_inv_rd: z,
+            w_link: z,
+            w_half: z,
+            g: arm.g,
+            body_c: z,
+            mount_c: z,
+            play: z,
+            lo: z,
+            hi: z,
+        };
+        for i in 0..N {
+            let link = &arm.links[i];
+            let act = &arm.actuators[i];
+            k.a[i] = p2(link.a);
+            k.c[i] = p2(link.c);
+            k.next[i] = p2(link.next);
+            k.b[i] = p2(link.b);
+            k.dloc[i] = p2(link.b - link.next);
+            let rho = link.a.norm();
+            let dn = if i == 0 {
+                (arm.b0 - arm.o1).norm()
+            } else {
+                (arm.links[i - 1].b - arm.links[i - 1].next).norm()
+            };
+            k.len_tol[i] = 1e-12 * (1.0 + rho);
+            k.arm_tol[i] = SINGULAR_TOL * rho;
+            k.inv_rd[i] = 1.0 / (rho * dn);
+            k.half_inv_rd[i] = 0.5 / (rho * dn);
+            if self_weight {
+                k.w_link[i] = link.mass_kg * arm.g;
+                k.w_half[i] = 0.5 * act.mass_kg * arm.g;
+            }
+            k.body_c[i] = 1.0 / act.stiffness;
+            k.lo[i] = act.min_length.unwrap_or(f64::NEG_INFINITY);
+            k.hi[i] = act.max_length.unwrap_or(f64::INFINITY);
+        }
+        for e in effects.effects() {
+            match e {
+                Effect::ActuatorCompliance(x) => k.body_c[x.actuator] = 1.0 / x.stiffness,
+                Effect::MountCompliance(x) => k.mount_c[x.actuator] += 1.0 / x.stiffness,
+                Effect::ActuatorPlay(x) => k.play[x.actuator] += x.play,
+                _ => return None,
+            }
+        }
+        Some(k)
+    }
+}
+
+/// Per-pose results of a block, structure of arrays (`[link][lane]`).
+#[derive(Debug, Clone)]
+pub struct PoseBlock<const N: usize> {
+    /// Unloaded pin-to-pin lengths ℓ_i (mm).
+    pub len: [[f64; L]; N],
+    /// cos and |sin| of the angle at O_i between D_i and A_i − O_i.
+    c: [[f64; L]; N],
+    s: [[f64; L]; N],
+    /// Side of the triangle (±1).
+    side: [[f64; L]; N],
+    /// Forces (N) of the self-weight case and of a unit payload mass (per kg).
+    fw: [[f64; L]; N],
+    fu: [[f64; L]; N],
+    /// Global levers whose rotation moves the measure point: R(α_i)·next_i, last R(α_n)·m.
+    gx: [[f64; L]; N],
+    gy: [[f64; L]; N],
+    /// The pose is singular (an actuator through its joint, or coincident pins).
+    pub singular: [bool; L],
+    /// Within every stroke limit (and not singular).
+    pub reachable: [bool; L],
+    /// Unloaded load point (mm).
+    pub ex: [f64; L],
+    /// Unloaded load point (mm).
+    pub ey: [f64; L],
+}
+
+impl<const N: usize> PoseBlock<N> {
+    /// Zeroed block.
+    pub fn new() -> Self {
+        let z = [[0.0; L]; N];
+        Self {
+            len: z,
+            c: z,
+            s: z,
+            side: z,
+            fw: z,
+            fu: z,
+            gx: z,
+            gy: z,
+            singular: [false; L],
+            reachable: [false; L],
+            ex: [0.0; L],
+            ey: [0.0; L],
+        }
+    }
+}
+
+/// Per-cell results of a block for one payload mass (`[link][lane]`).
+#[derive(Debug, Clone)]
+pub struct CellBlock<const N: usize> {
+    /// Loaded actuator forces (N).
+    pub force: [[f64; L]; N],
+    /// Measure point displacement (mm).
+    pub dx: [f64; L],
+    /// Measure point displacement (mm).
+    pub dy: [f64; L],
+    /// Change of absolute link angles (deg).
+    pub dalpha: [[f64; L]; N],
+    /// Actuator body length change (mm).
+    pub dl: [[f64; L]; N],
+    /// The cell solved (pose not singular, every loaded triangle closes).
+    pub ok: [bool; L],
+}
+
+impl<const N: usize> CellBlock<N> {
+    /// Zeroed block.
+    pub fn new() -> Self {
+        let z = [[0.0; L]; N];
+        Self {
+            force: z,
+            dx: [0.0; L],
+            dy: [0.0; L],
+            dalpha: z,
+            dl: z,
+            ok: [false; L],
+        }
+    }
+}
+
+#[inline(always)]
+fn rot(s: f64, c: f64, v: [f64; 2]) -> (f64, f64) {
+    (c * v[0] - s * v[1], s * v[0] + c * v[1])
+}
+
+impl<const N: usize> FastArm<N> {
+    /// Unloaded geometry and statics of up to `L` poses: `alpha_deg` holds `count` rows of
+    /// `N` angles (deg); missing lanes repeat the last pose and are to be ignored.
+    pub fn poses(&self, alpha_deg: &[f64], count: usize, pb: &mut PoseBlock<N>) {
+        let mut sn = [[0.0; L]; N];
+        let mut cs = [[0.0; L]; N];
+        for i in 0..N {
+            let mut x = [0.0; L];
+            for (k, xk) in x.iter_mut().enumerate() {
+                *xk = alpha_deg[k.min(count - 1) * N + i];
+            }
+            sincos_deg(&x, &mut sn[i], &mut cs[i]);
+        }
+        // Rotated local vectors (global directions) and actuator lines.
+        let mut rax = [[0.0; L]; N];
+        let mut ex = [[0.0; L]; N];
+        let mut ey = [[0.0; L]; N];
+        let mut hinv = [[0.0; L]; N];
+        let mut singular = [false; L];
+        let mut reach = [true; L];
+        let mut px = [self.o1[0]; L];
+        let mut py = [self.o1[1]; L];
+        for i in 0..N {
+            for k in 0..L {
+                let (s, c) = (sn[i][k], cs[i][k]);
+                let (ax, ay) = rot(s, c, self.a[i]);
+                let (dx, dy) = if i == 0 {
+                    (self.d0[0], self.d0[1])
+                } else {
+                    rot(sn[i - 1][k], cs[i - 1][k], self.dloc[i - 1])
+                };
+                let (vx, vy) = (ax - dx, ay - dy);
+                let l = (vx * vx + vy * vy).sqrt();
+                let inv = 1.0 / l;
+                let (e0, e1) = (vx * inv, vy * inv);
+                let h = ax * e1 - ay * e0;
+                let bad = !(l > self.len_tol[i]) || !(h.abs() >= self.arm_tol[i]);
+                singular[k] |= bad;
+                reach[k] &= l >= self.lo[i] && l <= self.hi[i];
+                rax[i][k] = ax;
+                ex[i][k] = e0;
+                ey[i][k] = e1;
+                hinv[i][k] = 1.0 / h;
+                pb.len[i][k] = l;
+                let cc = (dx * ax + dy * ay) * self.inv_rd[i];
+                let sg = (dx * ay - dy * ax) * self.inv_rd[i];
+                pb.c[i][k] = cc;
+                pb.s[i][k] = sg.abs();
+                pb.side[i][k] = 1.0f64.copysign(sg);
+                // Lever of the measure point's displacement, and the load point.
+                let (gx, gy) = rot(
+                    s,
+                    c,
+                    if i + 1 < N {
+                        self.next[i]
+                    } else {
+                        self.measure
+                    },
+                );
+                pb.gx[i][k] = gx;
+                pb.gy[i][k] = gy;
+                let (nx, ny) = rot(s, c, self.next[i]);
+                px[k] += nx;
+                py[k] += ny;
+            }
+        }
+        for k in 0..L {
+            pb.singular[k] = singular[k];
+            pb.reachable[k] = reach[k] && !singular[k];
+        }
+        pb.ex = px;
+        pb.ey = py;
+        // Statics, tip to base: self-weight case (w) and unit payload mass (u).
+        let mut fw1 = [0.0; L];
+        let mut rwx1 = [0.0; L];
+        let mut rwy1 = [0.0; L];
+        let mut fu1 = [0.0; L];
+        let mut rux1 = [0.0; L];
+        let mut ruy1 = [0.0; L];
+        for i in (0..N).rev() {
+            let (wl, wa) = (self.w_link[i], self.w_half[i]);
+            for k in 0..L {
+                let (s, c) = (sn[i][k], cs[i][k]);
+                let (cx, _) = rot(s, c, self.c[i]);
+                let ax = rax[i][k];
+                let (nx, ny) = rot(s, c, self.next[i]);
+                let mut qx = 0.0;
+                let mut qy = -(wl + wa);
+                let mut t = -wl * cx - wa * ax;
+                let (qux, quy, tu) = if i + 1 < N {
+                    let (bx, by) = rot(s, c, self.b[i]);
+                    let wb = self.w_half[i + 1];
+                    let (e0, e1) = (ex[i + 1][k], ey[i + 1][k]);
+                    // weight of actuator i+1's half at B_i, its force −F·e at B_i,
+                    // the distal reaction −R at O_{i+1}
+                    let (fx, fy) = (-fw1[k] * e0, -fw1[k] * e1);
+                    qx += fx - rwx1[k];
+                    qy += fy - rwy1[k] - wb;
+                    t += -wb * bx + (bx * fy - by * fx) - (nx * rwy1[k] - ny * rwx1[k]);
+                    let (gx, gy) = (-fu1[k] * e0, -fu1[k] * e1);
+                    (
+                        gx - rux1[k],
+                        gy - ruy1[k],
+                        (bx * gy - by * gx) - (nx * ruy1[k] - ny * rux1[k]),
+                    )
+                } else {
+                    // unit payload mass at the load point: (0, −g)
+                    (0.0, -self.g, -self.g * nx)
+                };
+                let f = -t * hinv[i][k];
+                let fu = -tu * hinv[i][k];
+                let (e0, e1) = (ex[i][k], ey[i][k]);
+                fw1[k] = f;
+                rwx1[k] = -qx - f * e0;
+                rwy1[k] = -qy - f * e1;
+                fu1[k] = fu;
+                rux1[k] = -qux - fu * e0;
+                ruy1[k] = -quy - fu * e1;
+                pb.fw[i][k] = f;
+                pb.fu[i][k] = fu;
+            }
+        }
+    }
+
+    /// Loaded minus unloaded state of the block's poses under a payload mass `m` (kg).
+    pub fn cells(&self, pb: &PoseBlock<N>, m: f64, cb: &mut CellBlock<N>) {
+        let mut sr = [0.0; L]; // sin Δα_i
+        let mut cm = [0.0; L]; // cos Δα_i − 1
+        let mut dx = [0.0; L];
+        let mut dy = [0.0; L];
+        let mut fail = pb.singular;
+        let mut dth = [[0.0; L]; N];
+        let mut far = false;
+        for i in 0..N {
+            let (bc, mc, pl, hr) = (
+                self.body_c[i],
+                self.mount_c[i],
+                self.play[i],
+                self.half_inv_rd[i],
+            );
+            for k in 0..L {
+                let du = m * pb.fu[i][k];
+                let f = pb.fw[i][k] + du;
+                let body = -du * bc;
+                let sg = if f >= FORCE_ZERO_N {
+                    1.0
+                } else if f <= -FORCE_ZERO_N {
+                    -1.0
+                } else {
+                    0.0
+                };
+                let dlen = body - du * mc - pl * sg;
+                let l = pb.len[i][k];
+                let dc = -dlen * (2.0 * l + dlen) * hr;
+                let (c, s, side) = (pb.c[i][k], pb.s[i][k], pb.side[i][k]);
+                let t = 2.0 * c + dc;
+                let s2 = s * s - dc * t;
+                fail[k] |= !(s2 >= 0.0);
+                let s1 = s2.max(0.0).sqrt();
+                let sind = -dc * (s + c * t / (s + s1));
+                let cosd = c * (c + dc) + s * s1;
+                let rs = side * sind;
+                let rc = if cosd > 0.0 {
+                    -sind * sind / (1.0 + cosd)
+                } else {
+                    cosd - 1.0
+                };
+                let ns = sr[k] + rs + (sr[k] * rc + cm[k] * rs);
+                let nc = cm[k] + rc + (cm[k] * rc - sr[k] * rs);
+                sr[k] = ns;
+                cm[k] = nc;
+                dx[k] += nc * pb.gx[i][k] - ns * pb.gy[i][k];
+                dy[k] += ns * pb.gx[i][k] + nc * pb.gy[i][k];
+                far |= !(sind.abs() <= ASIN_SERIES_MAX && cosd > 0.0);
+                dth[i][k] = side * asin_small(sind);
+                cb.force[i][k] = f;
+                cb.dl[i][k] = body;
+            }
+        }
+        if far {
+            self.fix_large_turns(pb, m, &mut dth);
+        }
+        let deg = 180.0f64 / std::f64::consts::PI;
+        let mut da = [0.0; L];
+        for i in 0..N {
+            for k in 0..L {
+                let a = da[k] + dth[i][k];
+                // The loaded angle nearest the unloaded one (wrap into [−π, π)).
+                let a = if a >= std::f64::consts::PI {
+                    a - std::f64::consts::TAU
+                } else if a < -std::f64::consts::PI {
+                    a + std::f64::consts::TAU
+                } else {
+                    a
+                };
+                da[k] = a;
+                cb.dalpha[i][k] = a * deg;
+            }
+        }
+        cb.dx = dx;
+        cb.dy = dy;
+        for k in 0..L {
+            cb.ok[k] = !fail[k];
+        }
+    }
+
+    /// Recomputes the turn of the lanes where the series does not apply, with `atan2`.
+    #[cold]
+    fn fix_large_turns(&self, pb: &PoseBlock<N>, m: f64, dth: &mut [[f64; L]; N]) {
+        for i in 0..N {
+            for k in 0..L {
+                let du = m * pb.fu[i][k];
+                let f = pb.fw[i][k] + du;
+                let sg = if f >= FORCE_ZERO_N {
+                    1.0
+                } else if f <= -FORCE_ZERO_N {
+                    -1.0
+                } else {
+                    0.0
+                };
+                let dlen = -du * self.body_c[i] - du * self.mount_c[i] - self.play[i] * sg;
+                let l = pb.len[i][k];
+                let dc = -dlen * (2.0 * l + dlen) * self.half_inv_rd[i];
+                let (c, s) = (pb.c[i][k], pb.s[i][k]);
+                let t = 2.0 * c + dc;
+                let s1 = (s * s - dc * t).max(0.0).sqrt();
+                let sind = -dc * (s + c * t / (s + s1));
+                let cosd = c * (c + dc) + s * s1;
+                if !(sind.abs() <= ASIN_SERIES_MAX && cosd > 0.0) {
+                    dth[i][k] = pb.side[i][k] * sind.atan2(cosd);
+                }
+            }
+        }
+    }
+}
