@@ -39,6 +39,8 @@ use reduce::{n_fields, write_group, Acc, Sink};
 
 /// Default number of rows (cells) per chunk.
 pub const CHUNK_ROWS: usize = 16_384;
+/// Smallest default chunk (rows) when a small sweep is split between threads.
+pub const MIN_CHUNK_ROWS: usize = 512;
 /// Longest arm handled by the block kernel; longer arms use the per-cell path.
 pub const MAX_FAST_LINKS: usize = 6;
 
@@ -81,7 +83,8 @@ pub struct SweepOptions {
     /// Worker threads: `None` uses rayon's global pool; `Some(k)` a pool of k threads built
     /// for this call (`Some(1)` runs on the calling thread).
     pub threads: Option<usize>,
-    /// Rows per chunk (`None`: [`CHUNK_ROWS`]); a chunk holds at least [`L`] poses.
+    /// Rows per chunk (`None`: [`CHUNK_ROWS`], less for small sweeps so that every thread
+    /// gets several chunks); a chunk holds a multiple of [`L`] poses, at least [`L`].
     pub chunk_rows: Option<usize>,
 }
 
@@ -325,8 +328,15 @@ pub fn sweep(
     if poses == 0 {
         return Ok(());
     }
-    let chunk_rows = opts.chunk_rows.unwrap_or(CHUNK_ROWS).max(1);
-    let chunk_poses = ((chunk_rows / masses.max(1)) / L * L).max(L);
+    let chunk_poses = match opts.chunk_rows {
+        Some(rows) => (rows / masses.max(1)) / L * L,
+        // Small sweeps: at least four chunks per thread, of at least MIN_CHUNK_ROWS rows.
+        None => (CHUNK_ROWS / masses.max(1))
+            .min(poses.div_ceil(4 * threads).max(MIN_CHUNK_ROWS / masses.max(1)))
+            .div_ceil(L)
+            * L,
+    }
+    .max(L);
     let (chunks, gaps) = split_out(out, n, poses, masses, group, chunk_poses);
     let nchunks = chunks.len();
     let inline = threads <= 1
@@ -751,6 +761,26 @@ fn run_fast<const N: usize>(
         }
         for (j, &m) in mass.iter().enumerate() {
             k.cells(&pb, m, &mut cb);
+            if let Sink::Store {
+                row0, cells, ok, ..
+            } = sink
+            {
+                // Straight from the block into the row-major outputs.
+                for q in 0..count {
+                    let r = (pose0 + p + q) * masses + j - *row0;
+                    let good = cb.ok[q];
+                    let nan = |x: f64| if good { x } else { f64::NAN };
+                    ok[r] = good;
+                    for i in 0..N {
+                        cells.force_n[r * N + i] = nan(cb.force[i][q]);
+                        cells.dalpha_deg[r * N + i] = nan(cb.dalpha[i][q]);
+                        cells.dl_mm[r * N + i] = nan(cb.dl[i][q]);
+                    }
+                    cells.dx_mm[r] = nan(cb.dx[q]);
+                    cells.dy_mm[r] = nan(cb.dy[q]);
+                }
+                continue;
+            }
             for q in 0..count {
                 for i in 0..N {
                     v[i] = cb.force[i][q];

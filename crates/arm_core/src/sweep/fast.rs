@@ -239,114 +239,100 @@ impl<const N: usize> FastArm<N> {
             }
             sincos_deg(&x, &mut sn[i], &mut cs[i]);
         }
-        // Rotated local vectors (global directions) and actuator lines.
-        let mut rax = [[0.0; L]; N];
-        let mut ex = [[0.0; L]; N];
-        let mut ey = [[0.0; L]; N];
-        let mut hinv = [[0.0; L]; N];
+        // Link by link from the tip: geometry of link i (it needs the angles of links i and
+        // i−1 only), then its statics, which need the actuator line of link i+1.
         let mut singular = [false; L];
         let mut reach = [true; L];
-        let mut px = [self.o1[0]; L];
-        let mut py = [self.o1[1]; L];
-        for i in 0..N {
-            for k in 0..L {
-                let (s, c) = (sn[i][k], cs[i][k]);
-                let (ax, ay) = rot(s, c, self.a[i]);
-                let (dx, dy) = if i == 0 {
-                    (self.d0[0], self.d0[1])
-                } else {
-                    rot(sn[i - 1][k], cs[i - 1][k], self.dloc[i - 1])
-                };
-                let (vx, vy) = (ax - dx, ay - dy);
-                let l = (vx * vx + vy * vy).sqrt();
-                let inv = 1.0 / l;
-                let (e0, e1) = (vx * inv, vy * inv);
-                let h = ax * e1 - ay * e0;
-                let bad = !(l > self.len_tol[i]) || !(h.abs() >= self.arm_tol[i]);
-                singular[k] |= bad;
-                reach[k] &= l >= self.lo[i] && l <= self.hi[i];
-                rax[i][k] = ax;
-                ex[i][k] = e0;
-                ey[i][k] = e1;
-                hinv[i][k] = 1.0 / h;
-                pb.len[i][k] = l;
-                let cc = (dx * ax + dy * ay) * self.inv_rd[i];
-                let sg = (dx * ay - dy * ax) * self.inv_rd[i];
-                pb.c[i][k] = cc;
-                pb.s[i][k] = sg.abs();
-                pb.side[i][k] = 1.0f64.copysign(sg);
-                // Lever of the measure point's displacement, and the load point.
-                let (gx, gy) = rot(
-                    s,
-                    c,
-                    if i + 1 < N {
-                        self.next[i]
-                    } else {
-                        self.measure
-                    },
-                );
-                pb.gx[i][k] = gx;
-                pb.gy[i][k] = gy;
-                let (nx, ny) = rot(s, c, self.next[i]);
-                px[k] += nx;
-                py[k] += ny;
-            }
-        }
-        for k in 0..L {
-            pb.singular[k] = singular[k];
-            pb.reachable[k] = reach[k] && !singular[k];
-        }
-        pb.ex = px;
-        pb.ey = py;
-        // Statics, tip to base: self-weight case (w) and unit payload mass (u).
+        let mut px = [0.0; L];
+        let mut py = [0.0; L];
+        // Actuator line of link i+1 and the forces of the self-weight case (w) and of a unit
+        // payload mass (u) from link i+1. Beyond the tip: no actuator, and a "reaction"
+        // −P = (0, g) so that −R_{n+1} is the payload (0, −g) at the load point.
+        let mut e0n = [0.0; L];
+        let mut e1n = [0.0; L];
         let mut fw1 = [0.0; L];
         let mut rwx1 = [0.0; L];
         let mut rwy1 = [0.0; L];
         let mut fu1 = [0.0; L];
         let mut rux1 = [0.0; L];
-        let mut ruy1 = [0.0; L];
+        let mut ruy1 = [self.g; L];
         for i in (0..N).rev() {
+            // D_i = B_{i−1} − O_i: fixed on the chassis, else turning with link i−1.
+            let mut dx = [self.d0[0]; L];
+            let mut dy = [self.d0[1]; L];
+            if i > 0 {
+                for k in 0..L {
+                    (dx[k], dy[k]) = rot(sn[i - 1][k], cs[i - 1][k], self.dloc[i - 1]);
+                }
+            }
+            let lever = if i + 1 < N {
+                self.next[i]
+            } else {
+                self.measure
+            };
+            let wb = if i + 1 < N { self.w_half[i + 1] } else { 0.0 };
             let (wl, wa) = (self.w_link[i], self.w_half[i]);
+            let (len_tol, arm_tol, inv_rd) = (self.len_tol[i], self.arm_tol[i], self.inv_rd[i]);
+            let (lo, hi) = (self.lo[i], self.hi[i]);
             for k in 0..L {
                 let (s, c) = (sn[i][k], cs[i][k]);
-                let (cx, _) = rot(s, c, self.c[i]);
-                let ax = rax[i][k];
+                let (ax, ay) = rot(s, c, self.a[i]);
+                let (vx, vy) = (ax - dx[k], ay - dy[k]);
+                let l = (vx * vx + vy * vy).sqrt();
+                // h = (A − O) × e = hv / ℓ; one division gives both 1/ℓ and 1/h.
+                let hv = ax * vy - ay * vx;
+                let q = 1.0 / (l * hv);
+                let inv_l = hv * q;
+                let inv_h = l * l * q;
+                let (e0, e1) = (vx * inv_l, vy * inv_l);
+                // `!(x > t)`: NaN counts as singular, as in the scalar core. Non-short-circuit
+                // `|`/`&` keep the lane loop branch-free.
+                singular[k] |= !(l > len_tol) | !(hv.abs() >= arm_tol * l);
+                reach[k] &= (l >= lo) & (l <= hi);
+                pb.len[i][k] = l;
+                let sg = (dx[k] * ay - dy[k] * ax) * inv_rd;
+                pb.c[i][k] = (dx[k] * ax + dy[k] * ay) * inv_rd;
+                pb.s[i][k] = sg.abs();
+                pb.side[i][k] = 1.0f64.copysign(sg);
+                // Lever of the measure point's displacement, and the load point.
+                let (gx, gy) = rot(s, c, lever);
+                pb.gx[i][k] = gx;
+                pb.gy[i][k] = gy;
                 let (nx, ny) = rot(s, c, self.next[i]);
-                let mut qx = 0.0;
-                let mut qy = -(wl + wa);
-                let mut t = -wl * cx - wa * ax;
-                let (qux, quy, tu) = if i + 1 < N {
-                    let (bx, by) = rot(s, c, self.b[i]);
-                    let wb = self.w_half[i + 1];
-                    let (e0, e1) = (ex[i + 1][k], ey[i + 1][k]);
-                    // weight of actuator i+1's half at B_i, its force −F·e at B_i,
-                    // the distal reaction −R at O_{i+1}
-                    let (fx, fy) = (-fw1[k] * e0, -fw1[k] * e1);
-                    qx += fx - rwx1[k];
-                    qy += fy - rwy1[k] - wb;
-                    t += -wb * bx + (bx * fy - by * fx) - (nx * rwy1[k] - ny * rwx1[k]);
-                    let (gx, gy) = (-fu1[k] * e0, -fu1[k] * e1);
-                    (
-                        gx - rux1[k],
-                        gy - ruy1[k],
-                        (bx * gy - by * gx) - (nx * ruy1[k] - ny * rux1[k]),
-                    )
-                } else {
-                    // unit payload mass at the load point: (0, −g)
-                    (0.0, -self.g, -self.g * nx)
-                };
-                let f = -t * hinv[i][k];
-                let fu = -tu * hinv[i][k];
-                let (e0, e1) = (ex[i][k], ey[i][k]);
+                px[k] += nx;
+                py[k] += ny;
+                // Statics of link i: weights at C_i, A_i and B_i, actuator i+1's force −F·e
+                // at B_i, the distal reaction −R at O_{i+1}; moments about O_i.
+                let cx = c * self.c[i][0] - s * self.c[i][1];
+                let (bx, by) = rot(s, c, self.b[i]);
+                let (fx, fy) = (-fw1[k] * e0n[k], -fw1[k] * e1n[k]);
+                let qx = fx - rwx1[k];
+                let qy = fy - rwy1[k] - (wl + wa + wb);
+                let t = -wl * cx - wa * ax - wb * bx + (bx * fy - by * fx)
+                    - (nx * rwy1[k] - ny * rwx1[k]);
+                let (gx, gy) = (-fu1[k] * e0n[k], -fu1[k] * e1n[k]);
+                let qux = gx - rux1[k];
+                let quy = gy - ruy1[k];
+                let tu = (bx * gy - by * gx) - (nx * ruy1[k] - ny * rux1[k]);
+                let f = -t * inv_h;
+                let fu = -tu * inv_h;
                 fw1[k] = f;
                 rwx1[k] = -qx - f * e0;
                 rwy1[k] = -qy - f * e1;
                 fu1[k] = fu;
                 rux1[k] = -qux - fu * e0;
                 ruy1[k] = -quy - fu * e1;
+                e0n[k] = e0;
+                e1n[k] = e1;
                 pb.fw[i][k] = f;
                 pb.fu[i][k] = fu;
             }
+        }
+        for k in 0..L {
+            pb.singular[k] = singular[k];
+            pb.reachable[k] = reach[k] & !singular[k];
+            pb.ex[k] = self.o1[0] + px[k];
+            pb.ey[k] = self.o1[1] + py[k];
         }
     }
 
@@ -385,11 +371,14 @@ impl<const N: usize> FastArm<N> {
                 let s2 = s * s - dc * t;
                 fail[k] |= !(s2 >= 0.0);
                 let s1 = s2.max(0.0).sqrt();
-                let sind = -dc * (s + c * t / (s + s1));
                 let cosd = c * (c + dc) + s * s1;
+                // One division for 1/(s + s′) and 1/(1 + |cos δ|) (≥ 1, used where cos δ > 0).
+                let den = 1.0 + cosd.abs();
+                let q = 1.0 / ((s + s1) * den);
+                let sind = -dc * (s + c * t * (den * q));
                 let rs = side * sind;
                 let rc = if cosd > 0.0 {
-                    -sind * sind / (1.0 + cosd)
+                    -sind * sind * ((s + s1) * q)
                 } else {
                     cosd - 1.0
                 };

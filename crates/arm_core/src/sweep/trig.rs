@@ -8,7 +8,7 @@
 //!   `x.to_radians()` differs from it by the rounding of `x·π/180` (≈ |x| · 2e-18 absolute for
 //!   x in degrees), i.e. a few 1e-16 for arm angles. Lanes beyond the limit use libm exactly
 //!   as the scalar core does.
-//! * [`asin_small`]: `asin x` for |x| ≤ [`ASIN_SERIES_MAX`] by its Taylor series to x¹⁷
+//! * [`asin_small`]: `asin x` for |x| ≤ [`ASIN_SERIES_MAX`] by its Taylor series to x¹³
 //!   (truncation below 1e-18 relative; rounding below 1 ulp). The sweep uses it for the small
 //!   rotation of each loaded triangle and falls back to `atan2` where it does not apply.
 
@@ -18,7 +18,7 @@
 /// Above this magnitude (degrees) [`sincos_deg`] hands the lane to libm.
 pub const FAST_TRIG_LIMIT_DEG: f64 = 1e5;
 /// Largest |x| for which [`asin_small`] is accurate to 1 ulp.
-pub const ASIN_SERIES_MAX: f64 = 0.125;
+pub const ASIN_SERIES_MAX: f64 = 0.0625;
 
 /// 1.5·2⁵²: adding it rounds a double of magnitude < 2⁵¹ to an integer (ties to even).
 const ROUND_MAGIC: f64 = 6_755_399_441_055_744.0;
@@ -89,14 +89,14 @@ const A3: f64 = 5.0 / 112.0;
 const A4: f64 = 35.0 / 1152.0;
 const A5: f64 = 63.0 / 2816.0;
 const A6: f64 = 231.0 / 13312.0;
-const A7: f64 = 143.0 / 10240.0;
-const A8: f64 = 6435.0 / 557_056.0;
 
-/// `asin x` for |x| ≤ [`ASIN_SERIES_MAX`] (Taylor series to x¹⁷); larger |x| is inaccurate.
+/// `asin x` for |x| ≤ [`ASIN_SERIES_MAX`] (Taylor series to x¹³); larger |x| is inaccurate.
 #[inline(always)]
 pub fn asin_small(x: f64) -> f64 {
+    // Estrin's scheme: a short dependency chain (the lanes of the sweep are latency-bound).
     let z = x * x;
-    let p = A1 + z * (A2 + z * (A3 + z * (A4 + z * (A5 + z * (A6 + z * (A7 + z * A8))))));
+    let z2 = z * z;
+    let p = (A1 + z * A2) + z2 * ((A3 + z * A4) + z2 * (A5 + z * A6));
     x + x * z * p
 }
 
