@@ -331,10 +331,16 @@ pub fn sweep(
     let chunk_poses = match opts.chunk_rows {
         Some(rows) => (rows / masses.max(1)) / L * L,
         // Small sweeps: at least four chunks per thread, of at least MIN_CHUNK_ROWS rows.
-        None => (CHUNK_ROWS / masses.max(1))
-            .min(poses.div_ceil(4 * threads).max(MIN_CHUNK_ROWS / masses.max(1)))
-            .div_ceil(L)
-            * L,
+        None => {
+            (CHUNK_ROWS / masses.max(1))
+                .min(
+                    poses
+                        .div_ceil(4 * threads)
+                        .max(MIN_CHUNK_ROWS / masses.max(1)),
+                )
+                .div_ceil(L)
+                * L
+        }
     }
     .max(L);
     let (chunks, gaps) = split_out(out, n, poses, masses, group, chunk_poses);
