@@ -35,7 +35,7 @@ use crate::effects::EffectSet;
 use crate::error::{ArmError, Result};
 pub use fast::L;
 use fast::{CellBlock, FastArm, PoseBlock};
-use reduce::{n_fields, write_group, Acc, Sink};
+use reduce::{fold_op, n_fields, write_group, Acc, Sink, ARGMAX, ARGMIN, MAX, MIN};
 
 /// Default number of rows (cells) per chunk.
 pub const CHUNK_ROWS: usize = 16_384;
@@ -787,6 +787,17 @@ fn run_fast<const N: usize>(
                 }
                 continue;
             }
+            if let Sink::Reduce { group, op, acc } = sink {
+                let row = (pose0 + p) * masses + j;
+                let (g, b) = (*group, &cb);
+                match op {
+                    ReduceOp::Max => fold_block::<N, MAX>(b, count, row, masses, g, acc),
+                    ReduceOp::Min => fold_block::<N, MIN>(b, count, row, masses, g, acc),
+                    ReduceOp::ArgMax => fold_block::<N, ARGMAX>(b, count, row, masses, g, acc),
+                    ReduceOp::ArgMin => fold_block::<N, ARGMIN>(b, count, row, masses, g, acc),
+                }
+                continue;
+            }
             for q in 0..count {
                 for i in 0..N {
                     v[i] = cb.force[i][q];
@@ -800,5 +811,44 @@ fn run_fast<const N: usize>(
             }
         }
         p += count;
+    }
+}
+
+/// Folds the cells of a block (one mass; lane q at row `row + q·stride`) into `acc`, with the
+/// group of each row found without a division per cell.
+#[inline(always)]
+fn fold_block<const N: usize, const OP: u8>(
+    cb: &CellBlock<N>,
+    count: usize,
+    row: usize,
+    stride: usize,
+    group: usize,
+    acc: &mut Acc,
+) {
+    let nf = 3 * N + 2;
+    let mut g = row / group;
+    let mut off = row - g * group;
+    for q in 0..count {
+        if cb.ok[q] {
+            let gi = g - acc.g0;
+            acc.ok[gi] = true;
+            let vals = &mut acc.vals[gi * nf..(gi + 1) * nf];
+            let at = &mut acc.at[gi * nf..(gi + 1) * nf];
+            let o = off as i64;
+            for i in 0..N {
+                fold_op::<OP>(&mut vals[i], &mut at[i], cb.force[i][q], o);
+                let f = N + 2 + i;
+                fold_op::<OP>(&mut vals[f], &mut at[f], cb.dalpha[i][q], o);
+                let f = 2 * N + 2 + i;
+                fold_op::<OP>(&mut vals[f], &mut at[f], cb.dl[i][q], o);
+            }
+            fold_op::<OP>(&mut vals[N], &mut at[N], cb.dx[q], o);
+            fold_op::<OP>(&mut vals[N + 1], &mut at[N + 1], cb.dy[q], o);
+        }
+        off += stride;
+        if off >= group {
+            g += off / group;
+            off %= group;
+        }
     }
 }

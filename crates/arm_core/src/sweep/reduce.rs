@@ -16,23 +16,39 @@ pub(crate) fn n_fields(n: usize) -> usize {
 /// Folds value `v` at offset `off` into the accumulator `(acc, at)`.
 #[inline(always)]
 pub(crate) fn fold(op: ReduceOp, acc: &mut f64, at: &mut i64, v: f64, off: i64) {
-    let take = match op {
-        ReduceOp::Max => {
-            v > *acc
-                || (acc.is_nan() && !v.is_nan())
-                || (v == 0.0 && *acc == 0.0 && v.is_sign_positive())
-        }
-        ReduceOp::Min => {
-            v < *acc
-                || (acc.is_nan() && !v.is_nan())
-                || (v == 0.0 && *acc == 0.0 && v.is_sign_negative())
-        }
-        ReduceOp::ArgMax => !v.is_nan() && (acc.is_nan() || v > *acc || (v == *acc && off < *at)),
-        ReduceOp::ArgMin => !v.is_nan() && (acc.is_nan() || v < *acc || (v == *acc && off < *at)),
+    match op {
+        ReduceOp::Max => fold_op::<MAX>(acc, at, v, off),
+        ReduceOp::Min => fold_op::<MIN>(acc, at, v, off),
+        ReduceOp::ArgMax => fold_op::<ARGMAX>(acc, at, v, off),
+        ReduceOp::ArgMin => fold_op::<ARGMIN>(acc, at, v, off),
+    }
+}
+
+/// [`ReduceOp`] as a const parameter of [`fold_op`].
+pub(crate) const MAX: u8 = 0;
+/// See [`MAX`].
+pub(crate) const MIN: u8 = 1;
+/// See [`MAX`].
+pub(crate) const ARGMAX: u8 = 2;
+/// See [`MAX`].
+pub(crate) const ARGMIN: u8 = 3;
+
+/// [`fold`] for one reduction known at compile time. Branch-free (`&`, `|` and selects):
+/// the comparisons of random values would be mispredicted.
+#[inline(always)]
+pub(crate) fn fold_op<const OP: u8>(acc: &mut f64, at: &mut i64, v: f64, off: i64) {
+    let (a, t) = (*acc, *at);
+    let empty = a.is_nan() & !v.is_nan();
+    let zeros = (v == 0.0) & (a == 0.0);
+    let take = match OP {
+        MAX => (v > a) | empty | (zeros & v.is_sign_positive()),
+        MIN => (v < a) | empty | (zeros & v.is_sign_negative()),
+        ARGMAX => (v > a) | empty | ((v == a) & (off < t)),
+        _ => (v < a) | empty | ((v == a) & (off < t)),
     };
-    if take {
-        *acc = v;
-        *at = off;
+    *acc = if take { v } else { a };
+    if OP >= ARGMAX {
+        *at = if take { off } else { t };
     }
 }
 
