@@ -64,7 +64,11 @@ pub struct FastArm<const N: usize> {
     /// Body compliance (mm/N), series mount compliance (mm/N), play (mm).
     body_c: [f64; N],
     mount_c: [f64; N],
+    /// Body plus mount compliance: the pin-to-pin length per unit force change (mm/N).
+    len_c: [f64; N],
     play: [f64; N],
+    /// Some actuator has play (the cell loop then needs the sign of the loaded force).
+    any_play: bool,
     /// Stroke limits (mm), ±∞ when absent.
     lo: [f64; N],
     hi: [f64; N],
@@ -100,7 +104,9 @@ impl<const N: usize> FastArm<N> {
             g: arm.g,
             body_c: z,
             mount_c: z,
+            len_c: z,
             play: z,
+            any_play: false,
             lo: z,
             hi: z,
         };
@@ -138,6 +144,10 @@ impl<const N: usize> FastArm<N> {
                 _ => return None,
             }
         }
+        for i in 0..N {
+            k.len_c[i] = k.body_c[i] + k.mount_c[i];
+        }
+        k.any_play = k.play.iter().any(|&p| p != 0.0);
         Some(k)
     }
 }
@@ -221,6 +231,14 @@ impl<const N: usize> CellBlock<N> {
     }
 }
 
+/// `sign(f)`, 0 below [`FORCE_ZERO_N`] (the scalar core's `sign0`), branch-free.
+#[inline(always)]
+fn sign0(f: f64) -> f64 {
+    let pos = if f >= FORCE_ZERO_N { 1.0 } else { 0.0 };
+    let neg = if f <= -FORCE_ZERO_N { 1.0 } else { 0.0 };
+    pos - neg
+}
+
 #[inline(always)]
 fn rot(s: f64, c: f64, v: [f64; 2]) -> (f64, f64) {
     (c * v[0] - s * v[1], s * v[0] + c * v[1])
@@ -274,58 +292,62 @@ impl<const N: usize> FastArm<N> {
             let (wl, wa) = (self.w_link[i], self.w_half[i]);
             let (len_tol, arm_tol, inv_rd) = (self.len_tol[i], self.arm_tol[i], self.inv_rd[i]);
             let (lo, hi) = (self.lo[i], self.hi[i]);
-            for k in 0..L {
-                let (s, c) = (sn[i][k], cs[i][k]);
-                let (ax, ay) = rot(s, c, self.a[i]);
-                let (vx, vy) = (ax - dx[k], ay - dy[k]);
-                let l = (vx * vx + vy * vy).sqrt();
-                // h = (A − O) × e = hv / ℓ; one division gives both 1/ℓ and 1/h.
-                let hv = ax * vy - ay * vx;
-                let q = 1.0 / (l * hv);
-                let inv_l = hv * q;
-                let inv_h = l * l * q;
-                let (e0, e1) = (vx * inv_l, vy * inv_l);
-                // `!(x > t)`: NaN counts as singular, as in the scalar core. Non-short-circuit
-                // `|`/`&` keep the lane loop branch-free.
-                singular[k] |= !(l > len_tol) | !(hv.abs() >= arm_tol * l);
-                reach[k] &= (l >= lo) & (l <= hi);
-                pb.len[i][k] = l;
-                let sg = (dx[k] * ay - dy[k] * ax) * inv_rd;
-                pb.c[i][k] = (dx[k] * ax + dy[k] * ay) * inv_rd;
-                pb.s[i][k] = sg.abs();
-                pb.side[i][k] = 1.0f64.copysign(sg);
-                // Lever of the measure point's displacement, and the load point.
-                let (gx, gy) = rot(s, c, lever);
-                pb.gx[i][k] = gx;
-                pb.gy[i][k] = gy;
-                let (nx, ny) = rot(s, c, self.next[i]);
-                px[k] += nx;
-                py[k] += ny;
-                // Statics of link i: weights at C_i, A_i and B_i, actuator i+1's force −F·e
-                // at B_i, the distal reaction −R at O_{i+1}; moments about O_i.
-                let cx = c * self.c[i][0] - s * self.c[i][1];
-                let (bx, by) = rot(s, c, self.b[i]);
-                let (fx, fy) = (-fw1[k] * e0n[k], -fw1[k] * e1n[k]);
-                let qx = fx - rwx1[k];
-                let qy = fy - rwy1[k] - (wl + wa + wb);
-                let t = -wl * cx - wa * ax - wb * bx + (bx * fy - by * fx)
-                    - (nx * rwy1[k] - ny * rwx1[k]);
-                let (gx, gy) = (-fu1[k] * e0n[k], -fu1[k] * e1n[k]);
-                let qux = gx - rux1[k];
-                let quy = gy - ruy1[k];
-                let tu = (bx * gy - by * gx) - (nx * ruy1[k] - ny * rux1[k]);
-                let f = -t * inv_h;
-                let fu = -tu * inv_h;
-                fw1[k] = f;
-                rwx1[k] = -qx - f * e0;
-                rwy1[k] = -qy - f * e1;
-                fu1[k] = fu;
-                rux1[k] = -qux - fu * e0;
-                ruy1[k] = -quy - fu * e1;
-                e0n[k] = e0;
-                e1n[k] = e1;
-                pb.fw[i][k] = f;
-                pb.fu[i][k] = fu;
+            for k0 in (0..L).step_by(4) {
+                for k in k0..k0 + 4 {
+                    let (s, c) = (sn[i][k], cs[i][k]);
+                    let (ax, ay) = rot(s, c, self.a[i]);
+                    let (vx, vy) = (ax - dx[k], ay - dy[k]);
+                    let l2 = vx * vx + vy * vy;
+                    let l = l2.sqrt();
+                    // h = (A − O) × e = hv / ℓ. One division, which does not wait for the square
+                    // root, gives both 1/ℓ = ℓ·hv/(ℓ²·hv) and 1/h = ℓ·ℓ²/(ℓ²·hv).
+                    let hv = ax * vy - ay * vx;
+                    let q = 1.0 / (l2 * hv);
+                    let inv_l = l * (hv * q);
+                    let inv_h = l * (l2 * q);
+                    let (e0, e1) = (vx * inv_l, vy * inv_l);
+                    // `!(x > t)`: NaN counts as singular, as in the scalar core. Non-short-circuit
+                    // `|`/`&` keep the lane loop branch-free.
+                    singular[k] |= !(l > len_tol) | !(hv.abs() >= arm_tol * l);
+                    reach[k] &= (l >= lo) & (l <= hi);
+                    pb.len[i][k] = l;
+                    let sg = (dx[k] * ay - dy[k] * ax) * inv_rd;
+                    pb.c[i][k] = (dx[k] * ax + dy[k] * ay) * inv_rd;
+                    pb.s[i][k] = sg.abs();
+                    pb.side[i][k] = 1.0f64.copysign(sg);
+                    // Lever of the measure point's displacement, and the load point.
+                    let (gx, gy) = rot(s, c, lever);
+                    pb.gx[i][k] = gx;
+                    pb.gy[i][k] = gy;
+                    let (nx, ny) = rot(s, c, self.next[i]);
+                    px[k] += nx;
+                    py[k] += ny;
+                    // Statics of link i: weights at C_i, A_i and B_i, actuator i+1's force −F·e
+                    // at B_i, the distal reaction −R at O_{i+1}; moments about O_i.
+                    let cx = c * self.c[i][0] - s * self.c[i][1];
+                    let (bx, by) = rot(s, c, self.b[i]);
+                    let (fx, fy) = (-fw1[k] * e0n[k], -fw1[k] * e1n[k]);
+                    let qx = fx - rwx1[k];
+                    let qy = fy - rwy1[k] - (wl + wa + wb);
+                    let t = -wl * cx - wa * ax - wb * bx + (bx * fy - by * fx)
+                        - (nx * rwy1[k] - ny * rwx1[k]);
+                    let (gx, gy) = (-fu1[k] * e0n[k], -fu1[k] * e1n[k]);
+                    let qux = gx - rux1[k];
+                    let quy = gy - ruy1[k];
+                    let tu = (bx * gy - by * gx) - (nx * ruy1[k] - ny * rux1[k]);
+                    let f = -t * inv_h;
+                    let fu = -tu * inv_h;
+                    fw1[k] = f;
+                    rwx1[k] = -qx - f * e0;
+                    rwy1[k] = -qy - f * e1;
+                    fu1[k] = fu;
+                    rux1[k] = -qux - fu * e0;
+                    ruy1[k] = -quy - fu * e1;
+                    e0n[k] = e0;
+                    e1n[k] = e1;
+                    pb.fw[i][k] = f;
+                    pb.fu[i][k] = fu;
+                }
             }
         }
         for k in 0..L {
@@ -338,6 +360,16 @@ impl<const N: usize> FastArm<N> {
 
     /// Loaded minus unloaded state of the block's poses under a payload mass `m` (kg).
     pub fn cells(&self, pb: &PoseBlock<N>, m: f64, cb: &mut CellBlock<N>) {
+        if self.any_play {
+            self.cells_impl::<true>(pb, m, cb);
+        } else {
+            self.cells_impl::<false>(pb, m, cb);
+        }
+    }
+
+    /// [`Self::cells`], without the play terms when `PLAY` is false.
+    #[inline(always)]
+    fn cells_impl<const PLAY: bool>(&self, pb: &PoseBlock<N>, m: f64, cb: &mut CellBlock<N>) {
         let mut sr = [0.0; L]; // sin Δα_i
         let mut cm = [0.0; L]; // cos Δα_i − 1
         let mut dx = [0.0; L];
@@ -346,52 +378,51 @@ impl<const N: usize> FastArm<N> {
         let mut dth = [[0.0; L]; N];
         let mut far = false;
         for i in 0..N {
-            let (bc, mc, pl, hr) = (
+            let (bc, lc, pl, hr) = (
                 self.body_c[i],
-                self.mount_c[i],
+                self.len_c[i],
                 self.play[i],
                 self.half_inv_rd[i],
             );
-            for k in 0..L {
-                let du = m * pb.fu[i][k];
-                let f = pb.fw[i][k] + du;
-                let body = -du * bc;
-                let sg = if f >= FORCE_ZERO_N {
-                    1.0
-                } else if f <= -FORCE_ZERO_N {
-                    -1.0
-                } else {
-                    0.0
-                };
-                let dlen = body - du * mc - pl * sg;
-                let l = pb.len[i][k];
-                let dc = -dlen * (2.0 * l + dlen) * hr;
-                let (c, s, side) = (pb.c[i][k], pb.s[i][k], pb.side[i][k]);
-                let t = 2.0 * c + dc;
-                let s2 = s * s - dc * t;
-                fail[k] |= !(s2 >= 0.0);
-                let s1 = s2.max(0.0).sqrt();
-                let cosd = c * (c + dc) + s * s1;
-                // One division for 1/(s + s′) and 1/(1 + |cos δ|) (≥ 1, used where cos δ > 0).
-                let den = 1.0 + cosd.abs();
-                let q = 1.0 / ((s + s1) * den);
-                let sind = -dc * (s + c * t * (den * q));
-                let rs = side * sind;
-                let rc = if cosd > 0.0 {
-                    -sind * sind * ((s + s1) * q)
-                } else {
-                    cosd - 1.0
-                };
-                let ns = sr[k] + rs + (sr[k] * rc + cm[k] * rs);
-                let nc = cm[k] + rc + (cm[k] * rc - sr[k] * rs);
-                sr[k] = ns;
-                cm[k] = nc;
-                dx[k] += nc * pb.gx[i][k] - ns * pb.gy[i][k];
-                dy[k] += ns * pb.gx[i][k] + nc * pb.gy[i][k];
-                far |= !(sind.abs() <= ASIN_SERIES_MAX && cosd > 0.0);
-                dth[i][k] = side * asin_small(sind);
-                cb.force[i][k] = f;
-                cb.dl[i][k] = body;
+            for k0 in (0..L).step_by(4) {
+                for k in k0..k0 + 4 {
+                    let du = m * pb.fu[i][k];
+                    let f = pb.fw[i][k] + du;
+                    let body = -du * bc;
+                    let dlen = if PLAY {
+                        -du * lc - pl * sign0(f)
+                    } else {
+                        -du * lc
+                    };
+                    let l = pb.len[i][k];
+                    let dc = -dlen * (2.0 * l + dlen) * hr;
+                    let (c, s, side) = (pb.c[i][k], pb.s[i][k], pb.side[i][k]);
+                    let t = 2.0 * c + dc;
+                    let s2 = s * s - dc * t;
+                    fail[k] |= !(s2 >= 0.0);
+                    let s1 = s2.max(0.0).sqrt();
+                    let cosd = c * (c + dc) + s * s1;
+                    // One division for 1/(s + s′) and 1/(1 + |cos δ|) (≥ 1, used where cos δ > 0).
+                    let den = 1.0 + cosd.abs();
+                    let q = 1.0 / ((s + s1) * den);
+                    let sind = -dc * (s + c * t * (den * q));
+                    let rs = side * sind;
+                    let rc = if cosd > 0.0 {
+                        -sind * sind * ((s + s1) * q)
+                    } else {
+                        cosd - 1.0
+                    };
+                    let ns = sr[k] + rs + (sr[k] * rc + cm[k] * rs);
+                    let nc = cm[k] + rc + (cm[k] * rc - sr[k] * rs);
+                    sr[k] = ns;
+                    cm[k] = nc;
+                    dx[k] += nc * pb.gx[i][k] - ns * pb.gy[i][k];
+                    dy[k] += ns * pb.gx[i][k] + nc * pb.gy[i][k];
+                    far |= !(sind.abs() <= ASIN_SERIES_MAX && cosd > 0.0);
+                    dth[i][k] = side * asin_small(sind);
+                    cb.force[i][k] = f;
+                    cb.dl[i][k] = body;
+                }
             }
         }
         if far {
@@ -428,14 +459,11 @@ impl<const N: usize> FastArm<N> {
             for k in 0..L {
                 let du = m * pb.fu[i][k];
                 let f = pb.fw[i][k] + du;
-                let sg = if f >= FORCE_ZERO_N {
-                    1.0
-                } else if f <= -FORCE_ZERO_N {
-                    -1.0
+                let dlen = if self.any_play {
+                    -du * self.len_c[i] - self.play[i] * sign0(f)
                 } else {
-                    0.0
+                    -du * self.len_c[i]
                 };
-                let dlen = -du * self.body_c[i] - du * self.mount_c[i] - self.play[i] * sg;
                 let l = pb.len[i][k];
                 let dc = -dlen * (2.0 * l + dlen) * self.half_inv_rd[i];
                 let (c, s) = (pb.c[i][k], pb.s[i][k]);
