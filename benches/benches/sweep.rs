@@ -1,6 +1,7 @@
 //! Criterion benchmarks of `arm_core::sweep` on the example arm (`examples/example_arm.toml`):
-//! 1e4, 1e5 and 1e6 poses × 1 payload, baseline model, all outputs; one thread against two;
-//! stored against reduced (max over groups of 8 poses). Output buffers are allocated once per
+//! 1e4, 1e5 and 1e6 poses × 1 payload, baseline model, all outputs; one thread against two
+//! (a pool of two built per call, `threads: Some(2)`, and rayon's global pool, `None`, which
+//! has two threads on a 2-CPU machine); stored against reduced (max over groups of 8 poses). Output buffers are allocated once per
 //! size and reused, so this measures the core. Run with `cargo bench -p arm_benches --bench
 //! sweep`; see `docs/benchmarks.md`.
 
@@ -90,8 +91,8 @@ fn bench_sweep(c: &mut Criterion) {
             }),
         ),
     ] {
-        for threads in [1, 2] {
-            let mut group = c.benchmark_group(format!("sweep/baseline/{label}/{threads}t"));
+        for (tlabel, threads) in [("1t", Some(1)), ("2t", Some(2)), ("pool", None)] {
+            let mut group = c.benchmark_group(format!("sweep/baseline/{label}/{tlabel}"));
             group
                 .sampling_mode(SamplingMode::Flat)
                 .sample_size(10)
@@ -104,7 +105,7 @@ fn bench_sweep(c: &mut Criterion) {
                 let opts = SweepOptions {
                     self_weight: true,
                     reduce,
-                    threads: Some(threads),
+                    threads,
                     chunk_rows: None,
                 };
                 // Every cell must solve: a benchmark of NaN cells would measure nothing.

@@ -45,8 +45,6 @@ pub struct FastArm<const N: usize> {
     a: [[f64; 2]; N],
     c: [[f64; 2]; N],
     next: [[f64; 2]; N],
-    /// `b_i − next_i` in link i's frame: D_{i+1} before rotation (unused on the last link).
-    dloc: [[f64; 2]; N],
     /// `b_i` in link i's frame.
     b: [[f64; 2]; N],
     measure: [f64; 2],
@@ -92,7 +90,6 @@ impl<const N: usize> FastArm<N> {
             a: z2,
             c: z2,
             next: z2,
-            dloc: z2,
             b: z2,
             measure: p2(arm.measure),
             len_tol: z,
@@ -117,7 +114,6 @@ impl<const N: usize> FastArm<N> {
             k.c[i] = p2(link.c);
             k.next[i] = p2(link.next);
             k.b[i] = p2(link.b);
-            k.dloc[i] = p2(link.b - link.next);
             let rho = link.a.norm();
             let dn = if i == 0 {
                 (arm.b0 - arm.o1).norm()
@@ -274,20 +270,33 @@ impl<const N: usize> FastArm<N> {
         let mut fu1 = [0.0; L];
         let mut rux1 = [0.0; L];
         let mut ruy1 = [self.g; L];
+        // R(α_i)·next_i and R(α_i)·b_i of the link being processed: computed for the last link
+        // here (its b is unused), for the others while their distal link was processed.
+        let mut rnx = [0.0; L];
+        let mut rny = [0.0; L];
+        let mut rbx = [0.0; L];
+        let mut rby = [0.0; L];
+        for k in 0..L {
+            (rnx[k], rny[k]) = rot(sn[N - 1][k], cs[N - 1][k], self.next[N - 1]);
+        }
         for i in (0..N).rev() {
-            // D_i = B_{i−1} − O_i: fixed on the chassis, else turning with link i−1.
+            // D_i = B_{i−1} − O_i: fixed on the chassis, else R(α_{i−1})·(b − next)_{i−1},
+            // taken as the difference of the two vectors that link i−1 needs anyway.
             let mut dx = [self.d0[0]; L];
             let mut dy = [self.d0[1]; L];
+            let mut pnx = [0.0; L];
+            let mut pny = [0.0; L];
+            let mut pbx = [0.0; L];
+            let mut pby = [0.0; L];
             if i > 0 {
                 for k in 0..L {
-                    (dx[k], dy[k]) = rot(sn[i - 1][k], cs[i - 1][k], self.dloc[i - 1]);
+                    let (s, c) = (sn[i - 1][k], cs[i - 1][k]);
+                    (pnx[k], pny[k]) = rot(s, c, self.next[i - 1]);
+                    (pbx[k], pby[k]) = rot(s, c, self.b[i - 1]);
+                    dx[k] = pbx[k] - pnx[k];
+                    dy[k] = pby[k] - pny[k];
                 }
             }
-            let lever = if i + 1 < N {
-                self.next[i]
-            } else {
-                self.measure
-            };
             let wb = if i + 1 < N { self.w_half[i + 1] } else { 0.0 };
             let (wl, wa) = (self.w_link[i], self.w_half[i]);
             let (len_tol, arm_tol, inv_rd) = (self.len_tol[i], self.arm_tol[i], self.inv_rd[i]);
@@ -316,16 +325,20 @@ impl<const N: usize> FastArm<N> {
                     pb.s[i][k] = sg.abs();
                     pb.side[i][k] = 1.0f64.copysign(sg);
                     // Lever of the measure point's displacement, and the load point.
-                    let (gx, gy) = rot(s, c, lever);
+                    let (nx, ny) = (rnx[k], rny[k]);
+                    let (gx, gy) = if i + 1 < N {
+                        (nx, ny)
+                    } else {
+                        rot(s, c, self.measure)
+                    };
                     pb.gx[i][k] = gx;
                     pb.gy[i][k] = gy;
-                    let (nx, ny) = rot(s, c, self.next[i]);
                     px[k] += nx;
                     py[k] += ny;
                     // Statics of link i: weights at C_i, A_i and B_i, actuator i+1's force −F·e
                     // at B_i, the distal reaction −R at O_{i+1}; moments about O_i.
                     let cx = c * self.c[i][0] - s * self.c[i][1];
-                    let (bx, by) = rot(s, c, self.b[i]);
+                    let (bx, by) = (rbx[k], rby[k]);
                     let (fx, fy) = (-fw1[k] * e0n[k], -fw1[k] * e1n[k]);
                     let qx = fx - rwx1[k];
                     let qy = fy - rwy1[k] - (wl + wa + wb);
@@ -349,6 +362,7 @@ impl<const N: usize> FastArm<N> {
                     pb.fu[i][k] = fu;
                 }
             }
+            (rnx, rny, rbx, rby) = (pnx, pny, pbx, pby);
         }
         for k in 0..L {
             pb.singular[k] = singular[k];
