@@ -258,11 +258,10 @@ struct Scratch {
 /// stops.
 ///
 /// # Errors
-/// * [`ArmError::Shape`] for input or output buffers of the wrong length, or an index buffer
-///   where values are due (and the reverse);
-/// * [`ArmError::NonFinite`] naming the first pose (or mass) with a non-finite value, and
-///   [`ArmError::OutOfRange`] for a negative mass;
-/// * [`ArmError::InvalidOption`] for a group that does not divide N·M or zero threads;
+/// * [`ArmError::Shape`] for input or output buffers of the wrong length;
+/// * [`ArmError::NonFinite`] naming the first pose with a non-finite angle;
+/// * [`ArmError::InvalidOption`] for a mass that is negative or not finite, a group that does
+///   not divide N·M, zero threads, or index buffers where values are due (and the reverse);
 /// * [`ArmError::Cancelled`] when `cancel` returned true.
 pub fn sweep(
     arm: &Arm,
@@ -283,19 +282,14 @@ pub fn sweep(
     }
     let poses = alpha_deg.len() / n;
     let masses = mass_kg.len();
-    for (row, &m) in mass_kg.iter().enumerate() {
-        if !m.is_finite() {
-            return Err(ArmError::NonFinite {
-                row,
-                what: "mass_kg",
-            });
-        }
-        if m < 0.0 {
-            return Err(ArmError::OutOfRange {
-                row,
-                what: format!("mass_kg is negative ({m})"),
-            });
-        }
+    if let Some((j, m)) = mass_kg
+        .iter()
+        .enumerate()
+        .find(|(_, m)| !(m.is_finite() && **m >= 0.0))
+    {
+        return Err(ArmError::InvalidOption(format!(
+            "mass_kg[{j}] must be finite and >= 0, got {m}"
+        )));
     }
     let rows = poses * masses;
     let group = match opts.reduce {

@@ -698,9 +698,9 @@ fn bad_options_are_errors() {
     .unwrap_err();
     assert!(matches!(e, ArmError::InvalidOption(_)));
     let e = run(&arm, &eff, &alpha, &[1.0, -2.0], opts(true), &never).unwrap_err();
-    assert!(matches!(e, ArmError::OutOfRange { row: 1, .. }), "{e}");
+    assert!(e.to_string().contains("mass_kg[1]"), "{e}");
     let e = run(&arm, &eff, &alpha, &[f64::NAN], opts(true), &never).unwrap_err();
-    assert!(matches!(e, ArmError::NonFinite { row: 0, .. }), "{e}");
+    assert!(e.to_string().contains("mass_kg[0]"), "{e}");
     let e = run(&arm, &eff, &alpha[..29], &[1.0], opts(true), &never).unwrap_err();
     assert!(matches!(e, ArmError::Shape { .. }), "{e}");
     // The lowest non-finite pose is named, whatever the threads and chunks.
