@@ -214,6 +214,8 @@ struct Plan<'a> {
     self_weight: bool,
     reduce: Option<Reduce>,
     kernel: Kernel,
+    /// The instruction set the block kernel runs with.
+    simd: pulp::Arch,
 }
 
 /// The computation behind the cells.
@@ -318,6 +320,7 @@ pub fn sweep(
         self_weight: opts.self_weight,
         reduce: opts.reduce,
         kernel: Kernel::new(arm, effects, opts.self_weight),
+        simd: pulp::Arch::new(),
     };
     if poses == 0 {
         return Ok(());
@@ -702,12 +705,12 @@ fn run_kernel(
     exact: &mut Option<fallback::Scratch>,
 ) {
     match &plan.kernel {
-        Kernel::F1(k) => run_fast(k, plan.mass, pose0, alpha, out, sink),
-        Kernel::F2(k) => run_fast(k, plan.mass, pose0, alpha, out, sink),
-        Kernel::F3(k) => run_fast(k, plan.mass, pose0, alpha, out, sink),
-        Kernel::F4(k) => run_fast(k, plan.mass, pose0, alpha, out, sink),
-        Kernel::F5(k) => run_fast(k, plan.mass, pose0, alpha, out, sink),
-        Kernel::F6(k) => run_fast(k, plan.mass, pose0, alpha, out, sink),
+        Kernel::F1(k) => run_fast(plan.simd, k, plan.mass, pose0, alpha, out, sink),
+        Kernel::F2(k) => run_fast(plan.simd, k, plan.mass, pose0, alpha, out, sink),
+        Kernel::F3(k) => run_fast(plan.simd, k, plan.mass, pose0, alpha, out, sink),
+        Kernel::F4(k) => run_fast(plan.simd, k, plan.mass, pose0, alpha, out, sink),
+        Kernel::F5(k) => run_fast(plan.simd, k, plan.mass, pose0, alpha, out, sink),
+        Kernel::F6(k) => run_fast(plan.simd, k, plan.mass, pose0, alpha, out, sink),
         Kernel::Exact => {
             let s = exact.get_or_insert_with(|| fallback::Scratch::new(plan.arm));
             fallback::run(
@@ -727,6 +730,7 @@ fn run_kernel(
 
 #[allow(clippy::needless_range_loop)] // lanes and links index several arrays in step
 fn run_fast<const N: usize>(
+    simd: pulp::Arch,
     k: &FastArm<N>,
     mass: &[f64],
     pose0: usize,
@@ -738,7 +742,6 @@ fn run_fast<const N: usize>(
     let masses = mass.len();
     let mut pb = PoseBlock::<N>::new();
     let mut cb = CellBlock::<N>::new();
-    let mut v = [0.0; 3 * MAX_FAST_LINKS + 2];
     let mut p = 0;
     while p < poses {
         let count = (poses - p).min(L);
@@ -760,7 +763,7 @@ fn run_fast<const N: usize>(
             out.ey[p..p + count].copy_from_slice(&pb.ey[..count]);
         }
         for (j, &m) in mass.iter().enumerate() {
-            k.cells(&pb, m, &mut cb);
+            k.cells(simd, &pb, m, &mut cb);
             if let Sink::Store {
                 row0, cells, ok, ..
             } = sink
@@ -791,17 +794,6 @@ fn run_fast<const N: usize>(
                     ReduceOp::ArgMin => fold_block::<N, ARGMIN>(b, count, row, masses, g, acc),
                 }
                 continue;
-            }
-            for q in 0..count {
-                for i in 0..N {
-                    v[i] = cb.force[i][q];
-                    v[N + 2 + i] = cb.dalpha[i][q];
-                    v[2 * N + 2 + i] = cb.dl[i][q];
-                }
-                v[N] = cb.dx[q];
-                v[N + 1] = cb.dy[q];
-                let row = (pose0 + p + q) * masses + j;
-                sink.cell(row, cb.ok[q], &v[..3 * N + 2]);
             }
         }
         p += count;

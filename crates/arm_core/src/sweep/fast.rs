@@ -241,9 +241,12 @@ fn rot(s: f64, c: f64, v: [f64; 2]) -> (f64, f64) {
 }
 
 impl<const N: usize> FastArm<N> {
-    /// Unloaded geometry and statics of up to `L` poses: `alpha_deg` holds `count` rows of
-    /// `N` angles (deg); missing lanes repeat the last pose and are to be ignored.
-    pub fn poses(&self, alpha_deg: &[f64], count: usize, pb: &mut PoseBlock<N>) {
+    /// [`Self::poses`], kept out of line: inlined into a larger function, its loop is not
+    /// vectorised.
+    #[inline(never)]
+    fn poses_impl(&self, alpha_deg: &[f64], count: usize, out: &mut PoseBlock<N>) {
+        let pb = out;
+        let this = self;
         let mut sn = [[0.0; L]; N];
         let mut cs = [[0.0; L]; N];
         for i in 0..N {
@@ -269,7 +272,7 @@ impl<const N: usize> FastArm<N> {
         let mut rwy1 = [0.0; L];
         let mut fu1 = [0.0; L];
         let mut rux1 = [0.0; L];
-        let mut ruy1 = [self.g; L];
+        let mut ruy1 = [this.g; L];
         // R(α_i)·next_i and R(α_i)·b_i of the link being processed: computed for the last link
         // here (its b is unused), for the others while their distal link was processed.
         let mut rnx = [0.0; L];
@@ -277,13 +280,13 @@ impl<const N: usize> FastArm<N> {
         let mut rbx = [0.0; L];
         let mut rby = [0.0; L];
         for k in 0..L {
-            (rnx[k], rny[k]) = rot(sn[N - 1][k], cs[N - 1][k], self.next[N - 1]);
+            (rnx[k], rny[k]) = rot(sn[N - 1][k], cs[N - 1][k], this.next[N - 1]);
         }
         for i in (0..N).rev() {
             // D_i = B_{i−1} − O_i: fixed on the chassis, else R(α_{i−1})·(b − next)_{i−1},
             // taken as the difference of the two vectors that link i−1 needs anyway.
-            let mut dx = [self.d0[0]; L];
-            let mut dy = [self.d0[1]; L];
+            let mut dx = [this.d0[0]; L];
+            let mut dy = [this.d0[1]; L];
             let mut pnx = [0.0; L];
             let mut pny = [0.0; L];
             let mut pbx = [0.0; L];
@@ -291,20 +294,22 @@ impl<const N: usize> FastArm<N> {
             if i > 0 {
                 for k in 0..L {
                     let (s, c) = (sn[i - 1][k], cs[i - 1][k]);
-                    (pnx[k], pny[k]) = rot(s, c, self.next[i - 1]);
-                    (pbx[k], pby[k]) = rot(s, c, self.b[i - 1]);
+                    (pnx[k], pny[k]) = rot(s, c, this.next[i - 1]);
+                    (pbx[k], pby[k]) = rot(s, c, this.b[i - 1]);
                     dx[k] = pbx[k] - pnx[k];
                     dy[k] = pby[k] - pny[k];
                 }
             }
-            let wb = if i + 1 < N { self.w_half[i + 1] } else { 0.0 };
-            let (wl, wa) = (self.w_link[i], self.w_half[i]);
-            let (len_tol, arm_tol, inv_rd) = (self.len_tol[i], self.arm_tol[i], self.inv_rd[i]);
-            let (lo, hi) = (self.lo[i], self.hi[i]);
+            let wb = if i + 1 < N { this.w_half[i + 1] } else { 0.0 };
+            let (wl, wa) = (this.w_link[i], this.w_half[i]);
+            let (len_tol, arm_tol, inv_rd) = (this.len_tol[i], this.arm_tol[i], this.inv_rd[i]);
+            let (lo, hi) = (this.lo[i], this.hi[i]);
+            // Lanes in groups of four: each group is one AVX2 vector (two SSE2 vectors), which
+            // LLVM vectorises whatever the instruction set (a loop over all eight it would not).
             for k0 in (0..L).step_by(4) {
                 for k in k0..k0 + 4 {
                     let (s, c) = (sn[i][k], cs[i][k]);
-                    let (ax, ay) = rot(s, c, self.a[i]);
+                    let (ax, ay) = rot(s, c, this.a[i]);
                     let (vx, vy) = (ax - dx[k], ay - dy[k]);
                     let l2 = vx * vx + vy * vy;
                     let l = l2.sqrt();
@@ -329,7 +334,7 @@ impl<const N: usize> FastArm<N> {
                     let (gx, gy) = if i + 1 < N {
                         (nx, ny)
                     } else {
-                        rot(s, c, self.measure)
+                        rot(s, c, this.measure)
                     };
                     pb.gx[i][k] = gx;
                     pb.gy[i][k] = gy;
@@ -337,7 +342,7 @@ impl<const N: usize> FastArm<N> {
                     py[k] += ny;
                     // Statics of link i: weights at C_i, A_i and B_i, actuator i+1's force −F·e
                     // at B_i, the distal reaction −R at O_{i+1}; moments about O_i.
-                    let cx = c * self.c[i][0] - s * self.c[i][1];
+                    let cx = c * this.c[i][0] - s * this.c[i][1];
                     let (bx, by) = (rbx[k], rby[k]);
                     let (fx, fy) = (-fw1[k] * e0n[k], -fw1[k] * e1n[k]);
                     let qx = fx - rwx1[k];
@@ -367,13 +372,14 @@ impl<const N: usize> FastArm<N> {
         for k in 0..L {
             pb.singular[k] = singular[k];
             pb.reachable[k] = reach[k] & !singular[k];
-            pb.ex[k] = self.o1[0] + px[k];
-            pb.ey[k] = self.o1[1] + py[k];
+            pb.ex[k] = this.o1[0] + px[k];
+            pb.ey[k] = this.o1[1] + py[k];
         }
     }
 
-    /// Loaded minus unloaded state of the block's poses under a payload mass `m` (kg).
-    pub fn cells(&self, pb: &PoseBlock<N>, m: f64, cb: &mut CellBlock<N>) {
+    /// [`Self::cells`] for either play setting.
+    #[inline(always)]
+    fn cells_any(&self, pb: &PoseBlock<N>, m: f64, cb: &mut CellBlock<N>) {
         if self.any_play {
             self.cells_impl::<true>(pb, m, cb);
         } else {
@@ -398,45 +404,43 @@ impl<const N: usize> FastArm<N> {
                 self.play[i],
                 self.half_inv_rd[i],
             );
-            for k0 in (0..L).step_by(4) {
-                for k in k0..k0 + 4 {
-                    let du = m * pb.fu[i][k];
-                    let f = pb.fw[i][k] + du;
-                    let body = -du * bc;
-                    let dlen = if PLAY {
-                        -du * lc - pl * sign0(f)
-                    } else {
-                        -du * lc
-                    };
-                    let l = pb.len[i][k];
-                    let dc = -dlen * (2.0 * l + dlen) * hr;
-                    let (c, s, side) = (pb.c[i][k], pb.s[i][k], pb.side[i][k]);
-                    let t = 2.0 * c + dc;
-                    let s2 = s * s - dc * t;
-                    fail[k] |= !(s2 >= 0.0);
-                    let s1 = s2.max(0.0).sqrt();
-                    let cosd = c * (c + dc) + s * s1;
-                    // One division for 1/(s + s′) and 1/(1 + |cos δ|) (≥ 1, used where cos δ > 0).
-                    let den = 1.0 + cosd.abs();
-                    let q = 1.0 / ((s + s1) * den);
-                    let sind = -dc * (s + c * t * (den * q));
-                    let rs = side * sind;
-                    let rc = if cosd > 0.0 {
-                        -sind * sind * ((s + s1) * q)
-                    } else {
-                        cosd - 1.0
-                    };
-                    let ns = sr[k] + rs + (sr[k] * rc + cm[k] * rs);
-                    let nc = cm[k] + rc + (cm[k] * rc - sr[k] * rs);
-                    sr[k] = ns;
-                    cm[k] = nc;
-                    dx[k] += nc * pb.gx[i][k] - ns * pb.gy[i][k];
-                    dy[k] += ns * pb.gx[i][k] + nc * pb.gy[i][k];
-                    far |= !(sind.abs() <= ASIN_SERIES_MAX && cosd > 0.0);
-                    dth[i][k] = side * asin_small(sind);
-                    cb.force[i][k] = f;
-                    cb.dl[i][k] = body;
-                }
+            for k in 0..L {
+                let du = m * pb.fu[i][k];
+                let f = pb.fw[i][k] + du;
+                let body = -du * bc;
+                let dlen = if PLAY {
+                    -du * lc - pl * sign0(f)
+                } else {
+                    -du * lc
+                };
+                let l = pb.len[i][k];
+                let dc = -dlen * (2.0 * l + dlen) * hr;
+                let (c, s, side) = (pb.c[i][k], pb.s[i][k], pb.side[i][k]);
+                let t = 2.0 * c + dc;
+                let s2 = s * s - dc * t;
+                fail[k] |= !(s2 >= 0.0);
+                let s1 = s2.max(0.0).sqrt();
+                let cosd = c * (c + dc) + s * s1;
+                // One division for 1/(s + s′) and 1/(1 + |cos δ|) (≥ 1, used where cos δ > 0).
+                let den = 1.0 + cosd.abs();
+                let q = 1.0 / ((s + s1) * den);
+                let sind = -dc * (s + c * t * (den * q));
+                let rs = side * sind;
+                let rc = if cosd > 0.0 {
+                    -sind * sind * ((s + s1) * q)
+                } else {
+                    cosd - 1.0
+                };
+                let ns = sr[k] + rs + (sr[k] * rc + cm[k] * rs);
+                let nc = cm[k] + rc + (cm[k] * rc - sr[k] * rs);
+                sr[k] = ns;
+                cm[k] = nc;
+                dx[k] += nc * pb.gx[i][k] - ns * pb.gy[i][k];
+                dy[k] += ns * pb.gx[i][k] + nc * pb.gy[i][k];
+                far |= !(sind.abs() <= ASIN_SERIES_MAX && cosd > 0.0);
+                dth[i][k] = side * asin_small(sind);
+                cb.force[i][k] = f;
+                cb.dl[i][k] = body;
             }
         }
         if far {
@@ -464,6 +468,31 @@ impl<const N: usize> FastArm<N> {
         for k in 0..L {
             cb.ok[k] = !fail[k];
         }
+    }
+
+    /// Unloaded geometry and statics of up to `L` poses: `alpha_deg` holds `count` rows of
+    /// `N` angles (deg); missing lanes repeat the last pose and are to be ignored. Baseline
+    /// x86-64 (SSE2) code: LLVM does not vectorise this loop for AVX2 with generic tuning.
+    pub fn poses(&self, alpha_deg: &[f64], count: usize, out: &mut PoseBlock<N>) {
+        self.poses_impl(alpha_deg, count, out);
+    }
+
+    /// Loaded minus unloaded state of the block's poses under a payload mass `m` (kg).
+    ///
+    /// The lane loops are inlined into `pulp`'s `#[target_feature]` wrapper for the best
+    /// instruction set of this CPU (AVX2 + FMA where present, else x86-64's SSE2), so LLVM
+    /// vectorises them 4 wide there. Multiplications and additions are never fused (Rust does
+    /// not contract them), so every instruction set gives the same bits.
+    pub fn cells(&self, simd: pulp::Arch, pb: &PoseBlock<N>, m: f64, cb: &mut CellBlock<N>) {
+        struct Op<'a, const N: usize>(&'a FastArm<N>, &'a PoseBlock<N>, f64, &'a mut CellBlock<N>);
+        impl<const N: usize> pulp::WithSimd for Op<'_, N> {
+            type Output = ();
+            #[inline(always)]
+            fn with_simd<S: pulp::Simd>(self, _simd: S) {
+                self.0.cells_any(self.1, self.2, self.3);
+            }
+        }
+        simd.dispatch(Op(self, pb, m, cb));
     }
 
     /// Recomputes the turn of the lanes where the series does not apply, with `atan2`.
