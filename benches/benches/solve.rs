@@ -5,87 +5,17 @@
 use std::hint::black_box;
 use std::time::Duration;
 
+use arm_benches::{example_arm, ok, v};
 use arm_core::effects::{
     ActuatorCompliance, ActuatorPlay, BaseCompliance, JointClearance, LinkBending, MountCompliance,
 };
-use arm_core::{
-    Actuator, Arm, BatchInput, BatchOutput, Effect, EffectSet, Link, SolveOptions, Workspace, V2,
-};
+use arm_core::{Arm, BatchInput, BatchOutput, Effect, EffectSet, SolveOptions, Workspace};
 use criterion::{
     criterion_group, criterion_main, BenchmarkId, Criterion, SamplingMode, Throughput,
 };
 
 /// Batch sizes (poses per call).
 const SIZES: [usize; 3] = [1_000, 10_000, 100_000];
-
-/// Unwraps a core result; a benchmark set up wrongly should stop loudly, naming the step.
-fn ok<T>(r: arm_core::Result<T>, what: &str) -> T {
-    match r {
-        Ok(v) => v,
-        Err(e) => panic!("{what}: {e}"),
-    }
-}
-
-fn v(x: f64, y: f64) -> V2 {
-    V2::new(x, y)
-}
-
-/// The example arm, with the numbers of `examples/example_arm.toml`.
-fn example_arm() -> Arm {
-    let link = |next: V2, a: V2, b: V2, c: V2, mass_kg: f64| Link {
-        next,
-        a,
-        b,
-        c,
-        mass_kg,
-    };
-    let act = |stiffness: f64, mass_kg: f64, lo: f64, hi: f64, fmax: f64| Actuator {
-        stiffness,
-        mass_kg,
-        min_length: Some(lo),
-        max_length: Some(hi),
-        max_force: Some(fmax),
-    };
-    ok(
-        Arm::new(
-            9.81,
-            v(0.0, 0.0),
-            v(250.0, -40.0),
-            v(-200.0, -280.0),
-            vec![
-                link(
-                    v(480.0, 0.0),
-                    v(95.0, 55.0),
-                    v(-40.0, -50.0),
-                    v(220.0, -3.0),
-                    3.0,
-                ),
-                link(
-                    v(380.0, 0.0),
-                    v(85.0, -55.0),
-                    v(-110.0, 10.0),
-                    v(170.0, -2.0),
-                    2.2,
-                ),
-                // The last link has no B pin (no actuator follows); the core ignores it.
-                link(
-                    v(360.0, 0.0),
-                    v(50.0, -40.0),
-                    v(0.0, 0.0),
-                    v(160.0, -2.0),
-                    1.3,
-                ),
-            ],
-            vec![
-                act(3000.0, 1.5, 150.0, 420.0, 4000.0),
-                act(2500.0, 1.2, 150.0, 380.0, 3000.0),
-                act(2000.0, 0.9, 120.0, 330.0, 2500.0),
-            ],
-            v(280.0, -40.0),
-        ),
-        "example arm",
-    )
-}
 
 /// One effect of each of the six kinds, with plausible values for the example arm.
 fn all_effects(arm: &Arm) -> EffectSet {

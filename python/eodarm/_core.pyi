@@ -1,6 +1,6 @@
 """Type stubs of the private native module ``eodarm._core`` (built from crates/arm_py)."""
 
-from typing import final
+from typing import Any, final
 
 import numpy as np
 import numpy.typing as npt
@@ -13,6 +13,7 @@ __all__ = [
     "inverse_kinematics",
     "jacobian",
     "solve",
+    "sweep",
 ]
 
 class CoreError(ValueError): ...
@@ -50,6 +51,18 @@ def solve(
     self_weight: bool,
     nan_on_failure: bool = False,
 ) -> dict[str, npt.NDArray[np.float64]]: ...
+def sweep(
+    arm: CoreArm,
+    alpha_deg: npt.NDArray[np.float64],
+    mass_kg: npt.NDArray[np.float64],
+    codes: npt.NDArray[np.int64],
+    places: npt.NDArray[np.int64],
+    values: npt.NDArray[np.float64],
+    self_weight: bool,
+    reduce: str | None = None,
+    group: int = 1,
+    threads: int | None = None,
+) -> dict[str, npt.NDArray[Any]]: ...
 def forward(
     arm: CoreArm, alpha_deg: npt.NDArray[np.float64]
 ) -> dict[str, npt.NDArray[np.float64]]: ...

@@ -79,6 +79,12 @@ pub enum ArmError {
         /// What is wrong.
         reason: String,
     },
+    /// An option of a computation is invalid (e.g. a sweep's reduce group).
+    #[error("{0}")]
+    InvalidOption(String),
+    /// The caller asked to stop (e.g. Ctrl-C during a sweep).
+    #[error("cancelled")]
+    Cancelled,
     /// A computation is not defined for this arm (e.g. inverse kinematics for n != 3).
     #[error("{0}")]
     Unsupported(String),

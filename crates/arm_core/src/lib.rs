@@ -10,6 +10,7 @@
 //!   base tilt), one module each;
 //! * [`pose`]: the loaded pose, closed exactly;
 //! * [`solve`]: all of it for many poses at once, in parallel;
+//! * [`sweep`]: poses × payloads in bounded memory, with per-group reductions (fast kernel);
 //! * [`sensitivity`]: predicted channels and their derivatives by effect parameter, for fits.
 //!
 //! Units: mm, N, kg, rad inside (degrees at the batch API). Global frame: x forward, y up,
@@ -24,9 +25,11 @@ pub mod pose;
 pub mod sensitivity;
 pub mod solve;
 pub mod statics;
+pub mod sweep;
 
 pub use arm::{Actuator, Arm, Link};
 pub use effects::{Effect, EffectSet, Mechanism};
 pub use error::{ArmError, Result};
 pub use geometry::V2;
 pub use solve::{solve_batch, BatchInput, BatchOutput, SolveOptions, Workspace};
+pub use sweep::{sweep, CellFields, Cells, Reduce, ReduceOp, SweepOptions, SweepOut};

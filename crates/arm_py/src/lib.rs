@@ -4,6 +4,7 @@
 use arm_core::effects::{Effect, EffectSet};
 use arm_core::kinematics::{angles_from_lengths, inverse_kinematics, Frames};
 use arm_core::sensitivity::{jacobian_batch, n_channels, Place};
+use arm_core::sweep::{CellFields, Cells, Reduce, ReduceOp, SweepOptions, SweepOut};
 use arm_core::{Actuator, Arm, ArmError, BatchInput, BatchOutput, Link, SolveOptions, V2};
 use numpy::{
     IntoPyArray, PyArray1, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2,
@@ -13,6 +14,7 @@ use pyo3::create_exception;
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
+use std::sync::Mutex;
 
 create_exception!(
     _core,
@@ -249,6 +251,180 @@ fn solve<'py>(
     out.set_item("dl_mm", dl.into_pyarray(py).reshape([rows, n])?)?;
     out.set_item("dlength_mm", dlength.into_pyarray(py).reshape([rows, n])?)?;
     out.set_item("length_mm", length.into_pyarray(py).reshape([rows, n])?)?;
+    Ok(out)
+}
+
+/// The five cell fields of a sweep, owned, in the order of `arm_core::sweep::CellFields`.
+struct Fields<T> {
+    force: Vec<T>,
+    dx: Vec<T>,
+    dy: Vec<T>,
+    dalpha: Vec<T>,
+    dl: Vec<T>,
+}
+
+impl<T: Clone + Default + numpy::Element> Fields<T> {
+    fn new(rows: usize, n: usize) -> Self {
+        // vec![zero; k] is calloc: the pages are first touched by the worker threads.
+        Self {
+            force: vec![T::default(); rows * n],
+            dx: vec![T::default(); rows],
+            dy: vec![T::default(); rows],
+            dalpha: vec![T::default(); rows * n],
+            dl: vec![T::default(); rows * n],
+        }
+    }
+
+    fn view(&mut self) -> CellFields<'_, T> {
+        CellFields {
+            force_n: &mut self.force,
+            dx_mm: &mut self.dx,
+            dy_mm: &mut self.dy,
+            dalpha_deg: &mut self.dalpha,
+            dl_mm: &mut self.dl,
+        }
+    }
+
+    /// Puts the arrays into `out`, shaped `lead` (+ `n` for the per-link fields).
+    fn put(self, out: &Bound<'_, PyDict>, lead: &[usize], n: usize) -> PyResult<()> {
+        let py = out.py();
+        let mut wide = lead.to_vec();
+        wide.push(n);
+        out.set_item(
+            "force_n",
+            self.force.into_pyarray(py).reshape(wide.clone())?,
+        )?;
+        out.set_item("dx_mm", self.dx.into_pyarray(py).reshape(lead.to_vec())?)?;
+        out.set_item("dy_mm", self.dy.into_pyarray(py).reshape(lead.to_vec())?)?;
+        out.set_item(
+            "dalpha_deg",
+            self.dalpha.into_pyarray(py).reshape(wide.clone())?,
+        )?;
+        out.set_item("dl_mm", self.dl.into_pyarray(py).reshape(wide)?)?;
+        Ok(())
+    }
+}
+
+/// Sweeps N poses × M payload masses (see `arm_core::sweep`); returns a dict of arrays.
+///
+/// Cell arrays are (N, M[, n]), or (N·M/group[, n]) with `reduce` ("max", "min", "argmax",
+/// "argmin"; the arg reductions give int64 offsets within each group, −1 where the group has
+/// no value). The GIL is released while the core works; Ctrl-C stops it between chunks.
+#[pyfunction(name = "sweep")]
+#[pyo3(signature = (arm, alpha_deg, mass_kg, codes, places, values, self_weight, reduce=None, group=1, threads=None))]
+#[allow(clippy::too_many_arguments)]
+fn py_sweep<'py>(
+    py: Python<'py>,
+    arm: &CoreArm,
+    alpha_deg: PyReadonlyArray2<'py, f64>,
+    mass_kg: PyReadonlyArray1<'py, f64>,
+    codes: PyReadonlyArray1<'py, i64>,
+    places: PyReadonlyArray1<'py, i64>,
+    values: PyReadonlyArray1<'py, f64>,
+    self_weight: bool,
+    reduce: Option<&str>,
+    group: i64,
+    threads: Option<i64>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let arm = &arm.inner;
+    let n = arm.n();
+    let (alpha, poses) = matrix(&alpha_deg, "alpha_deg", n)?;
+    let mass = mass_kg
+        .as_slice()
+        .map_err(|_| value_error("mass_kg: array must be contiguous".into()))?;
+    let effects = effect_set(arm, &codes, &places, &values)?;
+    let op = match reduce {
+        None => None,
+        Some("max") => Some(ReduceOp::Max),
+        Some("min") => Some(ReduceOp::Min),
+        Some("argmax") => Some(ReduceOp::ArgMax),
+        Some("argmin") => Some(ReduceOp::ArgMin),
+        Some(other) => {
+            return Err(value_error(format!(
+                "reduce: expected 'max', 'min', 'argmax' or 'argmin', got {other:?}"
+            )))
+        }
+    };
+    let group = usize::try_from(group)
+        .ok()
+        .filter(|&g| g >= 1)
+        .ok_or_else(|| value_error(format!("group must be >= 1, got {group}")))?;
+    let threads = match threads {
+        None => None,
+        Some(k) => Some(
+            usize::try_from(k)
+                .ok()
+                .filter(|&k| k >= 1)
+                .ok_or_else(|| value_error(format!("threads must be >= 1, got {k}")))?,
+        ),
+    };
+    let opts = SweepOptions {
+        self_weight,
+        reduce: op.map(|op| Reduce { op, group }),
+        threads,
+        chunk_rows: None,
+    };
+    let rows = poses * mass.len() / if op.is_some() { group } else { 1 };
+    let arg = op.is_some_and(ReduceOp::is_arg);
+    let mut values_out = Fields::<f64>::new(if arg { 0 } else { rows }, n);
+    let mut index_out = Fields::<i64>::new(if arg { rows } else { 0 }, n);
+    let mut ok = vec![false; rows];
+    let mut length = vec![0.0; poses * n];
+    let mut reachable = vec![false; poses];
+    let mut ex = vec![0.0; poses];
+    let mut ey = vec![0.0; poses];
+    let interrupt: Mutex<Option<PyErr>> = Mutex::new(None);
+    let cancel = || {
+        Python::attach(|py| match py.check_signals() {
+            Ok(()) => false,
+            Err(e) => {
+                if let Ok(mut slot) = interrupt.lock() {
+                    *slot = Some(e);
+                }
+                true
+            }
+        })
+    };
+    let result = py.detach(|| {
+        let cells = if arg {
+            Cells::Indices(index_out.view())
+        } else {
+            Cells::Values(values_out.view())
+        };
+        let out = SweepOut {
+            cells,
+            ok: &mut ok,
+            length_mm: &mut length,
+            reachable: &mut reachable,
+            effector_x_mm: &mut ex,
+            effector_y_mm: &mut ey,
+        };
+        arm_core::sweep(arm, &effects, alpha, mass, opts, out, &cancel)
+    });
+    match result {
+        Ok(()) => {}
+        Err(ArmError::Cancelled) => {
+            let e = interrupt.into_inner().ok().flatten();
+            return Err(e.unwrap_or_else(|| value_error("sweep cancelled".into())));
+        }
+        Err(e) => return Err(PyArmError(e).into()),
+    }
+    let out = PyDict::new(py);
+    let lead: Vec<usize> = if op.is_some() {
+        vec![rows]
+    } else {
+        vec![poses, mass.len()]
+    };
+    if arg {
+        index_out.put(&out, &lead, n)?;
+    } else {
+        values_out.put(&out, &lead, n)?;
+    }
+    out.set_item("ok", ok.into_pyarray(py).reshape(lead)?)?;
+    out.set_item("length_mm", length.into_pyarray(py).reshape([poses, n])?)?;
+    out.set_item("reachable", reachable.into_pyarray(py))?;
+    out.set_item("effector_x_mm", ex.into_pyarray(py))?;
+    out.set_item("effector_y_mm", ey.into_pyarray(py))?;
     Ok(out)
 }
 
@@ -501,6 +677,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("CoreError", m.py().get_type::<CoreError>())?;
     m.add_class::<CoreArm>()?;
     m.add_function(wrap_pyfunction!(solve, m)?)?;
+    m.add_function(wrap_pyfunction!(py_sweep, m)?)?;
     m.add_function(wrap_pyfunction!(forward, m)?)?;
     m.add_function(wrap_pyfunction!(py_angles_from_lengths, m)?)?;
     m.add_function(wrap_pyfunction!(py_inverse_kinematics, m)?)?;

@@ -1,0 +1,840 @@
+//! Sweeps: every cell of poses × payload masses, in bounded memory, in parallel.
+//!
+//! A cell is (pose p, mass j), row `r = p·M + j`, payload force `(0, −m_j·g)` at the load
+//! point. Each cell gets what [`crate::Workspace::solve`] computes (loaded minus unloaded,
+//! exact closure; docs/model.md §2–§5); a cell whose pose is singular or whose loaded triangle
+//! cannot close is NaN with `ok = false`, never an error. Per pose the sweep also writes the
+//! unloaded lengths, a reachability mask and the unloaded load point.
+//!
+//! * **Two kernels.** The baseline model and the length-only effects (`actuator_compliance`,
+//!   `mount_compliance`, `actuator_play`) run through the block kernel of `fast`
+//!   ([`L`] poses at once, cheap vectorisable trigonometry, no acos/atan2 in the closure;
+//!   arms of up to [`MAX_FAST_LINKS`] links). The other effects, and longer arms, run
+//!   through `Workspace::solve` per cell inside the same chunked, parallel, reducing machinery.
+//! * **Chunks.** Poses are processed in chunks of about `chunk_rows` rows (default
+//!   [`CHUNK_ROWS`]); each worker thread owns its scratch, nothing is allocated per pose.
+//!   Between chunks the calling thread calls `cancel()` (from the calling thread only, so a
+//!   Python signal check works there); when it returns true the sweep stops and returns
+//!   [`ArmError::Cancelled`], with the outputs partly written.
+//! * **Reductions.** With [`SweepOptions::reduce`], the cell fields are not stored per cell:
+//!   every `group` consecutive rows fold into one output row, NaN ignored (a group without a
+//!   value is NaN, its index −1). Per-pose outputs are still written per pose.
+//!
+//! Results do not depend on the chunk size or the number of threads (bit for bit).
+
+mod fallback;
+mod fast;
+mod reduce;
+pub mod trig;
+
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{mpsc, Mutex};
+
+use crate::arm::Arm;
+use crate::effects::EffectSet;
+use crate::error::{ArmError, Result};
+pub use fast::L;
+use fast::{CellBlock, FastArm, PoseBlock};
+use reduce::{fold_op, n_fields, write_group, Acc, Sink, ARGMAX, ARGMIN, MAX, MIN};
+
+/// Default number of rows (cells) per chunk.
+pub const CHUNK_ROWS: usize = 16_384;
+/// Smallest default chunk (rows) when a small sweep is split between threads.
+pub const MIN_CHUNK_ROWS: usize = 512;
+/// Longest arm handled by the block kernel; longer arms use the per-cell path.
+pub const MAX_FAST_LINKS: usize = 6;
+
+/// A reduction over groups of consecutive rows.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ReduceOp {
+    /// Largest value (NaN ignored).
+    Max,
+    /// Smallest value (NaN ignored).
+    Min,
+    /// Offset within the group of the first largest value; −1 when the group has none.
+    ArgMax,
+    /// Offset within the group of the first smallest value; −1 when the group has none.
+    ArgMin,
+}
+
+impl ReduceOp {
+    /// Whether the reduction yields indices (written to [`Cells::Indices`]).
+    pub fn is_arg(self) -> bool {
+        matches!(self, Self::ArgMax | Self::ArgMin)
+    }
+}
+
+/// Reduce every `group` consecutive rows (cells) with `op`; `group` must divide N·M.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Reduce {
+    /// The reduction.
+    pub op: ReduceOp,
+    /// Rows per group (e.g. M to reduce over the payloads of each pose).
+    pub group: usize,
+}
+
+/// Options of a sweep.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct SweepOptions {
+    /// Include link and actuator weights in both states.
+    pub self_weight: bool,
+    /// Reduce the cell fields over groups of rows instead of storing every cell.
+    pub reduce: Option<Reduce>,
+    /// Worker threads: `None` uses rayon's global pool; `Some(k)` a pool of k threads built
+    /// for this call (`Some(1)` runs on the calling thread).
+    pub threads: Option<usize>,
+    /// Rows per chunk (`None`: [`CHUNK_ROWS`], less for small sweeps so that every thread
+    /// gets several chunks); a chunk holds a multiple of [`L`] poses, at least [`L`].
+    pub chunk_rows: Option<usize>,
+}
+
+impl Default for SweepOptions {
+    fn default() -> Self {
+        Self {
+            self_weight: true,
+            reduce: None,
+            threads: None,
+            chunk_rows: None,
+        }
+    }
+}
+
+/// The cell fields, row-major, for `R` output rows (cells, or groups when reduced).
+#[derive(Debug)]
+pub struct CellFields<'a, T> {
+    /// Loaded actuator forces (N, compression +), `R × n`.
+    pub force_n: &'a mut [T],
+    /// Displacement of the measure point, x (mm), `R`.
+    pub dx_mm: &'a mut [T],
+    /// Displacement of the measure point, y (mm), `R`.
+    pub dy_mm: &'a mut [T],
+    /// Change of absolute link angles (deg), `R × n`.
+    pub dalpha_deg: &'a mut [T],
+    /// Actuator body length change as its sensor sees it (mm), `R × n`.
+    pub dl_mm: &'a mut [T],
+}
+
+impl<'a, T> CellFields<'a, T> {
+    fn lens(&self, n: usize) -> [(&'static str, usize, usize); 5] {
+        [
+            ("force_n", self.force_n.len(), n),
+            ("dx_mm", self.dx_mm.len(), 1),
+            ("dy_mm", self.dy_mm.len(), 1),
+            ("dalpha_deg", self.dalpha_deg.len(), n),
+            ("dl_mm", self.dl_mm.len(), n),
+        ]
+    }
+
+    /// Splits off output rows `[skip, skip + take)` of what is left, dropping the first `skip`.
+    fn split(&mut self, skip: usize, take: usize, n: usize) -> CellFields<'a, T> {
+        CellFields {
+            force_n: cut(&mut self.force_n, skip * n, take * n),
+            dx_mm: cut(&mut self.dx_mm, skip, take),
+            dy_mm: cut(&mut self.dy_mm, skip, take),
+            dalpha_deg: cut(&mut self.dalpha_deg, skip * n, take * n),
+            dl_mm: cut(&mut self.dl_mm, skip * n, take * n),
+        }
+    }
+}
+
+/// Cell outputs: values (per cell, or `Max`/`Min` per group) or indices (`ArgMax`/`ArgMin`).
+#[derive(Debug)]
+pub enum Cells<'a> {
+    /// Values (N, mm, deg).
+    Values(CellFields<'a, f64>),
+    /// Offsets within each group of the selected cell, −1 where the group has no value.
+    Indices(CellFields<'a, i64>),
+}
+
+impl<'a> Cells<'a> {
+    fn split(&mut self, skip: usize, take: usize, n: usize) -> Cells<'a> {
+        match self {
+            Cells::Values(c) => Cells::Values(c.split(skip, take, n)),
+            Cells::Indices(c) => Cells::Indices(c.split(skip, take, n)),
+        }
+    }
+}
+
+/// Output buffers of a sweep, filled in place. `R` is the number of output rows: N·M, or
+/// N·M / group when reduced. A per-pose buffer may be empty: it is then not written.
+#[derive(Debug)]
+pub struct SweepOut<'a> {
+    /// Cell fields, `R` rows.
+    pub cells: Cells<'a>,
+    /// The cell solved (reduced: any cell of the group solved), `R`.
+    pub ok: &'a mut [bool],
+    /// Unloaded pin-to-pin lengths (mm), `N × n` (written also for singular poses).
+    pub length_mm: &'a mut [f64],
+    /// Not singular and every length within its actuator's stroke limits, `N`.
+    pub reachable: &'a mut [bool],
+    /// Unloaded global load point, x (mm), `N`.
+    pub effector_x_mm: &'a mut [f64],
+    /// Unloaded global load point, y (mm), `N`.
+    pub effector_y_mm: &'a mut [f64],
+}
+
+fn cut<'a, T>(s: &mut &'a mut [T], skip: usize, take: usize) -> &'a mut [T] {
+    let rest = std::mem::take(s);
+    let (_, rest) = rest.split_at_mut(skip.min(rest.len()));
+    let (head, tail) = rest.split_at_mut(take.min(rest.len()));
+    *s = tail;
+    head
+}
+
+/// One chunk's share of the outputs.
+struct ChunkOut<'a> {
+    /// First pose and number of poses.
+    pose0: usize,
+    poses: usize,
+    /// Output rows `[out0, out0 + len)` that lie wholly in this chunk.
+    out0: usize,
+    cells: Cells<'a>,
+    ok: &'a mut [bool],
+    length: &'a mut [f64],
+    reachable: &'a mut [bool],
+    ex: &'a mut [f64],
+    ey: &'a mut [f64],
+}
+
+/// A group that straddles chunks: the accumulators of one chunk's part of it.
+struct Partial {
+    g: usize,
+    vals: Vec<f64>,
+    at: Vec<i64>,
+    ok: bool,
+}
+
+/// What every chunk needs to know.
+struct Plan<'a> {
+    arm: &'a Arm,
+    effects: &'a EffectSet,
+    alpha: &'a [f64],
+    mass: &'a [f64],
+    n: usize,
+    self_weight: bool,
+    reduce: Option<Reduce>,
+    kernel: Kernel,
+    /// The instruction set the block kernel runs with.
+    simd: pulp::Arch,
+}
+
+/// The computation behind the cells.
+enum Kernel {
+    F1(FastArm<1>),
+    F2(FastArm<2>),
+    F3(FastArm<3>),
+    F4(FastArm<4>),
+    F5(FastArm<5>),
+    F6(FastArm<6>),
+    /// `Workspace::solve` per cell.
+    Exact,
+}
+
+impl Kernel {
+    fn new(arm: &Arm, effects: &EffectSet, self_weight: bool) -> Self {
+        let sw = self_weight;
+        let k = match arm.n() {
+            1 => FastArm::new(arm, effects, sw).map(Self::F1),
+            2 => FastArm::new(arm, effects, sw).map(Self::F2),
+            3 => FastArm::new(arm, effects, sw).map(Self::F3),
+            4 => FastArm::new(arm, effects, sw).map(Self::F4),
+            5 => FastArm::new(arm, effects, sw).map(Self::F5),
+            6 => FastArm::new(arm, effects, sw).map(Self::F6),
+            _ => None,
+        };
+        k.unwrap_or(Self::Exact)
+    }
+}
+
+/// Per-worker scratch space, reused across chunks.
+#[derive(Default)]
+struct Scratch {
+    acc: Acc,
+    exact: Option<fallback::Scratch>,
+}
+
+/// Sweeps every pose of `alpha_deg` (`N × n`, degrees) under every payload mass of `mass_kg`
+/// (`M`, kg), writing `out` in place; see the [module documentation](self).
+///
+/// `cancel` is called on the calling thread between chunks; when it returns true the sweep
+/// stops.
+///
+/// # Errors
+/// * [`ArmError::Shape`] for input or output buffers of the wrong length;
+/// * [`ArmError::NonFinite`] naming the first pose with a non-finite angle;
+/// * [`ArmError::InvalidOption`] for a mass that is negative or not finite, a group that does
+///   not divide N·M, zero threads, or index buffers where values are due (and the reverse);
+/// * [`ArmError::Cancelled`] when `cancel` returned true.
+pub fn sweep(
+    arm: &Arm,
+    effects: &EffectSet,
+    alpha_deg: &[f64],
+    mass_kg: &[f64],
+    opts: SweepOptions,
+    out: SweepOut<'_>,
+    cancel: &(dyn Fn() -> bool + Sync),
+) -> Result<()> {
+    let n = arm.n();
+    if alpha_deg.len() % n != 0 {
+        return Err(ArmError::Shape {
+            what: "alpha_deg",
+            expected: (alpha_deg.len() / n + 1) * n,
+            got: alpha_deg.len(),
+        });
+    }
+    let poses = alpha_deg.len() / n;
+    let masses = mass_kg.len();
+    if let Some((j, m)) = mass_kg
+        .iter()
+        .enumerate()
+        .find(|(_, m)| !(m.is_finite() && **m >= 0.0))
+    {
+        return Err(ArmError::InvalidOption(format!(
+            "mass_kg[{j}] must be finite and >= 0, got {m}"
+        )));
+    }
+    let rows = poses * masses;
+    let group = match opts.reduce {
+        Some(r) if r.group == 0 || rows % r.group != 0 => {
+            return Err(ArmError::InvalidOption(format!(
+                "reduce group {} does not divide the {rows} rows (N·M = {poses}·{masses})",
+                r.group
+            )))
+        }
+        Some(r) => r.group,
+        None => 1,
+    };
+    let want_idx = opts.reduce.is_some_and(|r| r.op.is_arg());
+    check_out(&out, n, poses, rows / group, want_idx)?;
+    let threads = match opts.threads {
+        Some(0) => return Err(ArmError::InvalidOption("threads must be >= 1".into())),
+        Some(k) => k,
+        None => rayon::current_num_threads(),
+    };
+    let plan = Plan {
+        arm,
+        effects,
+        alpha: alpha_deg,
+        mass: mass_kg,
+        n,
+        self_weight: opts.self_weight,
+        reduce: opts.reduce,
+        kernel: Kernel::new(arm, effects, opts.self_weight),
+        simd: pulp::Arch::new(),
+    };
+    if poses == 0 {
+        return Ok(());
+    }
+    let chunk_poses = match opts.chunk_rows {
+        Some(rows) => (rows / masses.max(1)) / L * L,
+        // Small sweeps: at least four chunks per thread, of at least MIN_CHUNK_ROWS rows.
+        None => {
+            (CHUNK_ROWS / masses.max(1))
+                .min(
+                    poses
+                        .div_ceil(4 * threads)
+                        .max(MIN_CHUNK_ROWS / masses.max(1)),
+                )
+                .div_ceil(L)
+                * L
+        }
+    }
+    .max(L);
+    let (chunks, gaps) = split_out(out, n, poses, masses, group, chunk_poses);
+    let nchunks = chunks.len();
+    let inline = threads <= 1
+        || nchunks <= 1
+        || (opts.threads.is_none() && rayon::current_thread_index().is_some());
+    let mut results: Vec<(usize, Result<Vec<Partial>>)> = Vec::with_capacity(nchunks);
+    let mut cancelled = false;
+    if inline {
+        let mut scratch = Scratch::default();
+        for (k, chunk) in chunks.into_iter().enumerate() {
+            if k > 0 && cancel() {
+                cancelled = true;
+                break;
+            }
+            results.push((k, run_chunk(&plan, chunk, &mut scratch)));
+        }
+    } else {
+        let queue = Mutex::new(chunks.into_iter().enumerate());
+        let stop = AtomicBool::new(false);
+        let done = Mutex::new(Vec::with_capacity(nchunks));
+        let shared = Shared {
+            plan: &plan,
+            queue: &queue,
+            stop: &stop,
+            done: &done,
+        };
+        cancelled = if opts.threads.is_some() {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .map_err(|e| ArmError::InvalidOption(format!("thread pool: {e}")))?;
+            pool.in_place_scope(|s| drive(s, threads, nchunks, shared, cancel))
+        } else {
+            rayon::in_place_scope(|s| drive(s, threads, nchunks, shared, cancel))
+        };
+        results = done.into_inner().unwrap_or_else(|e| e.into_inner());
+    }
+    if cancelled {
+        return Err(ArmError::Cancelled);
+    }
+    results.sort_by_key(|r| r.0);
+    let mut partials = Vec::new();
+    for (_, r) in results {
+        partials.extend(r?);
+    }
+    if let Some(red) = opts.reduce {
+        merge_partials(red.op, n, partials, gaps);
+    }
+    Ok(())
+}
+
+/// Chunks handed out to worker threads, and their results.
+type Queue<'a> = Mutex<std::iter::Enumerate<std::vec::IntoIter<ChunkOut<'a>>>>;
+type Done = Mutex<Vec<(usize, Result<Vec<Partial>>)>>;
+
+/// What the workers share.
+#[derive(Clone, Copy)]
+struct Shared<'e, 'a> {
+    plan: &'e Plan<'e>,
+    queue: &'e Queue<'a>,
+    stop: &'e AtomicBool,
+    done: &'e Done,
+}
+
+/// Runs the chunks on `threads` workers of the scope's pool while the calling thread waits
+/// for them, calling `cancel` after each chunk; returns whether it was cancelled.
+fn drive<'e, 'a: 'e>(
+    s: &rayon::Scope<'e>,
+    threads: usize,
+    nchunks: usize,
+    sh: Shared<'e, 'a>,
+    cancel: &(dyn Fn() -> bool + Sync),
+) -> bool {
+    let (tx, rx) = mpsc::channel::<()>();
+    for _ in 0..threads {
+        let tx = tx.clone();
+        s.spawn(move |_| {
+            let mut scratch = Scratch::default();
+            while !sh.stop.load(Ordering::Relaxed) {
+                let next = lock(sh.queue).next();
+                let Some((k, chunk)) = next else { break };
+                let r = run_chunk(sh.plan, chunk, &mut scratch);
+                lock(sh.done).push((k, r));
+                if tx.send(()).is_err() {
+                    break;
+                }
+            }
+        });
+    }
+    drop(tx);
+    let mut finished = 0;
+    let mut cancelled = false;
+    while rx.recv().is_ok() {
+        finished += 1;
+        if finished < nchunks && !cancelled && cancel() {
+            cancelled = true;
+            sh.stop.store(true, Ordering::Relaxed);
+        }
+    }
+    cancelled
+}
+
+fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
+    m.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+fn check_out(out: &SweepOut<'_>, n: usize, poses: usize, rows: usize, idx: bool) -> Result<()> {
+    let lens = match (&out.cells, idx) {
+        (Cells::Values(c), false) => c.lens(n),
+        (Cells::Indices(c), true) => c.lens(n),
+        (_, want) => {
+            return Err(ArmError::InvalidOption(format!(
+                "the cell outputs must be {} for this reduction",
+                if want { "indices" } else { "values" }
+            )))
+        }
+    };
+    for (what, got, width) in lens {
+        if got != rows * width {
+            return Err(ArmError::Shape {
+                what,
+                expected: rows * width,
+                got,
+            });
+        }
+    }
+    let per_pose = [
+        ("ok", out.ok.len(), rows, false),
+        ("length_mm", out.length_mm.len(), poses * n, true),
+        ("reachable", out.reachable.len(), poses, true),
+        ("effector_x_mm", out.effector_x_mm.len(), poses, true),
+        ("effector_y_mm", out.effector_y_mm.len(), poses, true),
+    ];
+    for (what, got, expected, optional) in per_pose {
+        if got != expected && !(optional && got == 0) {
+            return Err(ArmError::Shape {
+                what,
+                expected,
+                got,
+            });
+        }
+    }
+    Ok(())
+}
+
+/// A reduced group that no chunk holds whole: its output slices, written after the merge.
+struct Gap<'a> {
+    g: usize,
+    cells: Cells<'a>,
+    ok: &'a mut [bool],
+}
+
+/// Splits the outputs into chunks of `chunk_poses` poses; the output rows of groups that
+/// straddle two chunks are split off as gaps (at most one group between two chunks).
+fn split_out<'a>(
+    out: SweepOut<'a>,
+    n: usize,
+    poses: usize,
+    masses: usize,
+    group: usize,
+    chunk_poses: usize,
+) -> (Vec<ChunkOut<'a>>, Vec<Gap<'a>>) {
+    let SweepOut {
+        mut cells,
+        mut ok,
+        mut length_mm,
+        mut reachable,
+        mut effector_x_mm,
+        mut effector_y_mm,
+    } = out;
+    let mut chunks = Vec::with_capacity(poses.div_ceil(chunk_poses));
+    let mut gaps = Vec::new();
+    let mut pos = 0; // output rows handed out so far
+    let mut p0 = 0;
+    while p0 < poses {
+        let p1 = (p0 + chunk_poses).min(poses);
+        let (r0, r1) = (p0 * masses, p1 * masses);
+        let s = r0.div_ceil(group);
+        let e = (r1 / group).max(s);
+        if s > pos {
+            // exactly one straddling group
+            gaps.push(Gap {
+                g: pos,
+                cells: cells.split(0, s - pos, n),
+                ok: cut(&mut ok, 0, s - pos),
+            });
+        }
+        let per_pose = |buf: &mut &'a mut [f64], w: usize| {
+            if buf.is_empty() {
+                Default::default()
+            } else {
+                cut(buf, 0, (p1 - p0) * w)
+            }
+        };
+        let length = per_pose(&mut length_mm, n);
+        let ex = per_pose(&mut effector_x_mm, 1);
+        let ey = per_pose(&mut effector_y_mm, 1);
+        let reach = if reachable.is_empty() {
+            Default::default()
+        } else {
+            cut(&mut reachable, 0, p1 - p0)
+        };
+        chunks.push(ChunkOut {
+            pose0: p0,
+            poses: p1 - p0,
+            out0: s,
+            cells: cells.split(0, e - s, n),
+            ok: cut(&mut ok, 0, e - s),
+            length,
+            reachable: reach,
+            ex,
+            ey,
+        });
+        pos = e;
+        p0 = p1;
+    }
+    (chunks, gaps)
+}
+
+/// Solves one chunk into its outputs; returns the accumulators of its straddling groups.
+fn run_chunk(plan: &Plan<'_>, mut ch: ChunkOut<'_>, scratch: &mut Scratch) -> Result<Vec<Partial>> {
+    let n = plan.n;
+    let alpha = &plan.alpha[ch.pose0 * n..(ch.pose0 + ch.poses) * n];
+    if let Some(bad) = alpha.iter().position(|v| !v.is_finite()) {
+        return Err(ArmError::NonFinite {
+            row: ch.pose0 + bad / n,
+            what: "alpha_deg",
+        });
+    }
+    let masses = plan.mass.len();
+    let (r0, r1) = (ch.pose0 * masses, (ch.pose0 + ch.poses) * masses);
+    let nf = n_fields(n);
+    let Some(red) = plan.reduce else {
+        let Cells::Values(cells) = &mut ch.cells else {
+            return Ok(Vec::new()); // excluded by check_out
+        };
+        let mut sink = Sink::Store {
+            row0: r0,
+            n,
+            cells,
+            ok: ch.ok,
+        };
+        let pose_out = PoseOut {
+            length: ch.length,
+            reachable: ch.reachable,
+            ex: ch.ex,
+            ey: ch.ey,
+        };
+        run_kernel(
+            plan,
+            ch.pose0,
+            alpha,
+            pose_out,
+            &mut sink,
+            &mut scratch.exact,
+        );
+        return Ok(Vec::new());
+    };
+    if r0 == r1 {
+        let pose_out = PoseOut {
+            length: ch.length,
+            reachable: ch.reachable,
+            ex: ch.ex,
+            ey: ch.ey,
+        };
+        let mut sink = Sink::Reduce {
+            group: red.group,
+            op: red.op,
+            acc: &mut scratch.acc,
+        };
+        run_kernel(
+            plan,
+            ch.pose0,
+            alpha,
+            pose_out,
+            &mut sink,
+            &mut scratch.exact,
+        );
+        return Ok(Vec::new());
+    }
+    let (g0, g1) = (r0 / red.group, (r1 - 1) / red.group);
+    scratch.acc.reset(g0, g1 - g0 + 1, nf);
+    {
+        let pose_out = PoseOut {
+            length: ch.length,
+            reachable: ch.reachable,
+            ex: ch.ex,
+            ey: ch.ey,
+        };
+        let mut sink = Sink::Reduce {
+            group: red.group,
+            op: red.op,
+            acc: &mut scratch.acc,
+        };
+        run_kernel(
+            plan,
+            ch.pose0,
+            alpha,
+            pose_out,
+            &mut sink,
+            &mut scratch.exact,
+        );
+    }
+    let acc = &scratch.acc;
+    let interior = ch.out0..ch.out0 + ch.ok.len();
+    let mut partials = Vec::new();
+    for g in g0..=g1 {
+        let gi = g - g0;
+        let (vals, at) = (
+            &acc.vals[gi * nf..(gi + 1) * nf],
+            &acc.at[gi * nf..(gi + 1) * nf],
+        );
+        if interior.contains(&g) {
+            write_group(&mut ch.cells, ch.ok, g - ch.out0, n, vals, at, acc.ok[gi]);
+        } else {
+            partials.push(Partial {
+                g,
+                vals: vals.to_vec(),
+                at: at.to_vec(),
+                ok: acc.ok[gi],
+            });
+        }
+    }
+    Ok(partials)
+}
+
+/// Folds the parts of each straddling group and writes it.
+fn merge_partials(op: ReduceOp, n: usize, mut partials: Vec<Partial>, gaps: Vec<Gap<'_>>) {
+    partials.sort_by_key(|p| p.g);
+    let mut parts = partials.into_iter().peekable();
+    for mut gap in gaps {
+        let nf = n_fields(n);
+        let mut vals = vec![f64::NAN; nf];
+        let mut at = vec![-1i64; nf];
+        let mut ok = false;
+        while let Some(p) = parts.next_if(|p| p.g <= gap.g) {
+            if p.g < gap.g {
+                continue;
+            }
+            ok |= p.ok;
+            for f in 0..nf {
+                reduce::fold(op, &mut vals[f], &mut at[f], p.vals[f], p.at[f]);
+            }
+        }
+        write_group(&mut gap.cells, gap.ok, 0, n, &vals, &at, ok);
+    }
+}
+
+/// A chunk's per-pose output slices (each may be empty: not wanted).
+struct PoseOut<'s> {
+    length: &'s mut [f64],
+    reachable: &'s mut [bool],
+    ex: &'s mut [f64],
+    ey: &'s mut [f64],
+}
+
+fn run_kernel(
+    plan: &Plan<'_>,
+    pose0: usize,
+    alpha: &[f64],
+    out: PoseOut<'_>,
+    sink: &mut Sink<'_, '_>,
+    exact: &mut Option<fallback::Scratch>,
+) {
+    match &plan.kernel {
+        Kernel::F1(k) => run_fast(plan.simd, k, plan.mass, pose0, alpha, out, sink),
+        Kernel::F2(k) => run_fast(plan.simd, k, plan.mass, pose0, alpha, out, sink),
+        Kernel::F3(k) => run_fast(plan.simd, k, plan.mass, pose0, alpha, out, sink),
+        Kernel::F4(k) => run_fast(plan.simd, k, plan.mass, pose0, alpha, out, sink),
+        Kernel::F5(k) => run_fast(plan.simd, k, plan.mass, pose0, alpha, out, sink),
+        Kernel::F6(k) => run_fast(plan.simd, k, plan.mass, pose0, alpha, out, sink),
+        Kernel::Exact => {
+            let s = exact.get_or_insert_with(|| fallback::Scratch::new(plan.arm));
+            fallback::run(
+                plan.arm,
+                plan.effects,
+                plan.self_weight,
+                plan.mass,
+                pose0,
+                alpha,
+                out,
+                sink,
+                s,
+            );
+        }
+    }
+}
+
+#[allow(clippy::needless_range_loop)] // lanes and links index several arrays in step
+fn run_fast<const N: usize>(
+    simd: pulp::Arch,
+    k: &FastArm<N>,
+    mass: &[f64],
+    pose0: usize,
+    alpha: &[f64],
+    out: PoseOut<'_>,
+    sink: &mut Sink<'_, '_>,
+) {
+    let poses = alpha.len() / N;
+    let masses = mass.len();
+    let mut pb = PoseBlock::<N>::new();
+    let mut cb = CellBlock::<N>::new();
+    let mut p = 0;
+    while p < poses {
+        let count = (poses - p).min(L);
+        k.poses(&alpha[p * N..(p + count) * N], count, &mut pb);
+        if !out.length.is_empty() {
+            for q in 0..count {
+                for i in 0..N {
+                    out.length[(p + q) * N + i] = pb.len[i][q];
+                }
+            }
+        }
+        if !out.reachable.is_empty() {
+            out.reachable[p..p + count].copy_from_slice(&pb.reachable[..count]);
+        }
+        if !out.ex.is_empty() {
+            out.ex[p..p + count].copy_from_slice(&pb.ex[..count]);
+        }
+        if !out.ey.is_empty() {
+            out.ey[p..p + count].copy_from_slice(&pb.ey[..count]);
+        }
+        for (j, &m) in mass.iter().enumerate() {
+            k.cells(simd, &pb, m, &mut cb);
+            if let Sink::Store {
+                row0, cells, ok, ..
+            } = sink
+            {
+                // Straight from the block into the row-major outputs.
+                for q in 0..count {
+                    let r = (pose0 + p + q) * masses + j - *row0;
+                    let good = cb.ok[q];
+                    let nan = |x: f64| if good { x } else { f64::NAN };
+                    ok[r] = good;
+                    for i in 0..N {
+                        cells.force_n[r * N + i] = nan(cb.force[i][q]);
+                        cells.dalpha_deg[r * N + i] = nan(cb.dalpha[i][q]);
+                        cells.dl_mm[r * N + i] = nan(cb.dl[i][q]);
+                    }
+                    cells.dx_mm[r] = nan(cb.dx[q]);
+                    cells.dy_mm[r] = nan(cb.dy[q]);
+                }
+                continue;
+            }
+            if let Sink::Reduce { group, op, acc } = sink {
+                let row = (pose0 + p) * masses + j;
+                let (g, b) = (*group, &cb);
+                match op {
+                    ReduceOp::Max => fold_block::<N, MAX>(b, count, row, masses, g, acc),
+                    ReduceOp::Min => fold_block::<N, MIN>(b, count, row, masses, g, acc),
+                    ReduceOp::ArgMax => fold_block::<N, ARGMAX>(b, count, row, masses, g, acc),
+                    ReduceOp::ArgMin => fold_block::<N, ARGMIN>(b, count, row, masses, g, acc),
+                }
+                continue;
+            }
+        }
+        p += count;
+    }
+}
+
+/// Folds the cells of a block (one mass; lane q at row `row + q·stride`) into `acc`, with the
+/// group of each row found without a division per cell.
+#[inline(always)]
+fn fold_block<const N: usize, const OP: u8>(
+    cb: &CellBlock<N>,
+    count: usize,
+    row: usize,
+    stride: usize,
+    group: usize,
+    acc: &mut Acc,
+) {
+    let nf = 3 * N + 2;
+    let mut g = row / group;
+    let mut off = row - g * group;
+    for q in 0..count {
+        if cb.ok[q] {
+            let gi = g - acc.g0;
+            acc.ok[gi] = true;
+            let vals = &mut acc.vals[gi * nf..(gi + 1) * nf];
+            let at = &mut acc.at[gi * nf..(gi + 1) * nf];
+            let o = off as i64;
+            for i in 0..N {
+                fold_op::<OP>(&mut vals[i], &mut at[i], cb.force[i][q], o);
+                let f = N + 2 + i;
+                fold_op::<OP>(&mut vals[f], &mut at[f], cb.dalpha[i][q], o);
+                let f = 2 * N + 2 + i;
+                fold_op::<OP>(&mut vals[f], &mut at[f], cb.dl[i][q], o);
+            }
+            fold_op::<OP>(&mut vals[N], &mut at[N], cb.dx[q], o);
+            fold_op::<OP>(&mut vals[N + 1], &mut at[N + 1], cb.dy[q], o);
+        }
+        off += stride;
+        if off >= group {
+            g += off / group;
+            off %= group;
+        }
+    }
+}

@@ -1,0 +1,523 @@
+//! The block kernel of the sweep: the baseline model and the effects that only change
+//! actuator lengths (`actuator_compliance`, `mount_compliance`, `actuator_play`), for
+//! [`L`] poses at once in structure-of-arrays form so that LLVM vectorises the lane loops.
+//!
+//! It computes what [`crate::Workspace::solve`] computes (docs/model.md §2–§5), rearranged:
+//!
+//! * **Forward kinematics** with [`sincos_deg`] (cheap trigonometry, within a few ulp; see
+//!   [`super::trig`]); every vector of link i is `R(α_i)` times a per-arm constant.
+//! * **Statics** by the same tip-to-base recursion, for the self-weight case and for a unit
+//!   payload mass. Forces are linear in the payload, so for a mass m the change is
+//!   `ΔF = m·F_unit` and the loaded force `F_w + m·F_unit`.
+//! * **Exact closure without acos/atan2.** With a rigid chassis and rigid links, the vector
+//!   D_i = B_{i−1} − O_i turns with body i−1 (it is fixed for link 1), so the loaded angle is
+//!   `α′_i = α_i + Δα_{i−1} + s_i·(acos c′_i − acos c_i)` with
+//!   `c = (ρ² + |D|² − ℓ²)/(2ρ|D|)` (= D·R(α)a / (|D|ρ)) and `s_i` the side of the triangle.
+//!   The rotation δ = acos c′ − acos c has `sin δ = −Δc·(s + c(2c + Δc)/(s + s′))` and
+//!   `cos δ = c c′ + s s′` (s = √(1−c²), s′ = √(1−c′²), Δc = c′ − c = (ℓ² − ℓ′²)/(2ρ|D|) from
+//!   the length change directly), written so that nothing cancels for small δ. Rotations
+//!   compose as unit complex numbers kept as (sin, cos − 1), so the displacement of the
+//!   measure point `Σ (R(Δα_i) − I)·g_i` has no cancellation either. The output angle needs
+//!   δ itself: [`asin_small`] (series, < 1 ulp) for |sin δ| ≤ 0.125 and cos δ > 0, `atan2`
+//!   otherwise. A triangle that cannot close shows as `s′² < 0` (|c′| > 1 in the scalar core).
+//!
+//! The results agree with `Workspace::solve` to rounding (≈ 1e-13 relative on the deflections,
+//! whose magnitude is small against the positions they are differences of; the scalar core is
+//! the less accurate of the two there).
+
+// Lane loops index several `[link][lane]` arrays in step; `!(x >= t)` is meant: NaN fails.
+#![allow(clippy::needless_range_loop, clippy::neg_cmp_op_on_partial_ord)]
+
+use super::trig::{asin_small, sincos_deg, ASIN_SERIES_MAX};
+use crate::arm::Arm;
+use crate::effects::{Effect, EffectSet, FORCE_ZERO_N};
+use crate::statics::SINGULAR_TOL;
+
+/// Poses per block (lanes).
+pub const L: usize = 8;
+
+/// Per-arm constants of the kernel, for an arm of `N` links.
+#[derive(Debug, Clone)]
+pub struct FastArm<const N: usize> {
+    o1: [f64; 2],
+    /// D_1 = B_0 − O_1 (global, fixed).
+    d0: [f64; 2],
+    a: [[f64; 2]; N],
+    c: [[f64; 2]; N],
+    next: [[f64; 2]; N],
+    /// `b_i` in link i's frame.
+    b: [[f64; 2]; N],
+    measure: [f64; 2],
+    /// Zero-length threshold `1e-12·(1 + ρ)` and singular threshold `1e-9·ρ` (as the core).
+    len_tol: [f64; N],
+    arm_tol: [f64; N],
+    /// 1/(ρ|D|).
+    inv_rd: [f64; N],
+    /// 1/(2ρ|D|).
+    half_inv_rd: [f64; N],
+    /// Link weights and half actuator weights (N), zero without self-weight.
+    w_link: [f64; N],
+    w_half: [f64; N],
+    g: f64,
+    /// Body compliance (mm/N), series mount compliance (mm/N), play (mm).
+    body_c: [f64; N],
+    mount_c: [f64; N],
+    /// Body plus mount compliance: the pin-to-pin length per unit force change (mm/N).
+    len_c: [f64; N],
+    play: [f64; N],
+    /// Some actuator has play (the cell loop then needs the sign of the loaded force).
+    any_play: bool,
+    /// Stroke limits (mm), ±∞ when absent.
+    lo: [f64; N],
+    hi: [f64; N],
+}
+
+fn p2(v: crate::V2) -> [f64; 2] {
+    [v.x, v.y]
+}
+
+impl<const N: usize> FastArm<N> {
+    /// The kernel's constants, or `None` when an effect is not length-only or `arm.n() != N`.
+    pub fn new(arm: &Arm, effects: &EffectSet, self_weight: bool) -> Option<Self> {
+        if arm.n() != N {
+            return None;
+        }
+        let z = [0.0; N];
+        let z2 = [[0.0; 2]; N];
+        let mut k = Self {
+            o1: p2(arm.o1),
+            d0: p2(arm.b0 - arm.o1),
+            a: z2,
+            c: z2,
+            next: z2,
+            b: z2,
+            measure: p2(arm.measure),
+            len_tol: z,
+            arm_tol: z,
+            inv_rd: z,
+            half_inv_rd: z,
+            w_link: z,
+            w_half: z,
+            g: arm.g,
+            body_c: z,
+            mount_c: z,
+            len_c: z,
+            play: z,
+            any_play: false,
+            lo: z,
+            hi: z,
+        };
+        for i in 0..N {
+            let link = &arm.links[i];
+            let act = &arm.actuators[i];
+            k.a[i] = p2(link.a);
+            k.c[i] = p2(link.c);
+            k.next[i] = p2(link.next);
+            k.b[i] = p2(link.b);
+            let rho = link.a.norm();
+            let dn = if i == 0 {
+                (arm.b0 - arm.o1).norm()
+            } else {
+                (arm.links[i - 1].b - arm.links[i - 1].next).norm()
+            };
+            k.len_tol[i] = 1e-12 * (1.0 + rho);
+            k.arm_tol[i] = SINGULAR_TOL * rho;
+            k.inv_rd[i] = 1.0 / (rho * dn);
+            k.half_inv_rd[i] = 0.5 / (rho * dn);
+            if self_weight {
+                k.w_link[i] = link.mass_kg * arm.g;
+                k.w_half[i] = 0.5 * act.mass_kg * arm.g;
+            }
+            k.body_c[i] = 1.0 / act.stiffness;
+            k.lo[i] = act.min_length.unwrap_or(f64::NEG_INFINITY);
+            k.hi[i] = act.max_length.unwrap_or(f64::INFINITY);
+        }
+        for e in effects.effects() {
+            match e {
+                Effect::ActuatorCompliance(x) => k.body_c[x.actuator] = 1.0 / x.stiffness,
+                Effect::MountCompliance(x) => k.mount_c[x.actuator] += 1.0 / x.stiffness,
+                Effect::ActuatorPlay(x) => k.play[x.actuator] += x.play,
+                _ => return None,
+            }
+        }
+        for i in 0..N {
+            k.len_c[i] = k.body_c[i] + k.mount_c[i];
+        }
+        k.any_play = k.play.iter().any(|&p| p != 0.0);
+        Some(k)
+    }
+}
+
+/// Per-pose results of a block, structure of arrays (`[link][lane]`).
+#[derive(Debug, Clone)]
+pub struct PoseBlock<const N: usize> {
+    /// Unloaded pin-to-pin lengths ℓ_i (mm).
+    pub len: [[f64; L]; N],
+    /// cos and |sin| of the angle at O_i between D_i and A_i − O_i.
+    c: [[f64; L]; N],
+    s: [[f64; L]; N],
+    /// Side of the triangle (±1).
+    side: [[f64; L]; N],
+    /// Forces (N) of the self-weight case and of a unit payload mass (per kg).
+    fw: [[f64; L]; N],
+    fu: [[f64; L]; N],
+    /// Global levers whose rotation moves the measure point: R(α_i)·next_i, last R(α_n)·m.
+    gx: [[f64; L]; N],
+    gy: [[f64; L]; N],
+    /// The pose is singular (an actuator through its joint, or coincident pins).
+    pub singular: [bool; L],
+    /// Within every stroke limit (and not singular).
+    pub reachable: [bool; L],
+    /// Unloaded load point (mm).
+    pub ex: [f64; L],
+    /// Unloaded load point (mm).
+    pub ey: [f64; L],
+}
+
+impl<const N: usize> PoseBlock<N> {
+    /// Zeroed block.
+    pub fn new() -> Self {
+        let z = [[0.0; L]; N];
+        Self {
+            len: z,
+            c: z,
+            s: z,
+            side: z,
+            fw: z,
+            fu: z,
+            gx: z,
+            gy: z,
+            singular: [false; L],
+            reachable: [false; L],
+            ex: [0.0; L],
+            ey: [0.0; L],
+        }
+    }
+}
+
+/// Per-cell results of a block for one payload mass (`[link][lane]`).
+#[derive(Debug, Clone)]
+pub struct CellBlock<const N: usize> {
+    /// Loaded actuator forces (N).
+    pub force: [[f64; L]; N],
+    /// Measure point displacement (mm).
+    pub dx: [f64; L],
+    /// Measure point displacement (mm).
+    pub dy: [f64; L],
+    /// Change of absolute link angles (deg).
+    pub dalpha: [[f64; L]; N],
+    /// Actuator body length change (mm).
+    pub dl: [[f64; L]; N],
+    /// The cell solved (pose not singular, every loaded triangle closes).
+    pub ok: [bool; L],
+}
+
+impl<const N: usize> CellBlock<N> {
+    /// Zeroed block.
+    pub fn new() -> Self {
+        let z = [[0.0; L]; N];
+        Self {
+            force: z,
+            dx: [0.0; L],
+            dy: [0.0; L],
+            dalpha: z,
+            dl: z,
+            ok: [false; L],
+        }
+    }
+}
+
+/// `sign(f)`, 0 below [`FORCE_ZERO_N`] (the scalar core's `sign0`), branch-free.
+#[inline(always)]
+fn sign0(f: f64) -> f64 {
+    let pos = if f >= FORCE_ZERO_N { 1.0 } else { 0.0 };
+    let neg = if f <= -FORCE_ZERO_N { 1.0 } else { 0.0 };
+    pos - neg
+}
+
+#[inline(always)]
+fn rot(s: f64, c: f64, v: [f64; 2]) -> (f64, f64) {
+    (c * v[0] - s * v[1], s * v[0] + c * v[1])
+}
+
+impl<const N: usize> FastArm<N> {
+    /// [`Self::poses`], kept out of line: inlined into a larger function, its loop is not
+    /// vectorised.
+    #[inline(never)]
+    fn poses_impl(&self, alpha_deg: &[f64], count: usize, out: &mut PoseBlock<N>) {
+        let pb = out;
+        let this = self;
+        let mut sn = [[0.0; L]; N];
+        let mut cs = [[0.0; L]; N];
+        for i in 0..N {
+            let mut x = [0.0; L];
+            for (k, xk) in x.iter_mut().enumerate() {
+                *xk = alpha_deg[k.min(count - 1) * N + i];
+            }
+            sincos_deg(&x, &mut sn[i], &mut cs[i]);
+        }
+        // Link by link from the tip: geometry of link i (it needs the angles of links i and
+        // i−1 only), then its statics, which need the actuator line of link i+1.
+        let mut singular = [false; L];
+        let mut reach = [true; L];
+        let mut px = [0.0; L];
+        let mut py = [0.0; L];
+        // Actuator line of link i+1 and the forces of the self-weight case (w) and of a unit
+        // payload mass (u) from link i+1. Beyond the tip: no actuator, and a "reaction"
+        // −P = (0, g) so that −R_{n+1} is the payload (0, −g) at the load point.
+        let mut e0n = [0.0; L];
+        let mut e1n = [0.0; L];
+        let mut fw1 = [0.0; L];
+        let mut rwx1 = [0.0; L];
+        let mut rwy1 = [0.0; L];
+        let mut fu1 = [0.0; L];
+        let mut rux1 = [0.0; L];
+        let mut ruy1 = [this.g; L];
+        // R(α_i)·next_i and R(α_i)·b_i of the link being processed: computed for the last link
+        // here (its b is unused), for the others while their distal link was processed.
+        let mut rnx = [0.0; L];
+        let mut rny = [0.0; L];
+        let mut rbx = [0.0; L];
+        let mut rby = [0.0; L];
+        for k in 0..L {
+            (rnx[k], rny[k]) = rot(sn[N - 1][k], cs[N - 1][k], this.next[N - 1]);
+        }
+        for i in (0..N).rev() {
+            // D_i = B_{i−1} − O_i: fixed on the chassis, else R(α_{i−1})·(b − next)_{i−1},
+            // taken as the difference of the two vectors that link i−1 needs anyway.
+            let mut dx = [this.d0[0]; L];
+            let mut dy = [this.d0[1]; L];
+            let mut pnx = [0.0; L];
+            let mut pny = [0.0; L];
+            let mut pbx = [0.0; L];
+            let mut pby = [0.0; L];
+            if i > 0 {
+                for k in 0..L {
+                    let (s, c) = (sn[i - 1][k], cs[i - 1][k]);
+                    (pnx[k], pny[k]) = rot(s, c, this.next[i - 1]);
+                    (pbx[k], pby[k]) = rot(s, c, this.b[i - 1]);
+                    dx[k] = pbx[k] - pnx[k];
+                    dy[k] = pby[k] - pny[k];
+                }
+            }
+            let wb = if i + 1 < N { this.w_half[i + 1] } else { 0.0 };
+            let (wl, wa) = (this.w_link[i], this.w_half[i]);
+            let (len_tol, arm_tol, inv_rd) = (this.len_tol[i], this.arm_tol[i], this.inv_rd[i]);
+            let (lo, hi) = (this.lo[i], this.hi[i]);
+            // Lanes in groups of four: each group is one AVX2 vector (two SSE2 vectors), which
+            // LLVM vectorises whatever the instruction set (a loop over all eight it would not).
+            for k0 in (0..L).step_by(4) {
+                for k in k0..k0 + 4 {
+                    let (s, c) = (sn[i][k], cs[i][k]);
+                    let (ax, ay) = rot(s, c, this.a[i]);
+                    let (vx, vy) = (ax - dx[k], ay - dy[k]);
+                    let l2 = vx * vx + vy * vy;
+                    let l = l2.sqrt();
+                    // h = (A − O) × e = hv / ℓ. One division, which does not wait for the square
+                    // root, gives both 1/ℓ = ℓ·hv/(ℓ²·hv) and 1/h = ℓ·ℓ²/(ℓ²·hv).
+                    let hv = ax * vy - ay * vx;
+                    let q = 1.0 / (l2 * hv);
+                    let inv_l = l * (hv * q);
+                    let inv_h = l * (l2 * q);
+                    let (e0, e1) = (vx * inv_l, vy * inv_l);
+                    // `!(x > t)`: NaN counts as singular, as in the scalar core. Non-short-circuit
+                    // `|`/`&` keep the lane loop branch-free.
+                    singular[k] |= !(l > len_tol) | !(hv.abs() >= arm_tol * l);
+                    reach[k] &= (l >= lo) & (l <= hi);
+                    pb.len[i][k] = l;
+                    let sg = (dx[k] * ay - dy[k] * ax) * inv_rd;
+                    pb.c[i][k] = (dx[k] * ax + dy[k] * ay) * inv_rd;
+                    pb.s[i][k] = sg.abs();
+                    pb.side[i][k] = 1.0f64.copysign(sg);
+                    // Lever of the measure point's displacement, and the load point.
+                    let (nx, ny) = (rnx[k], rny[k]);
+                    let (gx, gy) = if i + 1 < N {
+                        (nx, ny)
+                    } else {
+                        rot(s, c, this.measure)
+                    };
+                    pb.gx[i][k] = gx;
+                    pb.gy[i][k] = gy;
+                    px[k] += nx;
+                    py[k] += ny;
+                    // Statics of link i: weights at C_i, A_i and B_i, actuator i+1's force −F·e
+                    // at B_i, the distal reaction −R at O_{i+1}; moments about O_i.
+                    let cx = c * this.c[i][0] - s * this.c[i][1];
+                    let (bx, by) = (rbx[k], rby[k]);
+                    let (fx, fy) = (-fw1[k] * e0n[k], -fw1[k] * e1n[k]);
+                    let qx = fx - rwx1[k];
+                    let qy = fy - rwy1[k] - (wl + wa + wb);
+                    let t = -wl * cx - wa * ax - wb * bx + (bx * fy - by * fx)
+                        - (nx * rwy1[k] - ny * rwx1[k]);
+                    let (gx, gy) = (-fu1[k] * e0n[k], -fu1[k] * e1n[k]);
+                    let qux = gx - rux1[k];
+                    let quy = gy - ruy1[k];
+                    let tu = (bx * gy - by * gx) - (nx * ruy1[k] - ny * rux1[k]);
+                    let f = -t * inv_h;
+                    let fu = -tu * inv_h;
+                    fw1[k] = f;
+                    rwx1[k] = -qx - f * e0;
+                    rwy1[k] = -qy - f * e1;
+                    fu1[k] = fu;
+                    rux1[k] = -qux - fu * e0;
+                    ruy1[k] = -quy - fu * e1;
+                    e0n[k] = e0;
+                    e1n[k] = e1;
+                    pb.fw[i][k] = f;
+                    pb.fu[i][k] = fu;
+                }
+            }
+            (rnx, rny, rbx, rby) = (pnx, pny, pbx, pby);
+        }
+        for k in 0..L {
+            pb.singular[k] = singular[k];
+            pb.reachable[k] = reach[k] & !singular[k];
+            pb.ex[k] = this.o1[0] + px[k];
+            pb.ey[k] = this.o1[1] + py[k];
+        }
+    }
+
+    /// [`Self::cells`] for either play setting.
+    #[inline(always)]
+    fn cells_any(&self, pb: &PoseBlock<N>, m: f64, cb: &mut CellBlock<N>) {
+        if self.any_play {
+            self.cells_impl::<true>(pb, m, cb);
+        } else {
+            self.cells_impl::<false>(pb, m, cb);
+        }
+    }
+
+    /// [`Self::cells`], without the play terms when `PLAY` is false.
+    #[inline(always)]
+    fn cells_impl<const PLAY: bool>(&self, pb: &PoseBlock<N>, m: f64, cb: &mut CellBlock<N>) {
+        let mut sr = [0.0; L]; // sin Δα_i
+        let mut cm = [0.0; L]; // cos Δα_i − 1
+        let mut dx = [0.0; L];
+        let mut dy = [0.0; L];
+        let mut fail = pb.singular;
+        let mut dth = [[0.0; L]; N];
+        let mut far = false;
+        for i in 0..N {
+            let (bc, lc, pl, hr) = (
+                self.body_c[i],
+                self.len_c[i],
+                self.play[i],
+                self.half_inv_rd[i],
+            );
+            for k in 0..L {
+                let du = m * pb.fu[i][k];
+                let f = pb.fw[i][k] + du;
+                let body = -du * bc;
+                let dlen = if PLAY {
+                    -du * lc - pl * sign0(f)
+                } else {
+                    -du * lc
+                };
+                let l = pb.len[i][k];
+                let dc = -dlen * (2.0 * l + dlen) * hr;
+                let (c, s, side) = (pb.c[i][k], pb.s[i][k], pb.side[i][k]);
+                let t = 2.0 * c + dc;
+                let s2 = s * s - dc * t;
+                fail[k] |= !(s2 >= 0.0);
+                let s1 = s2.max(0.0).sqrt();
+                let cosd = c * (c + dc) + s * s1;
+                // One division for 1/(s + s′) and 1/(1 + |cos δ|) (≥ 1, used where cos δ > 0).
+                let den = 1.0 + cosd.abs();
+                let q = 1.0 / ((s + s1) * den);
+                let sind = -dc * (s + c * t * (den * q));
+                let rs = side * sind;
+                let rc = if cosd > 0.0 {
+                    -sind * sind * ((s + s1) * q)
+                } else {
+                    cosd - 1.0
+                };
+                let ns = sr[k] + rs + (sr[k] * rc + cm[k] * rs);
+                let nc = cm[k] + rc + (cm[k] * rc - sr[k] * rs);
+                sr[k] = ns;
+                cm[k] = nc;
+                dx[k] += nc * pb.gx[i][k] - ns * pb.gy[i][k];
+                dy[k] += ns * pb.gx[i][k] + nc * pb.gy[i][k];
+                far |= !(sind.abs() <= ASIN_SERIES_MAX && cosd > 0.0);
+                dth[i][k] = side * asin_small(sind);
+                cb.force[i][k] = f;
+                cb.dl[i][k] = body;
+            }
+        }
+        if far {
+            self.fix_large_turns(pb, m, &mut dth);
+        }
+        let deg = 180.0f64 / std::f64::consts::PI;
+        let mut da = [0.0; L];
+        for i in 0..N {
+            for k in 0..L {
+                let a = da[k] + dth[i][k];
+                // The loaded angle nearest the unloaded one (wrap into [−π, π)).
+                let a = if a >= std::f64::consts::PI {
+                    a - std::f64::consts::TAU
+                } else if a < -std::f64::consts::PI {
+                    a + std::f64::consts::TAU
+                } else {
+                    a
+                };
+                da[k] = a;
+                cb.dalpha[i][k] = a * deg;
+            }
+        }
+        cb.dx = dx;
+        cb.dy = dy;
+        for k in 0..L {
+            cb.ok[k] = !fail[k];
+        }
+    }
+
+    /// Unloaded geometry and statics of up to `L` poses: `alpha_deg` holds `count` rows of
+    /// `N` angles (deg); missing lanes repeat the last pose and are to be ignored. Baseline
+    /// x86-64 (SSE2) code: LLVM does not vectorise this loop for AVX2 with generic tuning.
+    pub fn poses(&self, alpha_deg: &[f64], count: usize, out: &mut PoseBlock<N>) {
+        self.poses_impl(alpha_deg, count, out);
+    }
+
+    /// Loaded minus unloaded state of the block's poses under a payload mass `m` (kg).
+    ///
+    /// The lane loops are inlined into `pulp`'s `#[target_feature]` wrapper for the best
+    /// instruction set of this CPU (AVX2 + FMA where present, else x86-64's SSE2), so LLVM
+    /// vectorises them 4 wide there. Multiplications and additions are never fused (Rust does
+    /// not contract them), so every instruction set gives the same bits.
+    pub fn cells(&self, simd: pulp::Arch, pb: &PoseBlock<N>, m: f64, cb: &mut CellBlock<N>) {
+        struct Op<'a, const N: usize>(&'a FastArm<N>, &'a PoseBlock<N>, f64, &'a mut CellBlock<N>);
+        impl<const N: usize> pulp::WithSimd for Op<'_, N> {
+            type Output = ();
+            #[inline(always)]
+            fn with_simd<S: pulp::Simd>(self, _simd: S) {
+                self.0.cells_any(self.1, self.2, self.3);
+            }
+        }
+        simd.dispatch(Op(self, pb, m, cb));
+    }
+
+    /// Recomputes the turn of the lanes where the series does not apply, with `atan2`.
+    #[cold]
+    fn fix_large_turns(&self, pb: &PoseBlock<N>, m: f64, dth: &mut [[f64; L]; N]) {
+        for i in 0..N {
+            for k in 0..L {
+                let du = m * pb.fu[i][k];
+                let f = pb.fw[i][k] + du;
+                let dlen = if self.any_play {
+                    -du * self.len_c[i] - self.play[i] * sign0(f)
+                } else {
+                    -du * self.len_c[i]
+                };
+                let l = pb.len[i][k];
+                let dc = -dlen * (2.0 * l + dlen) * self.half_inv_rd[i];
+                let (c, s) = (pb.c[i][k], pb.s[i][k]);
+                let t = 2.0 * c + dc;
+                let s1 = (s * s - dc * t).max(0.0).sqrt();
+                let sind = -dc * (s + c * t / (s + s1));
+                let cosd = c * (c + dc) + s * s1;
+                if !(sind.abs() <= ASIN_SERIES_MAX && cosd > 0.0) {
+                    dth[i][k] = pb.side[i][k] * sind.atan2(cosd);
+                }
+            }
+        }
+    }
+}

@@ -1,0 +1,788 @@
+//! The sweep against `Workspace::solve`, cell by cell: the block kernel (baseline and the
+//! length-only effects) to 1e-10 relative, the per-cell path exactly; NaN/ok for singular and
+//! unclosable cells; reductions against a naive reduction of the full output; independence
+//! of chunk size and thread count; cancellation; bad options; the reachability mask.
+
+#![allow(clippy::unwrap_used, clippy::needless_range_loop)] // test code: a failure should panic
+use arm_core::effects::{
+    ActuatorCompliance, ActuatorPlay, BaseCompliance, JointClearance, LinkBending, MountCompliance,
+};
+use arm_core::kinematics::Frames;
+use arm_core::sweep::{sweep, CellFields, Cells, Reduce, ReduceOp, SweepOptions, SweepOut};
+use arm_core::{Actuator, Arm, ArmError, Effect, EffectSet, Link, SolveOptions, Workspace, V2};
+
+fn v(x: f64, y: f64) -> V2 {
+    V2::new(x, y)
+}
+
+/// A small deterministic generator (xorshift64).
+struct Rng(u64);
+
+impl Rng {
+    fn uniform(&mut self, lo: f64, hi: f64) -> f64 {
+        self.0 ^= self.0 << 13;
+        self.0 ^= self.0 >> 7;
+        self.0 ^= self.0 << 17;
+        lo + (hi - lo) * ((self.0 >> 11) as f64 / (1u64 << 53) as f64)
+    }
+    fn jitter(&mut self, p: V2, d: f64) -> V2 {
+        p + v(self.uniform(-d, d), self.uniform(-d, d))
+    }
+}
+
+/// The example arm with `n` links (the third link's shape repeated beyond three), every
+/// point jittered by up to 10 mm, masses and stiffnesses by up to ±30 %, optional strokes.
+fn arm(n: usize, rng: &mut Rng, strokes: Option<(f64, f64)>) -> Arm {
+    let shapes = [
+        (
+            v(480.0, 0.0),
+            v(95.0, 55.0),
+            v(-40.0, -50.0),
+            v(220.0, -3.0),
+            3.0,
+        ),
+        (
+            v(380.0, 0.0),
+            v(85.0, -55.0),
+            v(-110.0, 10.0),
+            v(170.0, -2.0),
+            2.2,
+        ),
+        (
+            v(360.0, 0.0),
+            v(50.0, -40.0),
+            v(-100.0, 10.0),
+            v(160.0, -2.0),
+            1.3,
+        ),
+    ];
+    let mut links = Vec::new();
+    let mut acts = Vec::new();
+    for i in 0..n {
+        let (next, a, b, c, m) = shapes[i.min(2)];
+        let f = |r: &mut Rng| r.uniform(0.7, 1.3);
+        links.push(Link {
+            next: rng.jitter(next, 10.0),
+            a: rng.jitter(a, 10.0),
+            b: rng.jitter(b, 10.0),
+            c: rng.jitter(c, 10.0),
+            mass_kg: m * f(rng),
+        });
+        acts.push(Actuator {
+            stiffness: [3000.0, 2500.0, 2000.0][i.min(2)] * f(rng),
+            mass_kg: [1.5, 1.2, 0.9][i.min(2)] * f(rng),
+            min_length: strokes.map(|s| s.0),
+            max_length: strokes.map(|s| s.1),
+            max_force: None,
+        });
+    }
+    let measure = rng.jitter(links[n - 1].next - v(80.0, 40.0), 10.0);
+    Arm::new(
+        9.81,
+        rng.jitter(v(0.0, 0.0), 5.0),
+        rng.jitter(v(250.0, -40.0), 10.0),
+        v(-200.0, -280.0),
+        links,
+        acts,
+        measure,
+    )
+    .unwrap()
+}
+
+/// `count` poses of an `n`-link arm (degrees), in the seed's ranges.
+fn poses(n: usize, count: usize, rng: &mut Rng) -> Vec<f64> {
+    let ranges = [(60.0, 110.0), (0.0, 30.0), (-10.0, 10.0), (-15.0, 15.0)];
+    let mut a = Vec::with_capacity(n * count);
+    for _ in 0..count {
+        for i in 0..n {
+            let (lo, hi) = ranges[i.min(3)];
+            a.push(rng.uniform(lo, hi));
+        }
+    }
+    a
+}
+
+/// Every output of a sweep, owned.
+#[derive(Debug, Clone, PartialEq)]
+struct Outs {
+    force: Vec<f64>,
+    dx: Vec<f64>,
+    dy: Vec<f64>,
+    dalpha: Vec<f64>,
+    dl: Vec<f64>,
+    idx: Option<[Vec<i64>; 5]>,
+    ok: Vec<bool>,
+    length: Vec<f64>,
+    reachable: Vec<bool>,
+    ex: Vec<f64>,
+    ey: Vec<f64>,
+}
+
+impl Outs {
+    fn bits(&self) -> Vec<u64> {
+        let mut b: Vec<u64> = [&self.force, &self.dx, &self.dy, &self.dalpha, &self.dl]
+            .iter()
+            .flat_map(|v| v.iter().map(|x| x.to_bits()))
+            .collect();
+        b.extend(
+            self.length
+                .iter()
+                .chain(&self.ex)
+                .chain(&self.ey)
+                .map(|x| x.to_bits()),
+        );
+        b
+    }
+}
+
+fn run(
+    arm: &Arm,
+    effects: &EffectSet,
+    alpha: &[f64],
+    mass: &[f64],
+    opts: SweepOptions,
+    cancel: &(dyn Fn() -> bool + Sync),
+) -> Result<Outs, ArmError> {
+    let n = arm.n();
+    let poses = alpha.len() / n;
+    let group = opts.reduce.map_or(1, |r| r.group);
+    let rows = poses * mass.len() / group.max(1);
+    let z = |k: usize| vec![0.0; k];
+    let mut o = Outs {
+        force: z(rows * n),
+        dx: z(rows),
+        dy: z(rows),
+        dalpha: z(rows * n),
+        dl: z(rows * n),
+        idx: None,
+        ok: vec![false; rows],
+        length: z(poses * n),
+        reachable: vec![false; poses],
+        ex: z(poses),
+        ey: z(poses),
+    };
+    let arg = opts.reduce.is_some_and(|r| r.op.is_arg());
+    let mut idx = [
+        vec![0i64; rows * n],
+        vec![0i64; rows],
+        vec![0i64; rows],
+        vec![0i64; rows * n],
+        vec![0i64; rows * n],
+    ];
+    {
+        let cells = if arg {
+            let [a, b, c, d, e] = &mut idx;
+            Cells::Indices(CellFields {
+                force_n: a,
+                dx_mm: b,
+                dy_mm: c,
+                dalpha_deg: d,
+                dl_mm: e,
+            })
+        } else {
+            Cells::Values(CellFields {
+                force_n: &mut o.force,
+                dx_mm: &mut o.dx,
+                dy_mm: &mut o.dy,
+                dalpha_deg: &mut o.dalpha,
+                dl_mm: &mut o.dl,
+            })
+        };
+        let out = SweepOut {
+            cells,
+            ok: &mut o.ok,
+            length_mm: &mut o.length,
+            reachable: &mut o.reachable,
+            effector_x_mm: &mut o.ex,
+            effector_y_mm: &mut o.ey,
+        };
+        sweep(arm, effects, alpha, mass, opts, out, cancel)?;
+    }
+    if arg {
+        o.idx = Some(idx);
+    }
+    Ok(o)
+}
+
+fn never() -> bool {
+    false
+}
+
+fn opts(self_weight: bool) -> SweepOptions {
+    SweepOptions {
+        self_weight,
+        ..Default::default()
+    }
+}
+
+/// Compares every cell with `Workspace::solve`; returns the worst error relative to each
+/// field's scale (its largest magnitude over the batch).
+fn compare(arm: &Arm, eff: &EffectSet, alpha: &[f64], mass: &[f64], sw: bool) -> f64 {
+    let n = arm.n();
+    let got = run(arm, eff, alpha, mass, opts(sw), &never).unwrap();
+    let mut ws = Workspace::new(arm);
+    let m = mass.len();
+    let mut want = got.clone();
+    let mut solved = 0;
+    for (p, deg) in alpha.chunks(n).enumerate() {
+        let rad: Vec<f64> = deg.iter().map(|d| d.to_radians()).collect();
+        for (j, &mk) in mass.iter().enumerate() {
+            let r = p * m + j;
+            let so = SolveOptions {
+                self_weight: sw,
+                nan_on_failure: false,
+            };
+            let ok = ws.solve(arm, eff, &rad, v(0.0, -mk * arm.g), so, r).is_ok();
+            assert_eq!(got.ok[r], ok, "ok of row {r}");
+            want.ok[r] = ok;
+            if !ok {
+                continue;
+            }
+            solved += 1;
+            for i in 0..n {
+                want.force[r * n + i] = ws.loaded.f[i];
+                want.dalpha[r * n + i] = (ws.new_alpha[i] - rad[i]).to_degrees();
+                want.dl[r * n + i] = ws.body_dl[i];
+            }
+            want.dx[r] = ws.dmeasure.x;
+            want.dy[r] = ws.dmeasure.y;
+        }
+    }
+    assert!(solved > 0);
+    let mut worst = 0.0f64;
+    for (g, w) in [
+        (&got.force, &want.force),
+        (&got.dx, &want.dx),
+        (&got.dy, &want.dy),
+        (&got.dalpha, &want.dalpha),
+        (&got.dl, &want.dl),
+    ] {
+        let scale = w
+            .iter()
+            .filter(|x| x.is_finite())
+            .fold(0.0f64, |a, x| a.max(x.abs()));
+        for (a, b) in g.iter().zip(w) {
+            if b.is_nan() || !got.ok.iter().any(|&o| o) {
+                continue;
+            }
+            if a.is_nan() {
+                worst = f64::INFINITY;
+            }
+            if scale > 0.0 {
+                worst = worst.max((a - b).abs() / scale);
+            }
+        }
+    }
+    for (r, &ok) in got.ok.iter().enumerate() {
+        if !ok {
+            assert!(got.dx[r].is_nan() && got.force[r * n].is_nan(), "row {r}");
+        }
+    }
+    worst
+}
+
+fn length_only() -> Vec<(&'static str, Vec<Effect>)> {
+    vec![
+        ("baseline", vec![]),
+        (
+            "actuator_compliance",
+            vec![Effect::ActuatorCompliance(ActuatorCompliance {
+                actuator: 0,
+                stiffness: 800.0,
+            })],
+        ),
+        (
+            "mount_compliance",
+            vec![Effect::MountCompliance(MountCompliance {
+                actuator: 1,
+                stiffness: 1200.0,
+            })],
+        ),
+        (
+            "actuator_play",
+            vec![Effect::ActuatorPlay(ActuatorPlay {
+                actuator: 1,
+                play: 0.2,
+            })],
+        ),
+        (
+            "all length-only",
+            vec![
+                Effect::ActuatorCompliance(ActuatorCompliance {
+                    actuator: 1,
+                    stiffness: 700.0,
+                }),
+                Effect::MountCompliance(MountCompliance {
+                    actuator: 0,
+                    stiffness: 900.0,
+                }),
+                Effect::MountCompliance(MountCompliance {
+                    actuator: 1,
+                    stiffness: 1500.0,
+                }),
+                Effect::ActuatorPlay(ActuatorPlay {
+                    actuator: 0,
+                    play: 0.1,
+                }),
+                Effect::ActuatorPlay(ActuatorPlay {
+                    actuator: 1,
+                    play: 0.3,
+                }),
+            ],
+        ),
+    ]
+}
+
+fn other_effects() -> Vec<(&'static str, Vec<Effect>)> {
+    vec![
+        (
+            "joint_clearance",
+            vec![Effect::JointClearance(JointClearance {
+                joint: 1,
+                clearance: 0.15,
+            })],
+        ),
+        (
+            "link_bending",
+            vec![Effect::LinkBending(LinkBending { link: 0, ei: 2e9 })],
+        ),
+        (
+            "base_compliance",
+            vec![Effect::BaseCompliance(BaseCompliance { stiffness: 5e7 })],
+        ),
+        (
+            "mixed",
+            vec![
+                Effect::BaseCompliance(BaseCompliance { stiffness: 5e8 }),
+                Effect::ActuatorPlay(ActuatorPlay {
+                    actuator: 0,
+                    play: 0.05,
+                }),
+                Effect::JointClearance(JointClearance {
+                    joint: 0,
+                    clearance: 0.1,
+                }),
+            ],
+        ),
+    ]
+}
+
+const MASSES: [f64; 5] = [0.0, 0.5, 2.0, 5.0, 8.0];
+
+/// The block kernel equals `Workspace::solve` to 1e-10 of each field's scale, for the
+/// baseline and every length-only effect, with and without self-weight, for 1 to 4 links
+/// and for a batch that is not a multiple of the block width.
+#[test]
+fn fast_path_equals_workspace_solve() {
+    let mut rng = Rng(0x1234_5678_9ABC_DEF1);
+    for n in 2..=4 {
+        for trial in 0..4 {
+            let arm = arm(n, &mut rng, None);
+            let alpha = poses(n, 61 + trial, &mut rng);
+            for (name, eff) in length_only() {
+                let eff = EffectSet::new(&arm, eff).unwrap();
+                for sw in [true, false] {
+                    let worst = compare(&arm, &eff, &alpha, &MASSES, sw);
+                    assert!(
+                        worst < 1e-10,
+                        "{name}, n = {n}, self_weight {sw}: {worst:e}"
+                    );
+                }
+            }
+        }
+    }
+    // One link (the length-only effects on actuator 1 only).
+    let arm1 = arm(1, &mut rng, None);
+    let alpha = poses(1, 40, &mut rng);
+    let worst = compare(&arm1, &EffectSet::empty(), &alpha, &MASSES, true);
+    assert!(worst < 1e-10, "one link: {worst:e}");
+}
+
+/// The fast path is also right where the turn is large enough for `atan2` (soft actuators,
+/// heavy payload): the series and the fallback agree with the scalar core.
+#[test]
+fn fast_path_large_turns() {
+    let mut rng = Rng(77);
+    let arm = arm(3, &mut rng, None);
+    let soft = EffectSet::new(
+        &arm,
+        (0..3)
+            .map(|a| {
+                Effect::ActuatorCompliance(ActuatorCompliance {
+                    actuator: a,
+                    stiffness: 30.0,
+                })
+            })
+            .collect(),
+    )
+    .unwrap();
+    let alpha = poses(3, 40, &mut rng);
+    let mass = [1.0, 10.0, 30.0, 60.0];
+    let worst = compare(&arm, &soft, &alpha, &mass, true);
+    assert!(worst < 1e-10, "{worst:e}");
+    // Some triangles turn by more than the series covers (1/16 rad ≈ 3.6°), some by less.
+    let out = run(&arm, &soft, &alpha, &mass, opts(true), &never).unwrap();
+    let big = out.dalpha.iter().filter(|d| d.abs() > 4.0).count();
+    assert!(big > 10 && big < out.dalpha.len() - 10, "{big} large turns");
+}
+
+/// The per-cell path (clearance, bending, base tilt) is `Workspace::solve` exactly.
+#[test]
+fn fallback_path_equals_workspace_solve() {
+    let mut rng = Rng(99);
+    let arm = arm(3, &mut rng, None);
+    let alpha = poses(3, 29, &mut rng);
+    for (name, eff) in other_effects() {
+        let eff = EffectSet::new(&arm, eff).unwrap();
+        for sw in [true, false] {
+            let worst = compare(&arm, &eff, &alpha, &MASSES, sw);
+            assert!(worst == 0.0, "{name}, self_weight {sw}: {worst:e}");
+        }
+    }
+}
+
+/// A pose whose first actuator passes through its joint.
+fn singular_pose(arm: &Arm) -> f64 {
+    let d = arm.b0 - arm.o1;
+    let a = arm.links[0].a;
+    (d.y.atan2(d.x) - a.y.atan2(a.x)).to_degrees()
+}
+
+/// Singular poses and triangles that cannot close give NaN and ok = false, not an error,
+/// and the cells around them are unaffected.
+#[test]
+fn singular_and_unclosable_cells_are_nan() {
+    let mut rng = Rng(5);
+    let arm = arm(3, &mut rng, None);
+    let mut alpha = poses(3, 20, &mut rng);
+    alpha[3 * 7] = singular_pose(&arm);
+    let soft = EffectSet::new(
+        &arm,
+        vec![Effect::ActuatorCompliance(ActuatorCompliance {
+            actuator: 2,
+            stiffness: 1.0,
+        })],
+    )
+    .unwrap();
+    let mass = [1.0, 1e5];
+    let out = run(&arm, &soft, &alpha, &mass, opts(true), &never).unwrap();
+    for p in 0..20 {
+        assert!(
+            !out.ok[p * 2 + 1],
+            "pose {p}: a 1e5 kg payload cannot close"
+        );
+        assert!(out.dx[p * 2 + 1].is_nan() && out.dalpha[(p * 2 + 1) * 3].is_nan());
+        assert_eq!(out.ok[p * 2], p != 7, "pose {p}");
+        assert_eq!(out.reachable[p], p != 7);
+        assert!(
+            out.length[p * 3].is_finite(),
+            "lengths are written for every pose"
+        );
+    }
+    assert!(out.force[7 * 2 * 3].is_nan() && out.dy[7 * 2].is_nan());
+    let worst = compare(&arm, &soft, &alpha, &mass, true);
+    assert!(worst < 1e-10);
+}
+
+/// Naive reduction of the full output, in row order.
+fn naive(
+    full: &Outs,
+    n: usize,
+    op: ReduceOp,
+    group: usize,
+) -> (Vec<Vec<f64>>, Vec<Vec<i64>>, Vec<bool>) {
+    let cols: Vec<(&Vec<f64>, usize)> = vec![
+        (&full.force, n),
+        (&full.dx, 1),
+        (&full.dy, 1),
+        (&full.dalpha, n),
+        (&full.dl, n),
+    ];
+    let rows = full.ok.len();
+    let groups = rows / group;
+    let mut vals = Vec::new();
+    let mut idxs = Vec::new();
+    for (buf, w) in cols {
+        let mut vv = vec![f64::NAN; groups * w];
+        let mut ii = vec![-1i64; groups * w];
+        for g in 0..groups {
+            for c in 0..w {
+                for off in 0..group {
+                    let x = buf[(g * group + off) * w + c];
+                    if x.is_nan() {
+                        continue;
+                    }
+                    let cur = vv[g * w + c];
+                    let better = cur.is_nan()
+                        || match op {
+                            ReduceOp::Max | ReduceOp::ArgMax => x > cur,
+                            ReduceOp::Min | ReduceOp::ArgMin => x < cur,
+                        };
+                    if better {
+                        vv[g * w + c] = x;
+                        ii[g * w + c] = off as i64;
+                    }
+                }
+            }
+        }
+        vals.push(vv);
+        idxs.push(ii);
+    }
+    let ok = (0..groups)
+        .map(|g| full.ok[g * group..(g + 1) * group].iter().any(|&o| o))
+        .collect();
+    (vals, idxs, ok)
+}
+
+/// Reductions equal a naive reduction of the unreduced output, for groups within a pose,
+/// over the payloads, over several poses, and straddling chunks; with NaN cells inside.
+#[test]
+fn reductions_equal_naive_reduction() {
+    let mut rng = Rng(11);
+    let arm = arm(3, &mut rng, None);
+    let mut alpha = poses(3, 48, &mut rng);
+    for p in [5, 6, 7, 20] {
+        alpha[3 * p] = singular_pose(&arm); // a whole group of NaN for some groupings
+    }
+    let mass = [0.0, 1.0, 3.0, 2.0, 8.0, 0.5];
+    for eff in [
+        EffectSet::empty(),
+        EffectSet::new(&arm, other_effects()[2].1.clone()).unwrap(),
+    ] {
+        let full = run(&arm, &eff, &alpha, &mass, opts(true), &never).unwrap();
+        for group in [1, 2, 3, 6, 12, 18, 48, 288] {
+            for op in [
+                ReduceOp::Max,
+                ReduceOp::Min,
+                ReduceOp::ArgMax,
+                ReduceOp::ArgMin,
+            ] {
+                let (vals, idxs, ok) = naive(&full, 3, op, group);
+                for chunk_rows in [None, Some(30), Some(100)] {
+                    let o = SweepOptions {
+                        reduce: Some(Reduce { op, group }),
+                        chunk_rows,
+                        threads: Some(2),
+                        ..opts(true)
+                    };
+                    let red = run(&arm, &eff, &alpha, &mass, o, &never).unwrap();
+                    assert_eq!(red.ok, ok, "ok, group {group}, {op:?}");
+                    assert_eq!(red.length, full.length);
+                    assert_eq!(red.reachable, full.reachable);
+                    if op.is_arg() {
+                        let got = red.idx.as_ref().unwrap();
+                        for f in 0..5 {
+                            assert_eq!(got[f], idxs[f], "field {f}, group {group}, {op:?}");
+                        }
+                    } else {
+                        let got = [&red.force, &red.dx, &red.dy, &red.dalpha, &red.dl];
+                        for f in 0..5 {
+                            let same = got[f]
+                                .iter()
+                                .zip(&vals[f])
+                                .all(|(a, b)| a == b || (a.is_nan() && b.is_nan()));
+                            assert!(same, "field {f}, group {group}, {op:?}, {chunk_rows:?}");
+                        }
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// Chunk size and thread count do not change a single bit.
+#[test]
+fn independent_of_chunks_and_threads() {
+    let mut rng = Rng(3);
+    let arm = arm(3, &mut rng, Some((150.0, 400.0)));
+    let mut alpha = poses(3, 203, &mut rng);
+    alpha[3 * 100] = singular_pose(&arm);
+    let mass = [0.0, 2.5, 7.0];
+    let eff_sets = [
+        EffectSet::empty(),
+        EffectSet::new(&arm, other_effects()[3].1.clone()).unwrap(),
+    ];
+    for eff in &eff_sets {
+        for reduce in [
+            None,
+            Some(Reduce {
+                op: ReduceOp::Max,
+                group: 3,
+            }),
+            Some(Reduce {
+                op: ReduceOp::ArgMin,
+                group: 21,
+            }),
+        ] {
+            let base = SweepOptions {
+                reduce,
+                threads: Some(1),
+                ..opts(true)
+            };
+            let want = run(&arm, eff, &alpha, &mass, base, &never).unwrap();
+            for threads in [Some(1), Some(2), Some(3), None] {
+                for chunk_rows in [Some(1), Some(24), Some(50), Some(1000), None] {
+                    let o = SweepOptions {
+                        threads,
+                        chunk_rows,
+                        ..base
+                    };
+                    let got = run(&arm, eff, &alpha, &mass, o, &never).unwrap();
+                    assert_eq!(got.bits(), want.bits(), "{threads:?} {chunk_rows:?}");
+                    assert_eq!(got.ok, want.ok);
+                    assert_eq!(got.idx, want.idx);
+                    assert_eq!(got.reachable, want.reachable);
+                }
+            }
+        }
+    }
+}
+
+/// `cancel` returning true stops the sweep with `Cancelled`, on one thread and on several.
+#[test]
+fn cancel_returns_cancelled() {
+    use std::sync::atomic::{AtomicUsize, Ordering};
+    let mut rng = Rng(8);
+    let arm = arm(3, &mut rng, None);
+    let alpha = poses(3, 4000, &mut rng);
+    for threads in [Some(1), Some(2), None] {
+        let calls = AtomicUsize::new(0);
+        let cancel = || calls.fetch_add(1, Ordering::Relaxed) >= 2;
+        let o = SweepOptions {
+            threads,
+            chunk_rows: Some(64),
+            ..opts(true)
+        };
+        let r = run(&arm, &EffectSet::empty(), &alpha, &[1.0], o, &cancel);
+        assert_eq!(r.unwrap_err(), ArmError::Cancelled, "{threads:?}");
+        assert_eq!(calls.load(Ordering::Relaxed), 3, "stops at the first true");
+        // never cancelled: runs to the end
+        let r = run(&arm, &EffectSet::empty(), &alpha, &[1.0], o, &never);
+        assert!(r.is_ok());
+    }
+}
+
+/// Bad options and inputs are errors that name what is wrong.
+#[test]
+fn bad_options_are_errors() {
+    let mut rng = Rng(21);
+    let arm = arm(3, &mut rng, None);
+    let alpha = poses(3, 10, &mut rng);
+    let eff = EffectSet::empty();
+    let red = |group| SweepOptions {
+        reduce: Some(Reduce {
+            op: ReduceOp::Max,
+            group,
+        }),
+        ..opts(true)
+    };
+    for group in [0, 3, 7, 40] {
+        let e = run(&arm, &eff, &alpha, &[1.0, 2.0], red(group), &never).unwrap_err();
+        assert!(
+            matches!(e, ArmError::InvalidOption(_)),
+            "group {group}: {e}"
+        );
+    }
+    assert!(run(&arm, &eff, &alpha, &[1.0, 2.0], red(5), &never).is_ok());
+    let e = run(
+        &arm,
+        &eff,
+        &alpha,
+        &[1.0],
+        SweepOptions {
+            threads: Some(0),
+            ..opts(true)
+        },
+        &never,
+    )
+    .unwrap_err();
+    assert!(matches!(e, ArmError::InvalidOption(_)));
+    let e = run(&arm, &eff, &alpha, &[1.0, -2.0], opts(true), &never).unwrap_err();
+    assert!(e.to_string().contains("mass_kg[1]"), "{e}");
+    let e = run(&arm, &eff, &alpha, &[f64::NAN], opts(true), &never).unwrap_err();
+    assert!(e.to_string().contains("mass_kg[0]"), "{e}");
+    let e = run(&arm, &eff, &alpha[..29], &[1.0], opts(true), &never).unwrap_err();
+    assert!(matches!(e, ArmError::Shape { .. }), "{e}");
+    // The lowest non-finite pose is named, whatever the threads and chunks.
+    let mut bad = poses(3, 3000, &mut rng);
+    bad[3 * 2500 + 1] = f64::INFINITY;
+    bad[3 * 1700] = f64::NAN;
+    for threads in [Some(1), Some(2)] {
+        let o = SweepOptions {
+            threads,
+            chunk_rows: Some(64),
+            ..opts(true)
+        };
+        let e = run(&arm, &eff, &bad, &[1.0], o, &never).unwrap_err();
+        assert_eq!(
+            e,
+            ArmError::NonFinite {
+                row: 1700,
+                what: "alpha_deg"
+            }
+        );
+    }
+    // An output buffer of the wrong size.
+    let mut small = vec![0.0; 5];
+    let (mut a, mut b, mut c, mut d) = (vec![0.0; 30], vec![0.0; 10], vec![0.0; 10], vec![0.0; 30]);
+    let mut ok = vec![false; 10];
+    let out = SweepOut {
+        cells: Cells::Values(CellFields {
+            force_n: &mut a,
+            dx_mm: &mut small,
+            dy_mm: &mut b,
+            dalpha_deg: &mut c,
+            dl_mm: &mut d,
+        }),
+        ok: &mut ok,
+        length_mm: &mut [],
+        reachable: &mut [],
+        effector_x_mm: &mut [],
+        effector_y_mm: &mut [],
+    };
+    let e = sweep(&arm, &eff, &alpha, &[1.0], opts(true), out, &never).unwrap_err();
+    assert!(matches!(e, ArmError::Shape { what: "dx_mm", .. }), "{e}");
+}
+
+/// `reachable` is "not singular and every length within its stroke"; lengths and the
+/// load point are those of the forward kinematics.
+#[test]
+fn reachable_agrees_with_stroke_limits() {
+    let mut rng = Rng(42);
+    let (lo, hi) = (300.0, 540.0);
+    for effects in [vec![], other_effects()[0].1.clone()] {
+        let arm = arm(3, &mut rng, Some((lo, hi)));
+        let eff = EffectSet::new(&arm, effects).unwrap();
+        let mut alpha = poses(3, 300, &mut rng);
+        alpha[3 * 17] = singular_pose(&arm);
+        let out = run(&arm, &eff, &alpha, &[1.0], opts(true), &never).unwrap();
+        let mut fr = Frames::new(3);
+        let (mut inside, mut outside) = (0, 0);
+        for p in 0..300 {
+            let rad: Vec<f64> = alpha[3 * p..3 * p + 3]
+                .iter()
+                .map(|d| d.to_radians())
+                .collect();
+            fr.fill(&arm, &rad);
+            let mut within = true;
+            for i in 0..3 {
+                let l = fr.length(i);
+                assert!((out.length[3 * p + i] - l).abs() < 1e-12 * l);
+                within &= (lo..=hi).contains(&l);
+            }
+            assert!((out.ex[p] - fr.joint[3].x).abs() < 1e-12 * 1e3);
+            assert!((out.ey[p] - fr.joint[3].y).abs() < 1e-12 * 1e3);
+            let want = within && p != 17;
+            assert_eq!(out.reachable[p], want, "pose {p}");
+            if want {
+                inside += 1;
+            } else {
+                outside += 1;
+            }
+        }
+        assert!(
+            inside > 10 && outside > 10,
+            "{inside} inside, {outside} outside"
+        );
+    }
+}
