@@ -238,8 +238,12 @@ def test_mask_unreachable_drops_out_of_stroke_poses_from_cells_and_reductions(
     np.testing.assert_array_equal(
         masked["ok"].values, full["ok"].values & full["reachable"].values[..., None]
     )
-    for key in ("reachable", "length_mm", "effector_x_mm"):  # the poses themselves are kept
-        np.testing.assert_array_equal(masked[key].values, full[key].values, err_msg=key)
+    np.testing.assert_array_equal(masked["reachable"].values, full["reachable"].values)
+    for key in ("length_mm", "effector_x_mm"):  # the poses themselves are kept
+        # to round-off: the two sweeps may take different (equally exact) paths in the core
+        np.testing.assert_allclose(
+            masked[key].values, full[key].values, rtol=0, atol=1e-9, err_msg=key
+        )
     red = sweep_fn(
         arm,
         alpha_deg=grid,
@@ -317,15 +321,21 @@ def test_a_lengths_grid_puts_the_actuators_at_the_asked_lengths(arm: eodarm.Arm)
     assert ok[exists].all() and not ok[~exists].any()
     # the same poses through an angle sweep give the same cells
     sol = eodarm.solve(arm, alpha[exists], 2.0)
-    np.testing.assert_allclose(ds["dy_mm"].values.ravel()[exists], sol["dy_mm"], rtol=1e-12)
+    # the sweep's fast kernel and solve agree to round-off of mm-sized coordinates
+    np.testing.assert_allclose(
+        ds["dy_mm"].values.ravel()[exists], sol["dy_mm"], rtol=1e-9, atol=1e-9
+    )
 
 
 def test_masking_a_lengths_grid_keeps_its_poses_and_drops_their_cells(arm: eodarm.Arm) -> None:
     g = {"l1": [1.0, 200.0, 300.0], "l2": [500.0], "l3": [500.0]}  # no pose, out of stroke, ok
     plain = sweep_fn(arm, lengths=g, mass_kg=[1.0])
     masked = sweep_fn(arm, lengths=g, mass_kg=[1.0], mask_unreachable=True)
-    for key in ("alpha_deg", "length_mm", "effector_x_mm", "reachable"):
-        np.testing.assert_array_equal(masked[key].values, plain[key].values, err_msg=key)
+    np.testing.assert_array_equal(masked["reachable"].values, plain["reachable"].values)
+    for key in ("alpha_deg", "length_mm", "effector_x_mm"):  # to round-off (core paths differ)
+        np.testing.assert_allclose(
+            masked[key].values, plain[key].values, rtol=0, atol=1e-9, err_msg=key
+        )
     assert plain["ok"].values.ravel().tolist() == [False, True, True]
     assert masked["ok"].values.ravel().tolist() == [False, False, True]
     assert np.isnan(masked["dy_mm"].values.ravel()[:2]).all()
