@@ -10,7 +10,9 @@
 //!   base tilt), one module each;
 //! * [`pose`]: the loaded pose, closed exactly;
 //! * [`solve`]: all of it for many poses at once, in parallel;
-//! * [`sensitivity`]: predicted channels and their derivatives by effect parameter, for fits.
+//! * [`sensitivity`]: predicted channels and their derivatives by effect parameter, for fits;
+//! * [`fem`]: the numerical model, a frame finite-element model of the same arm solved with
+//!   faer's sparse Cholesky, an independent check of all of the above.
 //!
 //! Units: mm, N, kg, rad inside (degrees at the batch API). Global frame: x forward, y up,
 //! angles counter-clockwise. `docs/model.md` in the repository derives every equation.
@@ -18,6 +20,7 @@
 pub mod arm;
 pub mod effects;
 pub mod error;
+pub mod fem;
 pub mod geometry;
 pub mod kinematics;
 pub mod pose;
