@@ -135,6 +135,7 @@ impl Maps {
 
     /// Fills the maps of the pose `fr`, with the closed-gap offsets `offset` (global, mm) of
     /// each joint's pin from its bore.
+    #[allow(clippy::needless_range_loop)] // i indexes the links, their maps and offsets
     pub fn fill(&mut self, arm: &Arm, mesh: &Mesh, fr: &Frames, offset: &[V2]) {
         let n = arm.n();
         let pv = arm.pivot;

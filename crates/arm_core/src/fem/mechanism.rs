@@ -106,6 +106,7 @@ pub fn describe(
 }
 
 /// The eigenvector of the smallest eigenvalue of D^{-1/2}·K·D^{-1/2}, mapped back by D^{-1/2}.
+#[allow(clippy::needless_range_loop)] // CSC walk: p indexes row_idx and values
 fn null_vector(asm: &Assembly, values: &[f64]) -> Option<Vec<f64>> {
     let n = asm.diag_pos.len();
     let d: Vec<f64> = asm

@@ -295,7 +295,7 @@ mod tests {
         let mut keys = [0.0, 95.0, 480.0, 220.0, -40.0, 95.0];
         let x = stations(&mut keys, 8, 95.0);
         for k in [0.0, 95.0, 480.0, 220.0, -40.0] {
-            assert!(x.iter().any(|&s| s == k), "{k} missing from {x:?}");
+            assert!(x.contains(&k), "{k} missing from {x:?}");
         }
         let h = 520.0 / 8.0;
         assert!(x.windows(2).all(|w| w[1] > w[0] && w[1] - w[0] <= h + 1e-9));

@@ -137,6 +137,7 @@ impl Numeric {
     ///
     /// # Errors
     /// [`SingularAt`] when K is not (numerically) positive definite.
+    #[allow(clippy::needless_range_loop)] // k indexes the factor, the permutation and K
     pub fn factorize(
         &mut self,
         asm: &Assembly,
@@ -195,6 +196,7 @@ impl Numeric {
         Ok(())
     }
 
+    #[allow(clippy::needless_range_loop)] // CSC walk: p indexes row_idx and values
     fn factorize_dense(
         &mut self,
         asm: &Assembly,

@@ -81,11 +81,12 @@ impl FemSpec {
             }
         }
         // An infinite section or base stiffness is the same as none given: rigid.
+        let finite = |v: &f64| *v != f64::INFINITY;
         for s in &mut spec.sections {
-            s.ei = s.ei.filter(|v| v.is_finite());
-            s.ea = s.ea.filter(|v| v.is_finite());
+            s.ei = s.ei.filter(finite);
+            s.ea = s.ea.filter(finite);
         }
-        spec.base_stiffness = spec.base_stiffness.filter(|v| v.is_finite());
+        spec.base_stiffness = spec.base_stiffness.filter(finite);
         spec.validate()?;
         Ok(spec)
     }
