@@ -1,6 +1,6 @@
 """Type stubs of the private native module ``eodarm._core`` (built from crates/arm_py)."""
 
-from typing import final
+from typing import Any, final
 
 import numpy as np
 import numpy.typing as npt
@@ -9,6 +9,7 @@ __all__ = [
     "CoreArm",
     "CoreError",
     "angles_from_lengths",
+    "fem_solve",
     "forward",
     "inverse_kinematics",
     "jacobian",
@@ -50,6 +51,20 @@ def solve(
     self_weight: bool,
     nan_on_failure: bool = False,
 ) -> dict[str, npt.NDArray[np.float64]]: ...
+def fem_solve(
+    arm: CoreArm,
+    alpha_deg: npt.NDArray[np.float64],
+    payload_n: npt.NDArray[np.float64],
+    codes: npt.NDArray[np.int64],
+    places: npt.NDArray[np.int64],
+    values: npt.NDArray[np.float64],
+    self_weight: bool,
+    elements_per_link: int,
+    link_ei: npt.NDArray[np.float64],
+    link_ea: npt.NDArray[np.float64],
+    moment_samples: int = 101,
+    nan_on_failure: bool = False,
+) -> dict[str, Any]: ...
 def forward(
     arm: CoreArm, alpha_deg: npt.NDArray[np.float64]
 ) -> dict[str, npt.NDArray[np.float64]]: ...

@@ -16,13 +16,16 @@ base_compliance        1/stiffness_nmm_per_rad     θ ≥ 0 (θ = 0: rigid base)
 The compiled core returns the model's channels and their sensitivities ∂y/∂θ for any set of
 places in one call (:func:`eodarm._core.jacobian`); each Gauss–Newton step is then a small
 bounded linear least-squares problem. Residuals are whitened by the measurement σ.
+
+With ``model="fem"`` the channels come from the finite-element model (:mod:`eodarm.fem`) and
+the sensitivities from forward differences of it, one more FE solve per parameter.
 """
 
 from __future__ import annotations
 
 import math
 import warnings
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -116,6 +119,8 @@ class Problem:
     meas : the measurements (their ``n`` must equal the arm's).
     self_weight : include weights in both states (as the measured arm carried them).
     exclude : optional boolean (N, C) mask of measured cells to leave out (outliers).
+    model : ``"analytic"`` or ``"fem"``, the model that predicts the channels (as in
+        :func:`eodarm.solve`); ``fem_options`` go with ``"fem"``.
     """
 
     def __init__(
@@ -124,7 +129,14 @@ class Problem:
         meas: Measurements,
         self_weight: bool = True,
         exclude: npt.NDArray[np.bool_] | None = None,
+        model: str = "analytic",
+        fem_options: Mapping[str, Any] | None = None,
     ) -> None:
+        from . import fem
+
+        fem.check_model(model)
+        self.model = model
+        self.fem_options = fem.options(fem_options) if model == "fem" else None
         if meas.n != arm.n:
             raise EodarmError(
                 f"{meas.source}: the measurements are for a {meas.n}-link arm, "
@@ -164,6 +176,19 @@ class Problem:
         if rows is not None:
             alpha = np.ascontiguousarray(alpha[rows])
             payload = np.ascontiguousarray(payload[rows])
+        if self.model == "fem":
+            from . import fem
+
+            return fem.evaluate(
+                self.arm,
+                alpha,
+                payload,
+                model,
+                probes,
+                self.self_weight,
+                self.fem_options,
+                nan_on_failure,
+            )
         mc = np.array([CATALOGUE[s.name].code for s, _ in model], dtype=np.int64)
         mp = np.array([s.index(n) for s, _ in model], dtype=np.int64)
         mt = np.array([t for _, t in model], dtype=float)
@@ -184,6 +209,10 @@ class Problem:
 
     def neutral(self, slot: Slot) -> float:
         """θ of a slot when it is not in the model."""
+        if self.model == "fem":
+            from . import fem
+
+            return fem.neutral(self.arm, slot)
         if slot.name == "actuator_compliance":
             return 1.0 / self.arm.actuators[slot.index(self.arm.n)].stiffness_n_per_mm
         return 0.0
@@ -305,6 +334,8 @@ def fit(
     problem: Problem | None = None,
     start: Sequence[float] | None = None,
     max_iter: int = 30,
+    model: str = "analytic",
+    fem_options: Mapping[str, Any] | None = None,
 ) -> FitResult:
     """Least-squares fit of the effects' parameters, within their physical bounds.
 
@@ -315,6 +346,8 @@ def fit(
         ``"effect@place"`` start from the effect being absent).
     self_weight : as :func:`eodarm.solve`.
     exclude : (N, C) mask of cells left out (outliers).
+    model, fem_options : the model that predicts the channels (see :class:`Problem`); a given
+        ``problem`` brings its own.
 
     Returns
     -------
@@ -323,7 +356,7 @@ def fit(
         prediction, χ². A parameter at a bound is flagged, with a warning in
         ``result.warnings``.
     """
-    prob = problem or Problem(arm, meas, self_weight=self_weight, exclude=exclude)
+    prob = problem or Problem(arm, meas, self_weight, exclude, model=model, fem_options=fem_options)
     given = list(effects)
     slots = [Slot.of(e) for e in given]
     keys = [s.key for s in slots]
@@ -429,6 +462,8 @@ def robust_fit(
     self_weight: bool = True,
     z_max: float = 4.0,
     share: float = 0.02,
+    model: str = "analytic",
+    fem_options: Mapping[str, Any] | None = None,
 ) -> tuple[FitResult, npt.NDArray[np.bool_]]:
     """Fit, then leave out the worst cell while it is more than ``z_max`` σ off, and refit.
 
@@ -439,7 +474,8 @@ def robust_fit(
     """
     from scipy.stats import chi2 as chi2_dist
 
-    res = fit(arm, meas, list(effects), self_weight=self_weight)
+    kw: dict[str, Any] = {"model": model, "fem_options": fem_options}
+    res = fit(arm, meas, list(effects), self_weight=self_weight, **kw)
     mask = np.zeros(meas.values.shape, dtype=bool)
     budget = max(1, int(share * res.problem.n_values))
     trial, tmask = res, mask.copy()
@@ -450,7 +486,7 @@ def robust_fit(
         if not z[worst] > z_max:
             break
         tmask[worst] = True
-        trial = fit(arm, meas, list(effects), self_weight=self_weight, exclude=tmask)
+        trial = fit(arm, meas, list(effects), self_weight=self_weight, exclude=tmask, **kw)
     if tmask.any() and chi2_dist.sf(trial.chi2, trial.dof) >= 1e-3:
         return trial, tmask
     return res, mask
@@ -481,9 +517,11 @@ def compare(
     meas: Measurements,
     effects: Sequence[Effect] = (),
     self_weight: bool = True,
+    model: str = "analytic",
+    fem_options: Mapping[str, Any] | None = None,
 ) -> FitResult:
     """The model with fixed effects against the measurements (nothing fitted)."""
-    prob = Problem(arm, meas, self_weight=self_weight)
+    prob = Problem(arm, meas, self_weight=self_weight, model=model, fem_options=fem_options)
     slots = [Slot.of(e) for e in effects]
     theta = np.array([theta_from_param(e.name, e.value) for e in effects], dtype=float)
     y, _ = prob.evaluate(list(zip(slots, theta, strict=True)))
@@ -500,6 +538,8 @@ def cross_validate(
     effects: Sequence[Effect | Slot | str],
     self_weight: bool = True,
     by: str = "config",
+    model: str = "analytic",
+    fem_options: Mapping[str, Any] | None = None,
 ) -> dict[str, Any]:
     """Leave one configuration out: fit without it, predict it.
 
@@ -511,7 +551,8 @@ def cross_validate(
     if len(configs) < 2:
         raise EodarmError("cross-validation needs at least two configurations")
     slots = [Slot.of(e) for e in effects]
-    full = Problem(arm, meas, self_weight=self_weight)
+    kw: dict[str, Any] = {"model": model, "fem_options": fem_options}
+    full = Problem(arm, meas, self_weight=self_weight, **kw)
     resid = np.full_like(meas.values, np.nan)
     per: dict[str, dict[str, float]] = {}
     for label in configs:
@@ -521,6 +562,7 @@ def cross_validate(
             meas,
             self_weight=self_weight,
             exclude=np.broadcast_to(held[:, None], meas.values.shape),
+            **kw,
         )
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", FitWarning)
