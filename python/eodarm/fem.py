@@ -129,9 +129,11 @@ def channels(out: Mapping[str, Any]) -> npt.NDArray[np.float64]:
 def theta_step(arm: Arm, slot: Slot, theta: float) -> float:
     """The forward-difference step of a slot's θ: its scale or a reference scale.
 
-    Reference scales make the effect's deflection about a thousandth of the actuators' own:
-    1/k of the actuator (compliances), 1/(1000·k·L³) (bending), 1/(1000·k·R²) (base), 0.05 mm
-    (gaps), with k the stiffest actuator, L the link's length and R the arm's reach.
+    Reference scales make the effect's deflection comparable to the actuators' own: 1/k of
+    the actuator (compliances), 1/(k·L³) (bending), 1/(k·R²) (base), 0.05 mm (gaps), with k
+    the stiffest actuator, L the link's length and R the arm's reach. The FE response is linear
+    in θ, so a large step costs no accuracy; a tiny one (a nearly rigid element next to the
+    actuators' springs) would drown the difference in round-off.
     """
     k = max(a.stiffness_n_per_mm for a in arm.actuators)
     i = slot.index(arm.n)
@@ -139,10 +141,10 @@ def theta_step(arm: Arm, slot: Slot, theta: float) -> float:
         ref = 1.0 / arm.actuators[i].stiffness_n_per_mm
     elif slot.name == "link_bending":
         length = math.hypot(*arm.links[i].next)
-        ref = 1.0 / (1000.0 * k * length**3)
+        ref = 1.0 / (k * length**3)
     elif slot.name == "base_compliance":
         reach = sum(math.hypot(*lk.next) for lk in arm.links)
-        ref = 1.0 / (1000.0 * k * reach**2)
+        ref = 1.0 / (k * reach**2)
     else:
         ref = 0.05
     return max(abs(theta), ref)

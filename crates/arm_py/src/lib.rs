@@ -364,6 +364,12 @@ fn fem_solve<'py>(
         .flat_map(|s| [s[0] as i64, s[1] as i64])
         .collect();
     let kinds: Vec<i64> = model.shape.kinds.iter().map(|&k| k as i64).collect();
+    let codes: Vec<i64> = model
+        .shape
+        .codes(&model.mesh)
+        .into_iter()
+        .flatten()
+        .collect();
     let n_seg = kinds.len();
     let out = PyDict::new(py);
     out.set_item("force_n", force.into_pyarray(py).reshape([rows, n])?)?;
@@ -401,6 +407,7 @@ fn fem_solve<'py>(
     )?;
     out.set_item("segments", segments.into_pyarray(py).reshape([n_seg, 2])?)?;
     out.set_item("segment_kind", kinds.into_pyarray(py))?;
+    out.set_item("node_kind", codes.into_pyarray(py).reshape([n_nodes, 2])?)?;
     out.set_item("n_dof", model.n_dof())?;
     Ok(out)
 }

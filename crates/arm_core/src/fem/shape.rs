@@ -98,6 +98,28 @@ impl Shape {
         s
     }
 
+    /// Per node, a kind code and its body, for plots: 0 pivot, 1 chassis point O1, 2 base pin
+    /// of actuator `body`, 3 axis station, 4 a link's joint station (its pin O_i), 5 pin A,
+    /// 6 next joint (last link: load point), 7 centre of mass, 8 measure point; `body` is the
+    /// 1-based link (actuator for kind 2), 0 for the chassis.
+    pub fn codes(&self, mesh: &Mesh) -> Vec<[i64; 2]> {
+        let b = |i: usize| i as i64 + 1;
+        self.nodes
+            .iter()
+            .map(|node| match *node {
+                Node::Pivot => [0, 0],
+                Node::O1 => [1, 0],
+                Node::BasePin(i) => [2, b(i)],
+                Node::Station(i, k) if k == mesh.links[i].origin => [4, b(i)],
+                Node::Station(i, _) => [3, b(i)],
+                Node::A(i) => [5, b(i)],
+                Node::Next(i) => [6, b(i)],
+                Node::C(i) => [7, b(i)],
+                Node::Measure => [8, b(mesh.links.len() - 1)],
+            })
+            .collect()
+    }
+
     fn node(&mut self, n: Node) -> usize {
         self.nodes.push(n);
         self.nodes.len() - 1
