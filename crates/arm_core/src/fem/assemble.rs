@@ -224,35 +224,42 @@ impl Assembly {
 
     /// Assembles the stored upper triangle of K into `values` from the per-pose T.
     /// `scratch` holds at least `6·max_dofs` values.
+    ///
+    /// T is mostly zeros (a beam end's two translations touch only that end's DOFs, its
+    /// rotation one DOF), so both products skip its zero entries.
     pub fn stiffness(&self, t: &[f64], values: &mut [f64], scratch: &mut [f64]) {
         values.fill(0.0);
         for e in &self.elements {
             let m = e.dofs.len();
             let r = e.rows;
             let te = &t[e.t_at..e.t_at + r * m];
+            // kt = k·T (r × m), accumulated over T's nonzeros.
             let kt = &mut scratch[..r * m];
-            // kt = k·T (r × m)
-            for i in 0..r {
+            kt.fill(0.0);
+            for j in 0..r {
                 for q in 0..m {
-                    let mut acc = 0.0;
-                    for j in 0..r {
-                        acc += e.k[i * r + j] * te[j * m + q];
+                    let tjq = te[j * m + q];
+                    if tjq != 0.0 {
+                        for i in 0..r {
+                            kt[i * m + q] += e.k[i * r + j] * tjq;
+                        }
                     }
-                    kt[i * m + q] = acc;
                 }
             }
-            // ke = Tᵀ·(k·T), upper triangle in global numbering.
-            for p in 0..m {
-                for q in 0..m {
-                    let pos = e.pos[p * m + q];
-                    if pos == NONE {
+            // ke = Tᵀ·(k·T), upper triangle in global numbering, over T's nonzeros.
+            for i in 0..r {
+                let row = &te[i * m..(i + 1) * m];
+                let ktr = &kt[i * m..(i + 1) * m];
+                for (p, &tip) in row.iter().enumerate() {
+                    if tip == 0.0 {
                         continue;
                     }
-                    let mut acc = 0.0;
-                    for i in 0..r {
-                        acc += te[i * m + p] * kt[i * m + q];
+                    let pos = &e.pos[p * m..(p + 1) * m];
+                    for (q, &at) in pos.iter().enumerate() {
+                        if at != NONE {
+                            values[at] += tip * ktr[q];
+                        }
                     }
-                    values[pos] += acc;
                 }
             }
         }

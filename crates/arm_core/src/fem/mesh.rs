@@ -237,6 +237,22 @@ impl Mesh {
     }
 }
 
+impl Mesh {
+    /// Renumbers every DOF `d` as `new[d]` (a permutation).
+    pub fn renumber(&mut self, new: &[usize]) {
+        if let Some(d) = &mut self.base_dof {
+            *d = new[*d];
+        }
+        for lm in &mut self.links {
+            for d in lm.dof.iter_mut().flatten() {
+                if *d != NONE {
+                    *d = new[*d];
+                }
+            }
+        }
+    }
+}
+
 /// Sorted key abscissae, those closer than `MERGE` of the extent merged into one (0 first,
 /// then `xa`, then the smallest), each interval cut into pieces no longer than extent/m.
 fn stations(keys: &mut [f64], m: usize, xa: f64) -> Vec<f64> {

@@ -97,7 +97,8 @@ pub struct FemModel {
     pub mesh: Mesh,
     /// Elements and the sparsity pattern.
     pub asm: Assembly,
-    /// The symbolic Cholesky analysis of the pattern (AMD ordering), done once.
+    /// The symbolic Cholesky analysis of the pattern, done once (the DOFs are numbered in
+    /// its AMD order).
     pub symbolic: SymbolicCholesky<usize>,
     /// Options.
     pub options: FemOptions,
@@ -134,15 +135,23 @@ impl FemModel {
             });
         }
         let spec = FemSpec::new(arm, effects, sections)?;
-        let mesh = Mesh::new(arm, &spec, options.elements_per_link)?;
+        let mut mesh = Mesh::new(arm, &spec, options.elements_per_link)?;
         // The DOF sets of the maps do not depend on the pose: fill them once for the pattern.
         let n = arm.n();
         let mut fr = Frames::new(n);
         fr.fill(arm, &vec![0.0; n]);
+        let offsets = vec![Default::default(); n];
         let mut maps = Maps::new(&mesh);
-        maps.fill(arm, &mesh, &fr, &vec![Default::default(); n]);
-        let asm = Assembly::new(arm, &mesh, &spec, &maps);
-        let symbolic = solve::analyse(&asm)?;
+        maps.fill(arm, &mesh, &fr, &offsets);
+        let mut asm = Assembly::new(arm, &mesh, &spec, &maps);
+        // Number the DOFs in the fill-reducing order, once: then no pose permutes K.
+        let ordered = solve::analyse(&asm, true)?;
+        if let Some(perm) = ordered.perm() {
+            mesh.renumber(perm.arrays().1);
+            maps.fill(arm, &mesh, &fr, &offsets);
+            asm = Assembly::new(arm, &mesh, &spec, &maps);
+        }
+        let symbolic = solve::analyse(&asm, false)?;
         let shape = Shape::new(&mesh);
         let k = options.moment_samples;
         let mut moment_x = Vec::with_capacity(n * k);

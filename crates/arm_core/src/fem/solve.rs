@@ -1,6 +1,7 @@
 //! The linear solve `K·u = f` with faer: sparse Cholesky (LLᵀ) with a fill-reducing (AMD)
 //! ordering, its symbolic analysis done once per model and shared by every pose and thread;
-//! a pose refills the numeric factor in place (no allocation). Two alternatives exist for
+//! a pose refills the numeric factor in place (no allocation). The model numbers its DOFs in
+//! the AMD order, so the factorisation runs in the natural order and K is never permuted. Two alternatives exist for
 //! comparison (benchmarks, tests): the sparse factorisation with its symbolic analysis redone
 //! every pose, and a dense Cholesky of the same matrix.
 //!
@@ -49,17 +50,23 @@ pub struct SingularAt {
     pub dof: usize,
 }
 
-/// The symbolic Cholesky analysis of an assembly's pattern (AMD ordering, simplicial).
+/// The symbolic Cholesky analysis of an assembly's pattern (simplicial), with a fill-reducing
+/// AMD ordering when `amd`, else in the DOFs' own order (the model numbers its DOFs in AMD
+/// order once, so that no pose pays for permuting K).
 ///
 /// # Errors
 /// [`ArmError::Unsupported`] if faer cannot allocate or analyse the pattern.
-pub fn analyse(asm: &Assembly) -> Result<SymbolicCholesky<usize>> {
+pub fn analyse(asm: &Assembly, amd: bool) -> Result<SymbolicCholesky<usize>> {
     let n = asm.diag_pos.len();
     let pattern = SymbolicSparseColMatRef::new_checked(n, n, &asm.col_ptr, None, &asm.row_idx);
     factorize_symbolic_cholesky(
         pattern,
         Side::Upper,
-        SymmetricOrdering::Amd,
+        if amd {
+            SymmetricOrdering::Amd
+        } else {
+            SymmetricOrdering::Identity
+        },
         CholeskySymbolicParams {
             supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SIMPLICIAL,
             ..Default::default()
@@ -150,7 +157,8 @@ impl Numeric {
         }
         let pattern = SymbolicSparseColMatRef::new_checked(n, n, &asm.col_ptr, None, &asm.row_idx);
         if self.solver == LinearSolver::SparseFresh {
-            let sym = analyse(asm).map_err(|_| SingularAt { dof: 0 })?;
+            // The whole symbolic analysis, ordering included, as if nothing were reused.
+            let sym = analyse(asm, true).map_err(|_| SingularAt { dof: 0 })?;
             self.l.resize(sym.len_val(), 0.0);
             let params: Spec<LltParams, f64> = Default::default();
             self.mem = MemBuffer::new(StackReq::any_of(&[

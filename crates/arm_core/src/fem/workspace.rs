@@ -72,6 +72,8 @@ pub struct FemWorkspace {
     pub node_xy: Vec<V2>,
     /// Displacements of the shape's nodes, loaded minus unloaded (mm).
     pub node_disp: Vec<V2>,
+    /// Per element: local end forces of the loaded state and of the change (moments).
+    end_forces: Vec<([f64; 6], [f64; 6])>,
     /// Active-set iterations of the last solve (0 without gaps).
     pub iterations: usize,
 }
@@ -115,6 +117,7 @@ impl FemWorkspace {
             dmoment: vec![0.0; n * k],
             node_xy: vec![V2::zeros(); nodes],
             node_disp: vec![V2::zeros(); nodes],
+            end_forces: vec![([0.0; 6], [0.0; 6]); model.asm.elements.len()],
             iterations: 0,
         }
     }
@@ -339,12 +342,13 @@ impl FemWorkspace {
         };
         let mut pf_l = [PointForce::default(); 5];
         let mut pf_w = [PointForce::default(); 5];
-        let pre = Prescribed {
+        // The gaps' prescribed parts (none without gaps: skip computing zeros).
+        let pre = model.spec.has_gaps().then_some(Prescribed {
             maps: &self.maps,
             frames: &self.frames,
             lines_e: &self.e,
             play_dl: &self.gaps.play_dl,
-        };
+        });
         for (i, lm) in model.mesh.links.iter().enumerate() {
             let xs = &model.moment_x[i * k..(i + 1) * k];
             let out_l = &mut self.moment[i * k..(i + 1) * k];
@@ -375,25 +379,31 @@ impl FemWorkspace {
                 }
                 continue;
             }
+            // Each element's end forces once, then every sample inside it.
             let first = model.beam_start[i];
             let count = lm.x.len() - 1;
-            for ((x, ml), md) in xs.iter().zip(out_l.iter_mut()).zip(out_d.iter_mut()) {
-                // The element [x_k, x_{k+1}) holding x (the last one holds its right end).
-                let kk = lm.x.partition_point(|&s| s <= *x).clamp(1, count) - 1;
-                let e = &model.asm.elements[first + kk];
-                let Kind::Beam { h, .. } = e.kind else {
-                    continue;
-                };
-                let xi = x - lm.x[kk];
+            for e in first..first + count {
+                let el = &model.asm.elements[e];
                 let mut w = [0.0; 6];
                 model
                     .asm
-                    .local_displacement(e, &self.t, &self.u_loaded, Some(pre), &mut w);
-                *ml = element_moment(&Assembly::end_forces(e, &w), h, xi);
+                    .local_displacement(el, &self.t, &self.u_loaded, pre, &mut w);
+                let fl = Assembly::end_forces(el, &w);
                 model
                     .asm
-                    .local_displacement(e, &self.t, &self.u_inc, Some(pre), &mut w);
-                *md = element_moment(&Assembly::end_forces(e, &w), h, xi);
+                    .local_displacement(el, &self.t, &self.u_inc, pre, &mut w);
+                self.end_forces[e] = (fl, Assembly::end_forces(el, &w));
+            }
+            for ((x, ml), md) in xs.iter().zip(out_l.iter_mut()).zip(out_d.iter_mut()) {
+                // The element [x_k, x_{k+1}) holding x (the last one holds its right end).
+                let kk = lm.x.partition_point(|&s| s <= *x).clamp(1, count) - 1;
+                let Kind::Beam { h, .. } = model.asm.elements[first + kk].kind else {
+                    continue;
+                };
+                let xi = x - lm.x[kk];
+                let (fl, fd) = &self.end_forces[first + kk];
+                *ml = element_moment(fl, h, xi);
+                *md = element_moment(fd, h, xi);
             }
         }
     }
