@@ -9,6 +9,7 @@ __all__ = [
     "CoreArm",
     "CoreError",
     "angles_from_lengths",
+    "fem_solve",
     "forward",
     "inverse_kinematics",
     "jacobian",
@@ -63,6 +64,20 @@ def sweep(
     group: int = 1,
     threads: int | None = None,
 ) -> dict[str, npt.NDArray[Any]]: ...
+def fem_solve(
+    arm: CoreArm,
+    alpha_deg: npt.NDArray[np.float64],
+    payload_n: npt.NDArray[np.float64],
+    codes: npt.NDArray[np.int64],
+    places: npt.NDArray[np.int64],
+    values: npt.NDArray[np.float64],
+    self_weight: bool,
+    elements_per_link: int,
+    link_ei: npt.NDArray[np.float64],
+    link_ea: npt.NDArray[np.float64],
+    moment_samples: int = 101,
+    nan_on_failure: bool = False,
+) -> dict[str, Any]: ...
 def forward(
     arm: CoreArm, alpha_deg: npt.NDArray[np.float64]
 ) -> dict[str, npt.NDArray[np.float64]]: ...

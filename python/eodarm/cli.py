@@ -60,6 +60,45 @@ def _floats(text: str, what: str) -> list[float]:
         raise EodarmError(f"{what} '{text}': expected comma-separated numbers") from None
 
 
+_SOLVE_KEYS = (
+    "force_n",
+    "reaction_n",
+    "dforce_n",
+    "dx_mm",
+    "dy_mm",
+    "dalpha_deg",
+    "dl_mm",
+    "dlength_mm",
+    "length_mm",
+)
+
+
+def _model_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "--model",
+        choices=("analytic", "fem"),
+        default="analytic",
+        help="analytic (closed forms, exact pose; default) or fem (the frame finite-element "
+        "model: linear, uses the links' ei_n_mm2/ea_n)",
+    )
+    p.add_argument(
+        "--elements-per-link",
+        type=int,
+        metavar="N",
+        help="with --model fem: beam elements per flexible link (default 8)",
+    )
+
+
+def _model_kw(args: argparse.Namespace) -> dict[str, Any]:
+    """The model=/fem_options= keywords of the command's --model."""
+    if args.model != "fem":
+        if args.elements_per_link is not None:
+            raise EodarmError("--elements-per-link needs --model fem")
+        return {"model": "analytic", "fem_options": None}
+    opts = {} if args.elements_per_link is None else {"elements_per_link": args.elements_per_link}
+    return {"model": "fem", "fem_options": opts}
+
+
 def _cmd_solve(args: argparse.Namespace) -> int:
     arm = _load_arm(args.arm)
     alphas = [_floats(a, "--alpha") for a in (args.alpha or [])]
@@ -71,12 +110,23 @@ def _cmd_solve(args: argparse.Namespace) -> int:
     alpha = np.array([r[0] for r in rows], dtype=float)
     mass = np.array([r[1] for r in rows], dtype=float)
     out = solve(
-        arm, alpha, mass, effects, backend=args.backend, self_weight=not args.no_self_weight
+        arm,
+        alpha,
+        mass,
+        effects,
+        backend=args.backend,
+        self_weight=not args.no_self_weight,
+        **_model_kw(args),
     )
+    dofs = int(out["n_dof"]) if args.model == "fem" else 0
+    if args.model == "fem":
+        # The plotting extras (shape, moments) stay in the Python API; print the channels.
+        out = {k: out[k] for k in (*_SOLVE_KEYS, "pin_force_n")}
     if args.json:
         doc = {
             "arm": arm.name,
             "model": [e.key for e in effects],
+            "solver_model": args.model,
             "self_weight": not args.no_self_weight,
             "poses": [
                 {
@@ -95,6 +145,7 @@ def _cmd_solve(args: argparse.Namespace) -> int:
         f"arm {arm.name!r} ({n} links), model: baseline"
         + "".join(f" + {e.name}@{e.at}" for e in effects)
         + ("" if not args.no_self_weight else ", self-weight off")
+        + (f", finite-element model ({dofs} DOF)" if dofs else "")
     )
     head = ["alpha_deg", "mass_kg", "dx_mm", "dy_mm"]
     head += [f"F{i + 1}_N" for i in range(n)] + [f"da{i + 1}_deg" for i in range(n)]
@@ -246,22 +297,24 @@ def _cmd_compare(args: argparse.Namespace) -> int:
         warnings.simplefilter("always", FitWarning)
         from .fit import compare
 
+        mk = _model_kw(args)
         if free:
-            res, flagged = robust_fit(arm, meas, [*fixed, *free], self_weight=sw)
+            res, flagged = robust_fit(arm, meas, [*fixed, *free], self_weight=sw, **mk)
         else:
-            res = compare(arm, meas, fixed, self_weight=sw)
+            res = compare(arm, meas, fixed, self_weight=sw, **mk)
             # with nothing to fit, flag cells only if they are few and the rest agree
             _, flagged = (
-                robust_fit(arm, meas, [], self_weight=sw)
+                robust_fit(arm, meas, [], self_weight=sw, **mk)
                 if not fixed
                 else (res, np.zeros(meas.values.shape, dtype=bool))
             )
         outliers = outlier_table(res, flagged)
     for w in caught:
         _note(str(w.message))
-    base = compare(arm, meas, [], self_weight=sw)
+    base = compare(arm, meas, [], self_weight=sw, **mk)
     doc: dict[str, Any] = {
         "model": [m.key for m in model],
+        "solver_model": args.model,
         "rms": res.rms(),
         "chi2_per_dof": res.chi2_per_dof,
         "by_config": _by(res, "config"),
@@ -363,13 +416,14 @@ def _cmd_fit(args: argparse.Namespace) -> int:
         raise EodarmError("fit needs at least one --add EFFECT@PLACE")
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", FitWarning)
-        res, flagged = robust_fit(arm, meas, model, self_weight=sw)
+        mk = _model_kw(args)
+        res, flagged = robust_fit(arm, meas, model, self_weight=sw, **mk)
         outliers = outlier_table(res, flagged)
-        cv = cross_validate(arm, meas, res.slots, self_weight=sw) if args.cv else None
-        cv0 = cross_validate(arm, meas, [], self_weight=sw) if args.cv else None
+        cv = cross_validate(arm, meas, res.slots, self_weight=sw, **mk) if args.cv else None
+        cv0 = cross_validate(arm, meas, [], self_weight=sw, **mk) if args.cv else None
     for w in {str(w.message) for w in caught}:
         _note(w)
-    before = compare(arm, meas, [], self_weight=sw)
+    before = compare(arm, meas, [], self_weight=sw, **mk)
     summ = res.summary()
     doc: dict[str, Any] = {
         "effects": summ["effects"],
@@ -425,7 +479,16 @@ def _cmd_diagnose(args: argparse.Namespace) -> int:
     meas = _read(args.measurements, arm)
     sw = not args.no_self_weight
     model = [m for m in _model(args.add, allow_values=False) if not isinstance(m, Effect)]
-    d = diagnose(arm, meas, model, self_weight=sw, max_set=args.max_set)
+    mk = _model_kw(args)
+    d = diagnose(
+        arm,
+        meas,
+        model,
+        self_weight=sw,
+        max_set=args.max_set,
+        solver_model=mk["model"],
+        fem_options=mk["fem_options"],
+    )
     if args.json:
         print(json.dumps(d.to_json()))
     else:
@@ -621,6 +684,7 @@ def _parser() -> argparse.ArgumentParser:
         help="add an effect with its parameter, e.g. joint_clearance@O3=0.15",
     )
     s.add_argument("--backend", choices=("rust", "numpy"), default="rust")
+    _model_args(s)
     s.add_argument("--no-self-weight", action="store_true", help="drop link/actuator weights")
     s.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     s.add_argument("--compact", action="store_true", help="with --json: no indentation")
@@ -637,6 +701,7 @@ def _parser() -> argparse.ArgumentParser:
             action="store_true",
             help="the measured arm carried no self-weight in the model",
         )
+        _model_args(c)
         return c
 
     c = data_cmd(

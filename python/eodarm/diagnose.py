@@ -25,7 +25,7 @@ from __future__ import annotations
 import itertools
 import math
 import warnings
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -179,6 +179,8 @@ def diagnose(
     refine_per_size: int = 3,
     outliers: bool = True,
     advise: bool = True,
+    solver_model: str = "analytic",
+    fem_options: Mapping[str, Any] | None = None,
 ) -> Diagnosis:
     """Rank every candidate effect × place, search sets of up to ``max_set``, and decide.
 
@@ -190,21 +192,34 @@ def diagnose(
     max_set : the largest set searched for ``suggested`` (≤ 3 is cheap; sets are exact).
     outliers : name cells > 4σ off after the best fit and run a second pass without them.
     advise : for confused pairs, search for the channel and the pose that separate them.
+    solver_model : ``"analytic"`` or ``"fem"``: the model that predicts the channels, the
+        ``model=`` of :func:`eodarm.solve` and :func:`eodarm.fit` (named so here because
+        ``model`` is the list of effects already in the model); ``fem_options`` go with it.
     """
+    kw: dict[str, Any] = {"model": solver_model, "fem_options": fem_options}
+    Problem(arm, meas, self_weight, **kw)  # refuses a bad solver_model before any work
     model_slots = [Slot.of(s) for s in model]
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", FitWarning)
         first = _diagnose_pass(
-            arm, meas, model_slots, self_weight, max_set, candidates, refine_per_size, None
+            arm, meas, model_slots, self_weight, max_set, candidates, refine_per_size, None, kw
         )
         found: list[dict[str, Any]] = []
         if outliers:
             first, found = _without_outliers(
-                first, arm, meas, model_slots, self_weight, max_set, candidates, refine_per_size
+                first,
+                arm,
+                meas,
+                model_slots,
+                self_weight,
+                max_set,
+                candidates,
+                refine_per_size,
+                kw,
             )
         first.outliers = found
         if advise and first.ranking:
-            first.advice = _advice(arm, meas, first, self_weight)
+            first.advice = _advice(arm, meas, first, self_weight, kw)
     return first
 
 
@@ -217,6 +232,7 @@ def _without_outliers(
     max_set: int,
     candidates: Sequence[Slot | str] | None,
     refine_per_size: int,
+    kw: dict[str, Any],
 ) -> tuple[Diagnosis, list[dict[str, Any]]]:
     """Leave out the worst cell while it is > 4σ off the best model, and diagnose again.
 
@@ -226,7 +242,7 @@ def _without_outliers(
     current, mask = peel_outliers(
         first,
         lambda m: _diagnose_pass(
-            arm, meas, model_slots, self_weight, max_set, candidates, refine_per_size, m
+            arm, meas, model_slots, self_weight, max_set, candidates, refine_per_size, m, kw
         ),
         lambda d: d.suggested_fit or d.baseline,
         OUTLIER_Z,
@@ -246,8 +262,9 @@ def _diagnose_pass(
     candidates: Sequence[Slot | str] | None,
     refine_per_size: int,
     exclude: npt.NDArray[np.bool_] | None,
+    kw: dict[str, Any],
 ) -> Diagnosis:
-    prob = Problem(arm, meas, self_weight=self_weight, exclude=exclude)
+    prob = Problem(arm, meas, self_weight=self_weight, exclude=exclude, **kw)
     if prob.n_values == 0:
         raise EodarmError(f"{meas.source}: no measured values to diagnose")
     base = fit(arm, meas, model_slots, problem=prob)
@@ -424,7 +441,7 @@ def _confusions(
 
 
 def _advice(
-    arm: Arm, meas: Measurements, diag: Diagnosis, self_weight: bool
+    arm: Arm, meas: Measurements, diag: Diagnosis, self_weight: bool, kw: dict[str, Any]
 ) -> list[dict[str, Any]]:
     """For the leading candidate's confusions: the channel and the pose that separate them."""
     from .synth import random_configs
@@ -459,7 +476,7 @@ def _advice(
             channel = {"channel": meas.channels[c], "chi2_separation": float(sep[c])}
         pose = None
         if len(poses):
-            sub = _problem_at(arm, poses, mass, self_weight)
+            sub = _problem_at(arm, poses, mass, self_weight, kw)
             pa, _ = sub.evaluate(
                 [*model, (top.slot, float(top.fit.theta[-1]))], nan_on_failure=True
             )
@@ -479,7 +496,9 @@ def _advice(
     return out
 
 
-def _problem_at(arm: Arm, alpha: npt.NDArray[np.float64], mass: float, sw: bool) -> Problem:
+def _problem_at(
+    arm: Arm, alpha: npt.NDArray[np.float64], mass: float, sw: bool, kw: dict[str, Any]
+) -> Problem:
     """A measurement-less Problem at given poses (for predictions only)."""
     from .measurements import channel_names
 
@@ -493,7 +512,7 @@ def _problem_at(arm: Arm, alpha: npt.NDArray[np.float64], mass: float, sw: bool)
         sigma=None,
         source="<poses>",
     )
-    return Problem(arm, meas, self_weight=sw)
+    return Problem(arm, meas, self_weight=sw, **kw)
 
 
 def describe(param: str, value: float) -> str:

@@ -16,13 +16,16 @@ base_compliance        1/stiffness_nmm_per_rad     θ ≥ 0 (θ = 0: rigid base)
 The compiled core returns the model's channels and their sensitivities ∂y/∂θ for any set of
 places in one call (:func:`eodarm._core.jacobian`); each Gauss–Newton step is then a small
 bounded linear least-squares problem. Residuals are whitened by the measurement σ.
+
+With ``model="fem"`` the channels come from the finite-element model (:mod:`eodarm.fem`) and
+the sensitivities from forward differences of it, one more FE solve per parameter.
 """
 
 from __future__ import annotations
 
 import math
 import warnings
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any, TypeVar
 
@@ -118,6 +121,8 @@ class Problem:
     meas : the measurements (their ``n`` must equal the arm's).
     self_weight : include weights in both states (as the measured arm carried them).
     exclude : optional boolean (N, C) mask of measured cells to leave out (outliers).
+    model : ``"analytic"`` or ``"fem"``, the model that predicts the channels (as in
+        :func:`eodarm.solve`); ``fem_options`` go with ``"fem"``.
     """
 
     def __init__(
@@ -126,7 +131,14 @@ class Problem:
         meas: Measurements,
         self_weight: bool = True,
         exclude: npt.NDArray[np.bool_] | None = None,
+        model: str = "analytic",
+        fem_options: Mapping[str, Any] | None = None,
     ) -> None:
+        from . import fem
+
+        fem.check_model(model)
+        self.model = model
+        self.fem_options = fem.options(fem_options) if model == "fem" else None
         if meas.n != arm.n:
             raise EodarmError(
                 f"{meas.source}: the measurements are for a {meas.n}-link arm, "
@@ -166,6 +178,19 @@ class Problem:
         if rows is not None:
             alpha = np.ascontiguousarray(alpha[rows])
             payload = np.ascontiguousarray(payload[rows])
+        if self.model == "fem":
+            from . import fem
+
+            return fem.evaluate(
+                self.arm,
+                alpha,
+                payload,
+                model,
+                probes,
+                self.self_weight,
+                self.fem_options,
+                nan_on_failure,
+            )
         mc = np.array([CATALOGUE[s.name].code for s, _ in model], dtype=np.int64)
         mp = np.array([s.index(n) for s, _ in model], dtype=np.int64)
         mt = np.array([t for _, t in model], dtype=float)
@@ -186,6 +211,10 @@ class Problem:
 
     def neutral(self, slot: Slot) -> float:
         """θ of a slot when it is not in the model."""
+        if self.model == "fem":
+            from . import fem
+
+            return fem.neutral(self.arm, slot)
         if slot.name == "actuator_compliance":
             return 1.0 / self.arm.actuators[slot.index(self.arm.n)].stiffness_n_per_mm
         return 0.0
@@ -307,6 +336,8 @@ def fit(
     problem: Problem | None = None,
     start: Sequence[float] | None = None,
     max_iter: int = 30,
+    model: str = "analytic",
+    fem_options: Mapping[str, Any] | None = None,
 ) -> FitResult:
     """Least-squares fit of the effects' parameters, within their physical bounds.
 
@@ -317,6 +348,8 @@ def fit(
         ``"effect@place"`` start from the effect being absent).
     self_weight : as :func:`eodarm.solve`.
     exclude : (N, C) mask of cells left out (outliers).
+    model, fem_options : the model that predicts the channels (see :class:`Problem`); a given
+        ``problem`` brings its own.
 
     Returns
     -------
@@ -325,7 +358,7 @@ def fit(
         prediction, χ². A parameter at a bound is flagged, with a warning in
         ``result.warnings``.
     """
-    prob = problem or Problem(arm, meas, self_weight=self_weight, exclude=exclude)
+    prob = problem or Problem(arm, meas, self_weight, exclude, model=model, fem_options=fem_options)
     given = list(effects)
     slots = [Slot.of(e) for e in given]
     keys = [s.key for s in slots]
@@ -431,6 +464,8 @@ def robust_fit(
     self_weight: bool = True,
     z_max: float = 4.0,
     share: float = 0.02,
+    model: str = "analytic",
+    fem_options: Mapping[str, Any] | None = None,
 ) -> tuple[FitResult, npt.NDArray[np.bool_]]:
     """Fit, then leave out the worst cell while it is more than ``z_max`` σ off, and refit.
 
@@ -439,10 +474,11 @@ def robust_fit(
     model that is wrong everywhere is not "cleaned" into agreement. Returns the fit and the
     (N, C) mask of left-out cells (all False when none).
     """
-    res = fit(arm, meas, list(effects), self_weight=self_weight)
+    kw: dict[str, Any] = {"model": model, "fem_options": fem_options}
+    res = fit(arm, meas, list(effects), self_weight=self_weight, **kw)
     return peel_outliers(
         res,
-        lambda mask: fit(arm, meas, list(effects), self_weight=self_weight, exclude=mask),
+        lambda mask: fit(arm, meas, list(effects), self_weight=self_weight, exclude=mask, **kw),
         lambda r: r,
         z_max,
         share,
@@ -509,9 +545,11 @@ def compare(
     meas: Measurements,
     effects: Sequence[Effect] = (),
     self_weight: bool = True,
+    model: str = "analytic",
+    fem_options: Mapping[str, Any] | None = None,
 ) -> FitResult:
     """The model with fixed effects against the measurements (nothing fitted)."""
-    prob = Problem(arm, meas, self_weight=self_weight)
+    prob = Problem(arm, meas, self_weight=self_weight, model=model, fem_options=fem_options)
     slots = [Slot.of(e) for e in effects]
     theta = np.array([theta_from_param(e.name, e.value) for e in effects], dtype=float)
     y, _ = prob.evaluate(list(zip(slots, theta, strict=True)))
@@ -528,6 +566,8 @@ def cross_validate(
     effects: Sequence[Effect | Slot | str],
     self_weight: bool = True,
     by: str = "config",
+    model: str = "analytic",
+    fem_options: Mapping[str, Any] | None = None,
 ) -> dict[str, Any]:
     """Leave one configuration out: fit without it, predict it.
 
@@ -539,7 +579,8 @@ def cross_validate(
     if len(configs) < 2:
         raise EodarmError("cross-validation needs at least two configurations")
     slots = [Slot.of(e) for e in effects]
-    full = Problem(arm, meas, self_weight=self_weight)
+    kw: dict[str, Any] = {"model": model, "fem_options": fem_options}
+    full = Problem(arm, meas, self_weight=self_weight, **kw)
     resid = np.full_like(meas.values, np.nan)
     per: dict[str, dict[str, float]] = {}
     for label in configs:
@@ -549,6 +590,7 @@ def cross_validate(
             meas,
             self_weight=self_weight,
             exclude=np.broadcast_to(held[:, None], meas.values.shape),
+            **kw,
         )
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", FitWarning)

@@ -8,6 +8,7 @@ backends refuse bad input with the same one-line message naming the row.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from functools import lru_cache
 from typing import Any, Literal
 
@@ -38,6 +39,8 @@ def solve(
     effects: Effect | list[Effect] | tuple[Effect, ...] | None = None,
     backend: Backend = "rust",
     self_weight: bool = True,
+    model: str = "analytic",
+    fem_options: Mapping[str, Any] | None = None,
 ) -> Arrays:
     """Loaded minus unloaded state of N poses under a payload mass at the load point.
 
@@ -49,6 +52,11 @@ def solve(
     effects : effects added to the baseline model (CONTRACT §4).
     backend : ``"rust"`` (compiled core) or ``"numpy"`` (independent reference).
     self_weight : include link and actuator weights in both states.
+    model : ``"analytic"`` (closed forms, exact pose) or ``"fem"``: the frame finite-element
+        model of :mod:`eodarm.fem` (linear, the links' ``ei_n_mm2``/``ea_n`` used), which
+        agrees with the analytic model to first order in the load; compiled core only.
+    fem_options : with ``model="fem"``: ``elements_per_link`` (default 8) and
+        ``moment_samples`` (101).
 
     Returns
     -------
@@ -57,7 +65,12 @@ def solve(
     ``dforce_n`` (N, n) force change; ``dx_mm``, ``dy_mm`` (N,) measure-point displacement;
     ``dalpha_deg`` (N, n) change of absolute link angles; ``dl_mm`` (N, n) actuator body length
     change as its sensor sees it; ``dlength_mm`` (N, n) pin-to-pin change; ``length_mm`` (N, n)
-    unloaded pin-to-pin length.
+    unloaded pin-to-pin length. With ``model="fem"`` also ``pin_force_n`` (N, 2n, 2), the
+    loaded forces on the links at their joints O_i then at their actuator pins A_i;
+    ``moment_nmm``, ``dmoment_nmm`` (N, n, K) loaded bending moment along each link and its
+    change, at the local abscissae ``moment_x_mm`` (n, K); ``node_xy``, ``node_disp``
+    (N, nodes, 2) undeformed nodes and their displacement, drawn by ``segments`` (S, 2) of
+    kind ``segment_kind`` (S,) (0 axis, 1 offset, 2 actuator, 3 chassis); ``n_dof``.
 
     Raises
     ------
@@ -72,7 +85,7 @@ def solve(
         raise InputError(f"pose row {bad[0]}: mass_kg is negative ({mass[bad[0]]})")
     payload = np.zeros((alpha.shape[0], 2))
     payload[:, 1] = -mass * arm.g
-    return solve_payload(arm, alpha, payload, effects, backend, self_weight)
+    return solve_payload(arm, alpha, payload, effects, backend, self_weight, model, fem_options)
 
 
 def solve_payload(
@@ -82,8 +95,12 @@ def solve_payload(
     effects: Effect | list[Effect] | tuple[Effect, ...] | None = None,
     backend: Backend = "rust",
     self_weight: bool = True,
+    model: str = "analytic",
+    fem_options: Mapping[str, Any] | None = None,
 ) -> Arrays:
     """Like :func:`solve`, with any payload force vector (N, 2) in N at the load point."""
+    from . import fem
+
     alpha = _poses(alpha_deg, arm.n, "alpha_deg")
     payload = _poses(payload_n, 2, "payload_n")
     if payload.shape[0] == 1 and alpha.shape[0] != 1:
@@ -94,6 +111,14 @@ def solve_payload(
         )
     effs = as_effects(effects)
     codes, places, values = effect_arrays(effs, arm.n)
+    fem.check_model(model)
+    if model == "fem":
+        _check_backend(backend)
+        if backend != "rust":
+            raise InputError("model='fem' runs in the compiled core: use backend='rust'")
+        return fem.fem_solve_payload(arm, alpha, payload, effs, self_weight, fem_options)
+    if fem_options is not None:
+        raise InputError("fem_options is for model='fem'")
     if backend == "rust":
         from . import _core
 

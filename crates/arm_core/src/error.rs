@@ -85,9 +85,27 @@ pub enum ArmError {
     /// The caller asked to stop (e.g. Ctrl-C during a sweep).
     #[error("cancelled")]
     Cancelled,
-    /// A computation is not defined for this arm (e.g. inverse kinematics for n != 3).
+    /// A computation is not defined for this arm (e.g. inverse kinematics for n != 3), or
+    /// a finite-element model that nothing holds (the chassis free to turn).
     #[error("{0}")]
     Unsupported(String),
+    /// The finite-element model of this pose is a mechanism: some part moves without
+    /// deforming anything, so no finite displacement answers the load.
+    #[error("pose row {row}: the FE model is a mechanism: {what}")]
+    Mechanism {
+        /// 0-based row.
+        row: usize,
+        /// What is free to move, and the likely reason.
+        what: String,
+    },
+    /// An iterative solve (the active set of the FE gap elements) did not settle.
+    #[error("pose row {row}: {what}")]
+    NoConvergence {
+        /// 0-based row.
+        row: usize,
+        /// What did not converge.
+        what: String,
+    },
 }
 
 impl ArmError {
@@ -96,7 +114,11 @@ impl ArmError {
     pub fn is_pose_failure(&self) -> bool {
         matches!(
             self,
-            Self::Singular { .. } | Self::ZeroLength { .. } | Self::Unreachable { .. }
+            Self::Singular { .. }
+                | Self::ZeroLength { .. }
+                | Self::Unreachable { .. }
+                | Self::Mechanism { .. }
+                | Self::NoConvergence { .. }
         )
     }
 }

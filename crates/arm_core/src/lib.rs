@@ -11,7 +11,9 @@
 //! * [`pose`]: the loaded pose, closed exactly;
 //! * [`solve`]: all of it for many poses at once, in parallel;
 //! * [`sweep`]: poses × payloads in bounded memory, with per-group reductions (fast kernel);
-//! * [`sensitivity`]: predicted channels and their derivatives by effect parameter, for fits.
+//! * [`sensitivity`]: predicted channels and their derivatives by effect parameter, for fits;
+//! * [`fem`]: the numerical model, a frame finite-element model of the same arm solved with
+//!   faer's sparse Cholesky, an independent check of all of the above.
 //!
 //! Units: mm, N, kg, rad inside (degrees at the batch API). Global frame: x forward, y up,
 //! angles counter-clockwise. `docs/model.md` in the repository derives every equation.
@@ -19,6 +21,7 @@
 pub mod arm;
 pub mod effects;
 pub mod error;
+pub mod fem;
 pub mod geometry;
 pub mod kinematics;
 pub mod pose;

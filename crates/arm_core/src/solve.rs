@@ -172,7 +172,7 @@ pub struct BatchOutput<'a> {
 }
 
 impl BatchOutput<'_> {
-    fn check(&self, rows: usize, n: usize) -> Result<()> {
+    pub(crate) fn check(&self, rows: usize, n: usize) -> Result<()> {
         let want = [
             ("force_n", self.force_n.len(), rows * n),
             ("reaction_n", self.reaction_n.len(), rows * n * 2),
@@ -279,7 +279,11 @@ pub fn solve_batch(
     }
 }
 
-fn split_output<'a>(out: BatchOutput<'a>, n: usize, rows: usize) -> Vec<BatchOutput<'a>> {
+pub(crate) fn split_output<'a>(
+    out: BatchOutput<'a>,
+    n: usize,
+    rows: usize,
+) -> Vec<BatchOutput<'a>> {
     let mut f = out.force_n.chunks_mut(rows * n);
     let mut r = out.reaction_n.chunks_mut(rows * n * 2);
     let mut df = out.dforce_n.chunks_mut(rows * n);
@@ -368,7 +372,7 @@ fn solve_chunk(
     Ok(())
 }
 
-fn fill_nan(out: &mut BatchOutput<'_>, p: usize, n: usize) {
+pub(crate) fn fill_nan(out: &mut BatchOutput<'_>, p: usize, n: usize) {
     for s in [
         &mut *out.force_n,
         &mut *out.dforce_n,

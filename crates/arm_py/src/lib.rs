@@ -2,6 +2,8 @@
 //! out, core errors to Python exceptions); every function is one call into `arm_core`.
 
 use arm_core::effects::{Effect, EffectSet};
+use arm_core::fem::batch::extra_sizes;
+use arm_core::fem::{fem_solve_batch, FemBatchOutput, FemModel, FemOptions, LinkSection};
 use arm_core::kinematics::{angles_from_lengths, inverse_kinematics, Frames};
 use arm_core::sensitivity::{jacobian_batch, n_channels, Place};
 use arm_core::sweep::{CellFields, Cells, Reduce, ReduceOp, SweepOptions, SweepOut};
@@ -154,11 +156,14 @@ impl CoreArm {
     }
 }
 
+/// The effects of the arrays; `checked: false` leaves the parameter values to the caller (the
+/// FE model takes an infinite stiffness as rigid, the fit's θ = 0).
 fn effect_set(
     arm: &Arm,
     codes: &PyReadonlyArray1<'_, i64>,
     places: &PyReadonlyArray1<'_, i64>,
     values: &PyReadonlyArray1<'_, f64>,
+    checked: bool,
 ) -> PyResult<EffectSet> {
     let err = |_| value_error("effect arrays must be contiguous".into());
     let (codes, places, values) = (
@@ -175,7 +180,12 @@ fn effect_set(
             .map_err(|_| value_error(format!("effect place index {place} is negative")))?;
         effects.push(Effect::from_code(code, place, value).map_err(PyArmError)?);
     }
-    Ok(EffectSet::new(arm, effects).map_err(PyArmError)?)
+    let set = if checked {
+        EffectSet::new(arm, effects)
+    } else {
+        EffectSet::new_unchecked(arm, effects)
+    };
+    Ok(set.map_err(PyArmError)?)
 }
 
 /// Solves N poses; returns a dict of float64 arrays (see `eodarm.solve`).
@@ -202,7 +212,7 @@ fn solve<'py>(
             "payload_n: expected {rows} rows, got {prow}"
         )));
     }
-    let effects = effect_set(arm, &codes, &places, &values)?;
+    let effects = effect_set(arm, &codes, &places, &values, true)?;
     let mut force = vec![0.0; rows * n];
     let mut reaction = vec![0.0; rows * n * 2];
     let mut dforce = vec![0.0; rows * n];
@@ -332,7 +342,7 @@ fn py_sweep<'py>(
     let mass = mass_kg
         .as_slice()
         .map_err(|_| value_error("mass_kg: array must be contiguous".into()))?;
-    let effects = effect_set(arm, &codes, &places, &values)?;
+    let effects = effect_set(arm, &codes, &places, &values, true)?;
     let op = match reduce {
         None => None,
         Some("max") => Some(ReduceOp::Max),
@@ -425,6 +435,156 @@ fn py_sweep<'py>(
     out.set_item("reachable", reachable.into_pyarray(py))?;
     out.set_item("effector_x_mm", ex.into_pyarray(py))?;
     out.set_item("effector_y_mm", ey.into_pyarray(py))?;
+    Ok(out)
+}
+
+/// Solves N poses with the finite-element model; the keys of `solve` plus pin forces,
+/// bending moments and the deformed shape (see `eodarm.solve(model="fem")`).
+#[pyfunction]
+#[pyo3(signature = (arm, alpha_deg, payload_n, codes, places, values, self_weight, elements_per_link, link_ei, link_ea, moment_samples=101, nan_on_failure=false))]
+#[allow(clippy::too_many_arguments)]
+fn fem_solve<'py>(
+    py: Python<'py>,
+    arm: &CoreArm,
+    alpha_deg: PyReadonlyArray2<'py, f64>,
+    payload_n: PyReadonlyArray2<'py, f64>,
+    codes: PyReadonlyArray1<'py, i64>,
+    places: PyReadonlyArray1<'py, i64>,
+    values: PyReadonlyArray1<'py, f64>,
+    self_weight: bool,
+    elements_per_link: usize,
+    link_ei: PyReadonlyArray1<'py, f64>,
+    link_ea: PyReadonlyArray1<'py, f64>,
+    moment_samples: usize,
+    nan_on_failure: bool,
+) -> PyResult<Bound<'py, PyDict>> {
+    let arm = &arm.inner;
+    let n = arm.n();
+    let (alpha, rows) = matrix(&alpha_deg, "alpha_deg", n)?;
+    let (payload, prow) = matrix(&payload_n, "payload_n", 2)?;
+    if prow != rows {
+        return Err(value_error(format!(
+            "payload_n: expected {rows} rows, got {prow}"
+        )));
+    }
+    let effects = effect_set(arm, &codes, &places, &values, false)?;
+    let ei = vector(&link_ei, "link_ei", n)?;
+    let ea = vector(&link_ea, "link_ea", n)?;
+    let sections: Vec<LinkSection> = (0..n)
+        .map(|i| LinkSection {
+            ei: opt(ei[i]),
+            ea: opt(ea[i]),
+        })
+        .collect();
+    let options = FemOptions {
+        elements_per_link,
+        moment_samples,
+        ..FemOptions::default()
+    };
+    let model = py
+        .detach(|| FemModel::new(arm, &effects, &sections, options))
+        .map_err(PyArmError)?;
+    let (pins, moments, nodes) = extra_sizes(&model);
+    let mut force = vec![0.0; rows * n];
+    let mut reaction = vec![0.0; rows * n * 2];
+    let mut dforce = vec![0.0; rows * n];
+    let mut dx = vec![0.0; rows];
+    let mut dy = vec![0.0; rows];
+    let mut dalpha = vec![0.0; rows * n];
+    let mut dl = vec![0.0; rows * n];
+    let mut dlength = vec![0.0; rows * n];
+    let mut length = vec![0.0; rows * n];
+    let mut pin = vec![0.0; rows * pins];
+    let mut moment = vec![0.0; rows * moments];
+    let mut dmoment = vec![0.0; rows * moments];
+    let mut node_xy = vec![0.0; rows * nodes];
+    let mut node_disp = vec![0.0; rows * nodes];
+    py.detach(|| {
+        fem_solve_batch(
+            &model,
+            BatchInput {
+                alpha_deg: alpha,
+                payload_n: payload,
+            },
+            SolveOptions {
+                self_weight,
+                nan_on_failure,
+            },
+            FemBatchOutput {
+                base: BatchOutput {
+                    force_n: &mut force,
+                    reaction_n: &mut reaction,
+                    dforce_n: &mut dforce,
+                    dx_mm: &mut dx,
+                    dy_mm: &mut dy,
+                    dalpha_deg: &mut dalpha,
+                    dl_mm: &mut dl,
+                    dlength_mm: &mut dlength,
+                    length_mm: &mut length,
+                },
+                pin_force_n: &mut pin,
+                moment_nmm: &mut moment,
+                dmoment_nmm: &mut dmoment,
+                node_xy: &mut node_xy,
+                node_disp: &mut node_disp,
+            },
+        )
+    })
+    .map_err(PyArmError)?;
+    let k = moment_samples;
+    let n_nodes = nodes / 2;
+    let segments: Vec<i64> = model
+        .shape
+        .segments
+        .iter()
+        .flat_map(|s| [s[0] as i64, s[1] as i64])
+        .collect();
+    let kinds: Vec<i64> = model.shape.kinds.iter().map(|&k| k as i64).collect();
+    let codes: Vec<i64> = model
+        .shape
+        .codes(&model.mesh)
+        .into_iter()
+        .flatten()
+        .collect();
+    let n_seg = kinds.len();
+    let out = PyDict::new(py);
+    out.set_item("force_n", force.into_pyarray(py).reshape([rows, n])?)?;
+    out.set_item(
+        "reaction_n",
+        reaction.into_pyarray(py).reshape([rows, n, 2])?,
+    )?;
+    out.set_item("dforce_n", dforce.into_pyarray(py).reshape([rows, n])?)?;
+    out.set_item("dx_mm", dx.into_pyarray(py))?;
+    out.set_item("dy_mm", dy.into_pyarray(py))?;
+    out.set_item("dalpha_deg", dalpha.into_pyarray(py).reshape([rows, n])?)?;
+    out.set_item("dl_mm", dl.into_pyarray(py).reshape([rows, n])?)?;
+    out.set_item("dlength_mm", dlength.into_pyarray(py).reshape([rows, n])?)?;
+    out.set_item("length_mm", length.into_pyarray(py).reshape([rows, n])?)?;
+    out.set_item(
+        "pin_force_n",
+        pin.into_pyarray(py).reshape([rows, 2 * n, 2])?,
+    )?;
+    out.set_item("moment_nmm", moment.into_pyarray(py).reshape([rows, n, k])?)?;
+    out.set_item(
+        "dmoment_nmm",
+        dmoment.into_pyarray(py).reshape([rows, n, k])?,
+    )?;
+    out.set_item(
+        "moment_x_mm",
+        model.moment_x.clone().into_pyarray(py).reshape([n, k])?,
+    )?;
+    out.set_item(
+        "node_xy",
+        node_xy.into_pyarray(py).reshape([rows, n_nodes, 2])?,
+    )?;
+    out.set_item(
+        "node_disp",
+        node_disp.into_pyarray(py).reshape([rows, n_nodes, 2])?,
+    )?;
+    out.set_item("segments", segments.into_pyarray(py).reshape([n_seg, 2])?)?;
+    out.set_item("segment_kind", kinds.into_pyarray(py))?;
+    out.set_item("node_kind", codes.into_pyarray(py).reshape([n_nodes, 2])?)?;
+    out.set_item("n_dof", model.n_dof())?;
     Ok(out)
 }
 
@@ -677,6 +837,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("CoreError", m.py().get_type::<CoreError>())?;
     m.add_class::<CoreArm>()?;
     m.add_function(wrap_pyfunction!(solve, m)?)?;
+    m.add_function(wrap_pyfunction!(fem_solve, m)?)?;
     m.add_function(wrap_pyfunction!(py_sweep, m)?)?;
     m.add_function(wrap_pyfunction!(forward, m)?)?;
     m.add_function(wrap_pyfunction!(py_angles_from_lengths, m)?)?;
