@@ -384,3 +384,12 @@ def test_cli_solve_and_fit_with_the_fem(tmp_path: Path, capsys: pytest.CaptureFi
     assert json.loads(capsys.readouterr().out)["solver_model"] == "fem"
     assert main(["solve", "--elements-per-link", "4"]) == 2
     assert "--elements-per-link needs --model fem" in capsys.readouterr().err
+    figs = tmp_path / "figs"
+    assert main(["solve", "--model", "fem", "--mass", "1.5", "--plot", str(figs)]) == 0
+    assert sorted(p.name for p in figs.iterdir()) == [
+        "fem-deformed-shape.png",
+        "fem-moments.png",
+        "fem-pin-forces.png",
+    ]
+    assert main(["solve", "--plot", str(figs)]) == 2
+    assert "add --model fem" in capsys.readouterr().err
