@@ -11,6 +11,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import eodarm
 from arms import example_arm, seed_like_arm, two_link_arm
@@ -19,6 +21,13 @@ from eodarm.cli import main
 from eodarm.fit import FitWarning, compare, cross_validate, fit
 from eodarm.measurements import Measurements, channel_names
 from eodarm.synth import synth
+from strategies import (
+    ELASTIC,
+    arm_and_poses,
+    effects_for,
+    measuring_at_load_point,
+    payload_vectors,
+)
 
 SEED_POSES = [[115.6, 15.4, 0.2], [104.7, 15.7, 0.0], [89.9, 5.6, 0.1]]
 EXAMPLE_POSES = [[90.0, 10.0, 0.0], [70.0, 25.0, -8.0]]
@@ -79,6 +88,62 @@ def test_fem_and_analytic_agree_at_second_order(arm, poses, effects):
     assert rel[-1] < 1e-4, rel
     for big, small in itertools.pairwise(rel):
         assert 6.0 < big / small < 16.0, rel
+
+
+def _same_physics(arm: eodarm.Arm, effects: list[eodarm.Effect]) -> list[eodarm.Effect]:
+    """The analytic model's effects for the FE model's physics: the arm file's link sections
+    (which only the FE model reads) as link_bending, unless one is given."""
+    bent = {e.at for e in effects if e.name == "link_bending"}
+    extra = [
+        eodarm.Effect("link_bending", f"L{i + 1}", ei_n_mm2=lk.ei_n_mm2)
+        for i, lk in enumerate(arm.links)
+        if lk.ei_n_mm2 is not None and f"L{i + 1}" not in bent
+    ]
+    return [*effects, *extra]
+
+
+@settings(max_examples=60, deadline=None)
+@given(case=arm_and_poses(max_poses=4), self_weight=st.booleans(), data=st.data())
+def test_random_arms_agree_with_the_analytic_model_at_small_load(case, self_weight, data):
+    """On random plausible arms, poses, payload directions and elastic effects: at 1/1000 of
+    the payload the linear FE solve and the exact pose agree to 1e-4 (second order)."""
+    arm, alpha, _ = case
+    payload = data.draw(payload_vectors(alpha.shape[0], g=arm.g), label="payload") * 1e-3
+    effects = data.draw(effects_for(arm, ELASTIC), label="effects")
+    fe = eodarm.solve_payload(arm, alpha, payload, effects, self_weight=self_weight, model="fem")
+    an = eodarm.solve_payload(
+        arm, alpha, payload, _same_physics(arm, effects), self_weight=self_weight
+    )
+    # The same statics; the FE forces come from displacements, with their round-off.
+    fmax = float(np.abs(an["force_n"]).max())
+    np.testing.assert_allclose(fe["force_n"], an["force_n"], rtol=1e-6, atol=1e-7 * fmax + 1e-12)
+    # The exact pose subtracts coordinates of ~100 mm: below 1e-7 mm of deflection its
+    # round-off (~1e-14 mm) is what differs.
+    if np.abs(np.column_stack([an["dx_mm"], an["dy_mm"]])).max() > 1e-7:
+        assert _rel(fe, an) < 1e-4
+
+
+@settings(max_examples=60, deadline=None)
+@given(case=arm_and_poses(max_poses=4), data=st.data())
+def test_the_fem_is_linear_and_reciprocal(case, data):
+    """Twice the payload, twice every elastic response; and Maxwell–Betti: the load point's
+    horizontal displacement under a vertical unit load equals its vertical displacement under
+    a horizontal one (K is symmetric)."""
+    arm, alpha, _ = case
+    arm = measuring_at_load_point(arm)
+    effects = data.draw(effects_for(arm, ELASTIC), label="effects")
+    rows = alpha.shape[0]
+
+    def run(p: list[float]) -> dict:
+        pay = np.tile(np.asarray(p, dtype=float), (rows, 1))
+        return eodarm.solve_payload(arm, alpha, pay, effects, self_weight=False, model="fem")
+
+    one, two = run([3.0, -7.0]), run([6.0, -14.0])
+    for key in ("dx_mm", "dy_mm", "dalpha_deg", "dl_mm"):
+        np.testing.assert_allclose(two[key], 2.0 * one[key], rtol=1e-9, atol=1e-12)
+    h, v = run([1.0, 0.0]), run([0.0, 1.0])
+    c = max(np.abs(h["dx_mm"]).max(), np.abs(v["dy_mm"]).max())
+    np.testing.assert_allclose(h["dy_mm"], v["dx_mm"], rtol=0, atol=1e-9 * c)
 
 
 def test_gaps_agree_when_scaled_with_the_load():
@@ -319,3 +384,12 @@ def test_cli_solve_and_fit_with_the_fem(tmp_path: Path, capsys: pytest.CaptureFi
     assert json.loads(capsys.readouterr().out)["solver_model"] == "fem"
     assert main(["solve", "--elements-per-link", "4"]) == 2
     assert "--elements-per-link needs --model fem" in capsys.readouterr().err
+    figs = tmp_path / "figs"
+    assert main(["solve", "--model", "fem", "--mass", "1.5", "--plot", str(figs)]) == 0
+    assert sorted(p.name for p in figs.iterdir()) == [
+        "fem-deformed-shape.png",
+        "fem-moments.png",
+        "fem-pin-forces.png",
+    ]
+    assert main(["solve", "--plot", str(figs)]) == 2
+    assert "add --model fem" in capsys.readouterr().err

@@ -99,6 +99,29 @@ def _model_kw(args: argparse.Namespace) -> dict[str, Any]:
     return {"model": "fem", "fem_options": opts}
 
 
+def _fem_plots(
+    directory: str, arm: Arm, out: dict[str, Any], alpha: Any, mass: Any, model: str
+) -> None:
+    """The FE figures of the first pose (deformed shape, moments, pin forces) into DIR."""
+    from pathlib import Path
+
+    if model != "fem":
+        raise EodarmError("solve --plot draws the finite-element model: add --model fem")
+    from . import fem_plots
+
+    d = Path(directory)
+    d.mkdir(parents=True, exist_ok=True)
+    pose = ", ".join(f"{a:g}" for a in alpha[0])
+    head = f"{arm.name}: α = {pose}°, {mass[0]:g} kg"
+    paths = [d / f"fem-{k}.png" for k in ("deformed-shape", "moments", "pin-forces")]
+    fem_plots.deformed_shape(arm, out, title=f"{head} (FE, {out['n_dof']} DOF)", path=paths[0])
+    fem_plots.moment_diagrams(arm, out, title=f"{head}: bending moments (FE)", path=paths[1])
+    fem_plots.pin_forces(
+        arm, out, title=f"{head}: forces on the links at their pins", path=paths[2]
+    )
+    _note("wrote " + ", ".join(str(p) for p in paths))
+
+
 def _cmd_solve(args: argparse.Namespace) -> int:
     arm = _load_arm(args.arm)
     alphas = [_floats(a, "--alpha") for a in (args.alpha or [])]
@@ -119,6 +142,8 @@ def _cmd_solve(args: argparse.Namespace) -> int:
         **_model_kw(args),
     )
     dofs = int(out["n_dof"]) if args.model == "fem" else 0
+    if args.plot:
+        _fem_plots(args.plot, arm, out, alpha, mass, args.model)
     if args.model == "fem":
         # The plotting extras (shape, moments) stay in the Python API; print the channels.
         out = {k: out[k] for k in (*_SOLVE_KEYS, "pin_force_n")}
@@ -685,6 +710,12 @@ def _parser() -> argparse.ArgumentParser:
     )
     s.add_argument("--backend", choices=("rust", "numpy"), default="rust")
     _model_args(s)
+    s.add_argument(
+        "--plot",
+        metavar="DIR",
+        help="with --model fem: write the first pose's deformed shape, bending moments and "
+        "pin forces as PNG figures into DIR",
+    )
     s.add_argument("--no-self-weight", action="store_true", help="drop link/actuator weights")
     s.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     s.add_argument("--compact", action="store_true", help="with --json: no indentation")

@@ -70,7 +70,8 @@ def solve(
     ``moment_nmm``, ``dmoment_nmm`` (N, n, K) loaded bending moment along each link and its
     change, at the local abscissae ``moment_x_mm`` (n, K); ``node_xy``, ``node_disp``
     (N, nodes, 2) undeformed nodes and their displacement, drawn by ``segments`` (S, 2) of
-    kind ``segment_kind`` (S,) (0 axis, 1 offset, 2 actuator, 3 chassis); ``n_dof``.
+    kind ``segment_kind`` (S,) (0 axis, 1 offset, 2 actuator, 3 chassis); ``node_kind``
+    (nodes, 2) each node's kind and body (docs/fem.md §1); ``n_dof``.
 
     Raises
     ------

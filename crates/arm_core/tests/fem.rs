@@ -920,3 +920,42 @@ fn batch_equals_one_pose_at_a_time_and_masks_failures() {
         assert_eq!(buf[13][r * nodes + 7], ws.node_disp[3].y);
     }
 }
+
+#[test]
+fn a_point_next_to_another_changes_nothing_however_close() {
+    // A massless centre of mass a hair from the joint makes a beam element that short; its
+    // relative station keeps the answer exact (no merging, no round-off blow-up).
+    let arm_with = |cx: f64| {
+        let mut arm = example_arm();
+        arm.links[2].c = v(cx, 0.0);
+        arm.links[2].mass_kg = 0.0;
+        arm
+    };
+    let sections = vec![
+        LinkSection {
+            ei: Some(1e8),
+            ea: None,
+        },
+        LinkSection {
+            ei: Some(2e9),
+            ea: Some(3e7),
+        },
+        LinkSection {
+            ei: Some(1e8),
+            ea: None,
+        },
+    ];
+    let alpha = rad(&[90.0, 10.0, 0.0]);
+    let p = v(2.0, -40.0);
+    let reference = {
+        let arm = arm_with(0.0);
+        let m = FemModel::new(&arm, &EffectSet::empty(), &sections, FemOptions::default()).unwrap();
+        fem(&m, &alpha, p, true)
+    };
+    for cx in [-1.0, -1e-3, -1e-5, -1e-7, 1e-6, 1e-2] {
+        let arm = arm_with(cx);
+        let m = FemModel::new(&arm, &EffectSet::empty(), &sections, FemOptions::default()).unwrap();
+        let d = rel_diff(&fem(&m, &alpha, p, true), &reference);
+        assert!(d < 1e-8, "C at x = {cx}: {d:e}");
+    }
+}

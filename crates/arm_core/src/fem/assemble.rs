@@ -11,8 +11,8 @@ use crate::geometry::V2;
 use crate::kinematics::Frames;
 
 use super::element::beam_stiffness;
-use super::maps::{Lin, Maps};
-use super::mesh::{Mesh, NONE};
+use super::maps::{Lin, Maps, Rot};
+use super::mesh::{LinkKind, LinkMesh, Mesh, NONE};
 use super::spec::FemSpec;
 
 /// What an element is.
@@ -28,6 +28,9 @@ pub enum Kind {
         s2: usize,
         /// Length (mm).
         h: f64,
+        /// Both ends in one cluster (an anchor and its relative stations): the element is
+        /// strained by the relative stations' departures alone, and T holds only those.
+        intra: bool,
     },
     /// Actuator `act`'s bar, of axial stiffness `k` (N/mm).
     Bar {
@@ -94,14 +97,33 @@ impl Assembly {
             let ea = sec.ea.unwrap_or(0.0);
             for (s1, s2) in lm.elements() {
                 let h = lm.x[s2] - lm.x[s1];
+                let intra = same_cluster(lm, s1, s2);
                 let mut dofs = Vec::new();
-                push_lin(&mut dofs, &maps.station[i][s1]);
-                push_dof(&mut dofs, lm.rot(s1));
-                push_lin(&mut dofs, &maps.station[i][s2]);
-                push_dof(&mut dofs, lm.rot(s2));
+                if intra {
+                    // Only the departures: the anchor's rigid motion strains nothing, and
+                    // would leave round-off times a huge stiffness if it stayed in T.
+                    for st in [s1, s2] {
+                        if lm.anchor[st].is_some() {
+                            for &d in &lm.dof[st] {
+                                push_dof(&mut dofs, d);
+                            }
+                        }
+                    }
+                } else {
+                    push_lin(&mut dofs, &maps.station[i][s1]);
+                    push_rot(&mut dofs, &maps.rot[i][s1]);
+                    push_lin(&mut dofs, &maps.station[i][s2]);
+                    push_rot(&mut dofs, &maps.rot[i][s2]);
+                }
                 let m = dofs.len();
                 elements.push(Element {
-                    kind: Kind::Beam { link: i, s1, s2, h },
+                    kind: Kind::Beam {
+                        link: i,
+                        s1,
+                        s2,
+                        h,
+                        intra,
+                    },
                     k: beam_stiffness(ei, ea, h).to_vec(),
                     rows: 6,
                     dofs,
@@ -197,16 +219,55 @@ impl Assembly {
             let te = &mut t[e.t_at..e.t_at + e.rows * m];
             te.fill(0.0);
             match e.kind {
-                Kind::Beam { link, s1, s2, .. } => {
+                Kind::Beam {
+                    link,
+                    s1,
+                    s2,
+                    intra: true,
+                    ..
+                } => {
+                    // The departures of the relative ends, in the link frame; an anchor end
+                    // contributes nothing.
                     let (s, c) = (fr.sin[link], fr.cos[link]);
                     let lm = &mesh.links[link];
+                    for (end, st) in [(0, s1), (3, s2)] {
+                        if lm.anchor[st].is_none() {
+                            continue;
+                        }
+                        let d = lm.dof[st];
+                        let mut put = |row: usize, dof: usize, v: f64| {
+                            if dof != NONE {
+                                te[(end + row) * m + col_of(&e.dofs, dof)] += v;
+                            }
+                        };
+                        match lm.kind {
+                            LinkKind::Full => {
+                                put(0, d[0], c);
+                                put(1, d[0], -s);
+                                put(0, d[1], s);
+                                put(1, d[1], c);
+                                put(2, d[2], 1.0);
+                            }
+                            LinkKind::Bending => {
+                                put(1, d[1], 1.0);
+                                put(2, d[2], 1.0);
+                            }
+                            LinkKind::Axial => put(0, d[0], 1.0),
+                            LinkKind::Rigid => {}
+                        }
+                    }
+                }
+                Kind::Beam { link, s1, s2, .. } => {
+                    let (s, c) = (fr.sin[link], fr.cos[link]);
                     for (end, st) in [(0, s1), (3, s2)] {
                         for &(d, g) in &maps.station[link][st].terms {
                             let col = col_of(&e.dofs, d);
                             te[end * m + col] += c * g.x + s * g.y;
                             te[(end + 1) * m + col] += -s * g.x + c * g.y;
                         }
-                        te[(end + 2) * m + col_of(&e.dofs, lm.rot(st))] += 1.0;
+                        for &(d, g) in &maps.rot[link][st].terms {
+                            te[(end + 2) * m + col_of(&e.dofs, d)] += g;
+                        }
                     }
                 }
                 Kind::Bar { act, .. } => {
@@ -345,6 +406,8 @@ pub struct Prescribed<'a> {
 fn prescribed(e: &Element, maps: &Maps, fr: &Frames, lines_e: &[V2], play_dl: &[f64]) -> [f64; 6] {
     let mut w = [0.0; 6];
     match e.kind {
+        // A cluster's offsets are one rigid translation: no strain.
+        Kind::Beam { intra: true, .. } => {}
         Kind::Beam { link, s1, s2, .. } => {
             let (s, c) = (fr.sin[link], fr.cos[link]);
             for (end, st) in [(0, s1), (3, s2)] {
@@ -360,9 +423,21 @@ fn prescribed(e: &Element, maps: &Maps, fr: &Frames, lines_e: &[V2], play_dl: &[
     w
 }
 
+/// Whether stations `a` and `b` of a link belong to one cluster (anchor and relatives).
+fn same_cluster(lm: &LinkMesh, a: usize, b: usize) -> bool {
+    let root = |k: usize| lm.anchor[k].unwrap_or(k);
+    (lm.anchor[a].is_some() || lm.anchor[b].is_some()) && root(a) == root(b)
+}
+
 fn push_dof(dofs: &mut Vec<usize>, d: usize) {
     if d != NONE && !dofs.contains(&d) {
         dofs.push(d);
+    }
+}
+
+fn push_rot(dofs: &mut Vec<usize>, rot: &Rot) {
+    for &(d, _) in &rot.terms {
+        push_dof(dofs, d);
     }
 }
 

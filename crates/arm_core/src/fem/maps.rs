@@ -92,11 +92,55 @@ impl Lin {
     }
 }
 
+/// A linear map from the DOFs to a (small) rotation: `θ = Σ_k q_k·c_k`.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Rot {
+    /// (DOF, coefficient).
+    pub terms: Vec<(usize, f64)>,
+}
+
+impl Rot {
+    /// The rotation at `u`.
+    #[inline]
+    pub fn eval(&self, u: &[f64]) -> f64 {
+        self.terms.iter().map(|&(d, c)| c * u[d]).sum()
+    }
+
+    /// Makes the map the single DOF `dof`.
+    #[inline]
+    pub fn set(&mut self, dof: usize) {
+        self.terms.clear();
+        self.terms.push((dof, 1.0));
+    }
+}
+
+impl Lin {
+    /// Adds `θ × lever` for the rotation map `rot`: `Σ q_k·c_k·lever^⊥`.
+    #[inline]
+    pub fn add_turn(&mut self, rot: &Rot, lever: V2) {
+        let p = perp(lever);
+        for &(d, c) in &rot.terms {
+            self.add(d, p * c);
+        }
+    }
+
+    /// Adds the component of `other` along the unit vector `dir` (offset included).
+    #[inline]
+    pub fn add_along(&mut self, other: &Lin, dir: V2) {
+        for &(d, g) in &other.terms {
+            self.add(d, dir * dir.dot(&g));
+        }
+        self.off += dir * dir.dot(&other.off);
+    }
+}
+
 /// The maps of one pose.
 #[derive(Debug, Clone, Default)]
 pub struct Maps {
     /// Per link, per station: translation of the axis point.
     pub station: Vec<Vec<Lin>>,
+    /// Per link, per station: rotation of the axis there.
+    pub rot: Vec<Vec<Rot>>,
     /// Per link: pin A_i.
     pub a: Vec<Lin>,
     /// Per actuator i: its base pin B_{i−1} (B_0 on the chassis for i = 1).
@@ -123,6 +167,11 @@ impl Maps {
                 .iter()
                 .map(|l| vec![Lin::default(); l.x.len()])
                 .collect(),
+            rot: mesh
+                .links
+                .iter()
+                .map(|l| vec![Rot::default(); l.x.len()])
+                .collect(),
             a: vec![Lin::default(); n],
             b: vec![Lin::default(); n],
             next: vec![Lin::default(); n],
@@ -135,9 +184,7 @@ impl Maps {
 
     /// Fills the maps of the pose `fr`, with the closed-gap offsets `offset` (global, mm) of
     /// each joint's pin from its bore.
-    #[allow(clippy::needless_range_loop)] // i indexes the links, their maps and offsets
     pub fn fill(&mut self, arm: &Arm, mesh: &Mesh, fr: &Frames, offset: &[V2]) {
-        let n = arm.n();
         let pv = arm.pivot;
         self.o1.clear();
         self.b[0].clear();
@@ -145,68 +192,96 @@ impl Maps {
             self.o1.add(d, perp(arm.o1 - pv));
             self.b[0].add(d, perp(arm.b0 - pv));
         }
-        for i in 0..n {
-            let lm = &mesh.links[i];
+        for (i, lm) in mesh.links.iter().enumerate() {
             let (s, c) = (fr.sin[i], fr.cos[i]);
-            let stations = &mut self.station[i];
+            let along = rot_sc(s, c, V2::new(1.0, 0.0));
+            let across = rot_sc(s, c, V2::new(0.0, 1.0));
+            let o = lm.origin;
+            let theta_o = lm.theta_origin();
             // The joint: the proximal body's point, plus the gap offset.
             {
                 let bore = if i == 0 { &self.o1 } else { &self.next[i - 1] };
-                let o = &mut stations[lm.origin];
-                o.copy_from(bore);
-                o.off += offset[i];
+                let t = &mut self.station[i][o];
+                t.copy_from(bore);
+                t.off += offset[i];
+                self.rot[i][o].set(theta_o);
             }
-            let theta_o = lm.dof[lm.origin][2];
-            let along = rot_sc(s, c, V2::new(1.0, 0.0));
-            let across = rot_sc(s, c, V2::new(0.0, 1.0));
-            for k in 0..lm.x.len() {
-                if k == lm.origin {
-                    continue;
-                }
-                let (head, tail) = stations.split_at_mut(k.max(lm.origin));
-                let (origin, this) = if k > lm.origin {
-                    (&head[lm.origin], &mut tail[0])
-                } else {
-                    (&tail[0], &mut head[k])
-                };
-                let lever = perp(rot_sc(s, c, V2::new(lm.x[k], 0.0)));
-                match lm.kind {
-                    LinkKind::Rigid => {
-                        this.copy_from(origin);
-                        this.add(theta_o, lever);
+            // Absolute stations first, then the relative ones (their anchors are absolute).
+            for pass in [false, true] {
+                for k in 0..lm.x.len() {
+                    if k == o || lm.anchor[k].is_some() != pass {
+                        continue;
                     }
-                    LinkKind::Axial => {
-                        this.copy_from(origin);
-                        this.add(theta_o, lever);
-                        this.add(lm.dof[k][0], along);
-                    }
-                    LinkKind::Bending => {
-                        // Inextensible: the axial displacement is the joint's.
-                        this.clear();
-                        for &(d, g) in &origin.terms {
-                            this.add(d, along * along.dot(&g));
+                    let base = lm.anchor[k].unwrap_or(o);
+                    let lever = rot_sc(s, c, V2::new(lm.x[k] - lm.x[base], 0.0));
+                    let d = lm.dof[k];
+                    // Take station k out (no allocation) to read the others while writing it.
+                    let mut this = std::mem::take(&mut self.station[i][k]);
+                    let mut rthis = std::mem::take(&mut self.rot[i][k]);
+                    let (from, rfrom) = (&self.station[i][base], &self.rot[i][base]);
+                    let joint = &self.station[i][o];
+                    this.clear();
+                    rthis.terms.clear();
+                    match (lm.kind, pass) {
+                        (LinkKind::Rigid, _) => {
+                            this.copy_from(from);
+                            this.add_turn(rfrom, lever);
+                            rthis.terms.push((theta_o, 1.0));
                         }
-                        this.off = along * along.dot(&origin.off);
-                        this.add(lm.dof[k][1], across);
+                        (LinkKind::Axial, _) => {
+                            // Rigid in bending: the anchor's (or joint's) motion, plus u·e_x.
+                            this.copy_from(from);
+                            this.add_turn(rfrom, lever);
+                            this.add(d[0], along);
+                            rthis.terms.push((theta_o, 1.0));
+                        }
+                        (LinkKind::Bending, false) => {
+                            // Inextensible: the joint's axial displacement, plus v·e_y.
+                            this.add_along(joint, along);
+                            this.add(d[1], across);
+                            rthis.terms.push((d[2], 1.0));
+                        }
+                        (LinkKind::Bending, true) => {
+                            // The joint's axial displacement; the anchor's transverse one
+                            // carried rigidly; plus the departures δv, δθ.
+                            this.add_along(joint, along);
+                            this.add_along(from, across);
+                            this.add_turn(rfrom, lever);
+                            this.add(d[1], across);
+                            rthis.terms.extend_from_slice(&rfrom.terms);
+                            rthis.terms.push((d[2], 1.0));
+                        }
+                        (LinkKind::Full, false) => {
+                            this.add(d[0], V2::new(1.0, 0.0));
+                            this.add(d[1], V2::new(0.0, 1.0));
+                            rthis.terms.push((d[2], 1.0));
+                        }
+                        (LinkKind::Full, true) => {
+                            // The anchor's rigid motion, plus the departures (δx, δy, δθ).
+                            this.copy_from(from);
+                            this.add_turn(rfrom, lever);
+                            this.add(d[0], V2::new(1.0, 0.0));
+                            this.add(d[1], V2::new(0.0, 1.0));
+                            rthis.terms.extend_from_slice(&rfrom.terms);
+                            rthis.terms.push((d[2], 1.0));
+                        }
                     }
-                    LinkKind::Full => {
-                        this.clear();
-                        this.add(lm.dof[k][0], V2::new(1.0, 0.0));
-                        this.add(lm.dof[k][1], V2::new(0.0, 1.0));
-                    }
+                    self.station[i][k] = this;
+                    self.rot[i][k] = rthis;
                 }
             }
             let stations = &self.station[i];
+            let rots = &self.rot[i];
             let point = |out: &mut Lin, at: Attach| {
                 out.copy_from(&stations[at.station]);
-                if at.y != 0.0 || at.dx != 0.0 {
-                    out.add(lm.rot(at.station), perp(rot_sc(s, c, at.offset())));
+                if at.y != 0.0 {
+                    out.add_turn(&rots[at.station], rot_sc(s, c, V2::new(0.0, at.y)));
                 }
             };
             point(&mut self.a[i], lm.a);
             point(&mut self.next[i], lm.next);
             point(&mut self.c[i], lm.c);
-            self.pin[i].copy_from(&stations[lm.origin]);
+            self.pin[i].copy_from(&stations[o]);
             if let Some(b) = lm.b {
                 point(&mut self.b[i + 1], b);
             }

@@ -53,8 +53,8 @@ pub fn describe(
             m = m.max(lin.linear(&v).norm());
         }
         if lm.kind.bends() {
-            for k in 0..lm.x.len() {
-                m = m.max(v[lm.rot(k)].abs() * lm.extent());
+            for r in &maps.rot[i] {
+                m = m.max(r.eval(&v).abs() * lm.extent());
             }
         }
         link_motion[i] = m;
@@ -76,7 +76,7 @@ pub fn describe(
     };
     // Is it link j turning rigidly about its joint?
     let lm = &mesh.links[j];
-    let omega = v[lm.rot(lm.origin)];
+    let omega = v[lm.theta_origin()];
     let o = maps.pin[j].linear(&v);
     let (s, c) = (fr.sin[j], fr.cos[j]);
     let link = &arm.links[j];

@@ -6,10 +6,12 @@
 //! its pins A, B, of the next joint, of its centre of mass C and (last link) of the measure
 //! point, with every interval cut into elements no longer than `extent / elements_per_link`.
 //! A point (x, y) hangs on the station at x by a rigid offset y. Abscissae closer than
-//! [`MERGE`] of the extent share one station (the joint's, else A's, else the first), and the
-//! points there hang on it by a rigid offset (dx, y): a beam element a thousandth of the link
-//! long would be 10⁹ times stiffer in bending than the rest and ruin K's conditioning
-//! (docs/fem.md).
+//! [`MERGE`] of the extent form a cluster: its anchor is the joint's station if it is in it,
+//! else A's, else the first, and the others are *relative* stations whose DOFs measure their
+//! departure from the anchor's rigid motion. A beam element a thousandth of the link long is
+//! 10⁹ times stiffer in bending than the rest; on absolute DOFs it would ruin K's conditioning,
+//! on relative ones its stiffness acts on the departure alone (docs/fem.md). Nothing is
+//! approximated.
 //!
 //! Degrees of freedom. At its joint station a link owns only its rotation θ: the translation
 //! there is the pin of the joint, carried by the proximal body (see `maps`). Elsewhere it
@@ -28,26 +30,17 @@ use super::spec::FemSpec;
 /// "No DOF here": the quantity is carried by another DOF (slaved or rigid).
 pub const NONE: usize = usize::MAX;
 
-/// Key abscissae closer than this fraction of the link's extent share one station.
+/// Key abscissae closer than this fraction of the link's extent form a cluster of relative
+/// stations around one anchor.
 pub const MERGE: f64 = 0.01;
 
-/// A point of a link: the station it hangs on and its rigid offset from it (mm, link frame).
+/// A point of a link: the station at its abscissa and its offset from the axis (mm).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Attach {
-    /// Index of the station at (or merged with) the point's abscissa.
+    /// Index of the station at the point's abscissa.
     pub station: usize,
-    /// Offset along the axis from the station (0 unless merged).
-    pub dx: f64,
-    /// Local y of the point (offset from the axis).
+    /// Local y of the point (rigid offset from the axis).
     pub y: f64,
-}
-
-impl Attach {
-    /// The rigid offset (dx, y) in the link frame.
-    #[inline]
-    pub fn offset(&self) -> V2 {
-        V2::new(self.dx, self.y)
-    }
 }
 
 /// What a link's section lets it do.
@@ -82,8 +75,11 @@ pub struct LinkMesh {
     pub kind: LinkKind,
     /// Per station: its own DOF numbers, [`NONE`] where it has none: `[u_x, u_y, θ]` (Full),
     /// `[NONE, v, θ]` (Bending: v along the link's local y), `[u, NONE, NONE]` (Axial: u
-    /// along its local x); at the joint station `[NONE, NONE, θ]`.
+    /// along its local x); at the joint station `[NONE, NONE, θ]`. A relative station's DOFs
+    /// are its departure from its anchor's rigid motion.
     pub dof: Vec<[usize; 3]>,
+    /// Per station: the anchor of a relative station (see the module notes).
+    pub anchor: Vec<Option<usize>>,
     /// The actuator pin A_i.
     pub a: Attach,
     /// The next actuator's base pin B_i (not on the last link).
@@ -99,14 +95,10 @@ pub struct LinkMesh {
 }
 
 impl LinkMesh {
-    /// The DOF that carries the rotation of station `k`.
+    /// The rotation DOF of the joint station (the link's rotation if it does not bend).
     #[inline]
-    pub fn rot(&self, k: usize) -> usize {
-        if self.kind.bends() {
-            self.dof[k][2]
-        } else {
-            self.dof[self.origin][2]
-        }
+    pub fn theta_origin(&self) -> usize {
+        self.dof[self.origin][2]
     }
 
     /// Extent of the axis (mm).
@@ -165,7 +157,7 @@ impl Mesh {
             } else {
                 keys.push(arm.measure.x);
             }
-            let x = stations(&mut keys, elements_per_link, link.a.x);
+            let (x, anchor) = stations(&mut keys, elements_per_link, link.a.x);
             let lo = x[0];
             let hi = x[x.len() - 1];
             let scale = 1.0 + hi.abs().max(lo.abs());
@@ -189,13 +181,9 @@ impl Mesh {
                     i + 1
                 )));
             }
-            let at = |p: V2| {
-                let station = find(&x, p.x);
-                Attach {
-                    station,
-                    dx: p.x - x[station],
-                    y: p.y,
-                }
+            let at = |p: V2| Attach {
+                station: find(&x, p.x),
+                y: p.y,
             };
             let origin = find(&x, 0.0);
             let mut dof = vec![[NONE; 3]; x.len()];
@@ -220,6 +208,7 @@ impl Mesh {
                 origin,
                 kind,
                 dof,
+                anchor,
                 a: at(link.a),
                 b: (!last).then(|| at(link.b)),
                 next: at(link.next),
@@ -253,42 +242,72 @@ impl Mesh {
     }
 }
 
-/// Sorted key abscissae, those closer than `MERGE` of the extent merged into one (0 first,
-/// then `xa`, then the smallest), each interval cut into pieces no longer than extent/m.
-fn stations(keys: &mut [f64], m: usize, xa: f64) -> Vec<f64> {
+/// The stations of sorted `keys`: every distinct key, each interval between clusters (keys
+/// closer than `MERGE` of the extent) cut into pieces no longer than extent/m; and per
+/// station its anchor if it is a relative station (a non-anchor key of a cluster; the anchor
+/// is 0, else `xa`, else the cluster's first key).
+fn stations(keys: &mut [f64], m: usize, xa: f64) -> (Vec<f64>, Vec<Option<usize>>) {
     keys.sort_by(f64::total_cmp);
     let lo = keys[0];
     let hi = keys[keys.len() - 1];
+    let same = 1e-9 * (1.0 + hi.abs().max(lo.abs()));
     let tol = MERGE * (hi - lo);
-    // Clusters of keys, each represented by one abscissa.
-    let mut reps: Vec<f64> = Vec::new();
+    let mut distinct: Vec<f64> = Vec::with_capacity(keys.len());
+    for &k in keys.iter() {
+        if distinct.last().is_none_or(|&l| k - l > same) {
+            distinct.push(k);
+        }
+    }
+    // Clusters: (first, last) indices into `distinct`, and their anchor abscissa.
+    let mut clusters: Vec<(usize, usize, f64)> = Vec::new();
     let mut start = 0;
-    for j in 1..=keys.len() {
-        if j == keys.len() || keys[j] - keys[j - 1] > tol {
-            let cluster = &keys[start..j];
-            let rep = if cluster.contains(&0.0) {
+    for j in 1..=distinct.len() {
+        if j == distinct.len() || distinct[j] - distinct[j - 1] > tol {
+            let c = &distinct[start..j];
+            let anchor = if c.iter().any(|&v| v.abs() <= same) {
                 0.0
-            } else if cluster.contains(&xa) {
+            } else if c.iter().any(|&v| (v - xa).abs() <= same) {
                 xa
             } else {
-                cluster[0]
+                c[0]
             };
-            reps.push(rep);
+            clusters.push((start, j - 1, anchor));
             start = j;
         }
     }
     let h = (hi - lo) / m as f64;
-    let mut x = vec![reps[0]];
-    for &k in reps.iter().skip(1) {
-        let last = x[x.len() - 1];
-        let len = k - last;
-        let pieces = ((len / h) - 1e-9).ceil().max(1.0) as usize;
-        for p in 1..pieces {
-            x.push(last + len * p as f64 / pieces as f64);
+    let mut x: Vec<f64> = Vec::new();
+    let mut cluster_of: Vec<Option<usize>> = Vec::new();
+    for (ci, &(first, last, _)) in clusters.iter().enumerate() {
+        if let Some(&prev) = x.last() {
+            let len = distinct[first] - prev;
+            let pieces = ((len / h) - 1e-9).ceil().max(1.0) as usize;
+            for p in 1..pieces {
+                x.push(prev + len * p as f64 / pieces as f64);
+                cluster_of.push(None);
+            }
         }
-        x.push(k);
+        for &k in &distinct[first..=last] {
+            x.push(k);
+            cluster_of.push(Some(ci));
+        }
     }
-    x
+    let anchor_index: Vec<usize> = clusters
+        .iter()
+        .enumerate()
+        .map(|(ci, &(_, _, a))| {
+            (0..x.len())
+                .find(|&k| cluster_of[k] == Some(ci) && (x[k] - a).abs() <= same)
+                .unwrap_or(0)
+        })
+        .collect();
+    let anchor = (0..x.len())
+        .map(|k| match cluster_of[k] {
+            Some(ci) if anchor_index[ci] != k => Some(anchor_index[ci]),
+            _ => None,
+        })
+        .collect();
+    (x, anchor)
 }
 
 /// Index of the station nearest `v` (every key abscissa is a station).
@@ -309,25 +328,28 @@ mod tests {
     #[test]
     fn stations_keep_every_key_and_respect_the_length() {
         let mut keys = [0.0, 95.0, 480.0, 220.0, -40.0, 95.0];
-        let x = stations(&mut keys, 8, 95.0);
+        let (x, anchor) = stations(&mut keys, 8, 95.0);
         for k in [0.0, 95.0, 480.0, 220.0, -40.0] {
             assert!(x.contains(&k), "{k} missing from {x:?}");
         }
         let h = 520.0 / 8.0;
         assert!(x.windows(2).all(|w| w[1] > w[0] && w[1] - w[0] <= h + 1e-9));
+        assert!(anchor.iter().all(Option::is_none));
     }
 
     #[test]
-    fn close_keys_share_a_station_keeping_the_joint_and_a() {
-        // 299.24 and 300 are 0.25 % of the extent apart: one station, at the first.
+    fn close_keys_become_relative_stations_of_the_joint_a_or_the_first() {
+        // 299.24 and 300 are 0.25 % of the extent apart: 300 hangs on 299.24.
         let mut keys = [0.0, 44.8, 299.24, 230.1, 300.0, 2.0];
-        let x = stations(&mut keys, 1, 44.8);
-        assert_eq!(x, vec![0.0, 44.8, 230.1, 299.24]);
-        let mut keys = [0.0, 1.0, 100.0];
-        assert_eq!(stations(&mut keys, 1, 1.0), vec![0.0, 100.0]);
+        let (x, anchor) = stations(&mut keys, 1, 44.8);
+        assert_eq!(x, vec![0.0, 2.0, 44.8, 230.1, 299.24, 300.0]);
+        assert_eq!(anchor, vec![None, Some(0), None, None, None, Some(4)]);
         let mut keys = [-0.5, 0.0, 0.9, 100.0];
-        assert_eq!(stations(&mut keys, 1, 0.9), vec![0.0, 100.0]);
+        let (x, anchor) = stations(&mut keys, 1, 0.9);
+        assert_eq!(x, vec![-0.5, 0.0, 0.9, 100.0]);
+        assert_eq!(anchor, vec![Some(1), None, Some(1), None]);
         let mut keys = [0.0, 50.0, 50.5, 100.0];
-        assert_eq!(stations(&mut keys, 1, 50.5), vec![0.0, 50.5, 100.0]);
+        let (_, anchor) = stations(&mut keys, 1, 50.5);
+        assert_eq!(anchor, vec![None, Some(2), None, None]);
     }
 }

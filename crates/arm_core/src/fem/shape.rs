@@ -77,7 +77,7 @@ impl Shape {
             }
             let hang = |s: &mut Self, node: Node, at: Attach| {
                 let j = s.node(node);
-                if at.y != 0.0 || at.dx != 0.0 {
+                if at.y != 0.0 {
                     s.seg(first + at.station, j, Segment::Offset);
                 }
                 j

@@ -301,15 +301,13 @@ impl FemWorkspace {
         for i in 0..n {
             let lm = &model.mesh.links[i];
             self.dalpha[i] = if !lm.kind.bends() {
-                u[lm.rot(lm.origin)]
+                u[lm.theta_origin()]
             } else {
                 // The chord through the joint and the axis point under A (docs/model.md §4).
                 let (s, c) = (self.frames.sin[i], self.frames.cos[i]);
                 let v = |t: V2| -s * t.x + c * t.y;
                 let vo = v(maps.station[i][lm.origin].eval(u));
-                // The axis point at x_A: A's station, plus A's merge offset dx (rigid).
-                let st = lm.a.station;
-                let va = v(maps.station[i][st].eval(u)) + u[lm.rot(st)] * lm.a.dx;
+                let va = v(maps.station[i][lm.a.station].eval(u));
                 (va - vo) / lm.xa
             };
             let k = model.spec.body_stiffness[i];
