@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import itertools
 import math
 import warnings
 from pathlib import Path
@@ -678,3 +679,21 @@ def test_parse_range_is_linspace() -> None:
     np.testing.assert_array_equal(parse_range("1.5,5,6.5", "x"), [1.5, 5.0, 6.5])
     assert parse_range("7", "x").tolist() == [7.0]
     assert math.isclose(parse_range("-20:20:21", "x")[1], -18.0)
+
+
+def test_a_sweep_with_the_finite_element_model_equals_solve_with_it() -> None:
+    """Issue 6: the FE model is selected in sweeps the same way as in solve."""
+    arm = eodarm.Arm.from_toml(Path(__file__).resolve().parent.parent / "examples/example_arm.toml")
+    grid = {"alpha1": [70.0, 95.0], "alpha2": [5.0, 20.0], "alpha3": [0.0]}
+    effects = [eodarm.Effect("mount_compliance", "M2", stiffness_n_per_mm=1500.0)]
+    ds = sweep_fn(arm, alpha_deg=grid, mass_kg=[2.0, 5.0], effects=effects, model="fem")
+    alpha = np.array(list(itertools.product(*grid.values())))
+    for j, m in enumerate((2.0, 5.0)):
+        want = eodarm.solve(arm, alpha, m, effects, model="fem")
+        got = ds["dy_mm"].values.reshape(-1, 2)[:, j]
+        np.testing.assert_allclose(got, want["dy_mm"], rtol=1e-12, atol=1e-12)
+    analytic = sweep_fn(arm, alpha_deg=grid, mass_kg=[2.0, 5.0], effects=effects)
+    # linear FE vs exact pose: equal to first order in the load (a few % at these loads)
+    np.testing.assert_allclose(ds["dy_mm"].values, analytic["dy_mm"].values, rtol=0.05)
+    with pytest.raises(ValueError, match="model"):
+        sweep_fn(arm, alpha_deg=grid, mass_kg=[2.0], model="ansys")

@@ -35,7 +35,7 @@ import re
 import sys
 import time
 import uuid
-from collections.abc import Iterable, Iterator, Mapping
+from collections.abc import Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
@@ -113,8 +113,14 @@ def _sweep_fallback(
     reduce: str | None = None,
     group: int = 1,
     threads: int | None = None,
+    model: str = "analytic",
+    fem_options: Mapping[str, Any] | None = None,
+    effects: Sequence[Effect] = (),
 ) -> dict[str, npt.NDArray[Any]]:
     """The semantics of ``eodarm._core.sweep``, built on ``eodarm._core.solve``.
+
+    With ``model="fem"`` the cells are solved by the finite-element model instead
+    (:func:`eodarm.fem.fem_solve_payload`, ``effects`` given as Effect values).
 
     Kept as the definition the fast core is tested against; used when the core has no
     ``sweep``. ``threads`` is ignored here (``_core.solve`` uses rayon's global pool).
@@ -154,16 +160,29 @@ def _sweep_fallback(
     core = _core_arm(arm)
     payload = np.zeros((rows, 2))
     payload[:, 1] = -np.tile(mass, n_pose) * arm.g
-    out = _core.solve(
-        core,
-        np.repeat(alpha, m, axis=0),
-        payload,
-        codes,
-        places,
-        values,
-        self_weight,
-        nan_on_failure=True,
-    )
+    if model == "fem":
+        from . import fem
+
+        out = fem.fem_solve_payload(
+            arm,
+            np.repeat(alpha, m, axis=0),
+            payload,
+            list(effects),
+            self_weight,
+            fem_options,
+            nan_on_failure=True,
+        )
+    else:
+        out = _core.solve(
+            core,
+            np.repeat(alpha, m, axis=0),
+            payload,
+            codes,
+            places,
+            values,
+            self_weight,
+            nan_on_failure=True,
+        )
     ok = np.isfinite(out["dy_mm"])
     cells: dict[str, npt.NDArray[Any]] = {
         "force_n": out["force_n"],
@@ -240,10 +259,30 @@ def _kernel(
     reduce: str | None,
     group: int,
     threads: int | None,
+    model: str = "analytic",
+    fem_options: Mapping[str, Any] | None = None,
+    effects: Sequence[Effect] = (),
 ) -> dict[str, npt.NDArray[Any]]:
-    """One chunk through the fast core when it has ``sweep``, else through the fallback."""
+    """One chunk through the fast core when it has ``sweep``, else through the fallback
+    (always for the finite-element model)."""
     from . import _core
 
+    if model == "fem":
+        return _sweep_fallback(
+            arm,
+            alpha,
+            mass,
+            codes,
+            places,
+            values,
+            self_weight,
+            reduce,
+            group,
+            threads,
+            model,
+            fem_options,
+            effects,
+        )
     if hasattr(_core, "sweep"):
         return dict(
             _core.sweep(
@@ -494,6 +533,8 @@ class _Job:
     block: int  # poses per reduction group (1 unless an angle is reduced)
     mask_unreachable: bool
     threads: int | None
+    model: str = "analytic"
+    fem_options: tuple[tuple[str, Any], ...] | None = None  # hashable, like the rest
 
 
 def _chunk(job: _Job, start: int, stop: int) -> dict[str, npt.NDArray[Any]]:
@@ -524,6 +565,9 @@ def _chunk(job: _Job, start: int, stop: int) -> dict[str, npt.NDArray[Any]]:
         job.op,
         m * job.block if job.op else 1,
         job.threads,
+        job.model,
+        dict(job.fem_options) if job.fem_options is not None else None,
+        job.effects,
     )
     res = {k: np.asarray(out[k]) for k in CELL_VARS}
     length = np.array(out["length_mm"], dtype=float)
@@ -614,6 +658,8 @@ def sweep(
     alpha_ref_deg: npt.ArrayLike | None = None,
     elbow: int = -1,
     mask_unreachable: bool = False,
+    model: str = "analytic",
+    fem_options: Mapping[str, Any] | None = None,
 ) -> xr.Dataset:
     """Solve every pose of a grid under every payload, in chunks; an xarray Dataset.
 
@@ -652,6 +698,10 @@ def sweep(
     alpha_ref_deg, elbow : the branch of a lengths grid, of an effector grid.
     mask_unreachable : treat cells of unreachable poses (out of stroke) as not ok: NaN, and
         skipped by reductions.
+    model : ``"analytic"`` (the exact-pose model of docs/model.md, the fast core) or
+        ``"fem"`` (the frame finite-element model of docs/fem.md, solved cell by cell; linear,
+        so it agrees with the analytic model to first order in the load).
+    fem_options : with ``model="fem"``, e.g. ``{"elements_per_link": 8}``.
 
     Returns
     -------
@@ -693,7 +743,22 @@ def sweep(
     n, m, size = arm.n, mass.shape[0], grid.size
     step = block * max(1, int(chunk_size) // block)
     spans = [(s, min(s + step, size)) for s in range(0, size, step)]
-    job = _Job(arm, grid, mass, effs, bool(self_weight), op, block, mask_unreachable, threads)
+    from .fem import check_model
+
+    check_model(model)
+    job = _Job(
+        arm,
+        grid,
+        mass,
+        effs,
+        bool(self_weight),
+        op,
+        block,
+        mask_unreachable,
+        threads,
+        model,
+        tuple(sorted(fem_options.items())) if fem_options is not None else None,
+    )
 
     out_poses = size // block  # poses (or reduction groups) in the output
     shapes: dict[str, tuple[int, ...]] = {}
@@ -1025,6 +1090,12 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     p.add_argument("--chunk-size", type=int, default=CHUNK_SIZE, help="poses per chunk")
     p.add_argument("--threads", type=int, metavar="K", help="threads of the core")
     p.add_argument(
+        "--model",
+        choices=("analytic", "fem"),
+        default="analytic",
+        help="the exact-pose analytic model (default) or the finite-element model",
+    )
+    p.add_argument(
         "--scheduler",
         metavar="ADDRESS",
         help="Dask scheduler address (tcp://host:8786) to run the chunks on (eodarm[dask])",
@@ -1147,6 +1218,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
             chunk_size=args.chunk_size,
             progress=False if args.no_progress else None,
             scheduler=scheduler,
+            model=args.model,
             threads=args.threads,
             mask_unreachable=args.mask_unreachable,
         )
