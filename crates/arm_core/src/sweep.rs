@@ -86,6 +86,9 @@ pub struct SweepOptions {
     /// Rows per chunk (`None`: [`CHUNK_ROWS`], less for small sweeps so that every thread
     /// gets several chunks); a chunk holds a multiple of [`L`] poses, at least [`L`].
     pub chunk_rows: Option<usize>,
+    /// Run the block kernel with baseline x86-64 instructions (SSE2) even where the CPU has
+    /// AVX2 or AVX-512; the results are the same bits (the tests check it).
+    pub baseline_simd: bool,
 }
 
 impl Default for SweepOptions {
@@ -95,6 +98,7 @@ impl Default for SweepOptions {
             reduce: None,
             threads: None,
             chunk_rows: None,
+            baseline_simd: false,
         }
     }
 }
@@ -275,7 +279,7 @@ pub fn sweep(
     cancel: &(dyn Fn() -> bool + Sync),
 ) -> Result<()> {
     let n = arm.n();
-    if alpha_deg.len() % n != 0 {
+    if !alpha_deg.len().is_multiple_of(n) {
         return Err(ArmError::Shape {
             what: "alpha_deg",
             expected: (alpha_deg.len() / n + 1) * n,
@@ -295,7 +299,7 @@ pub fn sweep(
     }
     let rows = poses * masses;
     let group = match opts.reduce {
-        Some(r) if r.group == 0 || rows % r.group != 0 => {
+        Some(r) if r.group == 0 || !rows.is_multiple_of(r.group) => {
             return Err(ArmError::InvalidOption(format!(
                 "reduce group {} does not divide the {rows} rows (N·M = {poses}·{masses})",
                 r.group
@@ -320,7 +324,11 @@ pub fn sweep(
         self_weight: opts.self_weight,
         reduce: opts.reduce,
         kernel: Kernel::new(arm, effects, opts.self_weight),
-        simd: pulp::Arch::new(),
+        simd: if opts.baseline_simd {
+            pulp::Arch::Scalar
+        } else {
+            pulp::Arch::new()
+        },
     };
     if poses == 0 {
         return Ok(());
@@ -745,7 +753,7 @@ fn run_fast<const N: usize>(
     let mut p = 0;
     while p < poses {
         let count = (poses - p).min(L);
-        k.poses(&alpha[p * N..(p + count) * N], count, &mut pb);
+        k.poses(simd, &alpha[p * N..(p + count) * N], count, &mut pb);
         if !out.length.is_empty() {
             for q in 0..count {
                 for i in 0..N {

@@ -241,9 +241,8 @@ fn rot(s: f64, c: f64, v: [f64; 2]) -> (f64, f64) {
 }
 
 impl<const N: usize> FastArm<N> {
-    /// [`Self::poses`], kept out of line: inlined into a larger function, its loop is not
-    /// vectorised.
-    #[inline(never)]
+    /// The body of [`Self::poses`], inlined into each instruction-set variant.
+    #[inline(always)]
     fn poses_impl(&self, alpha_deg: &[f64], count: usize, out: &mut PoseBlock<N>) {
         let pb = out;
         let this = self;
@@ -471,18 +470,39 @@ impl<const N: usize> FastArm<N> {
     }
 
     /// Unloaded geometry and statics of up to `L` poses: `alpha_deg` holds `count` rows of
-    /// `N` angles (deg); missing lanes repeat the last pose and are to be ignored. Baseline
-    /// x86-64 (SSE2) code: LLVM does not vectorise this loop for AVX2 with generic tuning.
-    pub fn poses(&self, alpha_deg: &[f64], count: usize, out: &mut PoseBlock<N>) {
+    /// `N` angles (deg); missing lanes repeat the last pose and are to be ignored. Runs with
+    /// AVX-512 where the CPU has it, else as baseline x86-64 code (see [`Self::cells`]).
+    pub fn poses(&self, simd: pulp::Arch, alpha_deg: &[f64], count: usize, out: &mut PoseBlock<N>) {
+        struct Op<'a, const N: usize>(&'a FastArm<N>, &'a [f64], usize, &'a mut PoseBlock<N>);
+        impl<const N: usize> pulp::WithSimd for Op<'_, N> {
+            type Output = ();
+            #[inline(always)]
+            fn with_simd<S: pulp::Simd>(self, _simd: S) {
+                self.0.poses_impl(self.1, self.2, self.3);
+            }
+        }
+        match simd {
+            // AVX-512: LLVM vectorises this loop 8 wide.
+            pulp::Arch::V4(_) => simd.dispatch(Op(self, alpha_deg, count, out)),
+            // With AVX2 and generic tuning LLVM leaves it scalar; the baseline SSE2 build of
+            // the out-of-line copy is vectorised 2 wide, which is faster.
+            _ => self.poses_baseline(alpha_deg, count, out),
+        }
+    }
+
+    /// [`Self::poses_impl`] compiled for baseline x86-64 (out of line, so it keeps its own
+    /// vectorisation).
+    #[inline(never)]
+    fn poses_baseline(&self, alpha_deg: &[f64], count: usize, out: &mut PoseBlock<N>) {
         self.poses_impl(alpha_deg, count, out);
     }
 
     /// Loaded minus unloaded state of the block's poses under a payload mass `m` (kg).
     ///
     /// The lane loops are inlined into `pulp`'s `#[target_feature]` wrapper for the best
-    /// instruction set of this CPU (AVX2 + FMA where present, else x86-64's SSE2), so LLVM
-    /// vectorises them 4 wide there. Multiplications and additions are never fused (Rust does
-    /// not contract them), so every instruction set gives the same bits.
+    /// instruction set of this CPU (AVX-512 or AVX2 + FMA where present, else x86-64's SSE2),
+    /// so LLVM vectorises them 8 or 4 wide there. Multiplications and additions are never
+    /// fused (Rust does not contract them), so every instruction set gives the same bits.
     pub fn cells(&self, simd: pulp::Arch, pb: &PoseBlock<N>, m: f64, cb: &mut CellBlock<N>) {
         struct Op<'a, const N: usize>(&'a FastArm<N>, &'a PoseBlock<N>, f64, &'a mut CellBlock<N>);
         impl<const N: usize> pulp::WithSimd for Op<'_, N> {
