@@ -573,7 +573,12 @@ fn split_out<'a>(
 fn run_chunk(plan: &Plan<'_>, mut ch: ChunkOut<'_>, scratch: &mut Scratch) -> Result<Vec<Partial>> {
     let n = plan.n;
     let alpha = &plan.alpha[ch.pose0 * n..(ch.pose0 + ch.poses) * n];
-    if let Some(bad) = alpha.iter().position(|v| !v.is_finite()) {
+    // A branch-free scan first (vectorised); the position only when something is wrong.
+    let finite = alpha.iter().fold(true, |all, v| all & v.is_finite());
+    if let Some(bad) = (!finite)
+        .then(|| alpha.iter().position(|v| !v.is_finite()))
+        .flatten()
+    {
         return Err(ArmError::NonFinite {
             row: ch.pose0 + bad / n,
             what: "alpha_deg",
@@ -784,10 +789,13 @@ fn run_fast<const N: usize>(
                     let good = cb.ok[q];
                     let nan = |x: f64| if good { x } else { f64::NAN };
                     ok[r] = good;
+                    let force = &mut cells.force_n[r * N..(r + 1) * N];
+                    let dalpha = &mut cells.dalpha_deg[r * N..(r + 1) * N];
+                    let dl = &mut cells.dl_mm[r * N..(r + 1) * N];
                     for i in 0..N {
-                        cells.force_n[r * N + i] = nan(cb.force[i][q]);
-                        cells.dalpha_deg[r * N + i] = nan(cb.dalpha[i][q]);
-                        cells.dl_mm[r * N + i] = nan(cb.dl[i][q]);
+                        force[i] = nan(cb.force[i][q]);
+                        dalpha[i] = nan(cb.dalpha[i][q]);
+                        dl[i] = nan(cb.dl[i][q]);
                     }
                     cells.dx_mm[r] = nan(cb.dx[q]);
                     cells.dy_mm[r] = nan(cb.dy[q]);
