@@ -33,8 +33,8 @@ use crate::arm::Arm;
 use crate::effects::{Effect, EffectSet, FORCE_ZERO_N};
 use crate::statics::SINGULAR_TOL;
 
-/// Poses per block (lanes).
-pub const L: usize = 8;
+/// Poses per block (lanes): two AVX-512 vectors, so that two independent chains overlap.
+pub const L: usize = 16;
 
 /// Per-arm constants of the kernel, for an arm of `N` links.
 #[derive(Debug, Clone)]
@@ -248,12 +248,15 @@ impl<const N: usize> FastArm<N> {
         let this = self;
         let mut sn = [[0.0; L]; N];
         let mut cs = [[0.0; L]; N];
-        for i in 0..N {
-            let mut x = [0.0; L];
-            for (k, xk) in x.iter_mut().enumerate() {
-                *xk = alpha_deg[k.min(count - 1) * N + i];
+        let mut x = [[0.0; L]; N];
+        for k in 0..L {
+            let row = &alpha_deg[k.min(count - 1) * N..][..N];
+            for i in 0..N {
+                x[i][k] = row[i];
             }
-            sincos_deg(&x, &mut sn[i], &mut cs[i]);
+        }
+        for i in 0..N {
+            sincos_deg(&x[i], &mut sn[i], &mut cs[i]);
         }
         // Link by link from the tip: geometry of link i (it needs the angles of links i and
         // i−1 only), then its statics, which need the actuator line of link i+1.
@@ -303,10 +306,10 @@ impl<const N: usize> FastArm<N> {
             let (wl, wa) = (this.w_link[i], this.w_half[i]);
             let (len_tol, arm_tol, inv_rd) = (this.len_tol[i], this.arm_tol[i], this.inv_rd[i]);
             let (lo, hi) = (this.lo[i], this.hi[i]);
-            // Lanes in groups of four: each group is one AVX2 vector (two SSE2 vectors), which
-            // LLVM vectorises whatever the instruction set (a loop over all eight it would not).
-            for k0 in (0..L).step_by(4) {
-                for k in k0..k0 + 4 {
+            // Lanes in groups of eight (one AVX-512 vector): two independent dependency chains
+            // per link, which the CPU overlaps (the square root and division are slow).
+            for k0 in (0..L).step_by(8) {
+                for k in k0..k0 + 8 {
                     let (s, c) = (sn[i][k], cs[i][k]);
                     let (ax, ay) = rot(s, c, this.a[i]);
                     let (vx, vy) = (ax - dx[k], ay - dy[k]);
