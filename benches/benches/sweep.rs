@@ -107,6 +107,7 @@ fn bench_sweep(c: &mut Criterion) {
                     reduce,
                     threads,
                     chunk_rows: None,
+                    baseline_simd: false,
                 };
                 // Every cell must solve: a benchmark of NaN cells would measure nothing.
                 ok(

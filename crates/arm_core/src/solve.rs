@@ -203,7 +203,7 @@ impl BatchOutput<'_> {
 /// [`ArmError::Shape`] or [`ArmError::NonFinite`] naming the first bad row.
 pub fn check_input(arm: &Arm, input: &BatchInput<'_>) -> Result<usize> {
     let n = arm.n();
-    if input.alpha_deg.len() % n != 0 {
+    if !input.alpha_deg.len().is_multiple_of(n) {
         return Err(ArmError::Shape {
             what: "alpha_deg",
             expected: (input.alpha_deg.len() / n + 1) * n,

@@ -9,7 +9,9 @@
 //! * **Two kernels.** The baseline model and the length-only effects (`actuator_compliance`,
 //!   `mount_compliance`, `actuator_play`) run through the block kernel of `fast`
 //!   ([`L`] poses at once, cheap vectorisable trigonometry, no acos/atan2 in the closure;
-//!   arms of up to [`MAX_FAST_LINKS`] links). The other effects, and longer arms, run
+//!   arms of up to [`MAX_FAST_LINKS`] links), compiled for AVX-512, AVX2 and baseline x86-64
+//!   and picked at run time for the CPU (`pulp`; the same bits on each). The other effects,
+//!   and longer arms, run
 //!   through `Workspace::solve` per cell inside the same chunked, parallel, reducing machinery.
 //! * **Chunks.** Poses are processed in chunks of about `chunk_rows` rows (default
 //!   [`CHUNK_ROWS`]); each worker thread owns its scratch, nothing is allocated per pose.
@@ -86,6 +88,9 @@ pub struct SweepOptions {
     /// Rows per chunk (`None`: [`CHUNK_ROWS`], less for small sweeps so that every thread
     /// gets several chunks); a chunk holds a multiple of [`L`] poses, at least [`L`].
     pub chunk_rows: Option<usize>,
+    /// Run the block kernel with baseline x86-64 instructions (SSE2) even where the CPU has
+    /// AVX2 or AVX-512; the results are the same bits (the tests check it).
+    pub baseline_simd: bool,
 }
 
 impl Default for SweepOptions {
@@ -95,6 +100,7 @@ impl Default for SweepOptions {
             reduce: None,
             threads: None,
             chunk_rows: None,
+            baseline_simd: false,
         }
     }
 }
@@ -275,7 +281,7 @@ pub fn sweep(
     cancel: &(dyn Fn() -> bool + Sync),
 ) -> Result<()> {
     let n = arm.n();
-    if alpha_deg.len() % n != 0 {
+    if !alpha_deg.len().is_multiple_of(n) {
         return Err(ArmError::Shape {
             what: "alpha_deg",
             expected: (alpha_deg.len() / n + 1) * n,
@@ -295,7 +301,7 @@ pub fn sweep(
     }
     let rows = poses * masses;
     let group = match opts.reduce {
-        Some(r) if r.group == 0 || rows % r.group != 0 => {
+        Some(r) if r.group == 0 || !rows.is_multiple_of(r.group) => {
             return Err(ArmError::InvalidOption(format!(
                 "reduce group {} does not divide the {rows} rows (N·M = {poses}·{masses})",
                 r.group
@@ -320,7 +326,11 @@ pub fn sweep(
         self_weight: opts.self_weight,
         reduce: opts.reduce,
         kernel: Kernel::new(arm, effects, opts.self_weight),
-        simd: pulp::Arch::new(),
+        simd: if opts.baseline_simd {
+            pulp::Arch::Scalar
+        } else {
+            pulp::Arch::new()
+        },
     };
     if poses == 0 {
         return Ok(());
@@ -563,7 +573,12 @@ fn split_out<'a>(
 fn run_chunk(plan: &Plan<'_>, mut ch: ChunkOut<'_>, scratch: &mut Scratch) -> Result<Vec<Partial>> {
     let n = plan.n;
     let alpha = &plan.alpha[ch.pose0 * n..(ch.pose0 + ch.poses) * n];
-    if let Some(bad) = alpha.iter().position(|v| !v.is_finite()) {
+    // A branch-free scan first (vectorised); the position only when something is wrong.
+    let finite = alpha.iter().fold(true, |all, v| all & v.is_finite());
+    if let Some(bad) = (!finite)
+        .then(|| alpha.iter().position(|v| !v.is_finite()))
+        .flatten()
+    {
         return Err(ArmError::NonFinite {
             row: ch.pose0 + bad / n,
             what: "alpha_deg",
@@ -745,7 +760,7 @@ fn run_fast<const N: usize>(
     let mut p = 0;
     while p < poses {
         let count = (poses - p).min(L);
-        k.poses(&alpha[p * N..(p + count) * N], count, &mut pb);
+        k.poses(simd, &alpha[p * N..(p + count) * N], count, &mut pb);
         if !out.length.is_empty() {
             for q in 0..count {
                 for i in 0..N {
@@ -774,10 +789,13 @@ fn run_fast<const N: usize>(
                     let good = cb.ok[q];
                     let nan = |x: f64| if good { x } else { f64::NAN };
                     ok[r] = good;
+                    let force = &mut cells.force_n[r * N..(r + 1) * N];
+                    let dalpha = &mut cells.dalpha_deg[r * N..(r + 1) * N];
+                    let dl = &mut cells.dl_mm[r * N..(r + 1) * N];
                     for i in 0..N {
-                        cells.force_n[r * N + i] = nan(cb.force[i][q]);
-                        cells.dalpha_deg[r * N + i] = nan(cb.dalpha[i][q]);
-                        cells.dl_mm[r * N + i] = nan(cb.dl[i][q]);
+                        force[i] = nan(cb.force[i][q]);
+                        dalpha[i] = nan(cb.dalpha[i][q]);
+                        dl[i] = nan(cb.dl[i][q]);
                     }
                     cells.dx_mm[r] = nan(cb.dx[q]);
                     cells.dy_mm[r] = nan(cb.dy[q]);

@@ -638,6 +638,27 @@ fn independent_of_chunks_and_threads() {
     }
 }
 
+/// Every instruction set the CPU offers (AVX-512, AVX2, baseline SSE2) gives the same bits.
+#[test]
+fn instruction_sets_agree_bitwise() {
+    let mut rng = Rng(13);
+    for (n, effects) in [(3, vec![]), (2, length_only()[4].1.clone()), (4, vec![])] {
+        let arm = arm(n, &mut rng, Some((300.0, 540.0)));
+        let eff = EffectSet::new(&arm, effects).unwrap();
+        let alpha = poses(n, 97, &mut rng);
+        let mass = [0.0, 1.5, 6.0];
+        let fast = run(&arm, &eff, &alpha, &mass, opts(true), &never).unwrap();
+        let base = SweepOptions {
+            baseline_simd: true,
+            ..opts(true)
+        };
+        let slow = run(&arm, &eff, &alpha, &mass, base, &never).unwrap();
+        assert_eq!(fast.bits(), slow.bits(), "n = {n}");
+        assert_eq!(fast.ok, slow.ok);
+        assert_eq!(fast.reachable, slow.reachable);
+    }
+}
+
 /// `cancel` returning true stops the sweep with `Cancelled`, on one thread and on several.
 #[test]
 fn cancel_returns_cancelled() {

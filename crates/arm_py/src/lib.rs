@@ -373,6 +373,7 @@ fn py_sweep<'py>(
         reduce: op.map(|op| Reduce { op, group }),
         threads,
         chunk_rows: None,
+        baseline_simd: false,
     };
     let rows = poses * mass.len() / if op.is_some() { group } else { 1 };
     let arg = op.is_some_and(ReduceOp::is_arg);

@@ -33,8 +33,8 @@ use crate::arm::Arm;
 use crate::effects::{Effect, EffectSet, FORCE_ZERO_N};
 use crate::statics::SINGULAR_TOL;
 
-/// Poses per block (lanes).
-pub const L: usize = 8;
+/// Poses per block (lanes): two AVX-512 vectors, so that two independent chains overlap.
+pub const L: usize = 16;
 
 /// Per-arm constants of the kernel, for an arm of `N` links.
 #[derive(Debug, Clone)]
@@ -241,20 +241,22 @@ fn rot(s: f64, c: f64, v: [f64; 2]) -> (f64, f64) {
 }
 
 impl<const N: usize> FastArm<N> {
-    /// [`Self::poses`], kept out of line: inlined into a larger function, its loop is not
-    /// vectorised.
-    #[inline(never)]
+    /// The body of [`Self::poses`], inlined into each instruction-set variant.
+    #[inline(always)]
     fn poses_impl(&self, alpha_deg: &[f64], count: usize, out: &mut PoseBlock<N>) {
         let pb = out;
         let this = self;
         let mut sn = [[0.0; L]; N];
         let mut cs = [[0.0; L]; N];
-        for i in 0..N {
-            let mut x = [0.0; L];
-            for (k, xk) in x.iter_mut().enumerate() {
-                *xk = alpha_deg[k.min(count - 1) * N + i];
+        let mut x = [[0.0; L]; N];
+        for k in 0..L {
+            let row = &alpha_deg[k.min(count - 1) * N..][..N];
+            for i in 0..N {
+                x[i][k] = row[i];
             }
-            sincos_deg(&x, &mut sn[i], &mut cs[i]);
+        }
+        for i in 0..N {
+            sincos_deg(&x[i], &mut sn[i], &mut cs[i]);
         }
         // Link by link from the tip: geometry of link i (it needs the angles of links i and
         // i−1 only), then its statics, which need the actuator line of link i+1.
@@ -304,10 +306,10 @@ impl<const N: usize> FastArm<N> {
             let (wl, wa) = (this.w_link[i], this.w_half[i]);
             let (len_tol, arm_tol, inv_rd) = (this.len_tol[i], this.arm_tol[i], this.inv_rd[i]);
             let (lo, hi) = (this.lo[i], this.hi[i]);
-            // Lanes in groups of four: each group is one AVX2 vector (two SSE2 vectors), which
-            // LLVM vectorises whatever the instruction set (a loop over all eight it would not).
-            for k0 in (0..L).step_by(4) {
-                for k in k0..k0 + 4 {
+            // Lanes in groups of eight (one AVX-512 vector): two independent dependency chains
+            // per link, which the CPU overlaps (the square root and division are slow).
+            for k0 in (0..L).step_by(8) {
+                for k in k0..k0 + 8 {
                     let (s, c) = (sn[i][k], cs[i][k]);
                     let (ax, ay) = rot(s, c, this.a[i]);
                     let (vx, vy) = (ax - dx[k], ay - dy[k]);
@@ -471,18 +473,39 @@ impl<const N: usize> FastArm<N> {
     }
 
     /// Unloaded geometry and statics of up to `L` poses: `alpha_deg` holds `count` rows of
-    /// `N` angles (deg); missing lanes repeat the last pose and are to be ignored. Baseline
-    /// x86-64 (SSE2) code: LLVM does not vectorise this loop for AVX2 with generic tuning.
-    pub fn poses(&self, alpha_deg: &[f64], count: usize, out: &mut PoseBlock<N>) {
+    /// `N` angles (deg); missing lanes repeat the last pose and are to be ignored. Runs with
+    /// AVX-512 where the CPU has it, else as baseline x86-64 code (see [`Self::cells`]).
+    pub fn poses(&self, simd: pulp::Arch, alpha_deg: &[f64], count: usize, out: &mut PoseBlock<N>) {
+        struct Op<'a, const N: usize>(&'a FastArm<N>, &'a [f64], usize, &'a mut PoseBlock<N>);
+        impl<const N: usize> pulp::WithSimd for Op<'_, N> {
+            type Output = ();
+            #[inline(always)]
+            fn with_simd<S: pulp::Simd>(self, _simd: S) {
+                self.0.poses_impl(self.1, self.2, self.3);
+            }
+        }
+        match simd {
+            // AVX-512: LLVM vectorises this loop 8 wide.
+            pulp::Arch::V4(_) => simd.dispatch(Op(self, alpha_deg, count, out)),
+            // With AVX2 and generic tuning LLVM leaves it scalar; the baseline SSE2 build of
+            // the out-of-line copy is vectorised 2 wide, which is faster.
+            _ => self.poses_baseline(alpha_deg, count, out),
+        }
+    }
+
+    /// [`Self::poses_impl`] compiled for baseline x86-64 (out of line, so it keeps its own
+    /// vectorisation).
+    #[inline(never)]
+    fn poses_baseline(&self, alpha_deg: &[f64], count: usize, out: &mut PoseBlock<N>) {
         self.poses_impl(alpha_deg, count, out);
     }
 
     /// Loaded minus unloaded state of the block's poses under a payload mass `m` (kg).
     ///
     /// The lane loops are inlined into `pulp`'s `#[target_feature]` wrapper for the best
-    /// instruction set of this CPU (AVX2 + FMA where present, else x86-64's SSE2), so LLVM
-    /// vectorises them 4 wide there. Multiplications and additions are never fused (Rust does
-    /// not contract them), so every instruction set gives the same bits.
+    /// instruction set of this CPU (AVX-512 or AVX2 + FMA where present, else x86-64's SSE2),
+    /// so LLVM vectorises them 8 or 4 wide there. Multiplications and additions are never
+    /// fused (Rust does not contract them), so every instruction set gives the same bits.
     pub fn cells(&self, simd: pulp::Arch, pb: &PoseBlock<N>, m: f64, cb: &mut CellBlock<N>) {
         struct Op<'a, const N: usize>(&'a FastArm<N>, &'a PoseBlock<N>, f64, &'a mut CellBlock<N>);
         impl<const N: usize> pulp::WithSimd for Op<'_, N> {
