@@ -29,8 +29,8 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-import eodarm  # noqa: E402
-from bench_solve import (  # noqa: E402
+import eodarm
+from bench_solve import (
     ARM_FILE,
     PY_MAX,
     PyArm,
@@ -41,8 +41,8 @@ from bench_solve import (  # noqa: E402
     solve_python,
     verify,
 )
-from eodarm import _core  # noqa: E402
-from eodarm.solver import _core_arm  # noqa: E402
+from eodarm import _core
+from eodarm.solver import _core_arm
 
 SIZES = (10_000, 100_000, 1_000_000)
 
