@@ -14,10 +14,11 @@
 //!   and longer arms, run
 //!   through `Workspace::solve` per cell inside the same chunked, parallel, reducing machinery.
 //! * **Chunks.** Poses are processed in chunks of about `chunk_rows` rows (default
-//!   [`CHUNK_ROWS`]); each worker thread owns its scratch, nothing is allocated per pose.
-//!   Between chunks the calling thread calls `cancel()` (from the calling thread only, so a
-//!   Python signal check works there); when it returns true the sweep stops and returns
-//!   [`ArmError::Cancelled`], with the outputs partly written.
+//!   [`CHUNK_ROWS`]), taken from a queue by the calling thread and `threads − 1` pool
+//!   threads; each thread owns its scratch, nothing is allocated per pose. Between its chunks
+//!   the calling thread calls `cancel()` (only there, so a Python signal check works); when
+//!   it returns true the sweep stops and returns [`ArmError::Cancelled`], with the outputs
+//!   partly written.
 //! * **Reductions.** With [`SweepOptions::reduce`], the cell fields are not stored per cell:
 //!   every `group` consecutive rows fold into one output row, NaN ignored (a group without a
 //!   value is NaN, its index −1). Per-pose outputs are still written per pose.
@@ -30,7 +31,7 @@ mod reduce;
 pub mod trig;
 
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::{mpsc, Mutex};
+use std::sync::Mutex;
 
 use crate::arm::Arm;
 use crate::effects::EffectSet;
@@ -82,8 +83,9 @@ pub struct SweepOptions {
     pub self_weight: bool,
     /// Reduce the cell fields over groups of rows instead of storing every cell.
     pub reduce: Option<Reduce>,
-    /// Worker threads: `None` uses rayon's global pool; `Some(k)` a pool of k threads built
-    /// for this call (`Some(1)` runs on the calling thread).
+    /// Threads: `None` uses the calling thread and rayon's global pool (as many threads in
+    /// all as the pool has); `Some(k)` the calling thread and a pool of k − 1 threads built
+    /// for this call (`Some(1)`: the calling thread alone).
     pub threads: Option<usize>,
     /// Rows per chunk (`None`: [`CHUNK_ROWS`], less for small sweeps so that every thread
     /// gets several chunks); a chunk holds a multiple of [`L`] poses, at least [`L`].
@@ -337,12 +339,12 @@ pub fn sweep(
     }
     let chunk_poses = match opts.chunk_rows {
         Some(rows) => (rows / masses.max(1)) / L * L,
-        // Small sweeps: at least four chunks per thread, of at least MIN_CHUNK_ROWS rows.
+        // Small sweeps: at least eight chunks per thread, of at least MIN_CHUNK_ROWS rows.
         None => {
             (CHUNK_ROWS / masses.max(1))
                 .min(
                     poses
-                        .div_ceil(4 * threads)
+                        .div_ceil(8 * threads)
                         .max(MIN_CHUNK_ROWS / masses.max(1)),
                 )
                 .div_ceil(L)
@@ -376,14 +378,16 @@ pub fn sweep(
             stop: &stop,
             done: &done,
         };
+        // The calling thread works too: a pool of k − 1 threads for `threads: Some(k)`, and
+        // one job fewer than the global pool has threads.
         cancelled = if opts.threads.is_some() {
             let pool = rayon::ThreadPoolBuilder::new()
-                .num_threads(threads)
+                .num_threads(threads - 1)
                 .build()
                 .map_err(|e| ArmError::InvalidOption(format!("thread pool: {e}")))?;
-            pool.in_place_scope(|s| drive(s, threads, nchunks, shared, cancel))
+            pool.in_place_scope(|s| drive(s, threads, shared, cancel))
         } else {
-            rayon::in_place_scope(|s| drive(s, threads, nchunks, shared, cancel))
+            rayon::in_place_scope(|s| drive(s, threads, shared, cancel))
         };
         results = done.into_inner().unwrap_or_else(|e| e.into_inner());
     }
@@ -414,18 +418,16 @@ struct Shared<'e, 'a> {
     done: &'e Done,
 }
 
-/// Runs the chunks on `threads` workers of the scope's pool while the calling thread waits
-/// for them, calling `cancel` after each chunk; returns whether it was cancelled.
+/// Runs the chunks on the calling thread and `threads − 1` workers of the scope's pool; the
+/// calling thread calls `cancel` before each of its chunks but the first. Returns whether
+/// it was cancelled.
 fn drive<'e, 'a: 'e>(
     s: &rayon::Scope<'e>,
     threads: usize,
-    nchunks: usize,
     sh: Shared<'e, 'a>,
     cancel: &(dyn Fn() -> bool + Sync),
 ) -> bool {
-    let (tx, rx) = mpsc::channel::<()>();
-    for _ in 0..threads {
-        let tx = tx.clone();
+    for _ in 1..threads {
         s.spawn(move |_| {
             let mut scratch = Scratch::default();
             while !sh.stop.load(Ordering::Relaxed) {
@@ -433,23 +435,23 @@ fn drive<'e, 'a: 'e>(
                 let Some((k, chunk)) = next else { break };
                 let r = run_chunk(sh.plan, chunk, &mut scratch);
                 lock(sh.done).push((k, r));
-                if tx.send(()).is_err() {
-                    break;
-                }
             }
         });
     }
-    drop(tx);
-    let mut finished = 0;
-    let mut cancelled = false;
-    while rx.recv().is_ok() {
-        finished += 1;
-        if finished < nchunks && !cancelled && cancel() {
-            cancelled = true;
+    let mut scratch = Scratch::default();
+    let mut first = true;
+    while !sh.stop.load(Ordering::Relaxed) {
+        let next = lock(sh.queue).next();
+        let Some((k, chunk)) = next else { break };
+        if !first && cancel() {
             sh.stop.store(true, Ordering::Relaxed);
+            return true;
         }
+        first = false;
+        let r = run_chunk(sh.plan, chunk, &mut scratch);
+        lock(sh.done).push((k, r));
     }
-    cancelled
+    false
 }
 
 fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {

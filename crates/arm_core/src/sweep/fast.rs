@@ -18,7 +18,7 @@
 //!   the length change directly), written so that nothing cancels for small δ. Rotations
 //!   compose as unit complex numbers kept as (sin, cos − 1), so the displacement of the
 //!   measure point `Σ (R(Δα_i) − I)·g_i` has no cancellation either. The output angle needs
-//!   δ itself: [`asin_small`] (series, < 1 ulp) for |sin δ| ≤ 0.125 and cos δ > 0, `atan2`
+//!   δ itself: [`asin_small`] (series, < 1 ulp) for |sin δ| ≤ 1/16 and cos δ > 0, `atan2`
 //!   otherwise. A triangle that cannot close shows as `s′² < 0` (|c′| > 1 in the scalar core).
 //!
 //! The results agree with `Workspace::solve` to rounding (≈ 1e-13 relative on the deflections,
