@@ -10,7 +10,7 @@
 //!   base tilt), one module each;
 //! * [`pose`]: the loaded pose, closed exactly;
 //! * [`solve`]: all of it for many poses at once, in parallel;
-//! * [`sweep`]: poses × payloads in bounded memory, with per-group reductions (fast kernel);
+//! * [`mod@sweep`]: poses × payloads in bounded memory, with per-group reductions (fast kernel);
 //! * [`sensitivity`]: predicted channels and their derivatives by effect parameter, for fits;
 //! * [`fem`]: the numerical model, a frame finite-element model of the same arm solved with
 //!   faer's sparse Cholesky, an independent check of all of the above.

@@ -11,8 +11,8 @@
 //!   ([`L`] poses at once, cheap vectorisable trigonometry, no acos/atan2 in the closure;
 //!   arms of up to [`MAX_FAST_LINKS`] links), compiled for AVX-512, AVX2 and baseline x86-64
 //!   and picked at run time for the CPU (`pulp`; the same bits on each). The other effects,
-//!   and longer arms, run
-//!   through `Workspace::solve` per cell inside the same chunked, parallel, reducing machinery.
+//!   and longer arms, run through `Workspace::solve` per cell inside the same chunked,
+//!   parallel, reducing machinery.
 //! * **Chunks.** Poses are processed in chunks of about `chunk_rows` rows (default
 //!   [`CHUNK_ROWS`]), taken from a queue by the calling thread and `threads − 1` pool
 //!   threads; each thread owns its scratch, nothing is allocated per pose. Between its chunks

@@ -657,6 +657,31 @@ fn instruction_sets_agree_bitwise() {
         assert_eq!(fast.ok, slow.ok);
         assert_eq!(fast.reachable, slow.reachable);
     }
+    // Large turns (the atan2 lanes) and angles beyond the fast reduction (libm lanes).
+    let arm = arm(3, &mut rng, None);
+    let soft = EffectSet::new(
+        &arm,
+        vec![Effect::ActuatorCompliance(ActuatorCompliance {
+            actuator: 1,
+            stiffness: 30.0,
+        })],
+    )
+    .unwrap();
+    let mut alpha = poses(3, 50, &mut rng);
+    for p in (0..50).step_by(7) {
+        alpha[3 * p] += 360.0 * 1e4; // 3.6e6 degrees: the same pose, many turns later
+    }
+    let mass = [5.0, 40.0];
+    let fast = run(&arm, &soft, &alpha, &mass, opts(true), &never).unwrap();
+    let base = SweepOptions {
+        baseline_simd: true,
+        ..opts(true)
+    };
+    let slow = run(&arm, &soft, &alpha, &mass, base, &never).unwrap();
+    assert_eq!(fast.bits(), slow.bits(), "soft arm");
+    assert!(fast.dalpha.iter().any(|d| d.abs() > 4.0));
+    let worst = compare(&arm, &soft, &alpha, &mass, true);
+    assert!(worst < 1e-10, "{worst:e}");
 }
 
 /// `cancel` returning true stops the sweep with `Cancelled`, on one thread and on several.

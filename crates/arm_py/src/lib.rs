@@ -264,55 +264,68 @@ fn solve<'py>(
     Ok(out)
 }
 
-/// The five cell fields of a sweep, owned, in the order of `arm_core::sweep::CellFields`.
-struct Fields<T> {
-    force: Vec<T>,
-    dx: Vec<T>,
-    dy: Vec<T>,
-    dalpha: Vec<T>,
-    dl: Vec<T>,
+/// A fresh, uninitialised 1-D numpy array (`numpy.empty`): no zeroing pass over memory that
+/// the core overwrites anyway (calloc must zero reused heap memory, serially, ~100 MB per
+/// call at 1e6 poses), and numpy asks the kernel for huge pages for large arrays. The core
+/// writes every element before the array is returned.
+fn empty<'py, T: numpy::Element>(
+    np_empty: &Bound<'py, PyAny>,
+    len: usize,
+) -> PyResult<Bound<'py, PyArray1<T>>> {
+    let dtype = numpy::dtype::<T>(np_empty.py());
+    Ok(np_empty.call1((len, dtype))?.cast_into::<PyArray1<T>>()?)
 }
 
-impl<T: Clone + Default + numpy::Element> Fields<T> {
-    fn new(rows: usize, n: usize) -> Self {
-        // vec![zero; k] is calloc: the pages are first touched by the worker threads.
-        Self {
-            force: vec![T::default(); rows * n],
-            dx: vec![T::default(); rows],
-            dy: vec![T::default(); rows],
-            dalpha: vec![T::default(); rows * n],
-            dl: vec![T::default(); rows * n],
-        }
+/// The five cell fields of a sweep, in the order of `arm_core::sweep::CellFields`.
+struct Fields<'py, T: numpy::Element> {
+    force: Bound<'py, PyArray1<T>>,
+    dx: Bound<'py, PyArray1<T>>,
+    dy: Bound<'py, PyArray1<T>>,
+    dalpha: Bound<'py, PyArray1<T>>,
+    dl: Bound<'py, PyArray1<T>>,
+}
+
+impl<'py, T: numpy::Element> Fields<'py, T> {
+    fn new(np_empty: &Bound<'py, PyAny>, rows: usize, n: usize) -> PyResult<Self> {
+        Ok(Self {
+            force: empty(np_empty, rows * n)?,
+            dx: empty(np_empty, rows)?,
+            dy: empty(np_empty, rows)?,
+            dalpha: empty(np_empty, rows * n)?,
+            dl: empty(np_empty, rows * n)?,
+        })
     }
 
-    fn view(&mut self) -> CellFields<'_, T> {
-        CellFields {
-            force_n: &mut self.force,
-            dx_mm: &mut self.dx,
-            dy_mm: &mut self.dy,
-            dalpha_deg: &mut self.dalpha,
-            dl_mm: &mut self.dl,
-        }
+    fn write(&self) -> [numpy::PyReadwriteArray1<'py, T>; 5] {
+        [&self.force, &self.dx, &self.dy, &self.dalpha, &self.dl].map(|a| a.readwrite())
     }
 
     /// Puts the arrays into `out`, shaped `lead` (+ `n` for the per-link fields).
     fn put(self, out: &Bound<'_, PyDict>, lead: &[usize], n: usize) -> PyResult<()> {
-        let py = out.py();
         let mut wide = lead.to_vec();
         wide.push(n);
-        out.set_item(
-            "force_n",
-            self.force.into_pyarray(py).reshape(wide.clone())?,
-        )?;
-        out.set_item("dx_mm", self.dx.into_pyarray(py).reshape(lead.to_vec())?)?;
-        out.set_item("dy_mm", self.dy.into_pyarray(py).reshape(lead.to_vec())?)?;
-        out.set_item(
-            "dalpha_deg",
-            self.dalpha.into_pyarray(py).reshape(wide.clone())?,
-        )?;
-        out.set_item("dl_mm", self.dl.into_pyarray(py).reshape(wide)?)?;
+        out.set_item("force_n", self.force.reshape(wide.clone())?)?;
+        out.set_item("dx_mm", self.dx.reshape(lead.to_vec())?)?;
+        out.set_item("dy_mm", self.dy.reshape(lead.to_vec())?)?;
+        out.set_item("dalpha_deg", self.dalpha.reshape(wide.clone())?)?;
+        out.set_item("dl_mm", self.dl.reshape(wide)?)?;
         Ok(())
     }
+}
+
+/// Mutable slices of five arrays' guards, as cell fields.
+fn cell_fields<'a, T: numpy::Element>(
+    g: &'a mut [numpy::PyReadwriteArray1<'_, T>; 5],
+) -> PyResult<CellFields<'a, T>> {
+    let [f, x, y, a, l] = g;
+    let s = |e: numpy::AsSliceError| value_error(format!("sweep output: {e}"));
+    Ok(CellFields {
+        force_n: f.as_slice_mut().map_err(s)?,
+        dx_mm: x.as_slice_mut().map_err(s)?,
+        dy_mm: y.as_slice_mut().map_err(s)?,
+        dalpha_deg: a.as_slice_mut().map_err(s)?,
+        dl_mm: l.as_slice_mut().map_err(s)?,
+    })
 }
 
 /// Sweeps N poses × M payload masses (see `arm_core::sweep`); returns a dict of arrays.
@@ -377,13 +390,14 @@ fn py_sweep<'py>(
     };
     let rows = poses * mass.len() / if op.is_some() { group } else { 1 };
     let arg = op.is_some_and(ReduceOp::is_arg);
-    let mut values_out = Fields::<f64>::new(if arg { 0 } else { rows }, n);
-    let mut index_out = Fields::<i64>::new(if arg { rows } else { 0 }, n);
-    let mut ok = vec![false; rows];
-    let mut length = vec![0.0; poses * n];
-    let mut reachable = vec![false; poses];
-    let mut ex = vec![0.0; poses];
-    let mut ey = vec![0.0; poses];
+    let np_empty = py.import("numpy")?.getattr("empty")?;
+    let values_out = Fields::<f64>::new(&np_empty, if arg { 0 } else { rows }, n)?;
+    let index_out = Fields::<i64>::new(&np_empty, if arg { rows } else { 0 }, n)?;
+    let ok = empty::<bool>(&np_empty, rows)?;
+    let length = empty::<f64>(&np_empty, poses * n)?;
+    let reachable = empty::<bool>(&np_empty, poses)?;
+    let ex = empty::<f64>(&np_empty, poses)?;
+    let ey = empty::<f64>(&np_empty, poses)?;
     let interrupt: Mutex<Option<PyErr>> = Mutex::new(None);
     let cancel = || {
         Python::attach(|py| match py.check_signals() {
@@ -396,22 +410,31 @@ fn py_sweep<'py>(
             }
         })
     };
-    let result = py.detach(|| {
+    let result = {
+        let (mut vw, mut iw) = (values_out.write(), index_out.write());
         let cells = if arg {
-            Cells::Indices(index_out.view())
+            Cells::Indices(cell_fields(&mut iw)?)
         } else {
-            Cells::Values(values_out.view())
+            Cells::Values(cell_fields(&mut vw)?)
         };
+        let s = |e: numpy::AsSliceError| value_error(format!("sweep output: {e}"));
+        let (mut okw, mut lw, mut rw, mut xw, mut yw) = (
+            ok.readwrite(),
+            length.readwrite(),
+            reachable.readwrite(),
+            ex.readwrite(),
+            ey.readwrite(),
+        );
         let out = SweepOut {
             cells,
-            ok: &mut ok,
-            length_mm: &mut length,
-            reachable: &mut reachable,
-            effector_x_mm: &mut ex,
-            effector_y_mm: &mut ey,
+            ok: okw.as_slice_mut().map_err(s)?,
+            length_mm: lw.as_slice_mut().map_err(s)?,
+            reachable: rw.as_slice_mut().map_err(s)?,
+            effector_x_mm: xw.as_slice_mut().map_err(s)?,
+            effector_y_mm: yw.as_slice_mut().map_err(s)?,
         };
-        arm_core::sweep(arm, &effects, alpha, mass, opts, out, &cancel)
-    });
+        py.detach(|| arm_core::sweep(arm, &effects, alpha, mass, opts, out, &cancel))
+    };
     match result {
         Ok(()) => {}
         Err(ArmError::Cancelled) => {
@@ -431,11 +454,11 @@ fn py_sweep<'py>(
     } else {
         values_out.put(&out, &lead, n)?;
     }
-    out.set_item("ok", ok.into_pyarray(py).reshape(lead)?)?;
-    out.set_item("length_mm", length.into_pyarray(py).reshape([poses, n])?)?;
-    out.set_item("reachable", reachable.into_pyarray(py))?;
-    out.set_item("effector_x_mm", ex.into_pyarray(py))?;
-    out.set_item("effector_y_mm", ey.into_pyarray(py))?;
+    out.set_item("ok", ok.reshape(lead)?)?;
+    out.set_item("length_mm", length.reshape([poses, n])?)?;
+    out.set_item("reachable", reachable)?;
+    out.set_item("effector_x_mm", ex)?;
+    out.set_item("effector_y_mm", ey)?;
     Ok(out)
 }
 
