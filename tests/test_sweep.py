@@ -274,7 +274,8 @@ def test_chunk_boundaries_change_nothing(
 def test_no_chunk_is_larger_than_asked_and_reduced_output_is_small(
     arm: eodarm.Arm, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    """Memory is bounded by the chunk: poses are made per chunk, and only the reduction kept."""
+    """Chunked grids (here of lengths) make their poses per chunk and keep only the
+    reduction."""
     spans: list[int] = []
     real = sweep_mod._Grid.values
 
@@ -284,19 +285,52 @@ def test_no_chunk_is_larger_than_asked_and_reduced_output_is_small(
 
     monkeypatch.setattr(sweep_mod._Grid, "values", spy)
     g = {
-        "alpha1": np.linspace(60, 120, 30),
-        "alpha2": np.linspace(0, 30, 20),
-        "alpha3": np.linspace(-10, 10, 10),
+        "l1": np.linspace(250, 330, 30),
+        "l2": np.linspace(480, 600, 20),
+        "l3": np.linspace(480, 540, 10),
     }
     ds = sweep_fn(
         arm,
-        alpha_deg=g,
+        lengths=g,
         mass_kg=[1.0, 2.0],
         chunk_size=250,
-        reduce={"op": "max", "dims": ["alpha3", "mass_kg"]},
+        reduce={"op": "max", "dims": ["l3", "mass_kg"]},
     )
     assert sum(spans) == 6000 and max(spans) <= 250 and len(spans) == 24
     assert ds["dy_mm"].shape == (30, 20) and ds.nbytes < 30 * 20 * 200
+
+
+def test_an_angle_grid_is_never_built_in_python_and_a_reduced_sweep_stays_small(
+    arm: eodarm.Arm, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """An angle grid goes to the core whole: no per-pose array is made in Python, and the
+    memory numpy allocates for a reduced sweep of 480 000 poses is about its output."""
+    import tracemalloc
+
+    def forbidden(self: Any, start: int, stop: int) -> np.ndarray:
+        raise AssertionError("an angle grid was built in Python")
+
+    monkeypatch.setattr(sweep_mod._Grid, "values", forbidden)
+    g = {
+        "alpha1": np.linspace(60, 110, 80),
+        "alpha2": np.linspace(0, 30, 60),
+        "alpha3": np.linspace(-10, 10, 100),
+    }
+    sweep_fn(arm, alpha_deg=g, mass_kg=[1.0], reduce={"op": "max", "dims": ["mass_kg"]})
+    tracemalloc.start()
+    try:
+        ds = sweep_fn(
+            arm,
+            alpha_deg=g,
+            mass_kg=[1.0, 2.0],
+            reduce={"op": "max", "dims": ["alpha3", "mass_kg"]},
+        )
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert ds["dy_mm"].shape == (80, 60) and bool(ds["ok"].all())
+    # The output is 4800 groups × 12 values; all outputs of every cell would be 130 MB.
+    assert peak < 2_000_000, peak
 
 
 # ---------------------------------------------------------------------------- other grids
@@ -517,11 +551,8 @@ def test_a_progress_bar_shows_on_stderr_when_asked(
     assert capsys.readouterr().err == ""
 
 
-def test_ctrl_c_between_chunks_stops_the_sweep_and_the_cli_says_so(
-    arm: eodarm.Arm,
-    tmp_path: Path,
-    monkeypatch: pytest.MonkeyPatch,
-    capsys: pytest.CaptureFixture[str],
+def test_ctrl_c_between_chunks_stops_a_chunked_sweep(
+    arm: eodarm.Arm, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     calls = []
     real = sweep_mod._chunk
@@ -533,11 +564,73 @@ def test_ctrl_c_between_chunks_stops_the_sweep_and_the_cli_says_so(
         return real(job, start, stop)
 
     monkeypatch.setattr(sweep_mod, "_chunk", interrupted)
-    g = {"alpha1": np.linspace(60, 120, 10), "alpha2": [0.0], "alpha3": [0.0]}
+    g = {"l1": np.linspace(250, 330, 10), "l2": [520.0], "l3": [500.0]}
     with pytest.raises(KeyboardInterrupt):
-        sweep_fn(arm, alpha_deg=g, mass_kg=[1.0], chunk_size=2)
+        sweep_fn(arm, lengths=g, mass_kg=[1.0], chunk_size=2)
     assert len(calls) == 3  # no chunk after the interrupt
-    calls.clear()
+
+
+class _InterruptingBar:
+    """A stand-in progress bar that records the progress and sends SIGINT (as Ctrl-C does)
+    at its first update."""
+
+    def __init__(self, total: int) -> None:
+        self.total, self.n, self.seen = total, 0, []
+
+    def update(self, k: int) -> None:
+        import _thread
+
+        self.n += k
+        self.seen.append(self.n)
+        if len(self.seen) == 1:
+            _thread.interrupt_main()
+
+    def close(self) -> None:
+        pass
+
+
+def test_ctrl_c_stops_the_core_between_its_chunks(
+    arm: eodarm.Arm, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A real SIGINT during a one-call angle-grid sweep: the core's signal check between its
+    chunks raises KeyboardInterrupt long before the sweep is done."""
+    bars: list[_InterruptingBar] = []
+
+    def fake_bar(total: int, progress: Any, **kwargs: Any) -> _InterruptingBar:
+        bars.append(_InterruptingBar(total))
+        return bars[-1]
+
+    monkeypatch.setattr(sweep_mod, "_progress_bar", fake_bar)
+    g = {
+        "alpha1": np.linspace(60, 110, 200),
+        "alpha2": np.linspace(0, 30, 100),
+        "alpha3": np.linspace(-10, 10, 100),
+    }
+    for threads in (1, 2):
+        with pytest.raises(KeyboardInterrupt):
+            sweep_fn(
+                arm,
+                alpha_deg=g,
+                mass_kg=[1.0],
+                reduce={"op": "max", "dims": ["mass_kg"]},
+                threads=threads,
+                progress=True,
+            )
+        bar = bars.pop()
+        assert bar.total == 2_000_000
+        assert len(bar.seen) == 1 and 0 < bar.seen[0] < 100_000, bar.seen
+
+
+def test_ctrl_c_in_the_cli_exits_130_without_writing(
+    arm: eodarm.Arm,
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    def interrupted(*args: Any, **kwargs: Any) -> None:
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(sweep_mod, "_sweep_grid", interrupted)
     out = tmp_path / "never.nc"
     arm_file = tmp_path / "arm.toml"
     arm_file.write_text(arm.to_toml())

@@ -278,3 +278,85 @@ def test_ctrl_c_stops_a_running_sweep() -> None:
             pass
         signal.signal(signal.SIGINT, previous)
     assert elapsed < 1.0, f"took {elapsed:.2f} s to stop"
+
+
+# ---------------------------------------------------------------------------- grid= and out=
+def test_a_grid_source_equals_its_poses_given_as_rows() -> None:
+    """``grid=(axes, links, start, count)`` is the C-order product of the axes (dimension d
+    setting link ``links[d]``), a sub-range of it included, written into caller arrays."""
+    arm = eodarm.Arm.from_toml(EXAMPLE)
+    axes = [np.linspace(0, 30, 7), np.linspace(60, 110, 11), np.linspace(-10, 10, 5)]
+    links = [1, 0, 2]
+    mesh = np.meshgrid(*axes, indexing="ij")
+    rows = np.empty((385, 3))
+    for d, link in enumerate(links):
+        rows[:, link] = mesh[d].reshape(-1)
+    mass = np.array([1.0, 6.0])
+    codes, places, values = effect_arrays(LENGTH_ONLY, arm.n)
+    for start, count in ((0, 385), (40, 123)):
+        want = core_sweep(arm, rows[start : start + count], mass, LENGTH_ONLY)
+        out = {k: np.empty_like(v) for k, v in want.items()}
+        got = _core.sweep(
+            _core_arm(arm),
+            None,
+            mass,
+            codes,
+            places,
+            values,
+            True,
+            grid=(axes, links, start, count),
+            out=out,
+        )
+        assert got is out
+        for key, val in want.items():
+            np.testing.assert_array_equal(out[key], val, err_msg=key)
+
+
+def test_out_arrays_that_do_not_fit_get_a_clear_error() -> None:
+    arm = eodarm.Arm.from_toml(EXAMPLE)
+    alpha = np.array([[90.0, 10.0, 0.0], [80.0, 5.0, 2.0]])
+    mass = np.array([1.0])
+    good = core_sweep(arm, alpha, mass)
+    cases = [
+        ({"dy_mm": None}, r"out: missing the array 'dy_mm'"),
+        ({"force_n": np.empty((2, 1, 3), dtype=np.float32)}, r"out\['force_n'\].*float64"),
+        ({"ok": np.empty((2, 1))}, r"out\['ok'\].*bool"),
+        ({"dl_mm": np.empty((2, 1, 4))}, r"dl_mm: expected 6 values, got 8"),
+        ({"dx_mm": np.empty((4, 1))[::2]}, r"out\['dx_mm'\].*C-contiguous"),
+        ({"length_mm": np.empty((2, 3))[:, :2].copy()}, r"length_mm: expected 6"),
+    ]
+    for change, message in cases:
+        out = {k: np.empty_like(v) for k, v in good.items()}
+        for k, v in change.items():
+            if v is None:
+                del out[k]
+            else:
+                out[k] = v
+        with pytest.raises(_core.CoreError, match=message) as info:
+            core_sweep(arm, alpha, mass, out=out)
+        assert "\n" not in str(info.value)
+    shared = {k: np.empty_like(v) for k, v in good.items()}
+    shared["dy_mm"] = shared["dx_mm"]  # the same array twice
+    with pytest.raises(_core.CoreError, match=r"out\['dy_mm'\].*borrowed"):
+        core_sweep(arm, alpha, mass, out=shared)
+    with pytest.raises(_core.CoreError, match="exactly one of alpha_deg"):
+        core_sweep(arm, alpha, mass, grid=([alpha[:, 0]], [0], 0, 2))
+    # Per-pose arrays may be left out: they are then not written.
+    out = {k: np.empty_like(good[k]) for k in (*CELL_KEYS, "ok")}
+    core_sweep(arm, alpha, mass, out=out)
+    for key in (*CELL_KEYS, "ok"):
+        np.testing.assert_array_equal(out[key], good[key], err_msg=key)
+
+
+def test_an_exception_in_the_progress_callback_stops_the_sweep() -> None:
+    arm = eodarm.Arm.from_toml(EXAMPLE)
+    alpha = np.tile([[90.0, 10.0, 0.0]], (200_000, 1))
+    seen: list[int] = []
+
+    def progress(done: int) -> None:
+        seen.append(done)
+        raise RuntimeError("stop here")
+
+    with pytest.raises(RuntimeError, match="stop here"):
+        core_sweep(arm, alpha, np.array([1.0]), progress=progress, threads=1)
+    assert len(seen) == 1 and 0 < seen[0] < 200_000

@@ -69,7 +69,7 @@ impl Buffers {
     }
 }
 
-fn never() -> bool {
+fn never(_finished: usize) -> bool {
     false
 }
 
@@ -106,8 +106,7 @@ fn bench_sweep(c: &mut Criterion) {
                     self_weight: true,
                     reduce,
                     threads,
-                    chunk_rows: None,
-                    baseline_simd: false,
+                    ..Default::default()
                 };
                 // Every cell must solve: a benchmark of NaN cells would measure nothing.
                 ok(

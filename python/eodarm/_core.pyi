@@ -1,5 +1,6 @@
 """Type stubs of the private native module ``eodarm._core`` (built from crates/arm_py)."""
 
+from collections.abc import Callable, Sequence
 from typing import Any, final
 
 import numpy as np
@@ -54,7 +55,7 @@ def solve(
 ) -> dict[str, npt.NDArray[np.float64]]: ...
 def sweep(
     arm: CoreArm,
-    alpha_deg: npt.NDArray[np.float64],
+    alpha_deg: npt.NDArray[np.float64] | None,
     mass_kg: npt.NDArray[np.float64],
     codes: npt.NDArray[np.int64],
     places: npt.NDArray[np.int64],
@@ -63,6 +64,12 @@ def sweep(
     reduce: str | None = None,
     group: int = 1,
     threads: int | None = None,
+    *,
+    grid: tuple[Sequence[npt.NDArray[np.float64]], Sequence[int], int, int] | None = None,
+    out: dict[str, npt.NDArray[Any]] | None = None,
+    mask_unreachable: bool = False,
+    progress: Callable[[int], object] | None = None,
+    chunk_rows: int | None = None,
 ) -> dict[str, npt.NDArray[Any]]: ...
 def fem_solve(
     arm: CoreArm,

@@ -12,13 +12,15 @@ effects, and returns an :class:`xarray.Dataset` with named dimensions, coordinat
     ...                   mass_kg=[1.5, 5.0, 6.5])                       # doctest: +SKIP
     >>> ds.dy_mm.sel(alpha1=90, alpha2=10, alpha3=0, mass_kg=5.0)        # doctest: +SKIP
 
-The grid is walked in chunks of ``chunk_size`` poses; each chunk's poses are made from the
-flat pose index (nothing of size N × n is ever built for the whole grid), solved by the
-compiled core (``eodarm._core.sweep`` when the core has it, else :func:`_sweep_fallback`, the
-same semantics on top of ``eodarm._core.solve``) and, for a reduced sweep, reduced at once, so
-memory stays bounded by the chunk and the reduced output. ``scheduler=`` maps the chunks onto
-a Dask cluster instead. The layout, the mask and the reductions are described in
-``docs/sweeps.md``.
+A local sweep of an angle grid is one call of the compiled core (``eodarm._core.sweep`` with
+``grid=``): the core makes each chunk's poses from the grid's axes, solves, masks and reduces
+them in parallel and writes straight into the result arrays. Other grids (lengths, effector
+targets), the finite-element model and Dask schedulers walk the grid in chunks of
+``chunk_size`` poses from Python; each chunk's poses are made from the flat pose index, solved
+by the compiled core (the FE model by :func:`_sweep_fallback`) and, for a reduced sweep,
+reduced at once. Either way nothing of the grid's size is built for a reduced sweep, so memory
+stays bounded by the chunk and the reduced output. The layout, the mask and the reductions
+are described in ``docs/sweeps.md``.
 
 Command line (registered by :func:`add_parser`)::
 
@@ -688,7 +690,8 @@ def sweep(
         ``reachable`` (which becomes "any pose of the group") are dropped when an angle is
         reduced.
     chunk_size : poses per chunk (rounded up to whole reduction groups). Memory of a reduced
-        sweep is bounded by the chunk and the reduced output.
+        sweep is bounded by the chunk and the reduced output. A local angle-grid sweep runs
+        in the core's own chunks (about 16 384 cells) unless this is given.
     progress : show a progress bar on stderr: None (auto: more than 50 chunks, or after 2 s),
         True or False.
     scheduler : None (run here), a ``distributed.Client`` (chunks are submitted to its cluster
@@ -788,15 +791,19 @@ def sweep(
         for key, arr in result.items():
             arr[a:b] = res[key]
 
-    bar = _progress_bar(len(spans), progress)
-    try:
-        for span, res in _run(job, spans, scheduler):
-            place(span, res)
+    if scheduler is None and model == "analytic" and grid.kind == "alpha":
+        # One call: the core walks the grid itself, in parallel, straight into `result`.
+        _sweep_grid(job, result, None if chunk_size == CHUNK_SIZE else step, progress)
+    else:
+        bar = _progress_bar(len(spans), progress)
+        try:
+            for span, res in _run(job, spans, scheduler):
+                place(span, res)
+                if bar is not None:
+                    bar.update(1)
+        finally:
             if bar is not None:
-                bar.update(1)
-    finally:
-        if bar is not None:
-            bar.close()
+                bar.close()
 
     # --------------------------------------------------------------- the Dataset
     kept = list(grid.names[: len(grid.names) - (len(rdims) - 1)] if op else grid.names)
@@ -863,6 +870,54 @@ def sweep(
 
 
 # ---------------------------------------------------------------------------- running
+def _sweep_grid(
+    job: _Job,
+    result: dict[str, npt.NDArray[Any]],
+    chunk_poses: int | None,
+    progress: bool | None,
+) -> None:
+    """Sweep a whole angle grid in one call of the compiled core, into ``result``.
+
+    The core makes each chunk's poses from the grid's axes, solves and (if asked) masks and
+    reduces them, and writes straight into the result arrays (a reduction's ``reachable`` as
+    "any pose of the group"); it checks for Ctrl-C and reports progress between chunks.
+    """
+    from . import _core
+
+    arm, grid, m = job.arm, job.grid, job.mass.shape[0]
+    codes, places, values = effect_arrays(job.effects, arm.n)
+    axes = [np.ascontiguousarray(c, dtype=float) for c in grid.coords]
+    size = grid.size
+    bar = _progress_bar(size, progress, unit="pose", auto_at=PROGRESS_CHUNKS * CHUNK_SIZE)
+
+    def report(done: int) -> None:
+        bar.update(done - bar.n)
+
+    try:
+        _core.sweep(
+            _core_arm(arm),
+            None,
+            job.mass,
+            codes,
+            places,
+            values,
+            job.self_weight,
+            job.op,
+            m * job.block if job.op else 1,
+            job.threads,
+            grid=(axes, list(grid.columns), 0, size),
+            out=result,
+            mask_unreachable=job.mask_unreachable,
+            progress=report if bar is not None else None,
+            chunk_rows=None if chunk_poses is None else chunk_poses * m,
+        )
+        if bar is not None:
+            bar.update(size - bar.n)
+    finally:
+        if bar is not None:
+            bar.close()
+
+
 def _run(
     job: _Job, spans: list[tuple[int, int]], scheduler: Any
 ) -> Iterator[tuple[tuple[int, int], dict[str, npt.NDArray[Any]]]]:
@@ -901,18 +956,23 @@ def _run(
         yield from zip(part, results, strict=True)
 
 
-def _progress_bar(n_chunks: int, progress: bool | None) -> Any:
-    if progress is False or (progress is None and n_chunks <= 1):
+def _progress_bar(
+    total: int, progress: bool | None, unit: str = "chunk", auto_at: int = PROGRESS_CHUNKS
+) -> Any:
+    """A tqdm bar on stderr over ``total`` units: shown at once when asked or when ``total``
+    exceeds ``auto_at``, after 2 s when ``progress`` is None, never when it is False."""
+    if progress is False or (progress is None and total <= 1):
         return None
     try:
         from tqdm import tqdm
     except ImportError:  # pragma: no cover - tqdm is a dependency
         return None
-    delay = 0.0 if progress or n_chunks > PROGRESS_CHUNKS else 2.0
+    delay = 0.0 if progress or total > auto_at else 2.0
     return tqdm(
-        total=n_chunks,
+        total=total,
         desc="eodarm sweep",
-        unit="chunk",
+        unit=unit,
+        unit_scale=unit == "pose",
         file=sys.stderr,
         delay=delay,
         leave=False,

@@ -13,15 +13,22 @@
 //!   and picked at run time for the CPU (`pulp`; the same bits on each). The other effects,
 //!   and longer arms, run through `Workspace::solve` per cell inside the same chunked,
 //!   parallel, reducing machinery.
+//! * **Poses.** Either given as rows of angles ([`Poses::Rows`]) or as a regular grid
+//!   ([`Poses::Grid`]) whose poses each chunk generates into its thread's scratch, so that a
+//!   sweep of 10⁸ poses never holds 10⁸ poses.
 //! * **Chunks.** Poses are processed in chunks of about `chunk_rows` rows (default
 //!   [`CHUNK_ROWS`]), taken from a queue by the calling thread and `threads − 1` pool
 //!   threads; each thread owns its scratch, nothing is allocated per pose. Between its chunks
-//!   the calling thread calls `cancel()` (only there, so a Python signal check works); when
-//!   it returns true the sweep stops and returns [`ArmError::Cancelled`], with the outputs
-//!   partly written.
+//!   the calling thread calls `cancel(poses_done)` (only there, so a Python signal check and
+//!   a progress report work); when it returns true the sweep stops and returns
+//!   [`ArmError::Cancelled`], with the outputs partly written.
 //! * **Reductions.** With [`SweepOptions::reduce`], the cell fields are not stored per cell:
 //!   every `group` consecutive rows fold into one output row, NaN ignored (a group without a
-//!   value is NaN, its index −1). Per-pose outputs are still written per pose.
+//!   value is NaN, its index −1). Per-pose outputs are still written per pose, except
+//!   `reachable` when the groups are whole poses and its buffer has one value per group:
+//!   then it is "some pose of the group is reachable".
+//! * **Mask.** With [`SweepOptions::mask_unreachable`] the cells of poses out of stroke are
+//!   not solved (NaN, `ok = false`) and the reductions skip them.
 //!
 //! Results do not depend on the chunk size or the number of threads (bit for bit).
 
@@ -30,7 +37,7 @@ mod fast;
 mod reduce;
 pub mod trig;
 
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::Mutex;
 
 use crate::arm::Arm;
@@ -93,6 +100,9 @@ pub struct SweepOptions {
     /// Run the block kernel with baseline x86-64 instructions (SSE2) even where the CPU has
     /// AVX2 or AVX-512; the results are the same bits (the tests check it).
     pub baseline_simd: bool,
+    /// Treat the cells of poses that are not reachable (out of stroke) as not solved: NaN,
+    /// `ok = false`, skipped by reductions.
+    pub mask_unreachable: bool,
 }
 
 impl Default for SweepOptions {
@@ -103,6 +113,98 @@ impl Default for SweepOptions {
             threads: None,
             chunk_rows: None,
             baseline_simd: false,
+            mask_unreachable: false,
+        }
+    }
+}
+
+/// Where the poses of a sweep come from.
+#[derive(Debug, Clone, Copy)]
+pub enum Poses<'a> {
+    /// `N × n` unloaded absolute angles (deg), row-major.
+    Rows(&'a [f64]),
+    /// Poses of a regular grid of angles, generated chunk by chunk (never stored whole).
+    Grid(Grid<'a>),
+}
+
+/// A regular grid of unloaded absolute angles: the C-order product of one axis per link,
+/// outermost first, and of it the flat poses `start .. start + count`.
+#[derive(Debug, Clone, Copy)]
+pub struct Grid<'a> {
+    /// The values (deg) of each grid dimension, outermost first (the last varies fastest).
+    pub axes: &'a [&'a [f64]],
+    /// The link (0-based) whose angle each dimension sets; every link exactly once.
+    pub links: &'a [usize],
+    /// First flat pose of the grid to sweep.
+    pub start: usize,
+    /// Number of poses to sweep.
+    pub count: usize,
+}
+
+impl Grid<'_> {
+    /// Checks the grid against an arm of `n` links; returns the number of poses.
+    fn check(&self, n: usize) -> Result<usize> {
+        let bad = |msg: String| Err(ArmError::InvalidOption(format!("grid: {msg}")));
+        if self.axes.len() != n || self.links.len() != n {
+            return bad(format!(
+                "{} axes and {} links for an arm of {n} links (one axis per link)",
+                self.axes.len(),
+                self.links.len()
+            ));
+        }
+        let mut seen = vec![false; n];
+        for (d, &i) in self.links.iter().enumerate() {
+            if i >= n || seen[i] {
+                return bad(format!(
+                    "links[{d}] = {i}: every link 0..{n} must be set exactly once"
+                ));
+            }
+            seen[i] = true;
+        }
+        let mut size: usize = 1;
+        for (d, ax) in self.axes.iter().enumerate() {
+            if ax.is_empty() {
+                return bad(format!("axis {d} is empty"));
+            }
+            if let Some(k) = ax.iter().position(|v| !v.is_finite()) {
+                return bad(format!("axis {d} value {k} is not finite"));
+            }
+            size = size
+                .checked_mul(ax.len())
+                .ok_or_else(|| ArmError::InvalidOption("grid: too many poses".into()))?;
+        }
+        match self.start.checked_add(self.count) {
+            Some(end) if end <= size => Ok(self.count),
+            _ => bad(format!(
+                "poses {} .. {} + {} lie outside the grid's {size} poses",
+                self.start, self.start, self.count
+            )),
+        }
+    }
+
+    /// Writes the angles of grid poses `start + p0 .. start + p0 + k` into `buf` (`k × n`).
+    fn fill(&self, p0: usize, k: usize, buf: &mut Vec<f64>) {
+        let n = self.axes.len();
+        buf.clear();
+        buf.resize(k * n, 0.0);
+        // The multi-index of the first pose, then an odometer: no division per pose.
+        let mut idx = vec![0usize; n];
+        let mut f = self.start + p0;
+        for d in (0..n).rev() {
+            idx[d] = f % self.axes[d].len();
+            f /= self.axes[d].len();
+        }
+        for row in buf.chunks_exact_mut(n) {
+            for d in 0..n {
+                row[self.links[d]] = self.axes[d][idx[d]];
+            }
+            for d in (0..n).rev() {
+                idx[d] += 1;
+                if idx[d] < self.axes[d].len() {
+                    break;
+                }
+                idx[d] = 0;
+            }
         }
     }
 }
@@ -173,7 +275,9 @@ pub struct SweepOut<'a> {
     pub ok: &'a mut [bool],
     /// Unloaded pin-to-pin lengths (mm), `N × n` (written also for singular poses).
     pub length_mm: &'a mut [f64],
-    /// Not singular and every length within its actuator's stroke limits, `N`.
+    /// Not singular and every length within its actuator's stroke limits, `N`; or, with a
+    /// reduction over groups of whole poses (`group` a multiple of M, > M), `R` values:
+    /// some pose of the group reachable.
     pub reachable: &'a mut [bool],
     /// Unloaded global load point, x (mm), `N`.
     pub effector_x_mm: &'a mut [f64],
@@ -210,17 +314,21 @@ struct Partial {
     vals: Vec<f64>,
     at: Vec<i64>,
     ok: bool,
+    reach: bool,
 }
 
 /// What every chunk needs to know.
 struct Plan<'a> {
     arm: &'a Arm,
     effects: &'a EffectSet,
-    alpha: &'a [f64],
+    poses: Poses<'a>,
     mass: &'a [f64],
     n: usize,
     self_weight: bool,
+    mask_unreachable: bool,
     reduce: Option<Reduce>,
+    /// Poses per value of `reachable` (> 1: any pose of the group).
+    pose_group: usize,
     kernel: Kernel,
     /// The instruction set the block kernel runs with.
     simd: pulp::Arch,
@@ -259,20 +367,17 @@ impl Kernel {
 struct Scratch {
     acc: Acc,
     exact: Option<fallback::Scratch>,
+    /// The chunk's angles, for grid sweeps.
+    alpha: Vec<f64>,
+    /// The chunk's per-pose reachability, when it is reduced per group.
+    reach: Vec<bool>,
 }
 
 /// Sweeps every pose of `alpha_deg` (`N × n`, degrees) under every payload mass of `mass_kg`
-/// (`M`, kg), writing `out` in place; see the [module documentation](self).
-///
-/// `cancel` is called on the calling thread between chunks; when it returns true the sweep
-/// stops.
+/// (`M`, kg), writing `out` in place: [`sweep_poses`] with [`Poses::Rows`].
 ///
 /// # Errors
-/// * [`ArmError::Shape`] for input or output buffers of the wrong length;
-/// * [`ArmError::NonFinite`] naming the first pose with a non-finite angle;
-/// * [`ArmError::InvalidOption`] for a mass that is negative or not finite, a group that does
-///   not divide N·M, zero threads, or index buffers where values are due (and the reverse);
-/// * [`ArmError::Cancelled`] when `cancel` returned true.
+/// As [`sweep_poses`].
 pub fn sweep(
     arm: &Arm,
     effects: &EffectSet,
@@ -280,17 +385,55 @@ pub fn sweep(
     mass_kg: &[f64],
     opts: SweepOptions,
     out: SweepOut<'_>,
-    cancel: &(dyn Fn() -> bool + Sync),
+    cancel: &(dyn Fn(usize) -> bool + Sync),
+) -> Result<()> {
+    sweep_poses(
+        arm,
+        effects,
+        Poses::Rows(alpha_deg),
+        mass_kg,
+        opts,
+        out,
+        cancel,
+    )
+}
+
+/// Sweeps every pose of `poses` under every payload mass of `mass_kg` (`M`, kg), writing
+/// `out` in place; see the [module documentation](self).
+///
+/// `cancel` is called on the calling thread between chunks with the number of poses finished
+/// so far (by all threads); when it returns true the sweep stops.
+///
+/// # Errors
+/// * [`ArmError::Shape`] for input or output buffers of the wrong length;
+/// * [`ArmError::NonFinite`] naming the first pose with a non-finite angle;
+/// * [`ArmError::InvalidOption`] for a mass that is negative or not finite, a group that does
+///   not divide N·M, zero threads, index buffers where values are due (and the reverse), or
+///   a grid that does not fit the arm;
+/// * [`ArmError::Cancelled`] when `cancel` returned true.
+pub fn sweep_poses(
+    arm: &Arm,
+    effects: &EffectSet,
+    poses_in: Poses<'_>,
+    mass_kg: &[f64],
+    opts: SweepOptions,
+    out: SweepOut<'_>,
+    cancel: &(dyn Fn(usize) -> bool + Sync),
 ) -> Result<()> {
     let n = arm.n();
-    if !alpha_deg.len().is_multiple_of(n) {
-        return Err(ArmError::Shape {
-            what: "alpha_deg",
-            expected: (alpha_deg.len() / n + 1) * n,
-            got: alpha_deg.len(),
-        });
-    }
-    let poses = alpha_deg.len() / n;
+    let poses = match poses_in {
+        Poses::Rows(alpha_deg) => {
+            if !alpha_deg.len().is_multiple_of(n) {
+                return Err(ArmError::Shape {
+                    what: "alpha_deg",
+                    expected: (alpha_deg.len() / n + 1) * n,
+                    got: alpha_deg.len(),
+                });
+            }
+            alpha_deg.len() / n
+        }
+        Poses::Grid(g) => g.check(n)?,
+    };
     let masses = mass_kg.len();
     if let Some((j, m)) = mass_kg
         .iter()
@@ -312,8 +455,21 @@ pub fn sweep(
         Some(r) => r.group,
         None => 1,
     };
+    // Reachability per group of whole poses: a reduction over groups of whole poses with a
+    // `reachable` buffer of one value per group.
+    let pose_group = match opts.reduce {
+        Some(r)
+            if masses > 0
+                && r.group.is_multiple_of(masses)
+                && r.group > masses
+                && out.reachable.len() == rows / r.group =>
+        {
+            r.group / masses
+        }
+        _ => 1,
+    };
     let want_idx = opts.reduce.is_some_and(|r| r.op.is_arg());
-    check_out(&out, n, poses, rows / group, want_idx)?;
+    check_out(&out, n, poses, rows / group, want_idx, pose_group)?;
     let threads = match opts.threads {
         Some(0) => return Err(ArmError::InvalidOption("threads must be >= 1".into())),
         Some(k) => k,
@@ -322,11 +478,13 @@ pub fn sweep(
     let plan = Plan {
         arm,
         effects,
-        alpha: alpha_deg,
+        poses: poses_in,
         mass: mass_kg,
         n,
         self_weight: opts.self_weight,
+        mask_unreachable: opts.mask_unreachable,
         reduce: opts.reduce,
+        pose_group,
         kernel: Kernel::new(arm, effects, opts.self_weight),
         simd: if opts.baseline_simd {
             pulp::Arch::Scalar
@@ -352,7 +510,7 @@ pub fn sweep(
         }
     }
     .max(L);
-    let (chunks, gaps) = split_out(out, n, poses, masses, group, chunk_poses);
+    let (chunks, gaps) = split_out(out, n, poses, masses, group, pose_group, chunk_poses);
     let nchunks = chunks.len();
     let inline = threads <= 1
         || nchunks <= 1
@@ -361,22 +519,26 @@ pub fn sweep(
     let mut cancelled = false;
     if inline {
         let mut scratch = Scratch::default();
+        let mut finished = 0;
         for (k, chunk) in chunks.into_iter().enumerate() {
-            if k > 0 && cancel() {
+            if k > 0 && cancel(finished) {
                 cancelled = true;
                 break;
             }
+            finished += chunk.poses;
             results.push((k, run_chunk(&plan, chunk, &mut scratch)));
         }
     } else {
         let queue = Mutex::new(chunks.into_iter().enumerate());
         let stop = AtomicBool::new(false);
         let done = Mutex::new(Vec::with_capacity(nchunks));
+        let finished = AtomicUsize::new(0);
         let shared = Shared {
             plan: &plan,
             queue: &queue,
             stop: &stop,
             done: &done,
+            finished: &finished,
         };
         // The calling thread works too: a pool of k − 1 threads for `threads: Some(k)`, and
         // one job fewer than the global pool has threads.
@@ -416,6 +578,8 @@ struct Shared<'e, 'a> {
     queue: &'e Queue<'a>,
     stop: &'e AtomicBool,
     done: &'e Done,
+    /// Poses of the chunks finished so far.
+    finished: &'e AtomicUsize,
 }
 
 /// Runs the chunks on the calling thread and `threads − 1` workers of the scope's pool; the
@@ -425,16 +589,21 @@ fn drive<'e, 'a: 'e>(
     s: &rayon::Scope<'e>,
     threads: usize,
     sh: Shared<'e, 'a>,
-    cancel: &(dyn Fn() -> bool + Sync),
+    cancel: &(dyn Fn(usize) -> bool + Sync),
 ) -> bool {
+    let work = move |k: usize, chunk: ChunkOut<'a>, scratch: &mut Scratch| {
+        let poses = chunk.poses;
+        let r = run_chunk(sh.plan, chunk, scratch);
+        lock(sh.done).push((k, r));
+        sh.finished.fetch_add(poses, Ordering::Relaxed);
+    };
     for _ in 1..threads {
         s.spawn(move |_| {
             let mut scratch = Scratch::default();
             while !sh.stop.load(Ordering::Relaxed) {
                 let next = lock(sh.queue).next();
                 let Some((k, chunk)) = next else { break };
-                let r = run_chunk(sh.plan, chunk, &mut scratch);
-                lock(sh.done).push((k, r));
+                work(k, chunk, &mut scratch);
             }
         });
     }
@@ -443,13 +612,12 @@ fn drive<'e, 'a: 'e>(
     while !sh.stop.load(Ordering::Relaxed) {
         let next = lock(sh.queue).next();
         let Some((k, chunk)) = next else { break };
-        if !first && cancel() {
+        if !first && cancel(sh.finished.load(Ordering::Relaxed)) {
             sh.stop.store(true, Ordering::Relaxed);
             return true;
         }
         first = false;
-        let r = run_chunk(sh.plan, chunk, &mut scratch);
-        lock(sh.done).push((k, r));
+        work(k, chunk, &mut scratch);
     }
     false
 }
@@ -458,7 +626,14 @@ fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
     m.lock().unwrap_or_else(|e| e.into_inner())
 }
 
-fn check_out(out: &SweepOut<'_>, n: usize, poses: usize, rows: usize, idx: bool) -> Result<()> {
+fn check_out(
+    out: &SweepOut<'_>,
+    n: usize,
+    poses: usize,
+    rows: usize,
+    idx: bool,
+    pose_group: usize,
+) -> Result<()> {
     let lens = match (&out.cells, idx) {
         (Cells::Values(c), false) => c.lens(n),
         (Cells::Indices(c), true) => c.lens(n),
@@ -481,7 +656,7 @@ fn check_out(out: &SweepOut<'_>, n: usize, poses: usize, rows: usize, idx: bool)
     let per_pose = [
         ("ok", out.ok.len(), rows, false),
         ("length_mm", out.length_mm.len(), poses * n, true),
-        ("reachable", out.reachable.len(), poses, true),
+        ("reachable", out.reachable.len(), poses / pose_group, true),
         ("effector_x_mm", out.effector_x_mm.len(), poses, true),
         ("effector_y_mm", out.effector_y_mm.len(), poses, true),
     ];
@@ -502,18 +677,23 @@ struct Gap<'a> {
     g: usize,
     cells: Cells<'a>,
     ok: &'a mut [bool],
+    /// Its `reachable` value when reachability is per group, else empty.
+    reach: &'a mut [bool],
 }
 
 /// Splits the outputs into chunks of `chunk_poses` poses; the output rows of groups that
 /// straddle two chunks are split off as gaps (at most one group between two chunks).
+/// With `pose_group > 1`, `reachable` holds one value per group and is split like `ok`.
 fn split_out<'a>(
     out: SweepOut<'a>,
     n: usize,
     poses: usize,
     masses: usize,
     group: usize,
+    pose_group: usize,
     chunk_poses: usize,
 ) -> (Vec<ChunkOut<'a>>, Vec<Gap<'a>>) {
+    let grouped = pose_group > 1 && !out.reachable.is_empty();
     let SweepOut {
         mut cells,
         mut ok,
@@ -537,6 +717,11 @@ fn split_out<'a>(
                 g: pos,
                 cells: cells.split(0, s - pos, n),
                 ok: cut(&mut ok, 0, s - pos),
+                reach: if grouped {
+                    cut(&mut reachable, 0, s - pos)
+                } else {
+                    Default::default()
+                },
             });
         }
         let per_pose = |buf: &mut &'a mut [f64], w: usize| {
@@ -551,6 +736,8 @@ fn split_out<'a>(
         let ey = per_pose(&mut effector_y_mm, 1);
         let reach = if reachable.is_empty() {
             Default::default()
+        } else if grouped {
+            cut(&mut reachable, 0, e - s)
         } else {
             cut(&mut reachable, 0, p1 - p0)
         };
@@ -574,18 +761,34 @@ fn split_out<'a>(
 /// Solves one chunk into its outputs; returns the accumulators of its straddling groups.
 fn run_chunk(plan: &Plan<'_>, mut ch: ChunkOut<'_>, scratch: &mut Scratch) -> Result<Vec<Partial>> {
     let n = plan.n;
-    let alpha = &plan.alpha[ch.pose0 * n..(ch.pose0 + ch.poses) * n];
-    // A branch-free scan first (vectorised); the position only when something is wrong.
-    let finite = alpha.iter().fold(true, |all, v| all & v.is_finite());
-    if let Some(bad) = (!finite)
-        .then(|| alpha.iter().position(|v| !v.is_finite()))
-        .flatten()
-    {
-        return Err(ArmError::NonFinite {
-            row: ch.pose0 + bad / n,
-            what: "alpha_deg",
-        });
-    }
+    let Scratch {
+        acc,
+        exact,
+        alpha: alpha_buf,
+        reach: reach_buf,
+    } = scratch;
+    let alpha: &[f64] = match plan.poses {
+        Poses::Rows(all) => {
+            let alpha = &all[ch.pose0 * n..(ch.pose0 + ch.poses) * n];
+            // A branch-free scan first (vectorised); the position only when something is wrong.
+            let finite = alpha.iter().fold(true, |all, v| all & v.is_finite());
+            if let Some(bad) = (!finite)
+                .then(|| alpha.iter().position(|v| !v.is_finite()))
+                .flatten()
+            {
+                return Err(ArmError::NonFinite {
+                    row: ch.pose0 + bad / n,
+                    what: "alpha_deg",
+                });
+            }
+            alpha
+        }
+        Poses::Grid(g) => {
+            // Axes checked finite once, by `Grid::check`.
+            g.fill(ch.pose0, ch.poses, alpha_buf);
+            alpha_buf
+        }
+    };
     let masses = plan.mass.len();
     let (r0, r1) = (ch.pose0 * masses, (ch.pose0 + ch.poses) * masses);
     let nf = n_fields(n);
@@ -605,17 +808,11 @@ fn run_chunk(plan: &Plan<'_>, mut ch: ChunkOut<'_>, scratch: &mut Scratch) -> Re
             ex: ch.ex,
             ey: ch.ey,
         };
-        run_kernel(
-            plan,
-            ch.pose0,
-            alpha,
-            pose_out,
-            &mut sink,
-            &mut scratch.exact,
-        );
+        run_kernel(plan, ch.pose0, alpha, pose_out, &mut sink, exact);
         return Ok(Vec::new());
     };
     if r0 == r1 {
+        // No masses: only the per-pose outputs (reachability is then per pose).
         let pose_out = PoseOut {
             length: ch.length,
             reachable: ch.reachable,
@@ -625,42 +822,43 @@ fn run_chunk(plan: &Plan<'_>, mut ch: ChunkOut<'_>, scratch: &mut Scratch) -> Re
         let mut sink = Sink::Reduce {
             group: red.group,
             op: red.op,
-            acc: &mut scratch.acc,
+            acc,
         };
-        run_kernel(
-            plan,
-            ch.pose0,
-            alpha,
-            pose_out,
-            &mut sink,
-            &mut scratch.exact,
-        );
+        run_kernel(plan, ch.pose0, alpha, pose_out, &mut sink, exact);
         return Ok(Vec::new());
     }
     let (g0, g1) = (r0 / red.group, (r1 - 1) / red.group);
-    scratch.acc.reset(g0, g1 - g0 + 1, nf);
+    acc.reset(g0, g1 - g0 + 1, nf);
+    // Reachability per group: per pose into scratch first, folded below.
+    // (`pose_group > 1` only with a `reachable` buffer; a chunk inside one group has no
+    // slice of it, but its poses still count.)
+    let grouped = plan.pose_group > 1;
     {
+        let reachable: &mut [bool] = if grouped {
+            reach_buf.clear();
+            reach_buf.resize(ch.poses, false);
+            reach_buf
+        } else {
+            ch.reachable
+        };
         let pose_out = PoseOut {
             length: ch.length,
-            reachable: ch.reachable,
+            reachable,
             ex: ch.ex,
             ey: ch.ey,
         };
         let mut sink = Sink::Reduce {
             group: red.group,
             op: red.op,
-            acc: &mut scratch.acc,
+            acc,
         };
-        run_kernel(
-            plan,
-            ch.pose0,
-            alpha,
-            pose_out,
-            &mut sink,
-            &mut scratch.exact,
-        );
+        run_kernel(plan, ch.pose0, alpha, pose_out, &mut sink, exact);
     }
-    let acc = &scratch.acc;
+    if grouped {
+        for (p, &r) in reach_buf.iter().enumerate() {
+            acc.reach[(ch.pose0 + p) / plan.pose_group - g0] |= r;
+        }
+    }
     let interior = ch.out0..ch.out0 + ch.ok.len();
     let mut partials = Vec::new();
     for g in g0..=g1 {
@@ -671,12 +869,16 @@ fn run_chunk(plan: &Plan<'_>, mut ch: ChunkOut<'_>, scratch: &mut Scratch) -> Re
         );
         if interior.contains(&g) {
             write_group(&mut ch.cells, ch.ok, g - ch.out0, n, vals, at, acc.ok[gi]);
+            if grouped {
+                ch.reachable[g - ch.out0] = acc.reach[gi];
+            }
         } else {
             partials.push(Partial {
                 g,
                 vals: vals.to_vec(),
                 at: at.to_vec(),
                 ok: acc.ok[gi],
+                reach: acc.reach[gi],
             });
         }
     }
@@ -692,16 +894,21 @@ fn merge_partials(op: ReduceOp, n: usize, mut partials: Vec<Partial>, gaps: Vec<
         let mut vals = vec![f64::NAN; nf];
         let mut at = vec![-1i64; nf];
         let mut ok = false;
+        let mut reach = false;
         while let Some(p) = parts.next_if(|p| p.g <= gap.g) {
             if p.g < gap.g {
                 continue;
             }
             ok |= p.ok;
+            reach |= p.reach;
             for f in 0..nf {
                 reduce::fold(op, &mut vals[f], &mut at[f], p.vals[f], p.at[f]);
             }
         }
         write_group(&mut gap.cells, gap.ok, 0, n, &vals, &at, ok);
+        if let Some(r) = gap.reach.first_mut() {
+            *r = reach;
+        }
     }
 }
 
@@ -722,18 +929,19 @@ fn run_kernel(
     exact: &mut Option<fallback::Scratch>,
 ) {
     match &plan.kernel {
-        Kernel::F1(k) => run_fast(plan.simd, k, plan.mass, pose0, alpha, out, sink),
-        Kernel::F2(k) => run_fast(plan.simd, k, plan.mass, pose0, alpha, out, sink),
-        Kernel::F3(k) => run_fast(plan.simd, k, plan.mass, pose0, alpha, out, sink),
-        Kernel::F4(k) => run_fast(plan.simd, k, plan.mass, pose0, alpha, out, sink),
-        Kernel::F5(k) => run_fast(plan.simd, k, plan.mass, pose0, alpha, out, sink),
-        Kernel::F6(k) => run_fast(plan.simd, k, plan.mass, pose0, alpha, out, sink),
+        Kernel::F1(k) => run_fast(plan.simd, k, plan, pose0, alpha, out, sink),
+        Kernel::F2(k) => run_fast(plan.simd, k, plan, pose0, alpha, out, sink),
+        Kernel::F3(k) => run_fast(plan.simd, k, plan, pose0, alpha, out, sink),
+        Kernel::F4(k) => run_fast(plan.simd, k, plan, pose0, alpha, out, sink),
+        Kernel::F5(k) => run_fast(plan.simd, k, plan, pose0, alpha, out, sink),
+        Kernel::F6(k) => run_fast(plan.simd, k, plan, pose0, alpha, out, sink),
         Kernel::Exact => {
             let s = exact.get_or_insert_with(|| fallback::Scratch::new(plan.arm));
             fallback::run(
                 plan.arm,
                 plan.effects,
                 plan.self_weight,
+                plan.mask_unreachable,
                 plan.mass,
                 pose0,
                 alpha,
@@ -749,13 +957,14 @@ fn run_kernel(
 fn run_fast<const N: usize>(
     simd: pulp::Arch,
     k: &FastArm<N>,
-    mass: &[f64],
+    plan: &Plan<'_>,
     pose0: usize,
     alpha: &[f64],
     out: PoseOut<'_>,
     sink: &mut Sink<'_, '_>,
 ) {
     let poses = alpha.len() / N;
+    let mass = plan.mass;
     let masses = mass.len();
     let mut pb = PoseBlock::<N>::new();
     let mut cb = CellBlock::<N>::new();
@@ -781,6 +990,11 @@ fn run_fast<const N: usize>(
         }
         for (j, &m) in mass.iter().enumerate() {
             k.cells(simd, &pb, m, &mut cb);
+            if plan.mask_unreachable {
+                for q in 0..L {
+                    cb.ok[q] &= pb.reachable[q];
+                }
+            }
             if let Sink::Store {
                 row0, cells, ok, ..
             } = sink

@@ -8,7 +8,9 @@ use arm_core::effects::{
     ActuatorCompliance, ActuatorPlay, BaseCompliance, JointClearance, LinkBending, MountCompliance,
 };
 use arm_core::kinematics::Frames;
-use arm_core::sweep::{sweep, CellFields, Cells, Reduce, ReduceOp, SweepOptions, SweepOut};
+use arm_core::sweep::{
+    sweep, sweep_poses, CellFields, Cells, Grid, Poses, Reduce, ReduceOp, SweepOptions, SweepOut,
+};
 use arm_core::{Actuator, Arm, ArmError, Effect, EffectSet, Link, SolveOptions, Workspace, V2};
 
 fn v(x: f64, y: f64) -> V2 {
@@ -141,10 +143,34 @@ fn run(
     alpha: &[f64],
     mass: &[f64],
     opts: SweepOptions,
-    cancel: &(dyn Fn() -> bool + Sync),
+    cancel: &(dyn Fn(usize) -> bool + Sync),
+) -> Result<Outs, ArmError> {
+    let poses = alpha.len() / arm.n();
+    run_poses(
+        arm,
+        effects,
+        Poses::Rows(alpha),
+        poses,
+        mass,
+        opts,
+        cancel,
+        poses,
+    )
+}
+
+/// A sweep of `poses` poses from `src`, with a `reachable` buffer of `reach_len` values.
+#[allow(clippy::too_many_arguments)]
+fn run_poses(
+    arm: &Arm,
+    effects: &EffectSet,
+    src: Poses<'_>,
+    poses: usize,
+    mass: &[f64],
+    opts: SweepOptions,
+    cancel: &(dyn Fn(usize) -> bool + Sync),
+    reach_len: usize,
 ) -> Result<Outs, ArmError> {
     let n = arm.n();
-    let poses = alpha.len() / n;
     let group = opts.reduce.map_or(1, |r| r.group);
     let rows = poses * mass.len() / group.max(1);
     let z = |k: usize| vec![0.0; k];
@@ -157,7 +183,7 @@ fn run(
         idx: None,
         ok: vec![false; rows],
         length: z(poses * n),
-        reachable: vec![false; poses],
+        reachable: vec![false; reach_len],
         ex: z(poses),
         ey: z(poses),
     };
@@ -196,7 +222,7 @@ fn run(
             effector_x_mm: &mut o.ex,
             effector_y_mm: &mut o.ey,
         };
-        sweep(arm, effects, alpha, mass, opts, out, cancel)?;
+        sweep_poses(arm, effects, src, mass, opts, out, cancel)?;
     }
     if arg {
         o.idx = Some(idx);
@@ -204,7 +230,7 @@ fn run(
     Ok(o)
 }
 
-fn never() -> bool {
+fn never(_finished: usize) -> bool {
     false
 }
 
@@ -693,7 +719,7 @@ fn cancel_returns_cancelled() {
     let alpha = poses(3, 4000, &mut rng);
     for threads in [Some(1), Some(2), None] {
         let calls = AtomicUsize::new(0);
-        let cancel = || calls.fetch_add(1, Ordering::Relaxed) >= 2;
+        let cancel = |_| calls.fetch_add(1, Ordering::Relaxed) >= 2;
         let o = SweepOptions {
             threads,
             chunk_rows: Some(64),
@@ -829,6 +855,255 @@ fn reachable_agrees_with_stroke_limits() {
         assert!(
             inside > 10 && outside > 10,
             "{inside} inside, {outside} outside"
+        );
+    }
+}
+
+/// The angles of a C-order grid (`axes` outermost first, dimension d setting link
+/// `links[d]`), built the obvious way: by division of the flat index.
+fn grid_rows(axes: &[Vec<f64>], links: &[usize], start: usize, count: usize) -> Vec<f64> {
+    let n = axes.len();
+    let mut a = vec![0.0; count * n];
+    for p in 0..count {
+        let mut f = start + p;
+        for d in (0..n).rev() {
+            a[p * n + links[d]] = axes[d][f % axes[d].len()];
+            f /= axes[d].len();
+        }
+    }
+    a
+}
+
+/// A grid source gives exactly (bit for bit) the sweep of its poses given as rows, for any
+/// order of the dimensions, any sub-range of the grid, chunk size and thread count, on both
+/// kernels.
+#[test]
+fn grid_poses_equal_rows() {
+    let mut rng = Rng(77);
+    let mut sets = vec![("baseline", vec![])];
+    sets.extend(other_effects().into_iter().take(1));
+    for (name, effects) in sets {
+        let arm = arm(3, &mut rng, Some((300.0, 540.0)));
+        let eff = EffectSet::new(&arm, effects).unwrap();
+        let axes = vec![
+            vec![0.0, 12.5, 25.0, 30.0, 5.0],
+            vec![60.0, 75.0, 90.0, 101.0, 110.0, 64.0, 99.0],
+            vec![-10.0, 0.0, 3.5, 10.0, -7.0, 8.0],
+        ];
+        let links = [1usize, 0, 2];
+        let views: Vec<&[f64]> = axes.iter().map(|a| a.as_slice()).collect();
+        let size = 5 * 7 * 6;
+        for (start, count) in [(0, size), (37, 101), (size - 17, 17)] {
+            let rows = grid_rows(&axes, &links, start, count);
+            for (chunk_rows, threads) in [(None, None), (Some(32), Some(2)), (Some(16), Some(1))] {
+                let o = SweepOptions {
+                    chunk_rows,
+                    threads,
+                    ..opts(true)
+                };
+                let mass = [0.0, 3.0, 7.0];
+                let want = run(&arm, &eff, &rows, &mass, o, &never).unwrap();
+                let src = Poses::Grid(Grid {
+                    axes: &views,
+                    links: &links,
+                    start,
+                    count,
+                });
+                let got = run_poses(&arm, &eff, src, count, &mass, o, &never, count).unwrap();
+                assert_eq!(
+                    got.bits(),
+                    want.bits(),
+                    "{name} {start}+{count} {chunk_rows:?}"
+                );
+                assert_eq!(got.ok, want.ok);
+                assert_eq!(got.reachable, want.reachable);
+            }
+        }
+    }
+}
+
+/// `mask_unreachable` makes every cell of an unreachable pose NaN and not ok, leaves the
+/// cells of reachable poses alone, and is honoured by the reductions (both kernels).
+#[test]
+fn mask_unreachable_masks_exactly_the_unreachable_poses() {
+    let mut rng = Rng(5);
+    let mut sets = vec![("baseline", vec![])];
+    sets.extend(other_effects().into_iter().take(2));
+    for (name, effects) in sets {
+        let arm = arm(3, &mut rng, Some((300.0, 540.0)));
+        let eff = EffectSet::new(&arm, effects).unwrap();
+        let alpha = poses(3, 400, &mut rng);
+        let mass = [1.0, 6.0];
+        let plain = run(&arm, &eff, &alpha, &mass, opts(true), &never).unwrap();
+        let masked_opts = SweepOptions {
+            mask_unreachable: true,
+            ..opts(true)
+        };
+        let masked = run(&arm, &eff, &alpha, &mass, masked_opts, &never).unwrap();
+        let unreachable = plain.reachable.iter().filter(|r| !**r).count();
+        assert!(
+            unreachable > 20 && unreachable < 380,
+            "{name}: {unreachable} of 400 unreachable; the test needs both kinds"
+        );
+        assert_eq!(masked.reachable, plain.reachable);
+        for p in 0..400 {
+            for j in 0..2 {
+                let r = p * 2 + j;
+                if plain.reachable[p] {
+                    assert_eq!(masked.ok[r], plain.ok[r], "{name} pose {p}");
+                    assert_eq!(masked.dy[r].to_bits(), plain.dy[r].to_bits());
+                    assert_eq!(
+                        masked.force[3 * r..3 * r + 3],
+                        plain.force[3 * r..3 * r + 3]
+                    );
+                } else {
+                    assert!(!masked.ok[r], "{name} pose {p}");
+                    assert!(masked.dy[r].is_nan() && masked.force[3 * r].is_nan());
+                }
+            }
+        }
+        // A reduction over the masses skips the masked cells: equal to the naive reduction
+        // of the masked full output.
+        let red = SweepOptions {
+            reduce: Some(Reduce {
+                op: ReduceOp::Min,
+                group: 2,
+            }),
+            ..masked_opts
+        };
+        let got = run(&arm, &eff, &alpha, &mass, red, &never).unwrap();
+        for p in 0..400 {
+            let want = masked.dy[2 * p].min(masked.dy[2 * p + 1]); // NaN only if both are
+            assert_eq!(got.dy[p].to_bits(), want.to_bits(), "{name} pose {p}");
+            assert_eq!(got.ok[p], masked.ok[2 * p] || masked.ok[2 * p + 1]);
+        }
+    }
+}
+
+/// With a reduction over whole poses and a `reachable` buffer of one value per group,
+/// `reachable` is "some pose of the group is reachable", whatever the chunking.
+#[test]
+fn reachable_reduced_over_pose_groups() {
+    let mut rng = Rng(11);
+    let arm = arm(3, &mut rng, Some((300.0, 540.0)));
+    // Groups of 7 poses (never aligned with chunks of 16) and of 50 (longer than a chunk).
+    for (poses_n, block) in [(7 * 45, 7), (50 * 7, 50)] {
+        reachable_groups(&arm, &mut rng, poses_n, block);
+    }
+}
+
+fn reachable_groups(arm: &Arm, rng: &mut Rng, poses_n: usize, block: usize) {
+    let eff = EffectSet::empty();
+    let random = poses(3, poses_n, rng);
+    let mass = [2.0, 5.0];
+    let first = run(arm, &eff, &random, &mass, opts(true), &never).unwrap();
+    // Unreachable poses first, so that there are groups of each kind and mixed ones.
+    let mut order: Vec<usize> = (0..poses_n).collect();
+    order.sort_by_key(|&p| (first.reachable[p], p % 3));
+    let alpha: Vec<f64> = order
+        .iter()
+        .flat_map(|&p| random[3 * p..3 * p + 3].to_vec())
+        .collect();
+    let per_pose = run(arm, &eff, &alpha, &mass, opts(true), &never).unwrap();
+    let some = per_pose.reachable.iter().filter(|r| **r).count();
+    assert!(some > 20 && some < poses_n - 20, "{some} reachable");
+    let want: Vec<bool> = per_pose
+        .reachable
+        .chunks(block)
+        .map(|g| g.iter().any(|r| *r))
+        .collect();
+    assert!(want.iter().any(|r| !r) && want.iter().any(|r| *r));
+    for (chunk_rows, threads) in [(None, None), (Some(32), Some(2)), (Some(16), Some(1))] {
+        let o = SweepOptions {
+            reduce: Some(Reduce {
+                op: ReduceOp::Max,
+                group: block * 2,
+            }),
+            chunk_rows,
+            threads,
+            ..opts(true)
+        };
+        let src = Poses::Rows(&alpha);
+        let got = run_poses(arm, &eff, src, poses_n, &mass, o, &never, poses_n / block).unwrap();
+        assert_eq!(got.reachable, want, "{block} {chunk_rows:?} {threads:?}");
+        // Per-pose reachability is still available with a per-pose buffer.
+        let got = run_poses(arm, &eff, src, poses_n, &mass, o, &never, poses_n).unwrap();
+        assert_eq!(got.reachable, per_pose.reachable);
+    }
+}
+
+/// The count passed to `cancel` is the poses finished so far: never decreasing, never more
+/// than the sweep has, and, with one thread, exactly the chunks before the call.
+#[test]
+fn cancel_sees_the_progress() {
+    use std::sync::Mutex;
+    let mut rng = Rng(3);
+    let arm = arm(3, &mut rng, None);
+    let alpha = poses(3, 1000, &mut rng);
+    for threads in [Some(1), Some(2)] {
+        let seen = Mutex::new(Vec::new());
+        let cancel = |k: usize| {
+            seen.lock().unwrap().push(k);
+            false
+        };
+        let o = SweepOptions {
+            threads,
+            chunk_rows: Some(64),
+            ..opts(true)
+        };
+        run(&arm, &EffectSet::empty(), &alpha, &[1.0], o, &cancel).unwrap();
+        let seen = seen.into_inner().unwrap();
+        assert!(!seen.is_empty());
+        assert!(seen.windows(2).all(|w| w[0] <= w[1]), "{seen:?}");
+        assert!(seen.iter().all(|&k| k > 0 && k < 1000), "{seen:?}");
+        if threads == Some(1) {
+            let want: Vec<usize> = (1..seen.len() + 1).map(|c| c * 64).collect();
+            assert_eq!(seen, want);
+        }
+    }
+}
+
+/// A grid that does not fit the arm is refused with a message naming the fault.
+#[test]
+fn bad_grids_are_errors() {
+    let mut rng = Rng(9);
+    let arm = arm(3, &mut rng, None);
+    let eff = EffectSet::empty();
+    let (a, b, c) = (vec![60.0, 70.0], vec![0.0, 10.0], vec![0.0]);
+    let nan = vec![0.0, f64::NAN];
+    let empty: Vec<f64> = vec![];
+    type Case<'a> = (Vec<&'a [f64]>, Vec<usize>, usize, usize, &'a str);
+    let cases: Vec<Case> = vec![
+        (vec![&a, &b], vec![0, 1], 0, 4, "2 axes"),
+        (vec![&a, &b, &c], vec![0, 1, 1], 0, 4, "links[2] = 1"),
+        (vec![&a, &b, &c], vec![0, 1, 3], 0, 4, "links[2] = 3"),
+        (vec![&a, &empty, &c], vec![0, 1, 2], 0, 0, "axis 1 is empty"),
+        (
+            vec![&a, &nan, &c],
+            vec![0, 1, 2],
+            0,
+            4,
+            "axis 1 value 1 is not finite",
+        ),
+        (
+            vec![&a, &b, &c],
+            vec![0, 1, 2],
+            2,
+            3,
+            "outside the grid's 4 poses",
+        ),
+    ];
+    for (axes, links, start, count, want) in cases {
+        let src = Poses::Grid(Grid {
+            axes: &axes,
+            links: &links,
+            start,
+            count,
+        });
+        let e = run_poses(&arm, &eff, src, count, &[1.0], opts(true), &never, count).unwrap_err();
+        assert!(
+            matches!(&e, ArmError::InvalidOption(m) if m.contains(want)),
+            "{want}: {e}"
         );
     }
 }

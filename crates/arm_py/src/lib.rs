@@ -6,11 +6,11 @@ use arm_core::fem::batch::extra_sizes;
 use arm_core::fem::{fem_solve_batch, FemBatchOutput, FemModel, FemOptions, LinkSection};
 use arm_core::kinematics::{angles_from_lengths, inverse_kinematics, Frames};
 use arm_core::sensitivity::{jacobian_batch, n_channels, Place};
-use arm_core::sweep::{CellFields, Cells, Reduce, ReduceOp, SweepOptions, SweepOut};
+use arm_core::sweep::{CellFields, Cells, Grid, Poses, Reduce, ReduceOp, SweepOptions, SweepOut};
 use arm_core::{Actuator, Arm, ArmError, BatchInput, BatchOutput, Link, SolveOptions, V2};
 use numpy::{
-    IntoPyArray, PyArray1, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2,
-    PyUntypedArrayMethods,
+    IntoPyArray, PyArray1, PyArrayDyn, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2,
+    PyReadwriteArrayDyn, PyUntypedArrayMethods,
 };
 use pyo3::create_exception;
 use pyo3::exceptions::PyValueError;
@@ -264,82 +264,138 @@ fn solve<'py>(
     Ok(out)
 }
 
-/// A fresh, uninitialised 1-D numpy array (`numpy.empty`): no zeroing pass over memory that
-/// the core overwrites anyway (calloc must zero reused heap memory, serially, ~100 MB per
-/// call at 1e6 poses), and numpy asks the kernel for huge pages for large arrays. The core
-/// writes every element before the array is returned.
-fn empty<'py, T: numpy::Element>(
-    np_empty: &Bound<'py, PyAny>,
-    len: usize,
-) -> PyResult<Bound<'py, PyArray1<T>>> {
-    let dtype = numpy::dtype::<T>(np_empty.py());
-    Ok(np_empty.call1((len, dtype))?.cast_into::<PyArray1<T>>()?)
-}
-
 /// The five cell fields of a sweep, in the order of `arm_core::sweep::CellFields`.
-struct Fields<'py, T: numpy::Element> {
-    force: Bound<'py, PyArray1<T>>,
-    dx: Bound<'py, PyArray1<T>>,
-    dy: Bound<'py, PyArray1<T>>,
-    dalpha: Bound<'py, PyArray1<T>>,
-    dl: Bound<'py, PyArray1<T>>,
+const CELL_KEYS: [&str; 5] = ["force_n", "dx_mm", "dy_mm", "dalpha_deg", "dl_mm"];
+/// The per-pose outputs of a sweep (each optional in `out`).
+const POSE_KEYS: [&str; 4] = ["length_mm", "reachable", "effector_x_mm", "effector_y_mm"];
+
+/// Borrows `out[key]` for writing: a numpy array of dtype `T` (`dtype` names it in errors);
+/// `None` when the key is absent and not `required`.
+fn out_array<'py, T: numpy::Element>(
+    out: &Bound<'py, PyDict>,
+    key: &str,
+    dtype: &str,
+    required: bool,
+) -> PyResult<Option<PyReadwriteArrayDyn<'py, T>>> {
+    let Some(item) = out.get_item(key)? else {
+        if required {
+            return Err(value_error(format!("out: missing the array '{key}'")));
+        }
+        return Ok(None);
+    };
+    let arr = item.cast_into::<PyArrayDyn<T>>().map_err(|_| {
+        value_error(format!(
+            "out['{key}']: expected a numpy array of dtype {dtype}"
+        ))
+    })?;
+    let rw = arr.try_readwrite().map_err(|_| {
+        value_error(format!(
+            "out['{key}']: the array is read-only or is borrowed elsewhere (given twice?)"
+        ))
+    })?;
+    Ok(Some(rw))
 }
 
-impl<'py, T: numpy::Element> Fields<'py, T> {
-    fn new(np_empty: &Bound<'py, PyAny>, rows: usize, n: usize) -> PyResult<Self> {
-        Ok(Self {
-            force: empty(np_empty, rows * n)?,
-            dx: empty(np_empty, rows)?,
-            dy: empty(np_empty, rows)?,
-            dalpha: empty(np_empty, rows * n)?,
-            dl: empty(np_empty, rows * n)?,
-        })
-    }
-
-    fn write(&self) -> [numpy::PyReadwriteArray1<'py, T>; 5] {
-        [&self.force, &self.dx, &self.dy, &self.dalpha, &self.dl].map(|a| a.readwrite())
-    }
-
-    /// Puts the arrays into `out`, shaped `lead` (+ `n` for the per-link fields).
-    fn put(self, out: &Bound<'_, PyDict>, lead: &[usize], n: usize) -> PyResult<()> {
-        let mut wide = lead.to_vec();
-        wide.push(n);
-        out.set_item("force_n", self.force.reshape(wide.clone())?)?;
-        out.set_item("dx_mm", self.dx.reshape(lead.to_vec())?)?;
-        out.set_item("dy_mm", self.dy.reshape(lead.to_vec())?)?;
-        out.set_item("dalpha_deg", self.dalpha.reshape(wide.clone())?)?;
-        out.set_item("dl_mm", self.dl.reshape(wide)?)?;
-        Ok(())
+/// The mutable contents of a borrowed output array (empty when absent).
+fn out_slice<'a, T: numpy::Element>(
+    a: &'a mut Option<PyReadwriteArrayDyn<'_, T>>,
+    key: &str,
+) -> PyResult<&'a mut [T]> {
+    match a {
+        None => Ok(&mut []),
+        Some(a) => a
+            .as_slice_mut()
+            .map_err(|_| value_error(format!("out['{key}']: array must be C-contiguous"))),
     }
 }
 
-/// Mutable slices of five arrays' guards, as cell fields.
-fn cell_fields<'a, T: numpy::Element>(
-    g: &'a mut [numpy::PyReadwriteArray1<'_, T>; 5],
-) -> PyResult<CellFields<'a, T>> {
+/// The five cell arrays of `out`, borrowed for writing.
+type CellGuards<'py, T> = [Option<PyReadwriteArrayDyn<'py, T>>; 5];
+
+fn cell_guards<'py, T: numpy::Element>(
+    out: &Bound<'py, PyDict>,
+    dtype: &str,
+) -> PyResult<CellGuards<'py, T>> {
+    let mut g: CellGuards<'py, T> = Default::default();
+    for (slot, key) in g.iter_mut().zip(CELL_KEYS) {
+        *slot = out_array(out, key, dtype, true)?;
+    }
+    Ok(g)
+}
+
+fn cell_fields<'a, T: numpy::Element>(g: &'a mut CellGuards<'_, T>) -> PyResult<CellFields<'a, T>> {
     let [f, x, y, a, l] = g;
-    let s = |e: numpy::AsSliceError| value_error(format!("sweep output: {e}"));
     Ok(CellFields {
-        force_n: f.as_slice_mut().map_err(s)?,
-        dx_mm: x.as_slice_mut().map_err(s)?,
-        dy_mm: y.as_slice_mut().map_err(s)?,
-        dalpha_deg: a.as_slice_mut().map_err(s)?,
-        dl_mm: l.as_slice_mut().map_err(s)?,
+        force_n: out_slice(f, CELL_KEYS[0])?,
+        dx_mm: out_slice(x, CELL_KEYS[1])?,
+        dy_mm: out_slice(y, CELL_KEYS[2])?,
+        dalpha_deg: out_slice(a, CELL_KEYS[3])?,
+        dl_mm: out_slice(l, CELL_KEYS[4])?,
     })
 }
 
+/// A dict of fresh output arrays of a sweep: cell fields `lead` (+ `n`), `ok` `lead`,
+/// per-pose outputs for `poses` poses. Uninitialised (`numpy.empty`): no zeroing pass over
+/// memory that the core overwrites anyway (calloc must zero reused heap memory, serially,
+/// ~100 MB per call at 1e6 poses), and numpy asks the kernel for huge pages for large
+/// arrays. The core writes every element before the arrays are returned.
+fn new_outputs<'py>(
+    py: Python<'py>,
+    lead: &[usize],
+    poses: usize,
+    n: usize,
+    arg: bool,
+) -> PyResult<Bound<'py, PyDict>> {
+    let np = py.import("numpy")?;
+    let empty = np.getattr("empty")?;
+    let out = PyDict::new(py);
+    let mut wide = lead.to_vec();
+    wide.push(n);
+    let cell_dtype = if arg { "int64" } else { "float64" };
+    for key in CELL_KEYS {
+        let shape = if matches!(key, "dx_mm" | "dy_mm") {
+            lead.to_vec()
+        } else {
+            wide.clone()
+        };
+        out.set_item(key, empty.call1((shape, cell_dtype))?)?;
+    }
+    out.set_item("ok", empty.call1((lead.to_vec(), "bool"))?)?;
+    out.set_item("length_mm", empty.call1(((poses, n), "float64"))?)?;
+    out.set_item("reachable", empty.call1((poses, "bool"))?)?;
+    out.set_item("effector_x_mm", empty.call1((poses, "float64"))?)?;
+    out.set_item("effector_y_mm", empty.call1((poses, "float64"))?)?;
+    Ok(out)
+}
+
+/// A sweep's `grid` argument: (axes, links, start, count).
+type GridArg<'py> = (Vec<PyReadonlyArray1<'py, f64>>, Vec<usize>, usize, usize);
+
+/// Seconds between two calls of a sweep's `progress` callback.
+const PROGRESS_EVERY_S: f64 = 0.1;
+
 /// Sweeps N poses × M payload masses (see `arm_core::sweep`); returns a dict of arrays.
 ///
-/// Cell arrays are (N, M[, n]), or (N·M/group[, n]) with `reduce` ("max", "min", "argmax",
-/// "argmin"; the arg reductions give int64 offsets within each group, −1 where the group has
-/// no value). The GIL is released while the core works; Ctrl-C stops it between chunks.
+/// The poses are `alpha_deg` (N × n), or `grid = (axes, links, start, count)`: flat poses
+/// `start .. start + count` of the C-order grid of the 1-D `axes` (dimension d sets the angle
+/// of link `links[d]`), generated in the core chunk by chunk. Cell arrays are (N, M[, n]), or
+/// (N·M/group[, n]) with `reduce` ("max", "min", "argmax", "argmin"; the arg reductions give
+/// int64 offsets within each group, −1 where the group has no value).
+///
+/// `out`: a dict of C-contiguous arrays to write into instead (any shape with the right
+/// number of elements; the cell arrays and `ok` required, per-pose arrays optional; with a
+/// reduction over whole poses, `reachable` may hold one value per group: any pose of it
+/// reachable); it is returned. `mask_unreachable`: cells of poses out of stroke are not
+/// solved. `progress(done_poses)` is called after the first chunk, then every 0.1 s or so. `chunk_rows`: rows per chunk
+/// of the core (default `arm_core::sweep::CHUNK_ROWS`, less for small sweeps). The GIL is released while the
+/// core works; Ctrl-C (or an exception in `progress`) stops it between chunks.
 #[pyfunction(name = "sweep")]
-#[pyo3(signature = (arm, alpha_deg, mass_kg, codes, places, values, self_weight, reduce=None, group=1, threads=None))]
+#[pyo3(signature = (arm, alpha_deg, mass_kg, codes, places, values, self_weight, reduce=None, group=1, threads=None, *, grid=None, out=None, mask_unreachable=false, progress=None, chunk_rows=None))]
 #[allow(clippy::too_many_arguments)]
 fn py_sweep<'py>(
     py: Python<'py>,
     arm: &CoreArm,
-    alpha_deg: PyReadonlyArray2<'py, f64>,
+    alpha_deg: Option<PyReadonlyArray2<'py, f64>>,
     mass_kg: PyReadonlyArray1<'py, f64>,
     codes: PyReadonlyArray1<'py, i64>,
     places: PyReadonlyArray1<'py, i64>,
@@ -348,10 +404,14 @@ fn py_sweep<'py>(
     reduce: Option<&str>,
     group: i64,
     threads: Option<i64>,
+    grid: Option<GridArg<'py>>,
+    out: Option<Bound<'py, PyDict>>,
+    mask_unreachable: bool,
+    progress: Option<Py<PyAny>>,
+    chunk_rows: Option<usize>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let arm = &arm.inner;
     let n = arm.n();
-    let (alpha, poses) = matrix(&alpha_deg, "alpha_deg", n)?;
     let mass = mass_kg
         .as_slice()
         .map_err(|_| value_error("mass_kg: array must be contiguous".into()))?;
@@ -385,81 +445,117 @@ fn py_sweep<'py>(
         self_weight,
         reduce: op.map(|op| Reduce { op, group }),
         threads,
-        chunk_rows: None,
-        baseline_simd: false,
+        mask_unreachable,
+        chunk_rows,
+        ..Default::default()
     };
-    let rows = poses * mass.len() / if op.is_some() { group } else { 1 };
+    // The poses: rows, or a grid (its axes borrowed for the whole call).
+    let (rows_in, grid_axes) = match (&alpha_deg, &grid) {
+        (Some(a), None) => (Some(matrix(a, "alpha_deg", n)?), None),
+        (None, Some((axes, links, start, count))) => {
+            let mut views = Vec::with_capacity(axes.len());
+            for (d, a) in axes.iter().enumerate() {
+                views.push(
+                    a.as_slice()
+                        .map_err(|_| value_error(format!("grid axis {d}: must be contiguous")))?,
+                );
+            }
+            (None, Some((views, links.as_slice(), *start, *count)))
+        }
+        _ => return Err(value_error(
+            "sweep: give exactly one of alpha_deg (an array) and grid=(axes, links, start, count)"
+                .into(),
+        )),
+    };
+    let poses = match (&rows_in, &grid_axes) {
+        (Some((_, p)), _) => *p,
+        (_, Some((_, _, _, count))) => *count,
+        _ => 0,
+    };
     let arg = op.is_some_and(ReduceOp::is_arg);
-    let np_empty = py.import("numpy")?.getattr("empty")?;
-    let values_out = Fields::<f64>::new(&np_empty, if arg { 0 } else { rows }, n)?;
-    let index_out = Fields::<i64>::new(&np_empty, if arg { rows } else { 0 }, n)?;
-    let ok = empty::<bool>(&np_empty, rows)?;
-    let length = empty::<f64>(&np_empty, poses * n)?;
-    let reachable = empty::<bool>(&np_empty, poses)?;
-    let ex = empty::<f64>(&np_empty, poses)?;
-    let ey = empty::<f64>(&np_empty, poses)?;
+    let out = match out {
+        Some(o) => o,
+        None => {
+            let rows = poses * mass.len() / if op.is_some() { group } else { 1 };
+            let lead: Vec<usize> = if op.is_some() {
+                vec![rows]
+            } else {
+                vec![poses, mass.len()]
+            };
+            new_outputs(py, &lead, poses, n, arg)?
+        }
+    };
     let interrupt: Mutex<Option<PyErr>> = Mutex::new(None);
-    let cancel = || {
-        Python::attach(|py| match py.check_signals() {
-            Ok(()) => false,
-            Err(e) => {
-                if let Ok(mut slot) = interrupt.lock() {
-                    *slot = Some(e);
+    // The first report comes at the first check, then one per PROGRESS_EVERY_S.
+    let last_report: Mutex<Option<std::time::Instant>> = Mutex::new(None);
+    let cancel = |done: usize| {
+        Python::attach(|py| {
+            let mut r = py.check_signals();
+            if let (Ok(()), Some(cb)) = (&r, &progress) {
+                let mut last = last_report.lock().unwrap_or_else(|e| e.into_inner());
+                if last.is_none_or(|t| t.elapsed().as_secs_f64() >= PROGRESS_EVERY_S) {
+                    *last = Some(std::time::Instant::now());
+                    r = cb.call1(py, (done,)).map(|_| ());
                 }
-                true
+            }
+            match r {
+                Ok(()) => false,
+                Err(e) => {
+                    if let Ok(mut slot) = interrupt.lock() {
+                        *slot = Some(e);
+                    }
+                    true
+                }
             }
         })
     };
     let result = {
-        let (mut vw, mut iw) = (values_out.write(), index_out.write());
-        let cells = if arg {
-            Cells::Indices(cell_fields(&mut iw)?)
+        let (mut vg, mut ig) = if arg {
+            (Default::default(), cell_guards::<i64>(&out, "int64")?)
         } else {
-            Cells::Values(cell_fields(&mut vw)?)
+            (cell_guards::<f64>(&out, "float64")?, Default::default())
         };
-        let s = |e: numpy::AsSliceError| value_error(format!("sweep output: {e}"));
-        let (mut okw, mut lw, mut rw, mut xw, mut yw) = (
-            ok.readwrite(),
-            length.readwrite(),
-            reachable.readwrite(),
-            ex.readwrite(),
-            ey.readwrite(),
-        );
-        let out = SweepOut {
+        let cells = if arg {
+            Cells::Indices(cell_fields(&mut ig)?)
+        } else {
+            Cells::Values(cell_fields(&mut vg)?)
+        };
+        let mut okg = out_array::<bool>(&out, "ok", "bool", true)?;
+        let mut lg = out_array::<f64>(&out, POSE_KEYS[0], "float64", false)?;
+        let mut rg = out_array::<bool>(&out, POSE_KEYS[1], "bool", false)?;
+        let mut xg = out_array::<f64>(&out, POSE_KEYS[2], "float64", false)?;
+        let mut yg = out_array::<f64>(&out, POSE_KEYS[3], "float64", false)?;
+        let sweep_out = SweepOut {
             cells,
-            ok: okw.as_slice_mut().map_err(s)?,
-            length_mm: lw.as_slice_mut().map_err(s)?,
-            reachable: rw.as_slice_mut().map_err(s)?,
-            effector_x_mm: xw.as_slice_mut().map_err(s)?,
-            effector_y_mm: yw.as_slice_mut().map_err(s)?,
+            ok: out_slice(&mut okg, "ok")?,
+            length_mm: out_slice(&mut lg, POSE_KEYS[0])?,
+            reachable: out_slice(&mut rg, POSE_KEYS[1])?,
+            effector_x_mm: out_slice(&mut xg, POSE_KEYS[2])?,
+            effector_y_mm: out_slice(&mut yg, POSE_KEYS[3])?,
         };
-        py.detach(|| arm_core::sweep(arm, &effects, alpha, mass, opts, out, &cancel))
+        let grid_src = grid_axes.as_ref().map(|(views, links, start, count)| Grid {
+            axes: views,
+            links,
+            start: *start,
+            count: *count,
+        });
+        let src = match (&rows_in, grid_src) {
+            (Some((a, _)), _) => Poses::Rows(a),
+            (None, Some(g)) => Poses::Grid(g),
+            (None, None) => return Err(value_error("sweep: no poses".into())),
+        };
+        py.detach(|| {
+            arm_core::sweep::sweep_poses(arm, &effects, src, mass, opts, sweep_out, &cancel)
+        })
     };
     match result {
-        Ok(()) => {}
+        Ok(()) => Ok(out),
         Err(ArmError::Cancelled) => {
             let e = interrupt.into_inner().ok().flatten();
-            return Err(e.unwrap_or_else(|| value_error("sweep cancelled".into())));
+            Err(e.unwrap_or_else(|| value_error("sweep cancelled".into())))
         }
-        Err(e) => return Err(PyArmError(e).into()),
+        Err(e) => Err(PyArmError(e).into()),
     }
-    let out = PyDict::new(py);
-    let lead: Vec<usize> = if op.is_some() {
-        vec![rows]
-    } else {
-        vec![poses, mass.len()]
-    };
-    if arg {
-        index_out.put(&out, &lead, n)?;
-    } else {
-        values_out.put(&out, &lead, n)?;
-    }
-    out.set_item("ok", ok.reshape(lead)?)?;
-    out.set_item("length_mm", length.reshape([poses, n])?)?;
-    out.set_item("reachable", reachable)?;
-    out.set_item("effector_x_mm", ex)?;
-    out.set_item("effector_y_mm", ey)?;
-    Ok(out)
 }
 
 /// Solves N poses with the finite-element model; the keys of `solve` plus pin forces,

@@ -32,12 +32,14 @@ impl Scratch {
     }
 }
 
-/// Solves the poses `alpha` (first pose `pose0`) under every mass into `out` and `sink`.
+/// Solves the poses `alpha` (first pose `pose0`) under every mass into `out` and `sink`;
+/// with `mask_unreachable`, the cells of poses out of stroke are not solved.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn run(
     arm: &Arm,
     effects: &EffectSet,
     self_weight: bool,
+    mask_unreachable: bool,
     mass: &[f64],
     pose0: usize,
     alpha: &[f64],
@@ -80,6 +82,7 @@ pub(crate) fn run(
             let row = pose * masses + j;
             let payload = V2::new(0.0, -m * arm.g);
             let ok = regular
+                && (within || !mask_unreachable)
                 && s.ws
                     .solve(arm, effects, &s.rad, payload, opts, pose)
                     .is_ok();

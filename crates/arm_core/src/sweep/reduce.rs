@@ -65,6 +65,8 @@ pub(crate) struct Acc {
     pub at: Vec<i64>,
     /// Any cell of the group solved.
     pub ok: Vec<bool>,
+    /// Any pose of the group reachable (when reachability is reduced per group).
+    pub reach: Vec<bool>,
 }
 
 impl Acc {
@@ -78,6 +80,8 @@ impl Acc {
         self.at.resize(groups * nf, -1);
         self.ok.clear();
         self.ok.resize(groups, false);
+        self.reach.clear();
+        self.reach.resize(groups, false);
     }
 }
 
