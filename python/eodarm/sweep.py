@@ -784,7 +784,7 @@ def sweep(
         )
         for key in shapes
     }
-    result = {key: np.empty(shp, dtype=dtypes[key]) for key, shp in shapes.items()}
+    result = _allocate(shapes, dtypes)
 
     def place(span: tuple[int, int], res: Mapping[str, npt.NDArray[Any]]) -> None:
         a, b = span[0] // block, span[1] // block
@@ -870,6 +870,28 @@ def sweep(
 
 
 # ---------------------------------------------------------------------------- running
+def _allocate(
+    shapes: Mapping[str, tuple[int, ...]], dtypes: Mapping[str, Any]
+) -> dict[str, npt.NDArray[Any]]:
+    """Uninitialised result arrays, those of one dtype as views of one buffer.
+
+    One large allocation instead of ten: numpy asks the kernel for transparent huge pages
+    for it, and only its two ends fall on ordinary pages. Ten separate arrays, none aligned
+    to 2 MB, leave tens of MB on 4 kB pages, whose page faults cost a sweep of 10⁶ poses
+    with all outputs about a quarter of its time (docs/benchmarks.md).
+    """
+    out: dict[str, npt.NDArray[Any]] = {}
+    for dtype in dict.fromkeys(dtypes.values()):
+        keys = [k for k in shapes if dtypes[k] == dtype]
+        sizes = [math.prod(shapes[k]) for k in keys]
+        buf = np.empty(sum(sizes), dtype=dtype)
+        at = 0
+        for key, size in zip(keys, sizes, strict=True):
+            out[key] = buf[at : at + size].reshape(shapes[key])
+            at += size
+    return {k: out[k] for k in shapes}
+
+
 def _sweep_grid(
     job: _Job,
     result: dict[str, npt.NDArray[Any]],

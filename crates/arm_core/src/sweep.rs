@@ -329,6 +329,8 @@ struct Plan<'a> {
     reduce: Option<Reduce>,
     /// Poses per value of `reachable` (> 1: any pose of the group).
     pose_group: usize,
+    /// Sines and cosines of a grid's axis values, for the block kernel (else empty).
+    axis_trig: Vec<(Vec<f64>, Vec<f64>)>,
     kernel: Kernel,
     /// The instruction set the block kernel runs with.
     simd: pulp::Arch,
@@ -475,7 +477,7 @@ pub fn sweep_poses(
         Some(k) => k,
         None => rayon::current_num_threads(),
     };
-    let plan = Plan {
+    let mut plan = Plan {
         arm,
         effects,
         poses: poses_in,
@@ -485,6 +487,7 @@ pub fn sweep_poses(
         mask_unreachable: opts.mask_unreachable,
         reduce: opts.reduce,
         pose_group,
+        axis_trig: Vec::new(),
         kernel: Kernel::new(arm, effects, opts.self_weight),
         simd: if opts.baseline_simd {
             pulp::Arch::Scalar
@@ -494,6 +497,9 @@ pub fn sweep_poses(
     };
     if poses == 0 {
         return Ok(());
+    }
+    if let (Poses::Grid(g), false) = (poses_in, matches!(plan.kernel, Kernel::Exact)) {
+        plan.axis_trig = axis_trig(&g);
     }
     let chunk_poses = match opts.chunk_rows {
         Some(rows) => (rows / masses.max(1)) / L * L,
@@ -783,11 +789,13 @@ fn run_chunk(plan: &Plan<'_>, mut ch: ChunkOut<'_>, scratch: &mut Scratch) -> Re
             }
             alpha
         }
-        Poses::Grid(g) => {
-            // Axes checked finite once, by `Grid::check`.
+        // Axes checked finite once, by `Grid::check`. The block kernel makes its poses
+        // block by block itself; the per-cell path takes them from a buffer.
+        Poses::Grid(g) if matches!(plan.kernel, Kernel::Exact) => {
             g.fill(ch.pose0, ch.poses, alpha_buf);
             alpha_buf
         }
+        Poses::Grid(_) => &[],
     };
     let masses = plan.mass.len();
     let (r0, r1) = (ch.pose0 * masses, (ch.pose0 + ch.poses) * masses);
@@ -808,7 +816,7 @@ fn run_chunk(plan: &Plan<'_>, mut ch: ChunkOut<'_>, scratch: &mut Scratch) -> Re
             ex: ch.ex,
             ey: ch.ey,
         };
-        run_kernel(plan, ch.pose0, alpha, pose_out, &mut sink, exact);
+        run_kernel(plan, ch.pose0, ch.poses, alpha, pose_out, &mut sink, exact);
         return Ok(Vec::new());
     };
     if r0 == r1 {
@@ -824,7 +832,7 @@ fn run_chunk(plan: &Plan<'_>, mut ch: ChunkOut<'_>, scratch: &mut Scratch) -> Re
             op: red.op,
             acc,
         };
-        run_kernel(plan, ch.pose0, alpha, pose_out, &mut sink, exact);
+        run_kernel(plan, ch.pose0, ch.poses, alpha, pose_out, &mut sink, exact);
         return Ok(Vec::new());
     }
     let (g0, g1) = (r0 / red.group, (r1 - 1) / red.group);
@@ -852,7 +860,7 @@ fn run_chunk(plan: &Plan<'_>, mut ch: ChunkOut<'_>, scratch: &mut Scratch) -> Re
             op: red.op,
             acc,
         };
-        run_kernel(plan, ch.pose0, alpha, pose_out, &mut sink, exact);
+        run_kernel(plan, ch.pose0, ch.poses, alpha, pose_out, &mut sink, exact);
     }
     if grouped {
         for (p, &r) in reach_buf.iter().enumerate() {
@@ -920,21 +928,24 @@ struct PoseOut<'s> {
     ey: &'s mut [f64],
 }
 
+/// Solves poses `pose0 .. pose0 + poses`: from `alpha` (their rows), or, when `alpha` is
+/// empty and the sweep is over a grid, generated block by block by the block kernel.
 fn run_kernel(
     plan: &Plan<'_>,
     pose0: usize,
+    poses: usize,
     alpha: &[f64],
     out: PoseOut<'_>,
     sink: &mut Sink<'_, '_>,
     exact: &mut Option<fallback::Scratch>,
 ) {
     match &plan.kernel {
-        Kernel::F1(k) => run_fast(plan.simd, k, plan, pose0, alpha, out, sink),
-        Kernel::F2(k) => run_fast(plan.simd, k, plan, pose0, alpha, out, sink),
-        Kernel::F3(k) => run_fast(plan.simd, k, plan, pose0, alpha, out, sink),
-        Kernel::F4(k) => run_fast(plan.simd, k, plan, pose0, alpha, out, sink),
-        Kernel::F5(k) => run_fast(plan.simd, k, plan, pose0, alpha, out, sink),
-        Kernel::F6(k) => run_fast(plan.simd, k, plan, pose0, alpha, out, sink),
+        Kernel::F1(k) => run_fast(plan.simd, k, plan, pose0, poses, alpha, out, sink),
+        Kernel::F2(k) => run_fast(plan.simd, k, plan, pose0, poses, alpha, out, sink),
+        Kernel::F3(k) => run_fast(plan.simd, k, plan, pose0, poses, alpha, out, sink),
+        Kernel::F4(k) => run_fast(plan.simd, k, plan, pose0, poses, alpha, out, sink),
+        Kernel::F5(k) => run_fast(plan.simd, k, plan, pose0, poses, alpha, out, sink),
+        Kernel::F6(k) => run_fast(plan.simd, k, plan, pose0, poses, alpha, out, sink),
         Kernel::Exact => {
             let s = exact.get_or_insert_with(|| fallback::Scratch::new(plan.arm));
             fallback::run(
@@ -954,30 +965,38 @@ fn run_kernel(
 }
 
 #[allow(clippy::needless_range_loop)] // lanes and links index several arrays in step
+#[allow(clippy::too_many_arguments)]
 fn run_fast<const N: usize>(
     simd: pulp::Arch,
     k: &FastArm<N>,
     plan: &Plan<'_>,
     pose0: usize,
+    poses: usize,
     alpha: &[f64],
     out: PoseOut<'_>,
     sink: &mut Sink<'_, '_>,
 ) {
-    let poses = alpha.len() / N;
     let mass = plan.mass;
     let masses = mass.len();
     let mut pb = PoseBlock::<N>::new();
     let mut cb = CellBlock::<N>::new();
+    let mut cursor = match plan.poses {
+        Poses::Grid(g) if alpha.is_empty() => GridCursor::<N>::new(&g, &plan.axis_trig, pose0),
+        _ => None,
+    };
+    let (mut sn, mut cs) = ([[0.0; L]; N], [[0.0; L]; N]);
     let mut p = 0;
     while p < poses {
         let count = (poses - p).min(L);
-        k.poses(simd, &alpha[p * N..(p + count) * N], count, &mut pb);
-        if !out.length.is_empty() {
-            for q in 0..count {
-                for i in 0..N {
-                    out.length[(p + q) * N + i] = pb.len[i][q];
-                }
+        match &mut cursor {
+            Some(c) => {
+                c.fill(count, &mut sn, &mut cs);
+                k.poses_trig(simd, &sn, &cs, &mut pb);
             }
+            None => k.poses(simd, &alpha[p * N..(p + count) * N], count, &mut pb),
+        }
+        if !out.length.is_empty() {
+            transpose_into(&pb.len, &mut out.length[p * N..(p + count) * N]);
         }
         if !out.reachable.is_empty() {
             out.reachable[p..p + count].copy_from_slice(&pb.reachable[..count]);
@@ -999,22 +1018,30 @@ fn run_fast<const N: usize>(
                 row0, cells, ok, ..
             } = sink
             {
-                // Straight from the block into the row-major outputs.
+                cb.nan_failed();
+                // Straight from the block into the row-major outputs: rows r0 + q·M.
+                let r0 = (pose0 + p) * masses + j - *row0;
+                if masses == 1 {
+                    let rows = r0..r0 + count;
+                    ok[rows.clone()].copy_from_slice(&cb.ok[..count]);
+                    cells.dx_mm[rows.clone()].copy_from_slice(&cb.dx[..count]);
+                    cells.dy_mm[rows].copy_from_slice(&cb.dy[..count]);
+                    let span = r0 * N..(r0 + count) * N;
+                    transpose_into(&cb.force, &mut cells.force_n[span.clone()]);
+                    transpose_into(&cb.dalpha, &mut cells.dalpha_deg[span.clone()]);
+                    transpose_into(&cb.dl, &mut cells.dl_mm[span]);
+                    continue;
+                }
                 for q in 0..count {
-                    let r = (pose0 + p + q) * masses + j - *row0;
-                    let good = cb.ok[q];
-                    let nan = |x: f64| if good { x } else { f64::NAN };
-                    ok[r] = good;
-                    let force = &mut cells.force_n[r * N..(r + 1) * N];
-                    let dalpha = &mut cells.dalpha_deg[r * N..(r + 1) * N];
-                    let dl = &mut cells.dl_mm[r * N..(r + 1) * N];
+                    let r = r0 + q * masses;
+                    ok[r] = cb.ok[q];
+                    cells.dx_mm[r] = cb.dx[q];
+                    cells.dy_mm[r] = cb.dy[q];
                     for i in 0..N {
-                        force[i] = nan(cb.force[i][q]);
-                        dalpha[i] = nan(cb.dalpha[i][q]);
-                        dl[i] = nan(cb.dl[i][q]);
+                        cells.force_n[r * N + i] = cb.force[i][q];
+                        cells.dalpha_deg[r * N + i] = cb.dalpha[i][q];
+                        cells.dl_mm[r * N + i] = cb.dl[i][q];
                     }
-                    cells.dx_mm[r] = nan(cb.dx[q]);
-                    cells.dy_mm[r] = nan(cb.dy[q]);
                 }
                 continue;
             }
@@ -1031,6 +1058,95 @@ fn run_fast<const N: usize>(
             }
         }
         p += count;
+    }
+}
+
+/// Writes the first `out.len() / N` lanes of a `[link][lane]` block as rows of `N`.
+#[inline(always)]
+fn transpose_into<const N: usize>(block: &[[f64; L]; N], out: &mut [f64]) {
+    for (q, row) in out.chunks_exact_mut(N).enumerate() {
+        for i in 0..N {
+            row[i] = block[i][q];
+        }
+    }
+}
+
+/// Sines and cosines of every value of every axis of a grid (by [`trig::sincos_deg`], so a
+/// lookup gives the same bits as computing them per pose).
+fn axis_trig(g: &Grid<'_>) -> Vec<(Vec<f64>, Vec<f64>)> {
+    g.axes
+        .iter()
+        .map(|ax| {
+            let (mut sin, mut cos) = (Vec::with_capacity(ax.len()), Vec::with_capacity(ax.len()));
+            for part in ax.chunks(L) {
+                let mut x = [0.0; L];
+                x[..part.len()].copy_from_slice(part);
+                let (mut s, mut c) = ([0.0; L], [0.0; L]);
+                trig::sincos_deg(&x, &mut s, &mut c);
+                sin.extend_from_slice(&s[..part.len()]);
+                cos.extend_from_slice(&c[..part.len()]);
+            }
+            (sin, cos)
+        })
+        .collect()
+}
+
+/// The odometer of a grid sweep in the block kernel: the multi-index of the next pose, and
+/// the sine and cosine tables of the axes.
+struct GridCursor<'g, const N: usize> {
+    sin: [&'g [f64]; N],
+    cos: [&'g [f64]; N],
+    links: [usize; N],
+    idx: [usize; N],
+}
+
+impl<'g, const N: usize> GridCursor<'g, N> {
+    /// At grid pose `start + p0` (None if the grid is not `N`-dimensional: never, checked).
+    fn new(g: &Grid<'g>, trig: &'g [(Vec<f64>, Vec<f64>)], p0: usize) -> Option<Self> {
+        if trig.len() != N || g.links.len() != N {
+            return None;
+        }
+        let sin: [&'g [f64]; N] = std::array::from_fn(|d| trig[d].0.as_slice());
+        let cos: [&'g [f64]; N] = std::array::from_fn(|d| trig[d].1.as_slice());
+        let links: [usize; N] = std::array::from_fn(|d| g.links[d]);
+        let mut idx = [0; N];
+        let mut f = g.start + p0;
+        for d in (0..N).rev() {
+            idx[d] = f % sin[d].len();
+            f /= sin[d].len();
+        }
+        Some(Self {
+            sin,
+            cos,
+            links,
+            idx,
+        })
+    }
+
+    /// Writes the sines and cosines of the next `count` poses into lanes `0..count` (the
+    /// remaining lanes repeat the last pose) and advances.
+    #[inline]
+    fn fill(&mut self, count: usize, sn: &mut [[f64; L]; N], cs: &mut [[f64; L]; N]) {
+        for q in 0..count {
+            for d in 0..N {
+                let i = self.links[d];
+                sn[i][q] = self.sin[d][self.idx[d]];
+                cs[i][q] = self.cos[d][self.idx[d]];
+            }
+            for d in (0..N).rev() {
+                self.idx[d] += 1;
+                if self.idx[d] < self.sin[d].len() {
+                    break;
+                }
+                self.idx[d] = 0;
+            }
+        }
+        for i in 0..N {
+            for q in count..L {
+                sn[i][q] = sn[i][count - 1];
+                cs[i][q] = cs[i][count - 1];
+            }
+        }
     }
 }
 

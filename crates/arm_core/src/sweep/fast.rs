@@ -213,6 +213,26 @@ pub struct CellBlock<const N: usize> {
 }
 
 impl<const N: usize> CellBlock<N> {
+    /// Sets every field of the lanes that did not solve to NaN (lane loops, vectorised;
+    /// nothing to do in the usual case that every lane solved).
+    #[inline]
+    pub fn nan_failed(&mut self) {
+        if self.ok.iter().all(|&o| o) {
+            return;
+        }
+        let nan = |x: &mut f64, good: bool| *x = if good { *x } else { f64::NAN };
+        for k in 0..L {
+            let good = self.ok[k];
+            for i in 0..N {
+                nan(&mut self.force[i][k], good);
+                nan(&mut self.dalpha[i][k], good);
+                nan(&mut self.dl[i][k], good);
+            }
+            nan(&mut self.dx[k], good);
+            nan(&mut self.dy[k], good);
+        }
+    }
+
     /// Zeroed block.
     pub fn new() -> Self {
         let z = [[0.0; L]; N];
@@ -244,8 +264,6 @@ impl<const N: usize> FastArm<N> {
     /// The body of [`Self::poses`], inlined into each instruction-set variant.
     #[inline(always)]
     fn poses_impl(&self, alpha_deg: &[f64], count: usize, out: &mut PoseBlock<N>) {
-        let pb = out;
-        let this = self;
         let mut sn = [[0.0; L]; N];
         let mut cs = [[0.0; L]; N];
         let mut x = [[0.0; L]; N];
@@ -258,6 +276,14 @@ impl<const N: usize> FastArm<N> {
         for i in 0..N {
             sincos_deg(&x[i], &mut sn[i], &mut cs[i]);
         }
+        self.poses_sc_impl(&sn, &cs, out);
+    }
+
+    /// The body of [`Self::poses_trig`]: everything after the sines and cosines.
+    #[inline(always)]
+    fn poses_sc_impl(&self, sn: &[[f64; L]; N], cs: &[[f64; L]; N], out: &mut PoseBlock<N>) {
+        let pb = out;
+        let this = self;
         // Link by link from the tip: geometry of link i (it needs the angles of links i and
         // i−1 only), then its statics, which need the actuator line of link i+1.
         let mut singular = [false; L];
@@ -491,6 +517,41 @@ impl<const N: usize> FastArm<N> {
             // the out-of-line copy is vectorised 2 wide, which is faster.
             _ => self.poses_baseline(alpha_deg, count, out),
         }
+    }
+
+    /// [`Self::poses`] from the sines and cosines of the angles (`[link][lane]`, as
+    /// [`crate::sweep::trig::sincos_deg`] gives them, so the results are the same bits),
+    /// e.g. looked up in tables of a grid's axes; every lane is a pose.
+    pub fn poses_trig(
+        &self,
+        simd: pulp::Arch,
+        sn: &[[f64; L]; N],
+        cs: &[[f64; L]; N],
+        out: &mut PoseBlock<N>,
+    ) {
+        struct Op<'a, const N: usize>(
+            &'a FastArm<N>,
+            &'a [[f64; L]; N],
+            &'a [[f64; L]; N],
+            &'a mut PoseBlock<N>,
+        );
+        impl<const N: usize> pulp::WithSimd for Op<'_, N> {
+            type Output = ();
+            #[inline(always)]
+            fn with_simd<S: pulp::Simd>(self, _simd: S) {
+                self.0.poses_sc_impl(self.1, self.2, self.3);
+            }
+        }
+        match simd {
+            pulp::Arch::V4(_) => simd.dispatch(Op(self, sn, cs, out)),
+            _ => self.poses_sc_baseline(sn, cs, out),
+        }
+    }
+
+    /// [`Self::poses_sc_impl`] compiled for baseline x86-64 (see [`Self::poses_baseline`]).
+    #[inline(never)]
+    fn poses_sc_baseline(&self, sn: &[[f64; L]; N], cs: &[[f64; L]; N], out: &mut PoseBlock<N>) {
+        self.poses_sc_impl(sn, cs, out);
     }
 
     /// [`Self::poses_impl`] compiled for baseline x86-64 (out of line, so it keeps its own
