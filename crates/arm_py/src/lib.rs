@@ -336,9 +336,10 @@ fn cell_fields<'a, T: numpy::Element>(g: &'a mut CellGuards<'_, T>) -> PyResult<
 
 /// A dict of fresh output arrays of a sweep: cell fields `lead` (+ `n`), `ok` `lead`,
 /// per-pose outputs for `poses` poses. Uninitialised (`numpy.empty`): no zeroing pass over
-/// memory that the core overwrites anyway (calloc must zero reused heap memory, serially,
-/// ~100 MB per call at 1e6 poses), and numpy asks the kernel for huge pages for large
-/// arrays. The core writes every element before the arrays are returned.
+/// memory that the core overwrites anyway, and the arrays of one dtype are views of one
+/// buffer, for which numpy asks the kernel for huge pages (ten separate arrays, none
+/// aligned to 2 MB, would leave tens of MB on 4 kB pages and their page faults). The core
+/// writes every element before the arrays are returned.
 fn new_outputs<'py>(
     py: Python<'py>,
     lead: &[usize],
@@ -346,25 +347,47 @@ fn new_outputs<'py>(
     n: usize,
     arg: bool,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let np = py.import("numpy")?;
-    let empty = np.getattr("empty")?;
-    let out = PyDict::new(py);
+    let empty = py.import("numpy")?.getattr("empty")?;
     let mut wide = lead.to_vec();
     wide.push(n);
     let cell_dtype = if arg { "int64" } else { "float64" };
-    for key in CELL_KEYS {
-        let shape = if matches!(key, "dx_mm" | "dy_mm") {
-            lead.to_vec()
-        } else {
-            wide.clone()
-        };
-        out.set_item(key, empty.call1((shape, cell_dtype))?)?;
+    let mut arrays: Vec<(&str, Vec<usize>, &str)> = CELL_KEYS
+        .iter()
+        .map(|&key| {
+            let shape = if matches!(key, "dx_mm" | "dy_mm") {
+                lead.to_vec()
+            } else {
+                wide.clone()
+            };
+            (key, shape, cell_dtype)
+        })
+        .collect();
+    arrays.push(("ok", lead.to_vec(), "bool"));
+    arrays.push(("length_mm", vec![poses, n], "float64"));
+    arrays.push(("reachable", vec![poses], "bool"));
+    arrays.push(("effector_x_mm", vec![poses], "float64"));
+    arrays.push(("effector_y_mm", vec![poses], "float64"));
+    let out = PyDict::new(py);
+    for dtype in ["float64", "int64", "bool"] {
+        let part: Vec<_> = arrays.iter().filter(|a| a.2 == dtype).collect();
+        let total: usize = part.iter().map(|a| a.1.iter().product::<usize>()).sum();
+        if part.is_empty() {
+            continue;
+        }
+        let buf = empty.call1((total, dtype))?;
+        let mut at = 0;
+        for (key, shape, _) in part {
+            let size: usize = shape.iter().product();
+            let view = buf.get_item(pyo3::types::PySlice::new(
+                py,
+                isize::try_from(at)?,
+                isize::try_from(at + size)?,
+                1,
+            ))?;
+            out.set_item(*key, view.call_method1("reshape", (shape.clone(),))?)?;
+            at += size;
+        }
     }
-    out.set_item("ok", empty.call1((lead.to_vec(), "bool"))?)?;
-    out.set_item("length_mm", empty.call1(((poses, n), "float64"))?)?;
-    out.set_item("reachable", empty.call1((poses, "bool"))?)?;
-    out.set_item("effector_x_mm", empty.call1((poses, "float64"))?)?;
-    out.set_item("effector_y_mm", empty.call1((poses, "float64"))?)?;
     Ok(out)
 }
 
