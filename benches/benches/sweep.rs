@@ -1,15 +1,20 @@
 //! Criterion benchmarks of `arm_core::sweep` on the example arm (`examples/example_arm.toml`):
 //! 1e4, 1e5 and 1e6 poses × 1 payload, baseline model, all outputs; one thread against two
 //! (a pool of two built per call, `threads: Some(2)`, and rayon's global pool, `None`, which
-//! has two threads on a 2-CPU machine); stored against reduced (max over groups of 8 poses). Output buffers are allocated once per
-//! size and reused, so this measures the core. Run with `cargo bench -p arm_benches --bench
-//! sweep`; see `docs/benchmarks.md`.
+//! has two threads on a 2-CPU machine); stored against reduced (max over groups of 8 poses).
+//! The poses are given as rows (`Poses::Rows`, random angles) and, in `sweep_grid/…`, as a
+//! regular grid of the same ranges that the core walks itself (`Poses::Grid`, sines and
+//! cosines looked up per axis value). Output buffers are allocated once per size and reused,
+//! so this measures the core. Run with `cargo bench -p arm_benches --bench sweep`; see
+//! `docs/benchmarks.md`.
 
 use std::hint::black_box;
 use std::time::Duration;
 
 use arm_benches::{angles, example_arm, ok};
-use arm_core::sweep::{sweep, CellFields, Cells, Reduce, ReduceOp, SweepOptions, SweepOut};
+use arm_core::sweep::{
+    sweep, sweep_poses, CellFields, Cells, Grid, Poses, Reduce, ReduceOp, SweepOptions, SweepOut,
+};
 use arm_core::EffectSet;
 use criterion::{
     criterion_group, criterion_main, BenchmarkId, Criterion, SamplingMode, Throughput,
@@ -135,5 +140,66 @@ fn bench_sweep(c: &mut Criterion) {
     }
 }
 
-criterion_group!(benches, bench_sweep);
+/// The grid of each size: (α1, α2, α3) values over the ranges of `angles`.
+fn grid_axes(poses: usize) -> [Vec<f64>; 3] {
+    let (a, b, c) = match poses {
+        10_000 => (25, 20, 20),
+        100_000 => (50, 50, 40),
+        _ => (100, 100, 100),
+    };
+    let axis = |lo: f64, hi: f64, k: usize| -> Vec<f64> {
+        (0..k)
+            .map(|i| lo + (hi - lo) * i as f64 / (k - 1) as f64)
+            .collect()
+    };
+    [
+        axis(60.0, 110.0, a),
+        axis(0.0, 30.0, b),
+        axis(-10.0, 10.0, c),
+    ]
+}
+
+fn bench_sweep_grid(c: &mut Criterion) {
+    let arm = example_arm();
+    let effects = EffectSet::empty();
+    let mass = [5.0];
+    for (tlabel, threads) in [("1t", Some(1)), ("pool", None)] {
+        let mut group = c.benchmark_group(format!("sweep_grid/baseline/stored/{tlabel}"));
+        group
+            .sampling_mode(SamplingMode::Flat)
+            .sample_size(10)
+            .warm_up_time(Duration::from_millis(500))
+            .measurement_time(Duration::from_secs(3));
+        for poses in SIZES {
+            let axes = grid_axes(poses);
+            let views: Vec<&[f64]> = axes.iter().map(|a| a.as_slice()).collect();
+            let src = Poses::Grid(Grid {
+                axes: &views,
+                links: &[0, 1, 2],
+                start: 0,
+                count: poses,
+            });
+            let mut buf = Buffers::new(poses, poses, arm.n());
+            let opts = SweepOptions {
+                threads,
+                ..Default::default()
+            };
+            ok(
+                sweep_poses(&arm, &effects, src, &mass, opts, buf.out(), &never),
+                "grid sweep check",
+            );
+            assert!(buf.ok.iter().all(|&o| o) && buf.dy.iter().all(|d| d.is_finite()));
+            group.throughput(Throughput::Elements(poses as u64));
+            group.bench_function(BenchmarkId::from_parameter(poses), |b| {
+                b.iter(|| {
+                    let r = sweep_poses(&arm, &effects, src, &mass, opts, buf.out(), &never);
+                    black_box(r.is_ok())
+                });
+            });
+        }
+        group.finish();
+    }
+}
+
+criterion_group!(benches, bench_sweep, bench_sweep_grid);
 criterion_main!(benches);
