@@ -1288,6 +1288,8 @@ def cmd_sweep(args: argparse.Namespace) -> int:
             raise EodarmError("--scheduler needs Dask: pip install 'eodarm[dask]'") from None
         client = Client(args.scheduler)
         scheduler = client
+    import xarray  # noqa: F401  (imported here so that the time below is the sweep's)
+
     t0 = time.perf_counter()
     try:
         ds = sweep(
