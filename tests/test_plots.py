@@ -356,3 +356,124 @@ def test_the_report_of_an_adequate_model_says_so(arm: eodarm.Arm, tmp_path: Path
     assert 'class="verdict adequate"' in text
     assert "nothing is missing" in text
     assert all(f"<td>{c.slot.key}</td>" in text for c in d.ranking)
+
+
+# ---------------------------------------------------------------------------- report, FE model
+def _sag_baseline(text: str) -> dict[str, str]:
+    """The 'baseline [mm]' column of the report's sag table (section 7), per configuration."""
+    table = text.split("<h2>7. Who makes the sag?</h2>", 1)[1].split("</table>", 1)[0]
+    return dict(re.findall(r'<tr><td>([^<]+)</td><td class="num">([^<]+)</td>', table))
+
+
+def _baseline_rms(text: str) -> dict[str, str]:
+    """The 'RMS baseline' column of the report's section 2, per channel."""
+    table = text.split("<h2>2. Baseline", 1)[1].split("</table>", 1)[0]
+    cell = r'<td class="num">([^<]+)</td>'
+    return {ch: rms for ch, _, rms in re.findall(rf"<tr><td>([^<]+)</td>{cell}{cell}", table)}
+
+
+def test_the_fe_report_names_its_model_and_agrees_with_the_analytic_to_first_order(
+    arm: eodarm.Arm, tmp_path: Path
+) -> None:
+    # The FE model is linear on the undeformed geometry, the analytic one closes the loaded
+    # pose exactly: their displacements differ at second order in the load (~0.6 % of the
+    # sag at 6.5 kg on this arm), their actuator forces not at all (both are the statics of
+    # the undeformed geometry; the sensors' dl is force/stiffness).
+    poses = random_configs(arm, 5, np.random.default_rng(3))
+    text: dict[tuple[str, float], str] = {}
+    for model, scale in (("analytic", 1.0), ("fem", 1.0), ("fem", 1e-3)):
+        m = synth(
+            arm,
+            poses,
+            [scale * x for x in MASSES],
+            hidden=[HIDDEN],
+            channels="dx_mm,dy_mm,dalpha,dl",
+            seed=4,
+        )
+        d = diagnose(arm, m, solver_model=model)
+        steps = build_ladder(arm, m, d, cv=False)  # the diagnosis's model by default
+        assert {s["fit"].problem.model for s in steps} == {model}
+        path = write_report(
+            tmp_path / f"{model}-{scale:g}.html", arm, m, d, steps=steps, cv=True, model=model
+        )
+        text[model, scale] = path.read_text(encoding="utf-8")
+    fe, an = text["fem", 1.0], text["analytic", 1.0]
+    # the report says which model made its numbers
+    assert "finite-element model with 8 elements per flexible link" in fe
+    assert "finite-element" not in an and "analytic: closed forms" in an
+    # the sag of the model alone at the full payload: close, and not the same numbers
+    s_fe, s_an = _sag_baseline(fe), _sag_baseline(an)
+    assert s_fe.keys() == s_an.keys() == set(m.configs)
+    diff = max(abs(float(s_fe[c]) - float(s_an[c])) for c in s_an)
+    assert 0 < diff < 0.02 * max(abs(float(v)) for v in s_an.values())
+    # ... and at 1/1000 of the payload the difference is below the 3 digits shown
+    small = eodarm.solve(arm, poses, MASSES[-1] * 1e-3)["dy_mm"]
+    assert _sag_baseline(text["fem", 1e-3]) == {
+        c: f"{v:.3g}" for c, v in zip(m.configs, small, strict=True)
+    }
+    # the actuator sensors' channels agree exactly, the displacements do not
+    r_fe, r_an = _baseline_rms(fe), _baseline_rms(an)
+    assert [r_fe[f"dl{i}_mm"] for i in (1, 2, 3)] == [r_an[f"dl{i}_mm"] for i in (1, 2, 3)]
+    assert r_fe["dx_mm"] != r_an["dx_mm"] and r_fe["dy_mm"] != r_an["dy_mm"]
+
+
+def test_the_report_refuses_to_mix_models(
+    arm: eodarm.Arm, meas: Measurements, diag: Diagnosis, tmp_path: Path
+) -> None:
+    with pytest.raises(EodarmError, match="made with the analytic model, not the finite-el"):
+        write_report(tmp_path / "r.html", arm, meas, diag, model="fem")
+    with pytest.raises(EodarmError, match="made with the analytic model"):
+        build_ladder(arm, meas, diag, cv=False, model="fem")
+    with pytest.raises(ValueError, match="fem_options is for model='fem'"):
+        write_report(tmp_path / "r.html", arm, meas, diag, fem_options={"elements_per_link": 4})
+    fe_fit = compare(arm, meas, model="fem")
+    with pytest.raises(EodarmError, match="final_fit was fitted with the finite-element model"):
+        write_report(tmp_path / "r.html", arm, meas, diag, final_fit=fe_fit)
+    assert not (tmp_path / "r.html").exists()
+
+
+def test_report_command_with_the_fe_model(
+    meas: Measurements, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from eodarm.cli import main
+
+    csv = tmp_path / "m.csv"
+    meas.to_csv(csv)
+    out = tmp_path / "r.html"
+    args = ["report", str(csv), "--model", "fem", "--elements-per-link", "4", "--rounds", "1"]
+    assert main([*args, "-o", str(out)]) == 0
+    assert capsys.readouterr().out.startswith("baseline")
+    text = out.read_text(encoding="utf-8")
+    assert "finite-element model with 4 elements per flexible link" in text
+    assert "analytic: closed forms" not in text
+
+
+@pytest.mark.parametrize(
+    ("args", "needle"),
+    [
+        (("--model", "fea"), "argument --model: invalid choice: 'fea'"),
+        (("--elements-per-link", "4"), "--elements-per-link needs --model fem"),
+    ],
+)
+def test_report_command_refuses_a_bad_model_in_one_line(
+    args: tuple[str, ...], needle: str, tmp_path: Path
+) -> None:
+    res = subprocess.run(
+        [
+            sys.executable,
+            "-c",
+            "import sys; from eodarm.cli import main; sys.exit(main())",
+            "report",
+            *args,
+            "-o",
+            str(tmp_path / "r.html"),
+        ],
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    assert res.returncode == 2
+    assert res.stdout == ""
+    lines = res.stderr.strip().splitlines()
+    assert len(lines) == 1 and needle in lines[0], res.stderr
+    assert not (tmp_path / "r.html").exists()

@@ -11,7 +11,7 @@ import json
 import sys
 from collections.abc import Sequence
 from importlib import resources
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, NoReturn
 
 import numpy as np
 
@@ -593,6 +593,7 @@ def _cmd_report(args: argparse.Namespace) -> int:
     from .report import write_report
     from .workflow import investigate
 
+    mk = _model_kw(args)
     if args.measurements is None:
         from . import datasets
 
@@ -617,7 +618,15 @@ def _cmd_report(args: argparse.Namespace) -> int:
         intro = None
     sw = not args.no_self_weight
     model = [m for m in _model(args.add, allow_values=False) if not isinstance(m, Effect)]
-    inv = investigate(arm, meas, model, self_weight=sw, max_rounds=args.rounds)
+    inv = investigate(
+        arm,
+        meas,
+        model,
+        self_weight=sw,
+        max_rounds=args.rounds,
+        solver_model=mk["model"],
+        fem_options=mk["fem_options"],
+    )
     last = inv.steps[-1]
     import html
 
@@ -644,6 +653,7 @@ def _cmd_report(args: argparse.Namespace) -> int:
         final_fit=last["fit"] if len(inv.steps) > 1 else None,
         rounds=inv.rounds,
         intro_html=intro,
+        **mk,
     )
     main = "dy_mm" if "dy_mm" in meas.measured_channels else meas.measured_channels[0]
     for s in inv.steps:
@@ -676,8 +686,15 @@ def _cmd_datasets(args: argparse.Namespace) -> int:
     raise EodarmError(f"unknown datasets action '{args.action}'")
 
 
+class _Parser(argparse.ArgumentParser):
+    """Usage errors as one line on stderr, exit status 2, like every other bad input."""
+
+    def error(self, message: str) -> NoReturn:
+        self.exit(2, f"{self.prog}: error: {message}\n")
+
+
 def _parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(
+    p = _Parser(
         prog="eodarm",
         description="Why does the arm not go where its model says? Solve, compare and diagnose "
         "the statics, compliance and backlash of planar arms driven by linear actuators.",
@@ -820,6 +837,7 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--rounds", type=int, default=3, help="at most this many rounds (default 3)")
     r.add_argument("--title", help="the report's title")
     r.add_argument("--no-self-weight", action="store_true")
+    _model_args(r)
     r.set_defaults(func=_cmd_report)
     ds = sub.add_parser(
         "datasets",

@@ -588,6 +588,8 @@ def deflection_share(
     self_weight: bool = True,
     mass: float | None = None,
     path: PathLike | None = None,
+    model: str = "analytic",
+    fem_options: Mapping[str, Any] | None = None,
 ) -> Figure:
     """Who makes the sag: each effect's share of the measure point's dy, per configuration.
 
@@ -606,6 +608,7 @@ def deflection_share(
     self_weight : as :func:`eodarm.solve`.
     mass : payload, kg; default the largest in ``meas``.
     path : where to write a PNG (120 dpi); nothing is written when ``None``.
+    model, fem_options : the model that solves, as in :func:`eodarm.solve`.
 
     Returns
     -------
@@ -620,7 +623,15 @@ def deflection_share(
     labels = list(meas.configs)
 
     def dy(effs: list[Effect]) -> npt.NDArray[np.float64]:
-        out = solve(arm, alpha, m, effects=effs, self_weight=self_weight)
+        out = solve(
+            arm,
+            alpha,
+            m,
+            effects=effs,
+            self_weight=self_weight,
+            model=model,
+            fem_options=fem_options,
+        )
         return np.asarray(out["dy_mm"], dtype=float)
 
     base = dy([])
@@ -683,9 +694,10 @@ def deflection_share(
         ncols=legend_cols,
     )
     sw = "with" if self_weight else "without"
+    fe = "; FE model" if model == "fem" else ""
     ax.set_title(
         f"Who makes the sag? Contributions to dy at payload {m:g} kg\n"
-        f"(each effect alone minus the baseline; {sw} self-weight)"
+        f"(each effect alone minus the baseline; {sw} self-weight{fe})"
     )
     return _finish(fig, path)
 

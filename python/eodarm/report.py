@@ -11,6 +11,10 @@ CSS, no JavaScript, no external resource) that goes from the data to the conclus
 5. the error ladder (:func:`build_ladder`), residuals against payload before/after, and each
    effect's share of the sag.
 
+Every number comes from one model, the one the diagnosis was made with: the analytic model, or
+with ``diagnose(..., solver_model="fem")`` the finite-element model (``docs/fem.md``); the
+report names it.
+
 >>> from eodarm.diagnose import diagnose
 >>> from eodarm.report import build_ladder, write_report
 >>> d = diagnose(arm, meas)                                              # doctest: +SKIP
@@ -35,7 +39,7 @@ import numpy as np
 from . import __version__
 from .arm import Arm
 from .diagnose import CONFUSION_CHI2, Candidate, Diagnosis
-from .errors import EodarmError
+from .errors import EodarmError, InputError
 from .fit import FitResult, FitWarning, cross_validate, fit
 from .measurements import Measurements, default_sigma
 
@@ -73,6 +77,50 @@ footer { margin-top: 3em; font-size: .8em; color: #777; }
 """
 
 
+# ---------------------------------------------------------------------------- the model
+def _solver(
+    diagnosis: Diagnosis, model: str | None, fem_options: Mapping[str, Any] | None
+) -> dict[str, Any]:
+    """The ``model``/``fem_options`` keywords of every evaluation: the diagnosis's own.
+
+    ``model=None`` takes the diagnosis's model; a model (or FE options) other than the one the
+    diagnosis was made with is refused rather than mixed into one report.
+    """
+    from . import fem
+
+    prob = diagnosis.baseline.problem
+    if model is None and fem_options is None:
+        return {"model": prob.model, "fem_options": prob.fem_options}
+    chosen = prob.model if model is None else model
+    fem.check_model(chosen)
+    if chosen != "fem" and fem_options is not None:
+        raise InputError("fem_options is for model='fem'")
+    opts = fem.options(fem_options) if chosen == "fem" else None
+    if (chosen, opts) != (prob.model, prob.fem_options):
+        raise EodarmError(
+            f"the diagnosis was made with the {_model_name(prob.model, prob.fem_options)}, "
+            f"not the {_model_name(chosen, opts)}: diagnose with solver_model={chosen!r} "
+            "(and the same fem_options)"
+        )
+    return {"model": chosen, "fem_options": opts}
+
+
+def _model_name(model: str, fem_options: Mapping[str, Any] | None) -> str:
+    if model != "fem":
+        return "analytic model"
+    epl = (fem_options or {}).get("elements_per_link")
+    return "finite-element model" + (f" with {epl} elements per flexible link" if epl else "")
+
+
+def _same_model(fit_result: FitResult, kw: Mapping[str, Any], what: str) -> None:
+    p = fit_result.problem
+    if (p.model, p.fem_options) != (kw["model"], kw["fem_options"]):
+        raise EodarmError(
+            f"{what} was fitted with the {_model_name(p.model, p.fem_options)}, the diagnosis "
+            f"with the {_model_name(kw['model'], kw['fem_options'])}"
+        )
+
+
 # ---------------------------------------------------------------------------- the ladder
 def build_ladder(
     arm: Arm,
@@ -80,6 +128,8 @@ def build_ladder(
     diagnosis: Diagnosis,
     self_weight: bool = True,
     cv: bool = True,
+    model: str | None = None,
+    fem_options: Mapping[str, Any] | None = None,
 ) -> list[dict[str, Any]]:
     """The models of the error ladder: baseline, then the suggested effects one at a time.
 
@@ -96,6 +146,9 @@ def build_ladder(
     cv : add the leave-one-configuration-out RMS (:func:`eodarm.fit.cross_validate`) of every
         step; only done when the data have at least two configurations. (Cross-validation
         uses every measured cell, outliers included.)
+    model, fem_options : ``"analytic"`` or ``"fem"`` and its options, as in
+        :func:`eodarm.fit.fit`; default (``None``) the model the diagnosis was made with, and
+        nothing else is accepted.
 
     Returns
     -------
@@ -111,6 +164,7 @@ def build_ladder(
             f"build_ladder: the diagnosis was made on {prob.meas.n_rows} rows, "
             f"the measurements have {meas.n_rows}"
         )
+    kw = _solver(diagnosis, model, fem_options)
     excluded = np.isfinite(meas.values) & ~prob.use
     exclude = excluded if excluded.any() else None
     gain = {c.slot.key: c.delta_chi2 for c in diagnosis.ranking}
@@ -124,9 +178,11 @@ def build_ladder(
         slots = list(diagnosis.model) + added[:i]
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", FitWarning)
-            res = fit(arm, meas, slots, self_weight=self_weight, exclude=exclude)
+            res = fit(arm, meas, slots, self_weight=self_weight, exclude=exclude, **kw)
             cv_rms = (
-                cross_validate(arm, meas, slots, self_weight=self_weight)["rms"] if do_cv else None
+                cross_validate(arm, meas, slots, self_weight=self_weight, **kw)["rms"]
+                if do_cv
+                else None
             )
         steps.append(
             {
@@ -266,6 +322,8 @@ def write_report(
     final_fit: FitResult | None = None,
     rounds: Sequence[Diagnosis] | None = None,
     intro_html: str | None = None,
+    model: str | None = None,
+    fem_options: Mapping[str, Any] | None = None,
 ) -> Path:
     """Write the diagnosis as one self-contained HTML file.
 
@@ -286,6 +344,10 @@ def write_report(
         fitted model, residual and share sections then show it, and ``cv`` belongs to it.
     rounds : every round of diagnosis (the first is ``diagnosis``), summarised in a table.
     intro_html : a paragraph shown under the title (inserted as given).
+    model, fem_options : the model of every evaluation (``"analytic"`` or ``"fem"`` and its
+        options, as in :func:`eodarm.fit.fit`); default (``None``) the one the diagnosis was
+        made with, and only that one is accepted (also for ``final_fit`` and the fits of
+        ``steps``). The report names it.
 
     Returns
     -------
@@ -294,6 +356,12 @@ def write_report(
     """
     from . import plots
 
+    kw = _solver(diagnosis, model, fem_options)
+    if final_fit is not None:
+        _same_model(final_fit, kw, "final_fit")
+    for i, step in enumerate(steps or ()):
+        if step.get("fit") is not None:
+            _same_model(step["fit"], kw, f"step {i} of the ladder")
     base = diagnosis.baseline
     best = final_fit if final_fit is not None else diagnosis.suggested_fit
     final = best if best is not None else base
@@ -306,7 +374,7 @@ def write_report(
         if best is not None and len(meas.configs) >= 2:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore", FitWarning)
-                cv = cross_validate(arm, meas, best.slots, self_weight=self_weight)
+                cv = cross_validate(arm, meas, best.slots, self_weight=self_weight, **kw)
     elif cv is False:
         cv = None
 
@@ -327,8 +395,8 @@ def write_report(
     ]
     if intro_html:
         parts.append(intro_html)
-    parts += _data_section(arm, meas, self_weight)
-    parts += _baseline_section(meas, diagnosis, main)
+    parts += _data_section(arm, meas, self_weight, kw)
+    parts += _baseline_section(meas, diagnosis, main, kw)
     parts += _diagnosis_section(meas, diagnosis, main, unit)
     if rounds and len(rounds) > 1:
         parts += _rounds_section(rounds, main)
@@ -336,12 +404,13 @@ def write_report(
     if steps:
         parts += _ladder_section(steps, main, unit)
     parts += _residual_section(meas, base, final, main)
-    parts += _share_section(arm, meas, final, self_weight)
+    parts += _share_section(arm, meas, final, self_weight, kw)
     for heading, body in extra_sections or ():
         parts += [f"<h2>{_e(heading)}</h2>", body]
     stamp = _dt.datetime.now(_dt.UTC).strftime("%Y-%m-%d %H:%M UTC")
     parts += [
-        f"<footer>eodarm {_e(__version__)} · {stamp} · every figure is embedded in this file"
+        f"<footer>eodarm {_e(__version__)} · {_e(_model_name(**kw))} · {stamp} · every "
+        "figure is embedded in this file"
         "</footer>",
         "</body></html>",
     ]
@@ -353,7 +422,9 @@ def write_report(
     return out
 
 
-def _data_section(arm: Arm, meas: Measurements, self_weight: bool) -> list[str]:
+def _data_section(
+    arm: Arm, meas: Measurements, self_weight: bool, kw: Mapping[str, Any]
+) -> list[str]:
     masses = np.unique(meas.mass_kg)
     chans = meas.measured_channels
     counts = {ch: int(meas.measured[:, meas.index(ch)].sum()) for ch in chans}
@@ -378,6 +449,7 @@ def _data_section(arm: Arm, meas: Measurements, self_weight: bool) -> list[str]:
             ],
             ["σ defaulted", sig],
             ["self-weight", "included" if self_weight else "left out"],
+            ["model", _model_line(kw)],
         ],
     )
     rows = []
@@ -396,7 +468,19 @@ def _data_section(arm: Arm, meas: Measurements, self_weight: bool) -> list[str]:
     return ["<h2>1. The data</h2>", _row(summary, f"<div>{configs}</div>")]
 
 
-def _baseline_section(meas: Measurements, d: Diagnosis, main: str) -> list[str]:
+def _model_line(kw: Mapping[str, Any]) -> str:
+    """What the model is, in a sentence."""
+    if kw["model"] != "fem":
+        return "analytic: closed forms, the loaded pose closed exactly (docs/model.md)"
+    return (
+        f"{_model_name(**kw)}: beams, bars, pins and springs, linear on the undeformed "
+        "geometry; agrees with the analytic model to first order in the load (docs/fem.md)"
+    )
+
+
+def _baseline_section(
+    meas: Measurements, d: Diagnosis, main: str, kw: Mapping[str, Any]
+) -> list[str]:
     from . import plots
 
     base, best = d.baseline, d.suggested_fit
@@ -407,6 +491,7 @@ def _baseline_section(meas: Measurements, d: Diagnosis, main: str) -> list[str]:
         else "Baseline: rigid links, pins without clearance, each actuator an axial spring "
         "with the arm file's stiffness, rigid base; nothing fitted."
     )
+    what += f" Every model in this report is the {_e(_model_name(**kw))}."
     rb, ra = base.rms(), best.rms() if best is not None else {}
     head = ["channel", "typical σ", "RMS baseline", "RMS/σ"]
     if best is not None:
@@ -698,7 +783,9 @@ def _residual_section(
     return ["<h2>6. Residuals against payload</h2>", _row(table, img)]
 
 
-def _share_section(arm: Arm, meas: Measurements, final: FitResult, sw: bool) -> list[str]:
+def _share_section(
+    arm: Arm, meas: Measurements, final: FitResult, sw: bool, kw: Mapping[str, Any]
+) -> list[str]:
     from . import plots
     from .solver import solve
 
@@ -706,11 +793,11 @@ def _share_section(arm: Arm, meas: Measurements, final: FitResult, sw: bool) -> 
     mass = float(np.max(meas.mass_kg))
     rows_idx = [int(np.flatnonzero(np.asarray(meas.config) == c)[0]) for c in meas.configs]
     alpha = meas.alpha_deg[rows_idx]
-    base = solve(arm, alpha, mass, self_weight=sw)["dy_mm"]
+    base = solve(arm, alpha, mass, self_weight=sw, **kw)["dy_mm"]
     contrib = [
-        solve(arm, alpha, mass, effects=[e], self_weight=sw)["dy_mm"] - base for e in effects
+        solve(arm, alpha, mass, effects=[e], self_weight=sw, **kw)["dy_mm"] - base for e in effects
     ]
-    total = solve(arm, alpha, mass, effects=effects, self_weight=sw)["dy_mm"]
+    total = solve(arm, alpha, mass, effects=effects, self_weight=sw, **kw)["dy_mm"]
     rows = [
         [label, _Num(base[i], 3), *(_Num(v[i], 3) for v in contrib), _Num(total[i], 3)]
         for i, label in enumerate(meas.configs)
@@ -720,7 +807,7 @@ def _share_section(arm: Arm, meas: Measurements, final: FitResult, sw: bool) -> 
         rows,
     )
     img = _img(
-        plots.deflection_share(arm, meas, effects, self_weight=sw, mass=mass),
+        plots.deflection_share(arm, meas, effects, self_weight=sw, mass=mass, **kw),
         "contributions to the sag",
         f"Contribution of each effect to the sag dy of the measure point at {mass:g} kg "
         "(the effect alone minus the baseline), per configuration; the diamond is the total "
@@ -729,18 +816,20 @@ def _share_section(arm: Arm, meas: Measurements, final: FitResult, sw: bool) -> 
     out = [
         "<h2>7. Who makes the sag?</h2>",
         f"<p>dy of the measure point [mm] at payload {mass:g} kg, model: "
-        f"{_e(', '.join(plots.effect_label(e) for e in effects) or 'baseline only')}.</p>",
+        f"{_e(', '.join(plots.effect_label(e) for e in effects) or 'baseline only')} "
+        f"({_e(_model_name(**kw))}).</p>",
         _row(table, img),
     ]
     first = meas.configs[0]
     r0 = rows_idx[0]
-    one = solve(arm, alpha[:1], mass, effects=effects, self_weight=sw)
+    one = solve(arm, alpha[:1], mass, effects=effects, self_weight=sw, **kw)
     scale = _nice_scale(float(np.max(np.abs(one["dalpha_deg"]))))
     pose = _img(
         plots.arm_pose(arm, alpha[0], out=one, scale=scale),
         f"the arm in configuration {first}",
         f"Configuration {first} (α = {', '.join(f'{a:.1f}' for a in meas.alpha_deg[r0])}°) "
-        f"under {mass:g} kg with the fitted model; the loaded pose is exaggerated ×{scale:g}.",
+        f"under {mass:g} kg with the fitted model ({_model_name(**kw)}); the loaded pose is "
+        f"exaggerated ×{scale:g}.",
         narrow=True,
     )
     out.append(pose)

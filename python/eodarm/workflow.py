@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import math
 import warnings
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -54,6 +54,8 @@ def investigate(
     self_weight: bool = True,
     max_rounds: int = 3,
     cv: bool = True,
+    solver_model: str = "analytic",
+    fem_options: Mapping[str, Any] | None = None,
 ) -> Investigation:
     """Diagnose; while something is missing, add the suggested set and diagnose again.
 
@@ -62,7 +64,12 @@ def investigate(
     (cross-validated χ², with ``cv``), or after ``max_rounds``. Every step of the ladder is
     refitted on all its effects jointly, with leave-one-configuration-out cross-validation
     when ``cv`` and there are two or more configurations.
+
+    ``solver_model`` (``"analytic"`` or ``"fem"``) and ``fem_options`` choose the model that
+    predicts the channels in every diagnosis, fit and cross-validation, as in
+    :func:`eodarm.diagnose.diagnose` (``model`` is the list of effects already in the model).
     """
+    kw: dict[str, Any] = {"model": solver_model, "fem_options": fem_options}
     current = [Slot.of(s) for s in model]
     do_cv = cv and len(meas.configs) >= 2
     rounds: list[Diagnosis] = []
@@ -71,8 +78,8 @@ def investigate(
     def step(label: str, slots: list[Slot]) -> dict[str, Any]:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", FitWarning)
-            res = fit(arm, meas, slots, self_weight=self_weight)
-            cvr = cross_validate(arm, meas, slots, self_weight=self_weight) if do_cv else None
+            res = fit(arm, meas, slots, self_weight=self_weight, **kw)
+            cvr = cross_validate(arm, meas, slots, self_weight=self_weight, **kw) if do_cv else None
         cv_chi2 = math.nan
         if cvr is not None:
             z = cvr["residual"] / meas.sigma
@@ -93,7 +100,14 @@ def investigate(
     steps.append(step(base_label, current))
     stopped = f"the limit of {max_rounds} rounds was reached"
     for _ in range(max_rounds):
-        d = diagnose(arm, meas, current, self_weight=self_weight)
+        d = diagnose(
+            arm,
+            meas,
+            current,
+            self_weight=self_weight,
+            solver_model=solver_model,
+            fem_options=fem_options,
+        )
         rounds.append(d)
         if d.verdict == "adequate":
             stopped = "the model explains the data within their noise"

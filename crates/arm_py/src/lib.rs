@@ -188,6 +188,78 @@ fn effect_set(
     Ok(set.map_err(PyArmError)?)
 }
 
+/// The outputs of `eodarm.solve` that both models fill (`arm_core::BatchOutput`): allocated
+/// once for `rows` poses of an `n`-link arm, lent to the core, then handed to Python under
+/// their keys and shapes.
+struct SolveArrays {
+    rows: usize,
+    n: usize,
+    force: Vec<f64>,
+    reaction: Vec<f64>,
+    dforce: Vec<f64>,
+    dx: Vec<f64>,
+    dy: Vec<f64>,
+    dalpha: Vec<f64>,
+    dl: Vec<f64>,
+    dlength: Vec<f64>,
+    length: Vec<f64>,
+}
+
+impl SolveArrays {
+    fn new(rows: usize, n: usize) -> Self {
+        let per_link = || vec![0.0; rows * n];
+        Self {
+            rows,
+            n,
+            force: per_link(),
+            reaction: vec![0.0; rows * n * 2],
+            dforce: per_link(),
+            dx: vec![0.0; rows],
+            dy: vec![0.0; rows],
+            dalpha: per_link(),
+            dl: per_link(),
+            dlength: per_link(),
+            length: per_link(),
+        }
+    }
+
+    /// The arrays as the core's output slices.
+    fn batch(&mut self) -> BatchOutput<'_> {
+        BatchOutput {
+            force_n: &mut self.force,
+            reaction_n: &mut self.reaction,
+            dforce_n: &mut self.dforce,
+            dx_mm: &mut self.dx,
+            dy_mm: &mut self.dy,
+            dalpha_deg: &mut self.dalpha,
+            dl_mm: &mut self.dl,
+            dlength_mm: &mut self.dlength,
+            length_mm: &mut self.length,
+        }
+    }
+
+    /// A dict of float64 arrays: `force_n`, `dforce_n`, `dalpha_deg`, `dl_mm`, `dlength_mm`,
+    /// `length_mm` (rows, n), `reaction_n` (rows, n, 2), `dx_mm`, `dy_mm` (rows,).
+    fn into_dict<'py>(self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let (rows, n) = (self.rows, self.n);
+        let per_link = |v: Vec<f64>| v.into_pyarray(py).reshape([rows, n]);
+        let out = PyDict::new(py);
+        out.set_item("force_n", per_link(self.force)?)?;
+        out.set_item(
+            "reaction_n",
+            self.reaction.into_pyarray(py).reshape([rows, n, 2])?,
+        )?;
+        out.set_item("dforce_n", per_link(self.dforce)?)?;
+        out.set_item("dx_mm", self.dx.into_pyarray(py))?;
+        out.set_item("dy_mm", self.dy.into_pyarray(py))?;
+        out.set_item("dalpha_deg", per_link(self.dalpha)?)?;
+        out.set_item("dl_mm", per_link(self.dl)?)?;
+        out.set_item("dlength_mm", per_link(self.dlength)?)?;
+        out.set_item("length_mm", per_link(self.length)?)?;
+        Ok(out)
+    }
+}
+
 /// Solves N poses; returns a dict of float64 arrays (see `eodarm.solve`).
 #[pyfunction]
 #[pyo3(signature = (arm, alpha_deg, payload_n, codes, places, values, self_weight, nan_on_failure=false))]
@@ -213,15 +285,7 @@ fn solve<'py>(
         )));
     }
     let effects = effect_set(arm, &codes, &places, &values, true)?;
-    let mut force = vec![0.0; rows * n];
-    let mut reaction = vec![0.0; rows * n * 2];
-    let mut dforce = vec![0.0; rows * n];
-    let mut dx = vec![0.0; rows];
-    let mut dy = vec![0.0; rows];
-    let mut dalpha = vec![0.0; rows * n];
-    let mut dl = vec![0.0; rows * n];
-    let mut dlength = vec![0.0; rows * n];
-    let mut length = vec![0.0; rows * n];
+    let mut arrays = SolveArrays::new(rows, n);
     py.detach(|| {
         arm_core::solve_batch(
             arm,
@@ -234,34 +298,11 @@ fn solve<'py>(
                 self_weight,
                 nan_on_failure,
             },
-            BatchOutput {
-                force_n: &mut force,
-                reaction_n: &mut reaction,
-                dforce_n: &mut dforce,
-                dx_mm: &mut dx,
-                dy_mm: &mut dy,
-                dalpha_deg: &mut dalpha,
-                dl_mm: &mut dl,
-                dlength_mm: &mut dlength,
-                length_mm: &mut length,
-            },
+            arrays.batch(),
         )
     })
     .map_err(PyArmError)?;
-    let out = PyDict::new(py);
-    out.set_item("force_n", force.into_pyarray(py).reshape([rows, n])?)?;
-    out.set_item(
-        "reaction_n",
-        reaction.into_pyarray(py).reshape([rows, n, 2])?,
-    )?;
-    out.set_item("dforce_n", dforce.into_pyarray(py).reshape([rows, n])?)?;
-    out.set_item("dx_mm", dx.into_pyarray(py))?;
-    out.set_item("dy_mm", dy.into_pyarray(py))?;
-    out.set_item("dalpha_deg", dalpha.into_pyarray(py).reshape([rows, n])?)?;
-    out.set_item("dl_mm", dl.into_pyarray(py).reshape([rows, n])?)?;
-    out.set_item("dlength_mm", dlength.into_pyarray(py).reshape([rows, n])?)?;
-    out.set_item("length_mm", length.into_pyarray(py).reshape([rows, n])?)?;
-    Ok(out)
+    arrays.into_dict(py)
 }
 
 /// The five cell fields of a sweep, in the order of `arm_core::sweep::CellFields`.
@@ -628,15 +669,7 @@ fn fem_solve<'py>(
         .detach(|| FemModel::new(arm, &effects, &sections, options))
         .map_err(PyArmError)?;
     let (pins, moments, nodes) = extra_sizes(&model);
-    let mut force = vec![0.0; rows * n];
-    let mut reaction = vec![0.0; rows * n * 2];
-    let mut dforce = vec![0.0; rows * n];
-    let mut dx = vec![0.0; rows];
-    let mut dy = vec![0.0; rows];
-    let mut dalpha = vec![0.0; rows * n];
-    let mut dl = vec![0.0; rows * n];
-    let mut dlength = vec![0.0; rows * n];
-    let mut length = vec![0.0; rows * n];
+    let mut arrays = SolveArrays::new(rows, n);
     let mut pin = vec![0.0; rows * pins];
     let mut moment = vec![0.0; rows * moments];
     let mut dmoment = vec![0.0; rows * moments];
@@ -654,17 +687,7 @@ fn fem_solve<'py>(
                 nan_on_failure,
             },
             FemBatchOutput {
-                base: BatchOutput {
-                    force_n: &mut force,
-                    reaction_n: &mut reaction,
-                    dforce_n: &mut dforce,
-                    dx_mm: &mut dx,
-                    dy_mm: &mut dy,
-                    dalpha_deg: &mut dalpha,
-                    dl_mm: &mut dl,
-                    dlength_mm: &mut dlength,
-                    length_mm: &mut length,
-                },
+                base: arrays.batch(),
                 pin_force_n: &mut pin,
                 moment_nmm: &mut moment,
                 dmoment_nmm: &mut dmoment,
@@ -690,19 +713,7 @@ fn fem_solve<'py>(
         .flatten()
         .collect();
     let n_seg = kinds.len();
-    let out = PyDict::new(py);
-    out.set_item("force_n", force.into_pyarray(py).reshape([rows, n])?)?;
-    out.set_item(
-        "reaction_n",
-        reaction.into_pyarray(py).reshape([rows, n, 2])?,
-    )?;
-    out.set_item("dforce_n", dforce.into_pyarray(py).reshape([rows, n])?)?;
-    out.set_item("dx_mm", dx.into_pyarray(py))?;
-    out.set_item("dy_mm", dy.into_pyarray(py))?;
-    out.set_item("dalpha_deg", dalpha.into_pyarray(py).reshape([rows, n])?)?;
-    out.set_item("dl_mm", dl.into_pyarray(py).reshape([rows, n])?)?;
-    out.set_item("dlength_mm", dlength.into_pyarray(py).reshape([rows, n])?)?;
-    out.set_item("length_mm", length.into_pyarray(py).reshape([rows, n])?)?;
+    let out = arrays.into_dict(py)?;
     out.set_item(
         "pin_force_n",
         pin.into_pyarray(py).reshape([rows, 2 * n, 2])?,
