@@ -6,6 +6,7 @@
 use arm_core::effects::{
     ActuatorCompliance, ActuatorPlay, BaseCompliance, JointClearance, LinkBending, MountCompliance,
 };
+use arm_core::examples::example_arm;
 use arm_core::geometry::{cross, rot};
 use arm_core::kinematics::{angles_from_lengths, inverse_kinematics, Frames};
 use arm_core::{Actuator, Arm, Effect, EffectSet, Link, SolveOptions, Workspace, V2};
@@ -15,54 +16,34 @@ fn v(x: f64, y: f64) -> V2 {
     V2::new(x, y)
 }
 
-/// The example arm of the contract, geometry scaled by `s` and stiffness by `k`.
+/// The example arm of the contract (`arm_core::examples`), geometry scaled by `s` (about O_1,
+/// the origin) and stiffness by `k`, with the chassis pivot at `pivot` and no stroke or force
+/// limits (the solver does not read them; strokes would have to scale too).
 fn arm(s: f64, k: f64, pivot: V2) -> Arm {
-    let link = |next: V2, a: V2, b: V2, c: V2, m: f64| Link {
-        next: next * s,
-        a: a * s,
-        b: b * s,
-        c: c * s,
-        mass_kg: m,
-    };
-    let act = |stiffness: f64, m: f64| Actuator {
-        stiffness: stiffness * k,
-        mass_kg: m,
-        min_length: None,
-        max_length: None,
-        max_force: None,
-    };
-    Arm::new(
-        9.81,
-        v(0.0, 0.0),
-        v(250.0, -40.0) * s,
-        pivot,
-        vec![
-            link(
-                v(480.0, 0.0),
-                v(95.0, 55.0),
-                v(-40.0, -50.0),
-                v(220.0, -3.0),
-                3.0,
-            ),
-            link(
-                v(380.0, 0.0),
-                v(85.0, -55.0),
-                v(-110.0, 10.0),
-                v(170.0, -2.0),
-                2.2,
-            ),
-            link(
-                v(360.0, 0.0),
-                v(50.0, -40.0),
-                v(0.0, 0.0),
-                v(160.0, -2.0),
-                1.3,
-            ),
-        ],
-        vec![act(3000.0, 1.5), act(2500.0, 1.2), act(2000.0, 0.9)],
-        v(280.0, -40.0) * s,
-    )
-    .unwrap()
+    let ex = example_arm();
+    let links = ex
+        .links
+        .iter()
+        .map(|l| Link {
+            next: l.next * s,
+            a: l.a * s,
+            b: l.b * s,
+            c: l.c * s,
+            mass_kg: l.mass_kg,
+        })
+        .collect();
+    let acts = ex
+        .actuators
+        .iter()
+        .map(|a| Actuator {
+            stiffness: a.stiffness * k,
+            mass_kg: a.mass_kg,
+            min_length: None,
+            max_length: None,
+            max_force: None,
+        })
+        .collect();
+    Arm::new(ex.g, ex.o1, ex.b0 * s, pivot, links, acts, ex.measure * s).unwrap()
 }
 
 fn rad(a: [f64; 3]) -> Vec<f64> {
