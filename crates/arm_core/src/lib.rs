@@ -13,7 +13,9 @@
 //! * [`mod@sweep`]: poses × payloads in bounded memory, with per-group reductions (fast kernel);
 //! * [`sensitivity`]: predicted channels and their derivatives by effect parameter, for fits;
 //! * [`fem`]: the numerical model, a frame finite-element model of the same arm solved with
-//!   faer's sparse Cholesky, an independent check of all of the above.
+//!   faer's sparse Cholesky, an independent check of all of the above;
+//! * [`examples`]: the contract's example arm (`examples/example_arm.toml`), the shared fixture
+//!   of tests and benchmarks.
 //!
 //! Units: mm, N, kg, rad inside (degrees at the batch API). Global frame: x forward, y up,
 //! angles counter-clockwise. `docs/model.md` in the repository derives every equation.
@@ -21,6 +23,7 @@
 pub mod arm;
 pub mod effects;
 pub mod error;
+pub mod examples;
 pub mod fem;
 pub mod geometry;
 pub mod kinematics;

@@ -15,6 +15,7 @@
 use arm_core::effects::{
     ActuatorCompliance, ActuatorPlay, BaseCompliance, JointClearance, LinkBending, MountCompliance,
 };
+use arm_core::examples::example_arm;
 use arm_core::fem::forces::{link_forces, section_moment, Applied, PointForce};
 use arm_core::fem::{
     fem_solve_batch, FemBatchOutput, FemModel, FemOptions, FemWorkspace, LinearSolver, LinkSection,
@@ -48,42 +49,6 @@ fn link(next: V2, a: V2, b: V2, c: V2, mass_kg: f64) -> Link {
         c,
         mass_kg,
     }
-}
-
-/// The contract's example arm (examples/example_arm.toml).
-fn example_arm() -> Arm {
-    Arm::new(
-        9.81,
-        v(0.0, 0.0),
-        v(250.0, -40.0),
-        v(-200.0, -280.0),
-        vec![
-            link(
-                v(480.0, 0.0),
-                v(95.0, 55.0),
-                v(-40.0, -50.0),
-                v(220.0, -3.0),
-                3.0,
-            ),
-            link(
-                v(380.0, 0.0),
-                v(85.0, -55.0),
-                v(-110.0, 10.0),
-                v(170.0, -2.0),
-                2.2,
-            ),
-            link(
-                v(360.0, 0.0),
-                v(50.0, -40.0),
-                v(0.0, 0.0),
-                v(160.0, -2.0),
-                1.3,
-            ),
-        ],
-        vec![act(3000.0, 1.5), act(2500.0, 1.2), act(2000.0, 0.9)],
-        v(280.0, -40.0),
-    )
-    .unwrap()
 }
 
 /// The bundled seed2022 arm (python/eodarm/data/seed2022/arm.toml), pivot moved off O1 so

@@ -1,11 +1,13 @@
 //! Physical properties of the core, on random perturbations of the example arm and random
 //! poses: frame round trips, equilibrium of every body, zero load → zero deflection,
-//! linearity of the elastic effects, bounded clearance/play, base tilt, reciprocity.
+//! linearity of the elastic effects, clearance along the joint force, bounded play, base tilt,
+//! reciprocity.
 
 #![allow(clippy::unwrap_used, clippy::needless_range_loop)] // test code: a failure should panic
 use arm_core::effects::{
     ActuatorCompliance, ActuatorPlay, BaseCompliance, JointClearance, LinkBending, MountCompliance,
 };
+use arm_core::examples::example_arm;
 use arm_core::geometry::{cross, rot};
 use arm_core::kinematics::{angles_from_lengths, inverse_kinematics, Frames};
 use arm_core::{Actuator, Arm, Effect, EffectSet, Link, SolveOptions, Workspace, V2};
@@ -15,54 +17,34 @@ fn v(x: f64, y: f64) -> V2 {
     V2::new(x, y)
 }
 
-/// The example arm of the contract, geometry scaled by `s` and stiffness by `k`.
+/// The example arm of the contract (`arm_core::examples`), geometry scaled by `s` (about O_1,
+/// the origin) and stiffness by `k`, with the chassis pivot at `pivot` and no stroke or force
+/// limits (the solver does not read them; strokes would have to scale too).
 fn arm(s: f64, k: f64, pivot: V2) -> Arm {
-    let link = |next: V2, a: V2, b: V2, c: V2, m: f64| Link {
-        next: next * s,
-        a: a * s,
-        b: b * s,
-        c: c * s,
-        mass_kg: m,
-    };
-    let act = |stiffness: f64, m: f64| Actuator {
-        stiffness: stiffness * k,
-        mass_kg: m,
-        min_length: None,
-        max_length: None,
-        max_force: None,
-    };
-    Arm::new(
-        9.81,
-        v(0.0, 0.0),
-        v(250.0, -40.0) * s,
-        pivot,
-        vec![
-            link(
-                v(480.0, 0.0),
-                v(95.0, 55.0),
-                v(-40.0, -50.0),
-                v(220.0, -3.0),
-                3.0,
-            ),
-            link(
-                v(380.0, 0.0),
-                v(85.0, -55.0),
-                v(-110.0, 10.0),
-                v(170.0, -2.0),
-                2.2,
-            ),
-            link(
-                v(360.0, 0.0),
-                v(50.0, -40.0),
-                v(0.0, 0.0),
-                v(160.0, -2.0),
-                1.3,
-            ),
-        ],
-        vec![act(3000.0, 1.5), act(2500.0, 1.2), act(2000.0, 0.9)],
-        v(280.0, -40.0) * s,
-    )
-    .unwrap()
+    let ex = example_arm();
+    let links = ex
+        .links
+        .iter()
+        .map(|l| Link {
+            next: l.next * s,
+            a: l.a * s,
+            b: l.b * s,
+            c: l.c * s,
+            mass_kg: l.mass_kg,
+        })
+        .collect();
+    let acts = ex
+        .actuators
+        .iter()
+        .map(|a| Actuator {
+            stiffness: a.stiffness * k,
+            mass_kg: a.mass_kg,
+            min_length: None,
+            max_length: None,
+            max_force: None,
+        })
+        .collect();
+    Arm::new(ex.g, ex.o1, ex.b0 * s, pivot, links, acts, ex.measure * s).unwrap()
 }
 
 fn rad(a: [f64; 3]) -> Vec<f64> {
@@ -129,6 +111,40 @@ fn solve(arm: &Arm, eff: Vec<Effect>, alpha: &[f64], p: V2, self_weight: bool) -
         dalpha,
         ws,
     }
+}
+
+/// The force (N) that link j+1 presses onto body j (the chassis for j = 0) at joint O_{j+1}, in
+/// the loaded state on the undeformed pose: −R_{j+1} of docs/model.md §1 (0-based `j`, as
+/// `Forces::r[j]`). Worked out here without `arm_core::statics`: links j+1…n as one free body,
+/// loaded by the payload at the load point, its weights (the links; half of actuator j+1 at its
+/// pin A; both halves of every actuator inside it), actuator j+1's axial force along its line
+/// and the joint force. Moments about the joint give the actuator force, the force balance the
+/// joint force.
+fn joint_press(arm: &Arm, alpha: &[f64], j: usize, p: V2, self_weight: bool) -> V2 {
+    let n = arm.n();
+    let mut fr = Frames::new(n);
+    fr.fill(arm, alpha);
+    let w = |mass: f64| {
+        if self_weight {
+            v(0.0, -mass * arm.g)
+        } else {
+            V2::zeros()
+        }
+    };
+    let mut loads = vec![(fr.joint[n], p)];
+    for k in j..n {
+        loads.push((fr.c[k], w(arm.links[k].mass_kg)));
+        loads.push((fr.a[k], w(0.5 * arm.actuators[k].mass_kg)));
+        if k > j {
+            loads.push((fr.b[k], w(0.5 * arm.actuators[k].mass_kg)));
+        }
+    }
+    let o = fr.joint[j];
+    let e = (fr.a[j] - fr.b[j]).normalize();
+    let q: V2 = loads.iter().map(|l| l.1).sum();
+    let t: f64 = loads.iter().map(|l| cross(l.0 - o, l.1)).sum();
+    let f = -t / cross(fr.a[j] - o, e); // along e, compression +
+    q + f * e // = −R_j, since R_j + q + f·e = 0
 }
 
 fn poses() -> impl Strategy<Value = [f64; 3]> {
@@ -215,8 +231,11 @@ proptest! {
         prop_assert!(small < big / 30.0 + 1e-9, "defect {small} at m/10 vs {big} at m");
     }
 
-    /// Clearance moves a joint by at most c, play an actuator by at most its play, and neither
-    /// grows with the load (stiff arm, no self-weight: only the gaps move it).
+    /// Clearance moves a joint by c along the force the link presses onto the body before it
+    /// (docs/model.md §4: a global offset along −R of the loaded, undeformed statics); with
+    /// rigid actuators the links beyond the joint follow as one rigid body. Play changes an
+    /// actuator by at most its play. Neither grows with the load (stiff arm, no self-weight:
+    /// only the gaps move it).
     #[test]
     fn clearance_and_play_bounded(arm in arms(), pose in poses(), m in 0.5..8.0f64, c in 0.0..0.5f64) {
         let stiff = |e: Effect| {
@@ -226,13 +245,34 @@ proptest! {
             v.push(e);
             v
         };
+        let (alpha, load) = (rad(pose), v(0.0, -m * arm.g));
         for j in 0..3 {
             let e = Effect::JointClearance(JointClearance { joint: j, clearance: c });
-            let a = solve(&arm, stiff(e.clone()), &rad(pose), v(0.0, -m * arm.g), false);
-            let b = solve(&arm, stiff(e), &rad(pose), v(0.0, -3.0 * m * arm.g), false);
-            // The offset of the pin in its bore is exactly c (a full contact), never more.
-            let off = a.ws.def.joint_offset[j].norm();
-            prop_assert!((off - c).abs() <= 1e-12 * (1.0 + c), "offset {off} vs clearance {c}");
+            let a = solve(&arm, stiff(e.clone()), &alpha, load, false);
+            let b = solve(&arm, stiff(e.clone()), &alpha, 3.0 * load, false);
+            let sw = solve(&arm, stiff(e), &alpha, load, true);
+            // The pin sits c from the bore centre, towards where the joint force of the loaded
+            // state (with and without self-weight) pushes it; that force found independently.
+            for (out, weights) in [(&a, false), (&sw, true)] {
+                let press = joint_press(&arm, &alpha, j, load, weights);
+                prop_assume!(press.norm() > 1e-6); // else no direction (never met in practice)
+                let want = press * (c / press.norm());
+                let off = out.ws.def.joint_offset[j];
+                prop_assert!(
+                    (off - want).norm() <= 1e-9 * c,
+                    "O{}: offset {off:?}, expected {want:?} (self-weight {weights})", j + 1
+                );
+            }
+            // Rigid actuators: the joint moves by the offset, the links before it stay, and the
+            // links from it on turn by one angle about it, carrying the measurement point.
+            let (fr, turn) = (&a.ws.frames, a.dalpha[j]);
+            let lever = fr.measure - fr.joint[j];
+            let rigid = a.ws.def.joint_offset[j] + rot(turn, lever) - lever;
+            prop_assert!((a.d - rigid).norm() < 1e-6, "O{}: moved {:?}, rigid {rigid:?}", j + 1, a.d);
+            for k in 0..3 {
+                let want = if k < j { 0.0 } else { turn };
+                prop_assert!((a.dalpha[k] - want).abs() < 1e-9, "O{}: dα{} {} vs {want}", j + 1, k + 1, a.dalpha[k]);
+            }
             prop_assert!((a.d - b.d).norm() < 1e-6 * (1.0 + a.d.norm()), "clearance grew with load");
             let p = Effect::ActuatorPlay(ActuatorPlay { actuator: j, play: c });
             let a = solve(&arm, stiff(p.clone()), &rad(pose), v(0.0, -m * arm.g), false);

@@ -7,6 +7,7 @@
 use arm_core::effects::{
     ActuatorCompliance, ActuatorPlay, BaseCompliance, JointClearance, LinkBending, MountCompliance,
 };
+use arm_core::examples::example_arm;
 use arm_core::kinematics::Frames;
 use arm_core::sweep::{
     sweep, sweep_poses, CellFields, Cells, Grid, Poses, Reduce, ReduceOp, SweepOptions, SweepOut,
@@ -32,58 +33,43 @@ impl Rng {
     }
 }
 
-/// The example arm with `n` links (the third link's shape repeated beyond three), every
-/// point jittered by up to 10 mm, masses and stiffnesses by up to ±30 %, optional strokes.
+/// The example arm (`arm_core::examples`) with `n` links (the third link's shape repeated
+/// beyond three), every point jittered by up to 10 mm (O_1 by up to 5 mm), masses and
+/// stiffnesses by up to ±30 %, optional strokes (none by default), no force limits.
 fn arm(n: usize, rng: &mut Rng, strokes: Option<(f64, f64)>) -> Arm {
-    let shapes = [
-        (
-            v(480.0, 0.0),
-            v(95.0, 55.0),
-            v(-40.0, -50.0),
-            v(220.0, -3.0),
-            3.0,
-        ),
-        (
-            v(380.0, 0.0),
-            v(85.0, -55.0),
-            v(-110.0, 10.0),
-            v(170.0, -2.0),
-            2.2,
-        ),
-        (
-            v(360.0, 0.0),
-            v(50.0, -40.0),
-            v(-100.0, 10.0),
-            v(160.0, -2.0),
-            1.3,
-        ),
-    ];
+    let ex = example_arm();
+    // The example's last link has no B pin (nothing follows it); where its shape is repeated
+    // for a further link, it gets this one.
+    let repeated_b = v(-100.0, 10.0);
     let mut links = Vec::new();
     let mut acts = Vec::new();
     for i in 0..n {
-        let (next, a, b, c, m) = shapes[i.min(2)];
+        let (shape, act) = (&ex.links[i.min(2)], &ex.actuators[i.min(2)]);
+        let b = if i < 2 { shape.b } else { repeated_b };
         let f = |r: &mut Rng| r.uniform(0.7, 1.3);
         links.push(Link {
-            next: rng.jitter(next, 10.0),
-            a: rng.jitter(a, 10.0),
+            next: rng.jitter(shape.next, 10.0),
+            a: rng.jitter(shape.a, 10.0),
             b: rng.jitter(b, 10.0),
-            c: rng.jitter(c, 10.0),
-            mass_kg: m * f(rng),
+            c: rng.jitter(shape.c, 10.0),
+            mass_kg: shape.mass_kg * f(rng),
         });
         acts.push(Actuator {
-            stiffness: [3000.0, 2500.0, 2000.0][i.min(2)] * f(rng),
-            mass_kg: [1.5, 1.2, 0.9][i.min(2)] * f(rng),
+            stiffness: act.stiffness * f(rng),
+            mass_kg: act.mass_kg * f(rng),
             min_length: strokes.map(|s| s.0),
             max_length: strokes.map(|s| s.1),
             max_force: None,
         });
     }
-    let measure = rng.jitter(links[n - 1].next - v(80.0, 40.0), 10.0);
+    // The measurement point keeps its offset from the load point, (80, 40) mm behind and below.
+    let behind = ex.links[2].next - ex.measure;
+    let measure = rng.jitter(links[n - 1].next - behind, 10.0);
     Arm::new(
-        9.81,
-        rng.jitter(v(0.0, 0.0), 5.0),
-        rng.jitter(v(250.0, -40.0), 10.0),
-        v(-200.0, -280.0),
+        ex.g,
+        rng.jitter(ex.o1, 5.0),
+        rng.jitter(ex.b0, 10.0),
+        ex.pivot,
         links,
         acts,
         measure,
