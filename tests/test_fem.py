@@ -8,6 +8,7 @@ import itertools
 import json
 import warnings
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -16,7 +17,7 @@ from hypothesis import strategies as st
 
 import eodarm
 from arms import example_arm, seed_like_arm, two_link_arm
-from eodarm import datasets, fem_plots
+from eodarm import datasets, fem_plots, plots
 from eodarm.cli import main
 from eodarm.fit import FitWarning, compare, cross_validate, fit
 from eodarm.measurements import Measurements, channel_names
@@ -356,7 +357,9 @@ def test_plots_draw_the_fem(tmp_path: Path):
     assert fem_plots.nice_scale(73.0) == 50.0 and fem_plots.nice_scale(0.3) == 1.0
 
 
-def test_cli_solve_and_fit_with_the_fem(tmp_path: Path, capsys: pytest.CaptureFixture[str]):
+def test_cli_solve_and_fit_with_the_fem(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
     code = main(["solve", "--model", "fem", "--alpha", "90,10,0", "--mass", "5", "--json"])
     assert code == 0
     doc = json.loads(capsys.readouterr().out)
@@ -393,3 +396,18 @@ def test_cli_solve_and_fit_with_the_fem(tmp_path: Path, capsys: pytest.CaptureFi
     ]
     assert main(["solve", "--plot", str(figs)]) == 2
     assert "add --model fem" in capsys.readouterr().err
+    # A command's figures solve with the command's model (the deflection shares).
+    seen: list[str] = []
+    real = plots.deflection_share
+
+    def spy(*a: Any, **kw: Any) -> Any:
+        seen.append(kw.get("model", "analytic"))
+        return real(*a, **kw)
+
+    monkeypatch.setattr(plots, "deflection_share", spy)
+    shares = tmp_path / "shares"
+    args = ["fit", str(csv), "--arm", str(toml), "--add", "mount_compliance@M2"]
+    assert main([*args, "--model", "fem", "--elements-per-link", "4", "--plot", str(shares)]) == 0
+    assert main([*args, "--plot", str(shares)]) == 0
+    assert seen == ["fem", "analytic"]
+    assert (shares / "deflection_share.png").exists()

@@ -280,7 +280,10 @@ def _plots(
     arm: Arm,
     self_weight: bool,
     steps: list[dict[str, Any]] | None = None,
+    model_kw: dict[str, Any] | None = None,
 ) -> None:
+    """The command's figures into ``dirname``; ``model_kw`` (``_model_kw``) is the model that
+    solves where a figure solves (the deflection shares)."""
     if not dirname:
         return
     from pathlib import Path
@@ -298,7 +301,9 @@ def _plots(
     written.append(p)
     if effects:
         p = out / "deflection_share.png"
-        plots.deflection_share(arm, meas, effects, self_weight=self_weight, path=p)
+        plots.deflection_share(
+            arm, meas, effects, self_weight=self_weight, path=p, **(model_kw or {})
+        )
         written.append(p)
     if steps:
         p = out / "ladder.png"
@@ -393,7 +398,7 @@ def _cmd_compare(args: argparse.Namespace) -> int:
                 "\noutliers (> 4σ after the fit, left out of it): "
                 + "; ".join(f"line {r['line']} {r['channel']} z={r['z']:+.1f}" for r in outliers)
             )
-    _plots(args.plot, meas, base, res, fixed + list(res.effects), arm, sw)
+    _plots(args.plot, meas, base, res, fixed + list(res.effects), arm, sw, None, _model_kw(args))
     return 0
 
 
@@ -493,7 +498,7 @@ def _cmd_fit(args: argparse.Namespace) -> int:
                 "chi2_per_dof": res.chi2_per_dof,
             },
         ]
-    _plots(args.plot, meas, before, res, list(res.effects), arm, sw, steps)
+    _plots(args.plot, meas, before, res, list(res.effects), arm, sw, steps, _model_kw(args))
     return 0
 
 
@@ -519,7 +524,7 @@ def _cmd_diagnose(args: argparse.Namespace) -> int:
     else:
         _print_diagnosis(d, arm, meas)
     best = d.suggested_fit or d.baseline
-    _plots(args.plot, meas, d.baseline, best, list(best.effects), arm, sw)
+    _plots(args.plot, meas, d.baseline, best, list(best.effects), arm, sw, None, mk)
     return 0
 
 
