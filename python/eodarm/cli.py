@@ -667,7 +667,8 @@ def _cmd_report(args: argparse.Namespace) -> int:
             f"{s['label']:60s}  chi2/dof {s['chi2_per_dof']:10.4g}  RMS {main} "
             f"{s['rms'].get(main, float('nan')):.4g}  CV {cvr.get(main, float('nan')):.4g}"
         )
-    _note(f"stopped: {inv.stopped}")
+    solver = "analytic" if mk["model"] == "analytic" else f"fem {mk['fem_options'] or {}}"
+    _note(f"model: {solver}; stopped: {inv.stopped}")
     _note(f"wrote {out}")
     return 0
 
