@@ -692,8 +692,8 @@ def sweep(
     chunk_size : poses per chunk (rounded up to whole reduction groups). Memory of a reduced
         sweep is bounded by the chunk and the reduced output. A local angle-grid sweep runs
         in the core's own chunks (about 16 384 cells) unless this is given.
-    progress : show a progress bar on stderr: None (auto: more than 50 chunks, or after 2 s),
-        True or False.
+    progress : show a progress bar on stderr: None (auto: at once for more than 50 chunks, or
+        more than 50 × 65 536 poses for a local angle grid; else after 2 s), True or False.
     scheduler : None (run here), a ``distributed.Client`` (chunks are submitted to its cluster
         and gathered as they finish) or any Dask scheduler name/callable for
         ``dask.compute`` (``"threads"``, ``"processes"``, ``"synchronous"``).
