@@ -14,8 +14,9 @@
 //!   and longer arms, run through `Workspace::solve` per cell inside the same chunked,
 //!   parallel, reducing machinery.
 //! * **Poses.** Either given as rows of angles ([`Poses::Rows`]) or as a regular grid
-//!   ([`Poses::Grid`]) whose poses each chunk generates into its thread's scratch, so that a
-//!   sweep of 10⁸ poses never holds 10⁸ poses.
+//!   ([`Poses::Grid`]), whose poses are generated where they are used: block by block in the
+//!   block kernel (sines and cosines looked up per axis value), chunk by chunk into the
+//!   thread's scratch on the per-cell path. A sweep of 10⁸ poses never holds 10⁸ poses.
 //! * **Chunks.** Poses are processed in chunks of about `chunk_rows` rows (default
 //!   [`CHUNK_ROWS`]), taken from a queue by the calling thread and `threads − 1` pool
 //!   threads; each thread owns its scratch, nothing is allocated per pose. Between its chunks
