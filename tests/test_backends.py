@@ -140,6 +140,32 @@ def test_angles_from_lengths_round_trip(case, nudge, data) -> None:
     np.testing.assert_allclose(one, alpha[:1], rtol=0.0, atol=1e-9)
 
 
+@settings(max_examples=60, deadline=None)
+@given(case=arm_and_poses(), data=st.data())
+def test_angles_from_lengths_marks_rows_that_cannot_close(case, data) -> None:
+    """The core's ``nan_on_failure`` (what lengths sweeps use) gives NaN exactly for the rows
+    the numpy reference refuses, one row at a time, and the reference's angles elsewhere."""
+    from eodarm import _core
+    from eodarm.solver import _core_arm
+
+    arm, alpha, _ = case
+    lengths = eodarm.forward(arm, alpha)["length_mm"].copy()
+    stretch = data.draw(
+        st.lists(
+            st.sampled_from([1.0, 1.0, 1.6, 3.0]), min_size=lengths.size, max_size=lengths.size
+        )
+    )
+    lengths *= np.reshape(stretch, lengths.shape)
+    got = _core.angles_from_lengths(_core_arm(arm), lengths, alpha[:1], nan_on_failure=True)
+    for r in range(lengths.shape[0]):
+        try:
+            want = eodarm.angles_from_lengths(arm, lengths[r : r + 1], alpha[0], backend="numpy")
+        except ValueError:
+            assert np.isnan(got[r]).all(), r
+            continue
+        np.testing.assert_allclose(got[r], want[0], rtol=0.0, atol=1e-9, err_msg=str(r))
+
+
 def wrap_deg(x: np.ndarray) -> np.ndarray:
     return (np.asarray(x) + 180.0) % 360.0 - 180.0
 

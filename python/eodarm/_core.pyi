@@ -89,7 +89,10 @@ def forward(
     arm: CoreArm, alpha_deg: npt.NDArray[np.float64]
 ) -> dict[str, npt.NDArray[np.float64]]: ...
 def angles_from_lengths(
-    arm: CoreArm, length_mm: npt.NDArray[np.float64], alpha_ref_deg: npt.NDArray[np.float64]
+    arm: CoreArm,
+    length_mm: npt.NDArray[np.float64],
+    alpha_ref_deg: npt.NDArray[np.float64],
+    nan_on_failure: bool = False,
 ) -> npt.NDArray[np.float64]: ...
 def inverse_kinematics(
     arm: CoreArm, target: npt.NDArray[np.float64], elbow: float

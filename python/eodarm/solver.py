@@ -161,13 +161,13 @@ def angles_from_lengths(
     """
     length = _poses(length_mm, arm.n, "length_mm")
     ref = _poses(alpha_ref_deg, arm.n, "alpha_ref_deg")
-    if ref.shape[0] == 1 and length.shape[0] != 1:
-        ref = np.ascontiguousarray(np.broadcast_to(ref, length.shape))
     _check_backend(backend)
     if backend == "rust":
         from . import _core
 
-        return _core.angles_from_lengths(_core_arm(arm), length, ref)
+        return _core.angles_from_lengths(_core_arm(arm), length, ref)  # ref: 1 or N rows
+    if ref.shape[0] == 1 and length.shape[0] != 1:
+        ref = np.ascontiguousarray(np.broadcast_to(ref, length.shape))
     from . import reference
 
     return reference.angles_from_lengths(arm, length, ref)

@@ -473,51 +473,18 @@ def _angles_from_lengths_masked(
 ) -> tuple[FloatArray, BoolArray]:
     """Angles (k, n) of the rigid arm with these actuator lengths, NaN where it cannot close.
 
-    Which rows close is found here (model §6: each triangle closed from the base, on the side
-    of the reference pose); the angles of those rows come from
-    :func:`eodarm.angles_from_lengths` (the core). Rows within 1e-12 of the closure limit
-    count as not closing, so the core never refuses a row this mask passes.
+    The core closes each triangle from the base (model §6) on the side of the reference pose,
+    in parallel, and marks the rows that cannot close with NaN (``nan_on_failure``).
     """
-    from .solver import angles_from_lengths
+    from . import _core
 
-    k, n = length.shape
-    d = arm.arrays()
-    ref = np.radians(ref_deg)
-    geo = forward(arm, ref_deg[None, :])
-    o_ref, b_ref, a_ref = geo["O"][0, :n], geo["B"][0], geo["A"][0]
-    side = np.sign(
-        (b_ref[:, 0] - o_ref[:, 0]) * (a_ref[:, 1] - o_ref[:, 1])
-        - (b_ref[:, 1] - o_ref[:, 1]) * (a_ref[:, 0] - o_ref[:, 0])
+    out = _core.angles_from_lengths(
+        _core_arm(arm),
+        np.ascontiguousarray(length, dtype=float),
+        np.ascontiguousarray(ref_deg, dtype=float).reshape(1, -1),
+        nan_on_failure=True,
     )
-    exists = np.ones(k, dtype=bool)
-    alpha = np.full((k, n), np.nan)
-    o = np.broadcast_to(d["O1"], (k, 2)).copy()
-    b = np.broadcast_to(d["B0"], (k, 2)).copy()
-    for i in range(n):
-        a = d["A"][i]
-        rho = float(np.hypot(*a))
-        dv = b - o
-        dist = np.hypot(dv[:, 0], dv[:, 1])
-        with np.errstate(invalid="ignore", divide="ignore"):
-            c = (rho * rho + dist * dist - length[:, i] ** 2) / (2.0 * rho * dist)
-        exists &= np.abs(c) <= 1.0 - 1e-12
-        c = np.clip(np.where(exists, c, 0.0), -1.0, 1.0)
-        theta = np.arctan2(dv[:, 1], dv[:, 0]) + side[i] * np.arccos(c)
-        ang = theta - math.atan2(a[1], a[0])
-        ang = ref[i] + (ang - ref[i] + np.pi) % (2.0 * np.pi) - np.pi
-        alpha[:, i] = ang
-        if i + 1 < n:
-            cs, sn = np.cos(ang), np.sin(ang)
-            bx, by = d["B"][i]
-            nx, ny = d["next"][i]
-            b = o + np.column_stack([cs * bx - sn * by, sn * bx + cs * by])
-            o = o + np.column_stack([cs * nx - sn * ny, sn * nx + cs * ny])
-    out = np.full((k, n), np.nan)
-    if exists.any():
-        try:
-            out[exists] = angles_from_lengths(arm, length[exists], ref_deg)
-        except ValueError:  # pragma: no cover - a row at the limit refused by the core
-            out[exists] = np.degrees(alpha[exists])
+    exists = np.asarray(~np.isnan(out).any(axis=1), dtype=bool)
     return out, exists
 
 

@@ -104,7 +104,8 @@ impl Frames {
 /// reference pose `alpha_ref` (rad), i.e. the nearest.
 ///
 /// # Errors
-/// [`ArmError::Unreachable`] when a length cannot close its triangle.
+/// [`ArmError::Unreachable`] when a length cannot close its triangle;
+/// [`ArmError::OutOfRange`] for a length that is not > 0.
 pub fn angles_from_lengths(
     arm: &Arm,
     length: &[f64],
@@ -112,8 +113,34 @@ pub fn angles_from_lengths(
     row: usize,
     out: &mut [f64],
 ) -> Result<()> {
+    let mut sides = vec![0.0; arm.n()];
+    triangle_sides(arm, alpha_ref, &mut sides);
+    angles_from_lengths_sided(arm, length, alpha_ref, &sides, row, out)
+}
+
+/// The side (±1, 0 when degenerate) of every actuator triangle in the pose `alpha_ref`
+/// (rad): the branch [`angles_from_lengths`] closes on.
+pub fn triangle_sides(arm: &Arm, alpha_ref: &[f64], sides: &mut [f64]) {
     let mut reference = Frames::new(arm.n());
     reference.fill(arm, alpha_ref);
+    for (i, s) in sides.iter_mut().enumerate() {
+        *s = reference.side(i);
+    }
+}
+
+/// [`angles_from_lengths`] with the triangle sides of the reference pose already known
+/// ([`triangle_sides`]): no allocation.
+///
+/// # Errors
+/// As [`angles_from_lengths`].
+pub fn angles_from_lengths_sided(
+    arm: &Arm,
+    length: &[f64],
+    alpha_ref: &[f64],
+    sides: &[f64],
+    row: usize,
+    out: &mut [f64],
+) -> Result<()> {
     let mut o = arm.o1;
     let mut base_pin = arm.b0;
     for (i, link) in arm.links.iter().enumerate() {
@@ -127,8 +154,7 @@ pub fn angles_from_lengths(
                 ),
             });
         }
-        let side = reference.side(i);
-        let theta = close_triangle(base_pin - o, link.a.norm(), length[i], side).ok_or(
+        let theta = close_triangle(base_pin - o, link.a.norm(), length[i], sides[i]).ok_or(
             ArmError::Unreachable {
                 row,
                 actuator: i + 1,
@@ -142,6 +168,104 @@ pub fn angles_from_lengths(
         o += rot(al, link.next);
     }
     Ok(())
+}
+
+/// Rows per parallel task of [`angles_from_lengths_batch`].
+const LENGTHS_CHUNK: usize = 4096;
+
+/// [`angles_from_lengths`] of N rows, in degrees, in parallel (rayon).
+///
+/// `length_mm` is `N × n`; `alpha_ref_deg` is `n` (one reference pose for every row) or
+/// `N × n`. With `nan_on_failure`, a row whose lengths cannot close a triangle gets NaN
+/// angles instead of an error.
+///
+/// # Errors
+/// [`ArmError::Shape`] for arrays of the wrong length; [`ArmError::NonFinite`] naming the
+/// first row with a non-finite length or reference angle; the error of the first row that
+/// fails ([`ArmError::Unreachable`] only without `nan_on_failure`).
+pub fn angles_from_lengths_batch(
+    arm: &Arm,
+    length_mm: &[f64],
+    alpha_ref_deg: &[f64],
+    nan_on_failure: bool,
+    out_deg: &mut [f64],
+) -> Result<()> {
+    use rayon::prelude::*;
+    let n = arm.n();
+    let rows = length_mm.len() / n;
+    if length_mm.len() != rows * n || out_deg.len() != rows * n {
+        return Err(ArmError::Shape {
+            what: "length_mm",
+            expected: out_deg.len(),
+            got: length_mm.len(),
+        });
+    }
+    let shared = alpha_ref_deg.len() == n;
+    if !shared && alpha_ref_deg.len() != rows * n {
+        return Err(ArmError::Shape {
+            what: "alpha_ref_deg",
+            expected: rows * n,
+            got: alpha_ref_deg.len(),
+        });
+    }
+    let ref_rad: Vec<f64> = alpha_ref_deg.iter().map(|a| a.to_radians()).collect();
+    let mut shared_sides = vec![0.0; n];
+    if shared {
+        if !ref_rad.iter().all(|v| v.is_finite()) {
+            return Err(ArmError::NonFinite {
+                row: 0,
+                what: "alpha_ref_deg",
+            });
+        }
+        triangle_sides(arm, &ref_rad, &mut shared_sides);
+    }
+    let chunk = |c: usize, out: &mut [f64]| -> Result<()> {
+        let mut sides = shared_sides.clone();
+        let mut frames = Frames::new(n);
+        let r0 = c * LENGTHS_CHUNK;
+        for (k, dst) in out.chunks_exact_mut(n).enumerate() {
+            let row = r0 + k;
+            let l = &length_mm[row * n..(row + 1) * n];
+            let r = if shared {
+                &ref_rad[..]
+            } else {
+                &ref_rad[row * n..(row + 1) * n]
+            };
+            if !l.iter().chain(r).all(|v| v.is_finite()) {
+                return Err(ArmError::NonFinite {
+                    row,
+                    what: "length_mm/alpha_ref_deg",
+                });
+            }
+            if !shared {
+                frames.fill(arm, r);
+                for (i, s) in sides.iter_mut().enumerate() {
+                    *s = frames.side(i);
+                }
+            }
+            match angles_from_lengths_sided(arm, l, r, &sides, row, dst) {
+                Ok(()) => dst.iter_mut().for_each(|v| *v = v.to_degrees()),
+                Err(ArmError::Unreachable { .. }) if nan_on_failure => dst.fill(f64::NAN),
+                Err(e) => return Err(e),
+            }
+        }
+        Ok(())
+    };
+    let results: Vec<Result<()>> = if rows >= 2 * LENGTHS_CHUNK {
+        out_deg
+            .par_chunks_mut(LENGTHS_CHUNK * n)
+            .enumerate()
+            .map(|(c, out)| chunk(c, out))
+            .collect()
+    } else {
+        out_deg
+            .chunks_mut(LENGTHS_CHUNK * n)
+            .enumerate()
+            .map(|(c, out)| chunk(c, out))
+            .collect()
+    };
+    // The first failing row: chunks are in order and each stops at its first failure.
+    results.into_iter().collect()
 }
 
 /// Inverse kinematics of a 3-link arm: absolute angles (rad) that put the load point at

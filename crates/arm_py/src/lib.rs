@@ -4,7 +4,7 @@
 use arm_core::effects::{Effect, EffectSet};
 use arm_core::fem::batch::extra_sizes;
 use arm_core::fem::{fem_solve_batch, FemBatchOutput, FemModel, FemOptions, LinkSection};
-use arm_core::kinematics::{angles_from_lengths, inverse_kinematics, Frames};
+use arm_core::kinematics::{inverse_kinematics, Frames};
 use arm_core::sensitivity::{jacobian_batch, n_channels, Place};
 use arm_core::sweep::{CellFields, Cells, Grid, Poses, Reduce, ReduceOp, SweepOptions, SweepOut};
 use arm_core::{Actuator, Arm, ArmError, BatchInput, BatchOutput, Link, SolveOptions, V2};
@@ -801,45 +801,31 @@ fn forward<'py>(
     Ok(out)
 }
 
-/// Angles (deg, N × n) of a rigid arm from pin-to-pin lengths, branch of `alpha_ref_deg`.
+/// Absolute angles (N, n), degrees, of the rigid arm with these pin-to-pin lengths (see
+/// `arm_core::kinematics::angles_from_lengths_batch`): the branch of the reference pose
+/// `alpha_ref_deg`, one row for all or one per row. With `nan_on_failure`, rows that cannot
+/// close get NaN instead of an error.
 #[pyfunction(name = "angles_from_lengths")]
+#[pyo3(signature = (arm, length_mm, alpha_ref_deg, nan_on_failure=false))]
 fn py_angles_from_lengths<'py>(
     py: Python<'py>,
     arm: &CoreArm,
     length_mm: PyReadonlyArray2<'py, f64>,
     alpha_ref_deg: PyReadonlyArray2<'py, f64>,
+    nan_on_failure: bool,
 ) -> PyResult<Bound<'py, numpy::PyArray2<f64>>> {
     let arm = &arm.inner;
     let n = arm.n();
     let (len, rows) = matrix(&length_mm, "length_mm", n)?;
     let (aref, rrows) = matrix(&alpha_ref_deg, "alpha_ref_deg", n)?;
-    if rrows != rows {
+    if rrows != rows && rrows != 1 {
         return Err(value_error(format!(
-            "alpha_ref_deg: expected {rows} rows, got {rrows}"
+            "alpha_ref_deg: expected 1 or {rows} rows, got {rrows}"
         )));
     }
     let mut out = vec![0.0; rows * n];
-    py.detach(|| -> Result<(), ArmError> {
-        let mut r = vec![0.0; n];
-        for row in 0..rows {
-            let l = &len[row * n..(row + 1) * n];
-            let a = &aref[row * n..(row + 1) * n];
-            if !l.iter().chain(a).all(|v| v.is_finite()) {
-                return Err(ArmError::NonFinite {
-                    row,
-                    what: "length_mm/alpha_ref_deg",
-                });
-            }
-            for (ri, ai) in r.iter_mut().zip(a) {
-                *ri = ai.to_radians();
-            }
-            let dst = &mut out[row * n..(row + 1) * n];
-            angles_from_lengths(arm, l, &r, row, dst)?;
-            for v in dst.iter_mut() {
-                *v = v.to_degrees();
-            }
-        }
-        Ok(())
+    py.detach(|| {
+        arm_core::kinematics::angles_from_lengths_batch(arm, len, aref, nan_on_failure, &mut out)
     })
     .map_err(PyArmError)?;
     out.into_pyarray(py).reshape([rows, n])

@@ -1,0 +1,99 @@
+//! Angles from actuator lengths in batches: the same as one row at a time, NaN exactly where a
+//! row cannot close (with `nan_on_failure`), one shared reference pose the same as that pose
+//! repeated, the parallel path the same as the serial one, and the first failing row named.
+
+#![allow(clippy::unwrap_used)] // test code: a failure should panic
+use arm_core::examples::example_arm;
+use arm_core::kinematics::{angles_from_lengths, angles_from_lengths_batch, Frames};
+use arm_core::ArmError;
+
+/// Lengths of `rows` poses around the example's reference pose, every few rows one that
+/// cannot close (too long for its triangle).
+fn lengths(rows: usize) -> (Vec<f64>, Vec<bool>) {
+    let arm = example_arm();
+    let mut fr = Frames::new(3);
+    let (mut out, mut closes) = (Vec::new(), Vec::new());
+    for r in 0..rows {
+        let t = r as f64 / rows as f64;
+        let alpha = [
+            (60.0 + 50.0 * t).to_radians(),
+            (30.0 * (7.0 * t).sin().abs()).to_radians(),
+            (-10.0 + 20.0 * (3.0 * t).fract()).to_radians(),
+        ];
+        fr.fill(&arm, &alpha);
+        let bad = r % 7 == 3;
+        for i in 0..3 {
+            out.push(if bad && i == r % 3 {
+                5000.0
+            } else {
+                fr.length(i)
+            });
+        }
+        closes.push(!bad);
+    }
+    (out, closes)
+}
+
+#[test]
+fn batches_equal_single_rows_and_mark_failures_with_nan() {
+    let arm = example_arm();
+    let ref_deg = [90.0, 10.0, 0.0];
+    let ref_rad: Vec<f64> = ref_deg.iter().map(|d: &f64| d.to_radians()).collect();
+    for rows in [50, 3 * 4096 + 17] {
+        let (len, closes) = lengths(rows);
+        let mut got = vec![0.0; rows * 3];
+        angles_from_lengths_batch(&arm, &len, &ref_deg, true, &mut got).unwrap();
+        let repeated: Vec<f64> = ref_deg.iter().copied().cycle().take(rows * 3).collect();
+        let mut per_row_ref = vec![0.0; rows * 3];
+        angles_from_lengths_batch(&arm, &len, &repeated, true, &mut per_row_ref).unwrap();
+        assert_eq!(
+            got.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
+            per_row_ref.iter().map(|v| v.to_bits()).collect::<Vec<_>>()
+        );
+        let mut one = [0.0; 3];
+        for r in 0..rows {
+            let row = &got[3 * r..3 * r + 3];
+            match angles_from_lengths(&arm, &len[3 * r..3 * r + 3], &ref_rad, r, &mut one) {
+                Ok(()) => {
+                    assert!(closes[r], "row {r} closes");
+                    for i in 0..3 {
+                        assert_eq!(row[i].to_bits(), one[i].to_degrees().to_bits(), "row {r}");
+                    }
+                }
+                Err(ArmError::Unreachable { row: e, .. }) => {
+                    assert!(!closes[r] && e == r, "row {r}");
+                    assert!(row.iter().all(|v| v.is_nan()), "row {r}: {row:?}");
+                }
+                Err(e) => panic!("row {r}: {e}"),
+            }
+        }
+        // Without nan_on_failure: the first row that cannot close is the error.
+        let e = angles_from_lengths_batch(&arm, &len, &ref_deg, false, &mut got).unwrap_err();
+        assert!(matches!(e, ArmError::Unreachable { row: 3, .. }), "{e}");
+    }
+}
+
+#[test]
+fn bad_batches_are_errors_naming_the_row() {
+    let arm = example_arm();
+    let (mut len, _) = lengths(10_000);
+    len[3 * 9000 + 1] = f64::NAN;
+    let mut out = vec![0.0; len.len()];
+    let e = angles_from_lengths_batch(&arm, &len, &[90.0, 10.0, 0.0], true, &mut out).unwrap_err();
+    assert!(matches!(e, ArmError::NonFinite { row: 9000, .. }), "{e}");
+    len[3 * 9000 + 1] = 300.0;
+    len[3 * 8000] = -1.0;
+    let e = angles_from_lengths_batch(&arm, &len, &[90.0, 10.0, 0.0], true, &mut out).unwrap_err();
+    assert!(matches!(e, ArmError::OutOfRange { row: 8000, .. }), "{e}");
+    let e = angles_from_lengths_batch(&arm, &len, &[90.0, 10.0], true, &mut out).unwrap_err();
+    assert!(
+        matches!(
+            e,
+            ArmError::Shape {
+                what: "alpha_ref_deg",
+                ..
+            }
+        ),
+        "{e}"
+    );
+}
