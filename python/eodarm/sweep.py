@@ -49,7 +49,7 @@ import numpy.typing as npt
 from .arm import Arm
 from .effects import Effect, as_effects, effect_arrays
 from .errors import EodarmError, InputError
-from .solver import _core_arm, forward, inverse_kinematics, stroke_violations
+from .solver import _core_arm, forward, stroke_violations
 
 if TYPE_CHECKING:
     import xarray as xr
@@ -373,8 +373,11 @@ class _Grid:
             assert self.ref is not None
             alpha, exists = _angles_from_lengths_masked(arm, vals, self.ref)
             return alpha, exists
-        ik = inverse_kinematics(arm, vals, elbow=self.elbow)
-        return np.ascontiguousarray(ik["alpha_deg"]), np.asarray(ik["reachable"], dtype=bool)
+        # The core's inverse kinematics alone: the sweep computes the lengths itself.
+        from . import _core
+
+        alpha, ok = _core.inverse_kinematics(_core_arm(arm), vals, float(self.elbow))
+        return np.ascontiguousarray(alpha), np.asarray(ok, dtype=bool)
 
 
 def _coord_attrs(kind: str, name: str) -> dict[str, str]:
