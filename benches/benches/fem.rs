@@ -16,12 +16,13 @@ use std::hint::black_box;
 use std::time::Duration;
 
 use arm_core::effects::MountCompliance;
+use arm_core::examples::seed2022_arm;
 use arm_core::fem::batch::extra_sizes;
 use arm_core::fem::solve::Numeric;
 use arm_core::fem::{
     fem_solve_batch, FemBatchOutput, FemModel, FemOptions, FemWorkspace, LinearSolver, LinkSection,
 };
-use arm_core::{Actuator, Arm, BatchInput, BatchOutput, Effect, EffectSet, Link, SolveOptions, V2};
+use arm_core::{Arm, BatchInput, BatchOutput, Effect, EffectSet, SolveOptions, V2};
 use criterion::{
     criterion_group, criterion_main, BenchmarkId, Criterion, SamplingMode, Throughput,
 };
@@ -36,58 +37,6 @@ fn ok<T>(r: arm_core::Result<T>, what: &str) -> T {
 
 fn v(x: f64, y: f64) -> V2 {
     V2::new(x, y)
-}
-
-/// The bundled seed2022 arm (python/eodarm/data/seed2022/arm.toml).
-fn seed_arm() -> Arm {
-    let link = |next: V2, a: V2, b: V2, c: V2, mass_kg: f64| Link {
-        next,
-        a,
-        b,
-        c,
-        mass_kg,
-    };
-    let act = |mass_kg: f64| Actuator {
-        stiffness: 500.0,
-        mass_kg,
-        min_length: None,
-        max_length: None,
-        max_force: None,
-    };
-    ok(
-        Arm::new(
-            9.81,
-            v(0.0, 0.0),
-            v(-556.6337993024575, -58.49698686910747),
-            v(0.0, 0.0),
-            vec![
-                link(
-                    v(500.14900232336504, 0.0),
-                    v(80.93036037551532, 64.99178574528509),
-                    v(-50.00915220756769, -43.998687792484375),
-                    v(230.12, -2.4),
-                    3.0,
-                ),
-                link(
-                    v(399.8308128001342, 0.0),
-                    v(90.46632505844921, -50.96859868474406),
-                    v(-128.0305504150669, 0.12205831156718507),
-                    v(165.5, -1.3),
-                    2.5,
-                ),
-                link(
-                    v(299.24257106810234, -0.8133246639100824),
-                    v(44.76993763979948, -31.363949163798143),
-                    v(0.0, 0.0),
-                    v(230.12, -2.4),
-                    2.88,
-                ),
-            ],
-            vec![act(1.5), act(1.2), act(1.0)],
-            v(300.0, -44.0),
-        ),
-        "seed arm",
-    )
 }
 
 /// A 40 × 40 × 3 mm aluminium box section on every link.
@@ -151,7 +100,7 @@ const SOLVERS: [(&str, LinearSolver); 3] = [
 ];
 
 fn bench_pose(c: &mut Criterion) {
-    let arm = seed_arm();
+    let arm = seed2022_arm();
     let (alpha_deg, payload) = poses(1024);
     let alpha: Vec<f64> = alpha_deg.iter().map(|d| d.to_radians()).collect();
     for target in TARGETS {
@@ -189,7 +138,7 @@ fn bench_pose(c: &mut Criterion) {
 }
 
 fn bench_linear(c: &mut Criterion) {
-    let arm = seed_arm();
+    let arm = seed2022_arm();
     let alpha = [
         115.6f64.to_radians(),
         15.4f64.to_radians(),
@@ -226,7 +175,7 @@ fn bench_linear(c: &mut Criterion) {
 }
 
 fn bench_batch(c: &mut Criterion) {
-    let arm = seed_arm();
+    let arm = seed2022_arm();
     let rows = 4096;
     let (alpha, payload) = poses(rows);
     eprintln!(

@@ -1,8 +1,10 @@
-//! The example arm of CONTRACT §2, one fixture for tests, benchmarks and examples.
+//! The example arm of CONTRACT §2 and the seed paper's arm: fixtures for tests, benchmarks
+//! and examples.
 //!
 //! The numbers are those of `examples/example_arm.toml` in the repository (the Python package
-//! ships the same file as `python/eodarm/data/example_arm.toml`); a unit test below reads both
-//! files and checks every number against [`example_arm`], so the two cannot drift apart.
+//! ships the same file as `python/eodarm/data/example_arm.toml`) and of the bundled
+//! `python/eodarm/data/seed2022/arm.toml`; a unit test below reads the files and checks every
+//! number against [`example_arm`] and [`seed2022_arm`], so they cannot drift apart.
 //! Variants (other stiffnesses, scaled or jittered geometry, other strokes) start from
 //! [`example_arm`] and change what they need.
 
@@ -73,10 +75,67 @@ pub fn example_arm() -> Arm {
     }
 }
 
+/// The bundled seed2022 arm exactly as `python/eodarm/data/seed2022/arm.toml` has it (the
+/// calibrated chassis pin B0 of docs/seed-reproduction.md, 500 N/mm actuators, no limits).
+pub fn seed2022_arm() -> Arm {
+    let v = V2::new;
+    let link = |next: V2, a: V2, b: V2, c: V2, mass_kg: f64| Link {
+        next,
+        a,
+        b,
+        c,
+        mass_kg,
+    };
+    let act = |mass_kg: f64| Actuator {
+        stiffness: 500.0,
+        mass_kg,
+        min_length: None,
+        max_length: None,
+        max_force: None,
+    };
+    let arm = Arm::new(
+        9.81,
+        v(0.0, 0.0),
+        v(-556.6337993024575, -58.49698686910747),
+        v(0.0, 0.0),
+        vec![
+            link(
+                v(500.14900232336504, 0.0),
+                v(80.93036037551532, 64.99178574528509),
+                v(-50.00915220756769, -43.998687792484375),
+                v(230.12, -2.4),
+                3.0,
+            ),
+            link(
+                v(399.8308128001342, 0.0),
+                v(90.46632505844921, -50.96859868474406),
+                v(-128.0305504150669, 0.12205831156718507),
+                v(165.5, -1.3),
+                2.5,
+            ),
+            link(
+                v(299.24257106810234, -0.8133246639100824),
+                v(44.76993763979948, -31.363949163798143),
+                v(0.0, 0.0),
+                v(230.12, -2.4),
+                2.88,
+            ),
+        ],
+        vec![act(1.5), act(1.2), act(1.0)],
+        v(300.0, -44.0),
+    );
+    match arm {
+        Ok(arm) => arm,
+        // Constant, valid data: the unit test below builds it, so this cannot be reached.
+        Err(e) => unreachable!("the seed2022 arm is invalid: {e}"),
+    }
+}
+
 #[cfg(test)]
 #[allow(clippy::unwrap_used, clippy::expect_used)] // test code: a failure should panic
 mod tests {
-    use super::example_arm;
+    use super::{example_arm, seed2022_arm};
+    use crate::Arm;
 
     /// `(key, numbers)` of a flat arm file: `[base]` keys as `base.KEY`, the k-th `[[link]]`
     /// and `[[actuator]]` as `link[k].KEY`, `actuator[k].KEY`; strings are skipped.
@@ -110,9 +169,9 @@ mod tests {
         out
     }
 
-    /// The same keys from the fixture (no `B` on the last link, as in the file).
-    fn fixture() -> Vec<(String, Vec<f64>)> {
-        let arm = example_arm();
+    /// The same keys from a fixture (no `B` on the last link, as in the file; limits only
+    /// where set).
+    fn fixture(arm: &Arm) -> Vec<(String, Vec<f64>)> {
         let p = |v: crate::V2| vec![v.x, v.y];
         let mut out = vec![
             ("g".to_owned(), vec![arm.g]),
@@ -138,23 +197,30 @@ mod tests {
             let k = format!("actuator[{}].", i + 1);
             out.push((format!("{k}stiffness_n_per_mm"), vec![a.stiffness]));
             out.push((format!("{k}mass_kg"), vec![a.mass_kg]));
-            out.push((format!("{k}min_length_mm"), vec![a.min_length.unwrap()]));
-            out.push((format!("{k}max_length_mm"), vec![a.max_length.unwrap()]));
-            out.push((format!("{k}max_force_n"), vec![a.max_force.unwrap()]));
+            for (key, limit) in [
+                ("min_length_mm", a.min_length),
+                ("max_length_mm", a.max_length),
+                ("max_force_n", a.max_force),
+            ] {
+                if let Some(x) = limit {
+                    out.push((format!("{k}{key}"), vec![x]));
+                }
+            }
         }
         out.sort_by(|a, b| a.0.cmp(&b.0));
         out
     }
 
     #[test]
-    fn fixture_is_the_example_arm_file() {
+    fn fixtures_are_the_arm_files() {
         let root = concat!(env!("CARGO_MANIFEST_DIR"), "/../..");
-        for file in [
-            "examples/example_arm.toml",
-            "python/eodarm/data/example_arm.toml",
+        for (file, arm) in [
+            ("examples/example_arm.toml", example_arm()),
+            ("python/eodarm/data/example_arm.toml", example_arm()),
+            ("python/eodarm/data/seed2022/arm.toml", seed2022_arm()),
         ] {
             let text = std::fs::read_to_string(format!("{root}/{file}")).expect(file);
-            assert_eq!(numbers(&text), fixture(), "{file}");
+            assert_eq!(numbers(&text), fixture(&arm), "{file}");
         }
     }
 }

@@ -15,7 +15,7 @@
 use arm_core::effects::{
     ActuatorCompliance, ActuatorPlay, BaseCompliance, JointClearance, LinkBending, MountCompliance,
 };
-use arm_core::examples::example_arm;
+use arm_core::examples::{example_arm, seed2022_arm};
 use arm_core::fem::forces::{link_forces, section_moment, Applied, PointForce};
 use arm_core::fem::{
     fem_solve_batch, FemBatchOutput, FemModel, FemOptions, FemWorkspace, LinearSolver, LinkSection,
@@ -51,41 +51,12 @@ fn link(next: V2, a: V2, b: V2, c: V2, mass_kg: f64) -> Link {
     }
 }
 
-/// The bundled seed2022 arm (python/eodarm/data/seed2022/arm.toml), pivot moved off O1 so
-/// that the base spring has a lever.
+/// The bundled seed2022 arm, pivot moved off O1 so that the base spring has a lever.
 fn seed_arm() -> Arm {
-    Arm::new(
-        9.81,
-        v(0.0, 0.0),
-        v(-556.6337993024575, -58.49698686910747),
-        v(-150.0, -300.0),
-        vec![
-            link(
-                v(500.14900232336504, 0.0),
-                v(80.93036037551532, 64.99178574528509),
-                v(-50.00915220756769, -43.998687792484375),
-                v(230.12, -2.4),
-                3.0,
-            ),
-            link(
-                v(399.8308128001342, 0.0),
-                v(90.46632505844921, -50.96859868474406),
-                v(-128.0305504150669, 0.12205831156718507),
-                v(165.5, -1.3),
-                2.5,
-            ),
-            link(
-                v(299.24257106810234, -0.8133246639100824),
-                v(44.76993763979948, -31.363949163798143),
-                v(0.0, 0.0),
-                v(230.12, -2.4),
-                2.88,
-            ),
-        ],
-        vec![act(500.0, 1.5), act(500.0, 1.2), act(500.0, 1.0)],
-        v(300.0, -44.0),
-    )
-    .unwrap()
+    Arm {
+        pivot: v(-150.0, -300.0),
+        ..seed2022_arm()
+    }
 }
 
 /// (arm, poses in degrees): the seed's configurations 1, 3, 5 and three example poses.
