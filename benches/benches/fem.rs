@@ -17,12 +17,11 @@ use std::time::Duration;
 
 use arm_core::effects::MountCompliance;
 use arm_core::examples::seed2022_arm;
-use arm_core::fem::batch::extra_sizes;
 use arm_core::fem::solve::Numeric;
 use arm_core::fem::{
-    fem_solve_batch, FemBatchOutput, FemModel, FemOptions, FemWorkspace, LinearSolver, LinkSection,
+    fem_solve_batch, FemBatchBuffers, FemModel, FemOptions, FemWorkspace, LinearSolver, LinkSection,
 };
-use arm_core::{Arm, BatchInput, BatchOutput, Effect, EffectSet, SolveOptions, V2};
+use arm_core::{Arm, BatchInput, Effect, EffectSet, SolveOptions, V2};
 use criterion::{
     criterion_group, criterion_main, BenchmarkId, Criterion, SamplingMode, Throughput,
 };
@@ -192,61 +191,13 @@ fn bench_batch(c: &mut Criterion) {
         .throughput(Throughput::Elements(rows as u64));
     for target in TARGETS {
         let m = model(&arm, target, LinearSolver::Sparse);
-        let n = arm.n();
-        let (pins, moments, nodes) = extra_sizes(&m);
-        let z = |k: usize| vec![0.0; rows * k];
-        let mut b: Vec<Vec<f64>> = [
-            n,
-            2 * n,
-            n,
-            1,
-            1,
-            n,
-            n,
-            n,
-            n,
-            pins,
-            moments,
-            moments,
-            nodes,
-            nodes,
-        ]
-        .iter()
-        .map(|&k| z(k))
-        .collect();
+        let mut b = FemBatchBuffers::new(&m, rows);
         let input = BatchInput {
             alpha_deg: &alpha,
             payload_n: &payload,
         };
         let opts = SolveOptions::default();
-        let run = |b: &mut Vec<Vec<f64>>| {
-            let [f, r, df, dx, dy, da, dl, dlen, len, pin, mo, dmo, xy, disp] = &mut b[..] else {
-                unreachable!("14 buffers")
-            };
-            fem_solve_batch(
-                &m,
-                input,
-                opts,
-                FemBatchOutput {
-                    base: BatchOutput {
-                        force_n: f,
-                        reaction_n: r,
-                        dforce_n: df,
-                        dx_mm: dx,
-                        dy_mm: dy,
-                        dalpha_deg: da,
-                        dl_mm: dl,
-                        dlength_mm: dlen,
-                        length_mm: len,
-                    },
-                    pin_force_n: pin,
-                    moment_nmm: mo,
-                    dmoment_nmm: dmo,
-                    node_xy: xy,
-                    node_disp: disp,
-                },
-            )
-        };
+        let run = |b: &mut FemBatchBuffers| fem_solve_batch(&m, input, opts, b.out());
         ok(run(&mut b), "batch check");
         group.bench_with_input(
             BenchmarkId::from_parameter(format!("{}dof", m.n_dof())),

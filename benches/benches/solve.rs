@@ -9,7 +9,7 @@ use arm_benches::{example_arm, ok, v};
 use arm_core::effects::{
     ActuatorCompliance, ActuatorPlay, BaseCompliance, JointClearance, LinkBending, MountCompliance,
 };
-use arm_core::{Arm, BatchInput, BatchOutput, Effect, EffectSet, SolveOptions, Workspace};
+use arm_core::{Arm, BatchBuffers, BatchInput, Effect, EffectSet, SolveOptions, Workspace};
 use criterion::{
     criterion_group, criterion_main, BenchmarkId, Criterion, SamplingMode, Throughput,
 };
@@ -72,50 +72,6 @@ fn poses(rows: usize, g: f64) -> (Vec<f64>, Vec<f64>) {
     (alpha, payload)
 }
 
-/// Output buffers of a batch, allocated once per size and reused by every iteration.
-struct Buffers {
-    force: Vec<f64>,
-    reaction: Vec<f64>,
-    dforce: Vec<f64>,
-    dx: Vec<f64>,
-    dy: Vec<f64>,
-    dalpha: Vec<f64>,
-    dl: Vec<f64>,
-    dlength: Vec<f64>,
-    length: Vec<f64>,
-}
-
-impl Buffers {
-    fn new(rows: usize, n: usize) -> Self {
-        let z = |k: usize| vec![0.0; k];
-        Self {
-            force: z(rows * n),
-            reaction: z(rows * n * 2),
-            dforce: z(rows * n),
-            dx: z(rows),
-            dy: z(rows),
-            dalpha: z(rows * n),
-            dl: z(rows * n),
-            dlength: z(rows * n),
-            length: z(rows * n),
-        }
-    }
-
-    fn out(&mut self) -> BatchOutput<'_> {
-        BatchOutput {
-            force_n: &mut self.force,
-            reaction_n: &mut self.reaction,
-            dforce_n: &mut self.dforce,
-            dx_mm: &mut self.dx,
-            dy_mm: &mut self.dy,
-            dalpha_deg: &mut self.dalpha,
-            dl_mm: &mut self.dl,
-            dlength_mm: &mut self.dlength,
-            length_mm: &mut self.length,
-        }
-    }
-}
-
 fn bench_batch(c: &mut Criterion) {
     let arm = example_arm();
     let models = [
@@ -141,13 +97,14 @@ fn bench_batch(c: &mut Criterion) {
                 alpha_deg: &alpha,
                 payload_n: &payload,
             };
-            let mut buf = Buffers::new(rows, arm.n());
+            // Output buffers allocated once per size and reused by every iteration.
+            let mut buf = BatchBuffers::new(rows, arm.n());
             // Every pose must solve: a benchmark of error returns would measure nothing.
             ok(
                 arm_core::solve_batch(&arm, effects, input, opts, buf.out()),
                 "batch check",
             );
-            assert!(buf.dy.iter().all(|d| d.is_finite()));
+            assert!(buf.dy_mm.iter().all(|d| d.is_finite()));
             group.throughput(Throughput::Elements(rows as u64));
             group.bench_with_input(BenchmarkId::from_parameter(rows), &input, |b, input| {
                 b.iter(|| {

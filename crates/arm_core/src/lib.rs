@@ -37,5 +37,5 @@ pub use arm::{Actuator, Arm, Link};
 pub use effects::{Effect, EffectSet, Mechanism};
 pub use error::{ArmError, Result};
 pub use geometry::V2;
-pub use solve::{solve_batch, BatchInput, BatchOutput, SolveOptions, Workspace};
+pub use solve::{solve_batch, BatchBuffers, BatchInput, BatchOutput, SolveOptions, Workspace};
 pub use sweep::{sweep, CellFields, Cells, Reduce, ReduceOp, SweepOptions, SweepOut};

@@ -171,6 +171,63 @@ pub struct BatchOutput<'a> {
     pub length_mm: &'a mut [f64],
 }
 
+/// Owned, zeroed output buffers of a batch of `rows` poses of an `n`-link arm, lent to the
+/// solver by [`BatchBuffers::out`]; the fields are the [`BatchOutput`] slices' owners.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct BatchBuffers {
+    /// See [`BatchOutput::force_n`].
+    pub force_n: Vec<f64>,
+    /// See [`BatchOutput::reaction_n`].
+    pub reaction_n: Vec<f64>,
+    /// See [`BatchOutput::dforce_n`].
+    pub dforce_n: Vec<f64>,
+    /// See [`BatchOutput::dx_mm`].
+    pub dx_mm: Vec<f64>,
+    /// See [`BatchOutput::dy_mm`].
+    pub dy_mm: Vec<f64>,
+    /// See [`BatchOutput::dalpha_deg`].
+    pub dalpha_deg: Vec<f64>,
+    /// See [`BatchOutput::dl_mm`].
+    pub dl_mm: Vec<f64>,
+    /// See [`BatchOutput::dlength_mm`].
+    pub dlength_mm: Vec<f64>,
+    /// See [`BatchOutput::length_mm`].
+    pub length_mm: Vec<f64>,
+}
+
+impl BatchBuffers {
+    /// Zeroed buffers for `rows` poses of an `n`-link arm.
+    pub fn new(rows: usize, n: usize) -> Self {
+        let per_link = || vec![0.0; rows * n];
+        Self {
+            force_n: per_link(),
+            reaction_n: vec![0.0; rows * n * 2],
+            dforce_n: per_link(),
+            dx_mm: vec![0.0; rows],
+            dy_mm: vec![0.0; rows],
+            dalpha_deg: per_link(),
+            dl_mm: per_link(),
+            dlength_mm: per_link(),
+            length_mm: per_link(),
+        }
+    }
+
+    /// The buffers as the solver's output slices.
+    pub fn out(&mut self) -> BatchOutput<'_> {
+        BatchOutput {
+            force_n: &mut self.force_n,
+            reaction_n: &mut self.reaction_n,
+            dforce_n: &mut self.dforce_n,
+            dx_mm: &mut self.dx_mm,
+            dy_mm: &mut self.dy_mm,
+            dalpha_deg: &mut self.dalpha_deg,
+            dl_mm: &mut self.dl_mm,
+            dlength_mm: &mut self.dlength_mm,
+            length_mm: &mut self.length_mm,
+        }
+    }
+}
+
 impl BatchOutput<'_> {
     pub(crate) fn check(&self, rows: usize, n: usize) -> Result<()> {
         let want = [

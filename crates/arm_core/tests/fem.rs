@@ -18,13 +18,12 @@ use arm_core::effects::{
 use arm_core::examples::{example_arm, seed2022_arm};
 use arm_core::fem::forces::{link_forces, section_moment, Applied, PointForce};
 use arm_core::fem::{
-    fem_solve_batch, FemBatchOutput, FemModel, FemOptions, FemWorkspace, LinearSolver, LinkSection,
+    fem_solve_batch, FemBatchBuffers, FemModel, FemOptions, FemWorkspace, LinearSolver, LinkSection,
 };
 use arm_core::geometry::{angle, V2};
 use arm_core::kinematics::Frames;
 use arm_core::{
-    Actuator, Arm, ArmError, BatchInput, BatchOutput, Effect, EffectSet, Link, SolveOptions,
-    Workspace,
+    Actuator, Arm, ArmError, BatchInput, Effect, EffectSet, Link, SolveOptions, Workspace,
 };
 
 fn v(x: f64, y: f64) -> V2 {
@@ -780,31 +779,9 @@ fn batch_equals_one_pose_at_a_time_and_masks_failures() {
     fr.fill(&arm, &rad(&[90.0, 0.0, 0.0]));
     let a2 = angle(fr.joint[1] - fr.b[1]) - angle(arm.links[1].a);
     alpha[3 * 17..3 * 18].copy_from_slice(&[90.0, a2.to_degrees(), 0.0]);
-    let (pins, moments, nodes) = arm_core::fem::batch::extra_sizes(&model);
-    let n = 3;
-    let mut buf: Vec<Vec<f64>> = [
-        n,
-        2 * n,
-        n,
-        1,
-        1,
-        n,
-        n,
-        n,
-        n,
-        pins,
-        moments,
-        moments,
-        nodes,
-        nodes,
-    ]
-    .iter()
-    .map(|&k| vec![0.0; rows * k])
-    .collect();
-    let run = |buf: &mut Vec<Vec<f64>>, nan: bool| {
-        let [f, r, df, dx, dy, da, dl, dlen, len, pin, m, dm, xy, disp] = &mut buf[..] else {
-            unreachable!()
-        };
+    let (_, moments, nodes) = arm_core::fem::batch::extra_sizes(&model);
+    let mut buf = FemBatchBuffers::new(&model, rows);
+    let run = |buf: &mut FemBatchBuffers, nan: bool| {
         fem_solve_batch(
             &model,
             BatchInput {
@@ -815,24 +792,7 @@ fn batch_equals_one_pose_at_a_time_and_masks_failures() {
                 self_weight: true,
                 nan_on_failure: nan,
             },
-            FemBatchOutput {
-                base: BatchOutput {
-                    force_n: f,
-                    reaction_n: r,
-                    dforce_n: df,
-                    dx_mm: dx,
-                    dy_mm: dy,
-                    dalpha_deg: da,
-                    dl_mm: dl,
-                    dlength_mm: dlen,
-                    length_mm: len,
-                },
-                pin_force_n: pin,
-                moment_nmm: m,
-                dmoment_nmm: dm,
-                node_xy: xy,
-                node_disp: disp,
-            },
+            buf.out(),
         )
     };
     match run(&mut buf, false) {
@@ -840,7 +800,7 @@ fn batch_equals_one_pose_at_a_time_and_masks_failures() {
         other => panic!("expected the mechanism of row 17, got {other:?}"),
     }
     run(&mut buf, true).unwrap();
-    assert!(buf[3][17].is_nan() && buf[11][17 * moments].is_nan());
+    assert!(buf.base.dx_mm[17].is_nan() && buf.dmoment_nmm[17 * moments].is_nan());
     let mut ws = FemWorkspace::new(&model);
     for r in [0, 16, 18, 150, 299] {
         let a: Vec<f64> = alpha[3 * r..3 * r + 3]
@@ -849,11 +809,11 @@ fn batch_equals_one_pose_at_a_time_and_masks_failures() {
             .collect();
         ws.solve(&model, &a, v(0.0, payload[2 * r + 1]), true, r)
             .unwrap();
-        assert_eq!(buf[3][r], ws.dmeasure.x);
-        assert_eq!(buf[4][r], ws.dmeasure.y);
-        assert_eq!(buf[0][3 * r + 2], ws.force[2]);
-        assert_eq!(buf[11][r * moments + 5], ws.dmoment[5]);
-        assert_eq!(buf[13][r * nodes + 7], ws.node_disp[3].y);
+        assert_eq!(buf.base.dx_mm[r], ws.dmeasure.x);
+        assert_eq!(buf.base.dy_mm[r], ws.dmeasure.y);
+        assert_eq!(buf.base.force_n[3 * r + 2], ws.force[2]);
+        assert_eq!(buf.dmoment_nmm[r * moments + 5], ws.dmoment[5]);
+        assert_eq!(buf.node_disp[r * nodes + 7], ws.node_disp[3].y);
     }
 }
 

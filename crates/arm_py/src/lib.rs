@@ -3,11 +3,11 @@
 
 use arm_core::effects::{Effect, EffectSet};
 use arm_core::fem::batch::extra_sizes;
-use arm_core::fem::{fem_solve_batch, FemBatchOutput, FemModel, FemOptions, LinkSection};
+use arm_core::fem::{fem_solve_batch, FemBatchBuffers, FemModel, FemOptions, LinkSection};
 use arm_core::kinematics::{inverse_kinematics, Frames};
 use arm_core::sensitivity::{jacobian_batch, n_channels, Place};
 use arm_core::sweep::{CellFields, Cells, Grid, Poses, Reduce, ReduceOp, SweepOptions, SweepOut};
-use arm_core::{Actuator, Arm, ArmError, BatchInput, BatchOutput, Link, SolveOptions, V2};
+use arm_core::{Actuator, Arm, ArmError, BatchBuffers, BatchInput, Link, SolveOptions, V2};
 use numpy::{
     IntoPyArray, PyArray1, PyArrayDyn, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2,
     PyReadwriteArrayDyn, PyUntypedArrayMethods,
@@ -188,76 +188,49 @@ fn effect_set(
     Ok(set.map_err(PyArmError)?)
 }
 
-/// The outputs of `eodarm.solve` that both models fill (`arm_core::BatchOutput`): allocated
-/// once for `rows` poses of an `n`-link arm, lent to the core, then handed to Python under
-/// their keys and shapes.
-struct SolveArrays {
+/// The outputs of `eodarm.solve` that both models fill (`arm_core::BatchBuffers`) as a dict
+/// of float64 arrays: `force_n`, `dforce_n`, `dalpha_deg`, `dl_mm`, `dlength_mm`, `length_mm`
+/// (rows, n), `reaction_n` (rows, n, 2), `dx_mm`, `dy_mm` (rows,).
+fn solve_dict<'py>(
+    py: Python<'py>,
+    b: BatchBuffers,
     rows: usize,
     n: usize,
-    force: Vec<f64>,
-    reaction: Vec<f64>,
-    dforce: Vec<f64>,
-    dx: Vec<f64>,
-    dy: Vec<f64>,
-    dalpha: Vec<f64>,
-    dl: Vec<f64>,
-    dlength: Vec<f64>,
-    length: Vec<f64>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let per_link = |v: Vec<f64>| v.into_pyarray(py).reshape([rows, n]);
+    let out = PyDict::new(py);
+    out.set_item("force_n", per_link(b.force_n)?)?;
+    out.set_item(
+        "reaction_n",
+        b.reaction_n.into_pyarray(py).reshape([rows, n, 2])?,
+    )?;
+    out.set_item("dforce_n", per_link(b.dforce_n)?)?;
+    out.set_item("dx_mm", b.dx_mm.into_pyarray(py))?;
+    out.set_item("dy_mm", b.dy_mm.into_pyarray(py))?;
+    out.set_item("dalpha_deg", per_link(b.dalpha_deg)?)?;
+    out.set_item("dl_mm", per_link(b.dl_mm)?)?;
+    out.set_item("dlength_mm", per_link(b.dlength_mm)?)?;
+    out.set_item("length_mm", per_link(b.length_mm)?)?;
+    Ok(out)
 }
 
-impl SolveArrays {
-    fn new(rows: usize, n: usize) -> Self {
-        let per_link = || vec![0.0; rows * n];
-        Self {
-            rows,
-            n,
-            force: per_link(),
-            reaction: vec![0.0; rows * n * 2],
-            dforce: per_link(),
-            dx: vec![0.0; rows],
-            dy: vec![0.0; rows],
-            dalpha: per_link(),
-            dl: per_link(),
-            dlength: per_link(),
-            length: per_link(),
-        }
+/// The poses (N × n angles) and payloads (N × 2) of a solve, checked to have the same rows.
+fn poses_and_payloads<'a>(
+    alpha_deg: &'a PyReadonlyArray2<'_, f64>,
+    payload_n: &'a PyReadonlyArray2<'_, f64>,
+    n: usize,
+) -> PyResult<BatchInput<'a>> {
+    let (alpha, rows) = matrix(alpha_deg, "alpha_deg", n)?;
+    let (payload, prow) = matrix(payload_n, "payload_n", 2)?;
+    if prow != rows {
+        return Err(value_error(format!(
+            "payload_n: expected {rows} rows, got {prow}"
+        )));
     }
-
-    /// The arrays as the core's output slices.
-    fn batch(&mut self) -> BatchOutput<'_> {
-        BatchOutput {
-            force_n: &mut self.force,
-            reaction_n: &mut self.reaction,
-            dforce_n: &mut self.dforce,
-            dx_mm: &mut self.dx,
-            dy_mm: &mut self.dy,
-            dalpha_deg: &mut self.dalpha,
-            dl_mm: &mut self.dl,
-            dlength_mm: &mut self.dlength,
-            length_mm: &mut self.length,
-        }
-    }
-
-    /// A dict of float64 arrays: `force_n`, `dforce_n`, `dalpha_deg`, `dl_mm`, `dlength_mm`,
-    /// `length_mm` (rows, n), `reaction_n` (rows, n, 2), `dx_mm`, `dy_mm` (rows,).
-    fn into_dict<'py>(self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        let (rows, n) = (self.rows, self.n);
-        let per_link = |v: Vec<f64>| v.into_pyarray(py).reshape([rows, n]);
-        let out = PyDict::new(py);
-        out.set_item("force_n", per_link(self.force)?)?;
-        out.set_item(
-            "reaction_n",
-            self.reaction.into_pyarray(py).reshape([rows, n, 2])?,
-        )?;
-        out.set_item("dforce_n", per_link(self.dforce)?)?;
-        out.set_item("dx_mm", self.dx.into_pyarray(py))?;
-        out.set_item("dy_mm", self.dy.into_pyarray(py))?;
-        out.set_item("dalpha_deg", per_link(self.dalpha)?)?;
-        out.set_item("dl_mm", per_link(self.dl)?)?;
-        out.set_item("dlength_mm", per_link(self.dlength)?)?;
-        out.set_item("length_mm", per_link(self.length)?)?;
-        Ok(out)
-    }
+    Ok(BatchInput {
+        alpha_deg: alpha,
+        payload_n: payload,
+    })
 }
 
 /// Solves N poses; returns a dict of float64 arrays (see `eodarm.solve`).
@@ -277,32 +250,24 @@ fn solve<'py>(
 ) -> PyResult<Bound<'py, PyDict>> {
     let arm = &arm.inner;
     let n = arm.n();
-    let (alpha, rows) = matrix(&alpha_deg, "alpha_deg", n)?;
-    let (payload, prow) = matrix(&payload_n, "payload_n", 2)?;
-    if prow != rows {
-        return Err(value_error(format!(
-            "payload_n: expected {rows} rows, got {prow}"
-        )));
-    }
+    let input = poses_and_payloads(&alpha_deg, &payload_n, n)?;
+    let rows = input.payload_n.len() / 2;
     let effects = effect_set(arm, &codes, &places, &values, true)?;
-    let mut arrays = SolveArrays::new(rows, n);
+    let mut arrays = BatchBuffers::new(rows, n);
     py.detach(|| {
         arm_core::solve_batch(
             arm,
             &effects,
-            BatchInput {
-                alpha_deg: alpha,
-                payload_n: payload,
-            },
+            input,
             SolveOptions {
                 self_weight,
                 nan_on_failure,
             },
-            arrays.batch(),
+            arrays.out(),
         )
     })
     .map_err(PyArmError)?;
-    arrays.into_dict(py)
+    solve_dict(py, arrays, rows, n)
 }
 
 /// The five cell fields of a sweep, in the order of `arm_core::sweep::CellFields`.
@@ -644,13 +609,8 @@ fn fem_solve<'py>(
 ) -> PyResult<Bound<'py, PyDict>> {
     let arm = &arm.inner;
     let n = arm.n();
-    let (alpha, rows) = matrix(&alpha_deg, "alpha_deg", n)?;
-    let (payload, prow) = matrix(&payload_n, "payload_n", 2)?;
-    if prow != rows {
-        return Err(value_error(format!(
-            "payload_n: expected {rows} rows, got {prow}"
-        )));
-    }
+    let input = poses_and_payloads(&alpha_deg, &payload_n, n)?;
+    let rows = input.payload_n.len() / 2;
     let effects = effect_set(arm, &codes, &places, &values, false)?;
     let ei = vector(&link_ei, "link_ei", n)?;
     let ea = vector(&link_ea, "link_ea", n)?;
@@ -668,35 +628,28 @@ fn fem_solve<'py>(
     let model = py
         .detach(|| FemModel::new(arm, &effects, &sections, options))
         .map_err(PyArmError)?;
-    let (pins, moments, nodes) = extra_sizes(&model);
-    let mut arrays = SolveArrays::new(rows, n);
-    let mut pin = vec![0.0; rows * pins];
-    let mut moment = vec![0.0; rows * moments];
-    let mut dmoment = vec![0.0; rows * moments];
-    let mut node_xy = vec![0.0; rows * nodes];
-    let mut node_disp = vec![0.0; rows * nodes];
+    let (_, _, nodes) = extra_sizes(&model);
+    let mut arrays = FemBatchBuffers::new(&model, rows);
     py.detach(|| {
         fem_solve_batch(
             &model,
-            BatchInput {
-                alpha_deg: alpha,
-                payload_n: payload,
-            },
+            input,
             SolveOptions {
                 self_weight,
                 nan_on_failure,
             },
-            FemBatchOutput {
-                base: arrays.batch(),
-                pin_force_n: &mut pin,
-                moment_nmm: &mut moment,
-                dmoment_nmm: &mut dmoment,
-                node_xy: &mut node_xy,
-                node_disp: &mut node_disp,
-            },
+            arrays.out(),
         )
     })
     .map_err(PyArmError)?;
+    let FemBatchBuffers {
+        base,
+        pin_force_n: pin,
+        moment_nmm: moment,
+        dmoment_nmm: dmoment,
+        node_xy,
+        node_disp,
+    } = arrays;
     let k = moment_samples;
     let n_nodes = nodes / 2;
     let segments: Vec<i64> = model
@@ -713,7 +666,7 @@ fn fem_solve<'py>(
         .flatten()
         .collect();
     let n_seg = kinds.len();
-    let out = arrays.into_dict(py)?;
+    let out = solve_dict(py, base, rows, n)?;
     out.set_item(
         "pin_force_n",
         pin.into_pyarray(py).reshape([rows, 2 * n, 2])?,

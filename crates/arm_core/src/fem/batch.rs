@@ -7,7 +7,9 @@ use rayon::prelude::*;
 
 use crate::error::{ArmError, Result};
 use crate::geometry::V2;
-use crate::solve::{check_input, fill_nan, split_output, BatchInput, BatchOutput, SolveOptions};
+use crate::solve::{
+    check_input, fill_nan, split_output, BatchBuffers, BatchInput, BatchOutput, SolveOptions,
+};
 
 use super::{FemModel, FemWorkspace};
 
@@ -32,6 +34,51 @@ pub struct FemBatchOutput<'a> {
     pub node_xy: &'a mut [f64],
     /// Node displacements loaded − unloaded (mm), `N × nodes × 2`.
     pub node_disp: &'a mut [f64],
+}
+
+/// Owned, zeroed output buffers of `rows` poses of `model`, lent to [`fem_solve_batch`] by
+/// [`FemBatchBuffers::out`].
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct FemBatchBuffers {
+    /// The analytic solver's outputs.
+    pub base: BatchBuffers,
+    /// See [`FemBatchOutput::pin_force_n`].
+    pub pin_force_n: Vec<f64>,
+    /// See [`FemBatchOutput::moment_nmm`].
+    pub moment_nmm: Vec<f64>,
+    /// See [`FemBatchOutput::dmoment_nmm`].
+    pub dmoment_nmm: Vec<f64>,
+    /// See [`FemBatchOutput::node_xy`].
+    pub node_xy: Vec<f64>,
+    /// See [`FemBatchOutput::node_disp`].
+    pub node_disp: Vec<f64>,
+}
+
+impl FemBatchBuffers {
+    /// Zeroed buffers for `rows` poses of `model`.
+    pub fn new(model: &FemModel, rows: usize) -> Self {
+        let (pins, moments, nodes) = extra_sizes(model);
+        Self {
+            base: BatchBuffers::new(rows, model.arm.n()),
+            pin_force_n: vec![0.0; rows * pins],
+            moment_nmm: vec![0.0; rows * moments],
+            dmoment_nmm: vec![0.0; rows * moments],
+            node_xy: vec![0.0; rows * nodes],
+            node_disp: vec![0.0; rows * nodes],
+        }
+    }
+
+    /// The buffers as the solver's output slices.
+    pub fn out(&mut self) -> FemBatchOutput<'_> {
+        FemBatchOutput {
+            base: self.base.out(),
+            pin_force_n: &mut self.pin_force_n,
+            moment_nmm: &mut self.moment_nmm,
+            dmoment_nmm: &mut self.dmoment_nmm,
+            node_xy: &mut self.node_xy,
+            node_disp: &mut self.node_disp,
+        }
+    }
 }
 
 /// Per-pose sizes of the extra outputs of `model`: (pins×2, moments, nodes×2).

@@ -56,7 +56,7 @@ use crate::error::{ArmError, Result};
 use crate::kinematics::Frames;
 
 pub use assemble::{Assembly, Kind};
-pub use batch::{fem_solve_batch, FemBatchOutput};
+pub use batch::{fem_solve_batch, FemBatchBuffers, FemBatchOutput};
 pub use maps::Maps;
 pub use mesh::Mesh;
 pub use shape::{Segment, Shape};
