@@ -15,28 +15,17 @@
 use std::hint::black_box;
 use std::time::Duration;
 
+use arm_benches::{ok, uniform, v};
 use arm_core::effects::MountCompliance;
 use arm_core::examples::seed2022_arm;
 use arm_core::fem::solve::Numeric;
 use arm_core::fem::{
     fem_solve_batch, FemBatchBuffers, FemModel, FemOptions, FemWorkspace, LinearSolver, LinkSection,
 };
-use arm_core::{Arm, BatchInput, Effect, EffectSet, SolveOptions, V2};
+use arm_core::{Arm, BatchInput, Effect, EffectSet, SolveOptions};
 use criterion::{
     criterion_group, criterion_main, BenchmarkId, Criterion, SamplingMode, Throughput,
 };
-
-/// Unwraps a core result; a benchmark set up wrongly should stop loudly, naming the step.
-fn ok<T>(r: arm_core::Result<T>, what: &str) -> T {
-    match r {
-        Ok(v) => v,
-        Err(e) => panic!("{what}: {e}"),
-    }
-}
-
-fn v(x: f64, y: f64) -> V2 {
-    V2::new(x, y)
-}
 
 /// A 40 × 40 × 3 mm aluminium box section on every link.
 const SECTIONS: [LinkSection; 3] = [LinkSection {
@@ -75,13 +64,7 @@ fn model(arm: &Arm, target: usize, solver: LinearSolver) -> FemModel {
 
 /// `rows` poses around the seed's five configurations (degrees) and payloads 0–7 kg (N).
 fn poses(rows: usize) -> (Vec<f64>, Vec<f64>) {
-    let mut state: u64 = 0x9E37_79B9_7F4A_7C15;
-    let mut uniform = move |lo: f64, hi: f64| {
-        state ^= state << 13;
-        state ^= state >> 7;
-        state ^= state << 17;
-        lo + (hi - lo) * ((state >> 11) as f64 / (1u64 << 53) as f64)
-    };
+    let mut uniform = uniform();
     let mut alpha = Vec::with_capacity(3 * rows);
     let mut payload = Vec::with_capacity(2 * rows);
     for _ in 0..rows {

@@ -5,7 +5,7 @@
 use std::hint::black_box;
 use std::time::Duration;
 
-use arm_benches::{example_arm, ok, v};
+use arm_benches::{example_arm, ok, uniform, v};
 use arm_core::effects::{
     ActuatorCompliance, ActuatorPlay, BaseCompliance, JointClearance, LinkBending, MountCompliance,
 };
@@ -51,15 +51,9 @@ fn all_effects(arm: &Arm) -> EffectSet {
 }
 
 /// `rows` reproducible poses: α ∈ [60, 110] × [0, 30] × [−10, 10] degrees, payload masses
-/// 0..7 kg (downward force), from a fixed-seed xorshift generator.
+/// 0..7 kg (downward force), from `arm_benches::uniform`.
 fn poses(rows: usize, g: f64) -> (Vec<f64>, Vec<f64>) {
-    let mut state: u64 = 0x9E37_79B9_7F4A_7C15;
-    let mut uniform = move |lo: f64, hi: f64| {
-        state ^= state << 13;
-        state ^= state >> 7;
-        state ^= state << 17;
-        lo + (hi - lo) * ((state >> 11) as f64 / (1u64 << 53) as f64)
-    };
+    let mut uniform = uniform();
     let mut alpha = Vec::with_capacity(3 * rows);
     let mut payload = Vec::with_capacity(2 * rows);
     for _ in 0..rows {

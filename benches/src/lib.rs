@@ -19,16 +19,22 @@ pub fn v(x: f64, y: f64) -> V2 {
 /// The example arm of `examples/example_arm.toml`, the core's shared fixture.
 pub use arm_core::examples::example_arm;
 
-/// `rows` reproducible poses (degrees, `rows × 3`): α uniform in [60, 110] × [0, 30] ×
-/// [−10, 10], from a fixed-seed xorshift generator.
-pub fn angles(rows: usize) -> Vec<f64> {
+/// A reproducible stream of uniform numbers: `uniform(lo, hi)` from a fixed-seed xorshift
+/// generator (the same sequence in every benchmark and every run).
+pub fn uniform() -> impl FnMut(f64, f64) -> f64 {
     let mut state: u64 = 0x9E37_79B9_7F4A_7C15;
-    let mut uniform = move |lo: f64, hi: f64| {
+    move |lo: f64, hi: f64| {
         state ^= state << 13;
         state ^= state >> 7;
         state ^= state << 17;
         lo + (hi - lo) * ((state >> 11) as f64 / (1u64 << 53) as f64)
-    };
+    }
+}
+
+/// `rows` reproducible poses (degrees, `rows × 3`): α uniform in [60, 110] × [0, 30] ×
+/// [−10, 10], from [`uniform`].
+pub fn angles(rows: usize) -> Vec<f64> {
+    let mut uniform = uniform();
     let mut alpha = Vec::with_capacity(3 * rows);
     for _ in 0..rows {
         alpha.push(uniform(60.0, 110.0));
