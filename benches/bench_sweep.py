@@ -4,9 +4,7 @@ Times, on the example arm (``examples/example_arm.toml``), baseline model, self-
 payload (5 kg), angles α1 ∈ [60, 110]°, α2 ∈ [0, 30]°, α3 ∈ [−10, 10]° on a regular grid:
 
 * **sweep, all outputs**: ``eodarm.sweep`` at 1e4 … 1e7 poses, unreduced (every output of
-  every pose into the Dataset). Its kernel is the fast core ``eodarm._core.sweep`` when the
-  compiled module has it, else ``eodarm.sweep._sweep_fallback`` (``_core.solve`` per chunk,
-  then numpy): the table says which was timed.
+  every pose into the Dataset), through the compiled core ``eodarm._core.sweep``.
 * **sweep, reduced**: the same with ``reduce={"op": "max", "dims": ["alpha3", "mass_kg"]}``
   up to 1e8 poses: the cost per pose when only the reduction is kept.
 * **numpy reference**: ``eodarm.reference.solve`` on the same poses, flattened (≤ 1e6).
@@ -53,7 +51,6 @@ import numpy.typing as npt
 
 import eodarm
 import eodarm.reference
-from eodarm.sweep import kernel_name
 
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
@@ -335,7 +332,6 @@ def main(argv: Sequence[str] | None = None) -> int:
     budget = 0.3 if args.quick else 1.0
 
     arm = eodarm.Arm.from_toml(ARM_FILE)
-    kernel = kernel_name()
     err = verify_numpy(arm)
     print(f"vectorised numpy agrees with eodarm.solve: max error {err:.1e}", flush=True)
     load0, cpu0 = os.getloadavg(), cpu_seconds()
@@ -446,15 +442,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(t4[-1], flush=True)
 
     load1, cpu1 = os.getloadavg(), cpu_seconds()
-    which = (
-        "the fast core `eodarm._core.sweep`"
-        if kernel == "core"
-        else "**the fallback** `eodarm.sweep._sweep_fallback` (`_core.solve` per chunk, then "
-        "numpy; the compiled core has no `sweep` yet)"
-    )
     notes = [
-        f"- run: {started}, `python3 benches/bench_sweep.py"
-        f"{' --quick' if args.quick else ''}`; sweep kernel timed: {which}",
+        f"- run: {started}, `python3 benches/bench_sweep.py{' --quick' if args.quick else ''}`",
         *machine(),
         f"- load average (1 min) before / after: {load0[0]:.2f} / {load1[0]:.2f}",
         others(cpu0, cpu1),

@@ -471,7 +471,6 @@ def test_the_fallback_kernel_reduces_like_numpy_and_keeps_per_pose_outputs(arm: 
     assert red["length_mm"].shape == (3, 3) and red["reachable"].tolist() == [True, False, True]
 
 
-@pytest.mark.skipif(not hasattr(_core, "sweep"), reason="the compiled core has no sweep yet")
 @pytest.mark.parametrize(
     "reduce,group", [(None, 1), ("max", 3), ("min", 6), ("argmax", 3), ("argmin", 1)]
 )

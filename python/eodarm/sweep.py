@@ -124,8 +124,8 @@ def _sweep_fallback(
     With ``model="fem"`` the cells are solved by the finite-element model instead
     (:func:`eodarm.fem.fem_solve_payload`, ``effects`` given as Effect values).
 
-    Kept as the definition the fast core is tested against; used when the core has no
-    ``sweep``. ``threads`` is ignored here (``_core.solve`` uses rayon's global pool).
+    Kept as the definition the fast core is tested against, and the kernel of FE sweeps.
+    ``threads`` is ignored here (``_core.solve`` uses rayon's global pool).
 
     Parameters
     ----------
@@ -265,8 +265,8 @@ def _kernel(
     fem_options: Mapping[str, Any] | None = None,
     effects: Sequence[Effect] = (),
 ) -> dict[str, npt.NDArray[Any]]:
-    """One chunk through the fast core when it has ``sweep``, else through the fallback
-    (always for the finite-element model)."""
+    """One chunk through the compiled core, or through :func:`_sweep_fallback` for the
+    finite-element model."""
     from . import _core
 
     if model == "fem":
@@ -285,31 +285,11 @@ def _kernel(
             fem_options,
             effects,
         )
-    if hasattr(_core, "sweep"):
-        return dict(
-            _core.sweep(
-                _core_arm(arm),
-                alpha,
-                mass,
-                codes,
-                places,
-                values,
-                self_weight,
-                reduce,
-                group,
-                threads,
-            )
+    return dict(
+        _core.sweep(
+            _core_arm(arm), alpha, mass, codes, places, values, self_weight, reduce, group, threads
         )
-    return _sweep_fallback(
-        arm, alpha, mass, codes, places, values, self_weight, reduce, group, threads
     )
-
-
-def kernel_name() -> str:
-    """Which kernel sweeps run on: ``"core"`` (``_core.sweep``) or ``"fallback"``."""
-    from . import _core
-
-    return "core" if hasattr(_core, "sweep") else "fallback"
 
 
 @lru_cache(maxsize=64)
@@ -1286,7 +1266,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     size = math.prod(len(v) for v in next(v for v in grid.values() if isinstance(v, dict)).values())
     _note(
         f"swept {size:,} poses × {len(mass)} payloads in {dt:.2f} s "
-        f"({size * len(mass) / max(dt, 1e-9):,.0f} cells/s, kernel: {kernel_name()})"
+        f"({size * len(mass) / max(dt, 1e-9):,.0f} cells/s, {args.model} model)"
     )
     _summary(ds)
     if args.output:
