@@ -820,27 +820,14 @@ fn run_chunk(plan: &Plan<'_>, mut ch: ChunkOut<'_>, scratch: &mut Scratch) -> Re
         run_kernel(plan, ch.pose0, ch.poses, alpha, pose_out, &mut sink, exact);
         return Ok(Vec::new());
     };
-    if r0 == r1 {
-        // No masses: only the per-pose outputs (reachability is then per pose).
-        let pose_out = PoseOut {
-            length: ch.length,
-            reachable: ch.reachable,
-            ex: ch.ex,
-            ey: ch.ey,
-        };
-        let mut sink = Sink::Reduce {
-            group: red.group,
-            op: red.op,
-            acc,
-        };
-        run_kernel(plan, ch.pose0, ch.poses, alpha, pose_out, &mut sink, exact);
-        return Ok(Vec::new());
+    // No masses (r0 == r1): no cells, only the per-pose outputs (reachability per pose).
+    let groups = (r0 < r1).then(|| (r0 / red.group, (r1 - 1) / red.group));
+    if let Some((g0, g1)) = groups {
+        acc.reset(g0, g1 - g0 + 1, nf);
     }
-    let (g0, g1) = (r0 / red.group, (r1 - 1) / red.group);
-    acc.reset(g0, g1 - g0 + 1, nf);
     // Reachability per group: per pose into scratch first, folded below.
-    // (`pose_group > 1` only with a `reachable` buffer; a chunk inside one group has no
-    // slice of it, but its poses still count.)
+    // (`pose_group > 1` only with masses and a `reachable` buffer; a chunk inside one group
+    // has no slice of it, but its poses still count.)
     let grouped = plan.pose_group > 1;
     {
         let reachable: &mut [bool] = if grouped {
@@ -863,6 +850,9 @@ fn run_chunk(plan: &Plan<'_>, mut ch: ChunkOut<'_>, scratch: &mut Scratch) -> Re
         };
         run_kernel(plan, ch.pose0, ch.poses, alpha, pose_out, &mut sink, exact);
     }
+    let Some((g0, g1)) = groups else {
+        return Ok(Vec::new());
+    };
     if grouped {
         for (p, &r) in reach_buf.iter().enumerate() {
             acc.reach[(ch.pose0 + p) / plan.pose_group - g0] |= r;

@@ -1101,3 +1101,32 @@ fn bad_grids_are_errors() {
         );
     }
 }
+
+/// With no payload masses there are no cells: a sweep (reduced or not) still writes every
+/// per-pose output, the same as with masses.
+#[test]
+fn no_masses_still_gives_the_poses() {
+    let mut rng = Rng(21);
+    let arm = arm(3, &mut rng, Some((300.0, 540.0)));
+    let eff = EffectSet::empty();
+    let alpha = poses(3, 100, &mut rng);
+    let want = run(&arm, &eff, &alpha, &[1.0], opts(true), &never).unwrap();
+    for reduce in [
+        None,
+        Some(Reduce {
+            op: ReduceOp::Max,
+            group: 4,
+        }),
+    ] {
+        let o = SweepOptions {
+            reduce,
+            chunk_rows: Some(32),
+            ..opts(true)
+        };
+        let got = run(&arm, &eff, &alpha, &[], o, &never).unwrap();
+        assert!(got.force.is_empty() && got.ok.is_empty(), "{reduce:?}");
+        assert_eq!(got.length, want.length, "{reduce:?}");
+        assert_eq!(got.reachable, want.reachable, "{reduce:?}");
+        assert_eq!((&got.ex, &got.ey), (&want.ex, &want.ey), "{reduce:?}");
+    }
+}
