@@ -19,8 +19,8 @@ from pathlib import Path
 import numpy as np
 
 import eodarm
-from eodarm.diagnose import diagnose
-from eodarm.synth import random_configs, synth
+from eodarm.analysis.diagnose import diagnose
+from eodarm.analysis.synth import random_configs, synth
 
 EXAMPLE = Path(__file__).resolve().parent.parent / "examples" / "example_arm.toml"
 

@@ -7,7 +7,7 @@ payload (5 kg), angles α1 ∈ [60, 110]°, α2 ∈ [0, 30]°, α3 ∈ [−10, 1
   every pose into the Dataset), through the compiled core ``eodarm._core.sweep``.
 * **sweep, reduced**: the same with ``reduce={"op": "max", "dims": ["alpha3", "mass_kg"]}``
   up to 1e8 poses: the cost per pose when only the reduction is kept.
-* **numpy reference**: ``eodarm.reference.solve`` on the same poses, flattened (≤ 1e6).
+* **numpy reference**: ``eodarm.model.reference.solve`` on the same poses, flattened (≤ 1e6).
 * **vectorised numpy**: an independent baseline-model implementation written below, the way
   a competent numpy programmer would: forward kinematics, the tip-to-base statics recursion
   and the exact triangle closure (law of cosines, ``arccos``), every step vectorised over
@@ -50,7 +50,7 @@ import numpy as np
 import numpy.typing as npt
 
 import eodarm
-import eodarm.reference
+import eodarm.model.reference
 
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
@@ -206,7 +206,7 @@ def core_reduced(arm: eodarm.Arm, g: dict[str, FloatArray]) -> object:
     """The compiled core alone on the same reduced sweep: ``eodarm._core.sweep`` walking the
     grid itself, into preallocated outputs (no Dataset)."""
     from eodarm import _core
-    from eodarm.solver import _core_arm
+    from eodarm.model.solver import _core_arm
 
     axes = list(g.values())
     shape = [len(a) for a in axes]
@@ -374,7 +374,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         ref = vec = None
         if size <= 1_000_000:
             alpha = flat(size)
-            ref = size / timed(lambda a=alpha: eodarm.reference.solve(arm, a, MASS), size, budget)
+            ref = size / timed(
+                lambda a=alpha: eodarm.model.reference.solve(arm, a, MASS), size, budget
+            )
         if size <= (10_000_000 if args.big_numpy else 1_000_000):
             alpha = flat(size)
             vec = size / timed(lambda a=alpha: numpy_baseline(arm, a, MASS), size, budget)

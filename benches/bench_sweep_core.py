@@ -43,7 +43,7 @@ from bench_solve import (
     verify,
 )
 from eodarm import _core
-from eodarm.solver import _core_arm
+from eodarm.model.solver import _core_arm
 
 SIZES = (10_000, 100_000, 1_000_000)
 

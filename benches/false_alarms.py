@@ -18,8 +18,8 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests"))
 
 from arms import ARMS
-from eodarm.diagnose import diagnose
-from eodarm.synth import random_configs, synth
+from eodarm.analysis.diagnose import diagnose
+from eodarm.analysis.synth import random_configs, synth
 
 
 def main() -> None:

@@ -13,7 +13,8 @@ import sys
 from pathlib import Path
 
 import eodarm
-from eodarm import datasets, fem_plots
+from eodarm.data import datasets
+from eodarm.viz import fem_plots
 
 OUT = Path(__file__).resolve().parent.parent / "docs" / "figures"
 

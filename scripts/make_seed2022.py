@@ -14,7 +14,8 @@ from pathlib import Path
 
 import pandas as pd
 
-from eodarm.datasets import seed2022_calibration, seed2022_measurements
+from eodarm.analysis.calibrate import seed2022_calibration
+from eodarm.data.datasets import seed2022_measurements
 
 DATA = Path(__file__).resolve().parent.parent / "python" / "eodarm" / "data" / "seed2022"
 

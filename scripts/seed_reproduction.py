@@ -16,8 +16,9 @@ from typing import Any
 import numpy as np
 
 import eodarm
-from eodarm import datasets
-from eodarm.fit import FitWarning, compare, cross_validate, fit
+from eodarm.analysis import calibrate
+from eodarm.analysis.fit import FitWarning, compare, cross_validate, fit
+from eodarm.data import datasets
 
 BODIES = [f"actuator_compliance@M{i}" for i in (1, 2, 3)]
 MOUNTS = [f"mount_compliance@M{i}" for i in (1, 2, 3)]
@@ -73,10 +74,10 @@ def main() -> None:
     )
 
     # ---------------------------------------------------------------- 1. calibration
-    cal_all = datasets.seed2022_calibration(tables)
+    cal_all = calibrate.seed2022_calibration(tables)
     cal = cal_all["calibration"]
     w("## 1. Does Table 1 reproduce Table 5? Calibrating the geometry\n")
-    from eodarm.calibrate import GeomParam, calibrate_geometry
+    from eodarm.analysis.calibrate import GeomParam, calibrate_geometry
 
     printed = eodarm.Arm.from_dict(datasets.seed2022_published_dict())
 
@@ -100,7 +101,8 @@ def main() -> None:
         f"to {np.abs(only_b0.residual).max():.0f} N.\n"
     )
     w(
-        "So the calibration (`eodarm.calibrate.calibrate_geometry`, least squares through the "
+        "So the calibration (`eodarm.analysis.calibrate.calibrate_geometry`, least squares "
+        "through the "
         "compiled statics, each number pulled towards its printed value by a prior σ) also "
         "frees the doubtful numbers: the paper's g, the payload point on arm 3, the garbled "
         "cells A1 (`A180.9465`) and B2 (`B2−1280`), the clearly printed pins (σ = their "
@@ -280,7 +282,7 @@ def main() -> None:
     t6_err = {
         c: rms((t6["model_sag_mm"] - t6["measured_sag_mm"])[t6["config"] == c]) for c in (4, 5)
     }
-    from eodarm.diagnose import all_slots
+    from eodarm.analysis.diagnose import all_slots
 
     taken = set(BODIES + MOUNTS)
     extra_cv = {}
@@ -392,7 +394,7 @@ def main() -> None:
         "series with the actuators is.\n"
     )
 
-    from eodarm import plots
+    from eodarm.viz import plots
 
     plots.ladder(ladder, channel="dy_mm", path=figdir / "seed-ladder.png")
     plots.measured_vs_model(

@@ -37,7 +37,7 @@ from hypothesis import strategies as st
 from hypothesis.strategies import SearchStrategy
 
 import eodarm
-from eodarm import reference
+from eodarm.model import reference
 
 #: Largest payload mass the tests apply (kg).
 MAX_PAYLOAD_KG = 8.0

@@ -146,7 +146,7 @@ def test_angles_from_lengths_marks_rows_that_cannot_close(case, data) -> None:
     """The core's ``nan_on_failure`` (what lengths sweeps use) gives NaN exactly for the rows
     the numpy reference refuses, one row at a time, and the reference's angles elsewhere."""
     from eodarm import _core
-    from eodarm.solver import _core_arm
+    from eodarm.model.solver import _core_arm
 
     arm, alpha, _ = case
     lengths = eodarm.forward(arm, alpha)["length_mm"].copy()

@@ -14,9 +14,10 @@ import pytest
 
 import eodarm
 from arms import ARMS, example_arm
-from eodarm.diagnose import all_slots, diagnose
-from eodarm.fit import FitWarning, Slot, cross_validate, fit
-from eodarm.synth import random_configs, synth
+from eodarm.analysis.diagnose import all_slots, diagnose
+from eodarm.analysis.fit import FitWarning, cross_validate, fit
+from eodarm.analysis.synth import random_configs, synth
+from eodarm.model.effects import Slot
 
 MASSES = [1.5, 3.0, 5.0, 6.5]
 ARMS_FILE = Path(__file__).resolve().parent.parent / "examples" / "example_arm.toml"

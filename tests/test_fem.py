@@ -17,11 +17,12 @@ from hypothesis import strategies as st
 
 import eodarm
 from arms import example_arm, seed_like_arm, two_link_arm
-from eodarm import datasets, fem_plots, plots
+from eodarm.analysis.fit import FitWarning, compare, cross_validate, fit
+from eodarm.analysis.synth import synth
 from eodarm.cli import main
-from eodarm.fit import FitWarning, compare, cross_validate, fit
-from eodarm.measurements import Measurements, channel_names
-from eodarm.synth import synth
+from eodarm.data import datasets
+from eodarm.data.measurements import Measurements, channel_names
+from eodarm.viz import fem_plots, plots
 from strategies import (
     ELASTIC,
     arm_and_poses,
@@ -276,7 +277,8 @@ def test_fem_fit_of_analytic_data_is_biased_at_second_order_only():
 
 def test_fem_jacobian_matches_the_analytic_one_at_small_load():
     arm = example_arm()
-    from eodarm.fit import Problem, Slot
+    from eodarm.analysis.fit import Problem
+    from eodarm.model.effects import Slot
 
     meas = _fem_truth(arm, EXAMPLE_POSES, [0.01], [])
     probes = [Slot.parse(s) for s in ("mount_compliance@M1", "link_bending@L2", "actuator_play@M3")]

@@ -19,8 +19,9 @@ from matplotlib.figure import Figure
 
 import eodarm
 from arms import example_arm
-from eodarm import maps
 from eodarm.errors import EodarmError
+from eodarm.viz import maps as draw
+from eodarm.workspace import maps
 
 E = eodarm.Effect
 GRID = {
@@ -156,7 +157,7 @@ def test_the_sag_map_shows_only_reachable_solved_poses(ds: xr.Dataset) -> None:
     assert (~good).any() and good.any()
     poisoned = ds.copy(deep=True)
     poisoned["dy_mm"].values[~np.broadcast_to(good[..., None], ds["dy_mm"].shape)] = -1e6
-    img = _mesh(maps.sag_map(poisoned, 6.5))
+    img = _mesh(draw.sag_map(poisoned, 6.5))
     shown = img.compressed()
     assert shown.min() > -1e6
     assert set(np.round(shown, 9)) <= set(np.round(sel["dy_mm"].values[good], 9))
@@ -167,7 +168,7 @@ def test_the_sag_map_shows_only_reachable_solved_poses(ds: xr.Dataset) -> None:
 def test_a_pixel_shows_its_worst_pose(arm: eodarm.Arm) -> None:
     x = np.array([0.0, 0.1, 0.2, 50.0])
     y = np.array([0.0, 0.1, 0.2, 50.0])
-    cv = maps._Canvas(arm, x, y, None)
+    cv = draw._Canvas(arm, x, y, None)
     value = np.array([1.0, 5.0, 3.0, 7.0])
     _, _, img = cv.raster(x, y, value, worst=value)
     assert sorted(img.compressed().tolist()) == [5.0, 7.0]
@@ -176,7 +177,7 @@ def test_a_pixel_shows_its_worst_pose(arm: eodarm.Arm) -> None:
 
 
 def test_force_maps_have_one_panel_per_actuator_with_its_limit(ds: xr.Dataset) -> None:
-    fig = maps.force_maps(ds, 6.5)
+    fig = draw.force_maps(ds, 6.5)
     panels = [ax for ax in fig.axes if ax.get_title().startswith("actuator")]
     assert [ax.get_title().split(":")[0] for ax in panels] == [
         "actuator 1",
@@ -194,13 +195,13 @@ def test_force_maps_have_one_panel_per_actuator_with_its_limit(ds: xr.Dataset) -
 
 
 def test_capacity_and_dominant_maps_name_what_they_show(arm: eodarm.Arm) -> None:
-    fig = maps.capacity_map(arm, GRID, effects=MODEL)
+    fig = draw.capacity_map(arm, GRID, effects=MODEL)
     legend = [
         t.get_text() for ax in fig.axes if ax.get_legend() for t in ax.get_legend().get_texts()
     ]
     assert any(t.startswith("F") and "force" in t for t in legend)
     assert "stroke 250–370 mm" in fig.get_suptitle()
-    fig = maps.dominant_effect_map(arm, GRID, MODEL, 6.5)
+    fig = draw.dominant_effect_map(arm, GRID, MODEL, 6.5)
     texts = [t.get_text() for leg in fig.legends for t in leg.get_texts()]
     assert [t.split(" (")[0] for t in texts] == [e.key for e in MODEL]
 
@@ -211,19 +212,19 @@ def test_maps_refuse_a_payload_not_swept_and_a_reduced_sweep(
     with pytest.raises(
         EodarmError, match=r"payload 3 kg is not in the sweep \(mass_kg: 1.5, 6.5\)"
     ):
-        maps.sag_map(ds, 3.0)
+        draw.sag_map(ds, 3.0)
     red = eodarm.sweep(
         arm, alpha_deg=GRID, mass_kg=[1.0], reduce={"op": "max", "dims": ["mass_kg"]}
     )
     with pytest.raises(EodarmError, match="mass_kg dimension"):
-        maps.force_maps(red)
+        draw.force_maps(red)
 
 
 def test_a_map_is_written_only_when_asked(
     ds: xr.Dataset, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     monkeypatch.chdir(tmp_path)
-    maps.sag_map(ds, 1.5)
+    draw.sag_map(ds, 1.5)
     assert list(tmp_path.iterdir()) == []
-    maps.sag_map(ds, 1.5, path=tmp_path / "sag.png")
+    draw.sag_map(ds, 1.5, path=tmp_path / "sag.png")
     assert (tmp_path / "sag.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

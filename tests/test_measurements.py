@@ -18,19 +18,18 @@ import pandas as pd
 import pytest
 
 import eodarm
-from eodarm.cli import _bundled_arm
-from eodarm.measurements import (
+from eodarm.analysis.synth import moment_arm_ratio, random_configs, synth
+from eodarm.cli.synth import add_parser
+from eodarm.data.channels import (
     DEFAULT_SIGMA,
-    MeasurementFileError,
-    Measurements,
     channel_names,
     channel_values,
     default_sigma,
     expand_channels,
-    from_dataframe,
-    read_measurements,
 )
-from eodarm.synth import add_parser, moment_arm_ratio, random_configs, synth
+from eodarm.data.datasets import example_arm
+from eodarm.data.measurements import MeasurementFileError, Measurements
+from eodarm.data.reader import from_dataframe, read_measurements
 
 HEAD = "config,alpha1_deg,alpha2_deg,alpha3_deg,mass_kg"
 #: Stroke limits (mm) that the bundled arm's actuators reach over the default angle ranges,
@@ -40,7 +39,7 @@ STROKES = ((270.0, 350.0), (440.0, 600.0), (460.0, 550.0))
 
 @pytest.fixture(scope="module")
 def arm() -> eodarm.Arm:
-    d = _bundled_arm().to_dict()
+    d = example_arm().to_dict()
     for act, (lo, hi) in zip(d["actuator"], STROKES, strict=True):
         act["min_length_mm"], act["max_length_mm"] = lo, hi
     return eodarm.Arm.from_dict(d, source="<test arm>")

@@ -1,4 +1,4 @@
-"""Figures (eodarm.plots) and the HTML report (eodarm.report).
+"""Figures (eodarm.viz.plots) and the HTML report (eodarm.viz.report).
 
 Promises tested here: every figure shows what it says (one panel per measured channel or per
 configuration, one series per model, units on the axes, the plotted numbers are the fitted
@@ -21,14 +21,15 @@ import pytest
 from matplotlib.figure import Figure
 
 import eodarm
-from eodarm import plots
-from eodarm.cli import _bundled_arm
-from eodarm.diagnose import Diagnosis, diagnose
+from eodarm.analysis.diagnose import Diagnosis, diagnose
+from eodarm.analysis.fit import compare
+from eodarm.analysis.ladder import build_ladder
+from eodarm.analysis.synth import random_configs, synth
+from eodarm.data.datasets import example_arm
+from eodarm.data.measurements import Measurements
 from eodarm.errors import EodarmError
-from eodarm.fit import compare
-from eodarm.measurements import Measurements
-from eodarm.report import build_ladder, write_report
-from eodarm.synth import random_configs, synth
+from eodarm.viz import plots, style
+from eodarm.viz.report import write_report
 
 HIDDEN = eodarm.Effect("joint_clearance", "O2", clearance_mm=0.12)
 MASSES = (1.5, 5.0, 6.5)
@@ -37,7 +38,7 @@ PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 
 @pytest.fixture(scope="module")
 def arm() -> eodarm.Arm:
-    return _bundled_arm()
+    return example_arm()
 
 
 @pytest.fixture(scope="module")
@@ -93,7 +94,7 @@ def test_measured_vs_model_has_one_panel_per_channel_and_one_series_per_model(
             np.testing.assert_allclose(line.get_xdata(), meas.values[rows, c])
             np.testing.assert_allclose(line.get_ydata(), f.prediction[rows, c])
             rms = f.rms()[ch]
-            assert any(t.startswith(f"{label}: RMS {plots._num(rms)}") for t in legend)
+            assert any(t.startswith(f"{label}: RMS {style.num(rms)}") for t in legend)
         assert "y = x" in legend
     # the fitted model is within noise, the baseline is not
     assert diag.suggested_fit.rms()["dy_mm"] < 0.1 * diag.baseline.rms()["dy_mm"]
@@ -300,7 +301,7 @@ def test_importing_and_plotting_leaves_pyplot_alone() -> None:
     # pyplot is where global figure state and backend switching live; a library must not
     # pull it in (nor, through it, pick a GUI backend for the caller)
     code = (
-        "import sys; import eodarm.plots as p; import eodarm.report; "
+        "import sys; import eodarm.viz.plots as p; import eodarm.viz.report; "
         "p.ladder([{'label': 'a', 'rms': {'dy_mm': 1.0}, 'cv_rms': None, 'chi2_per_dof': 2.0}])"
         ".savefig(__import__('io').BytesIO()); "
         "print('matplotlib.pyplot' in sys.modules)"

@@ -14,10 +14,10 @@ from typing import Any
 import numpy as np
 import pytest
 
-from eodarm import reference as ref
-from eodarm.arm import Arm
-from eodarm.effects import Effect
 from eodarm.errors import EffectError, InputError
+from eodarm.model import reference as ref
+from eodarm.model.arm import Arm
+from eodarm.model.effects import Effect
 
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLE = ROOT / "examples" / "example_arm.toml"

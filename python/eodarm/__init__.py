@@ -10,13 +10,15 @@ with an independent numpy reference.
 >>> out = eodarm.solve(arm, [[90.0, 10.0, 0.0]], 5.0, effects=eff)     # doctest: +SKIP
 """
 
-from .arm import Actuator, Arm, Link
-from .diagnose import Diagnosis, diagnose
-from .effects import CATALOGUE, Effect
-from .errors import ArmFileError, EffectError, EodarmError, InputError
-from .fit import FitResult, Slot, cross_validate, fit
-from .measurements import Measurements, read_measurements
-from .solver import (
+from eodarm._version import __version__
+from eodarm.analysis.diagnose import Diagnosis, diagnose
+from eodarm.analysis.fit import FitResult, cross_validate, fit
+from eodarm.data.measurements import Measurements
+from eodarm.data.reader import read_measurements
+from eodarm.errors import ArmFileError, EffectError, EodarmError, InputError
+from eodarm.model.arm import Actuator, Arm, Link
+from eodarm.model.effects import CATALOGUE, Effect, Slot
+from eodarm.model.solver import (
     angles_from_lengths,
     forward,
     inverse_kinematics,
@@ -24,9 +26,7 @@ from .solver import (
     solve_payload,
     stroke_violations,
 )
-from .sweep import sweep
-
-__version__ = "0.1.0"
+from eodarm.workspace.sweep import sweep
 
 __all__ = [
     "CATALOGUE",

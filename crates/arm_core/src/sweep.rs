@@ -19,10 +19,12 @@
 //!   thread's scratch on the per-cell path. A sweep of 10⁸ poses never holds 10⁸ poses.
 //! * **Chunks.** Poses are processed in chunks of about `chunk_rows` rows (default
 //!   [`CHUNK_ROWS`]), taken from a queue by the calling thread and `threads − 1` pool
-//!   threads; each thread owns its scratch, nothing is allocated per pose. Between its chunks
-//!   the calling thread calls `cancel(poses_done)` (only there, so a Python signal check and
-//!   a progress report work); when it returns true the sweep stops and returns
-//!   [`ArmError::Cancelled`], with the outputs partly written.
+//!   threads; each thread owns its scratch, nothing is allocated per pose. Before each of its
+//!   chunks, the first included, the calling thread calls `cancel(poses_done)` (only there,
+//!   so a Python signal check and a progress report work; calling it before the first chunk
+//!   means every sweep reports at least once and honours an interrupt that came early, even
+//!   when the pool threads take every other chunk); when it returns true the sweep stops and
+//!   returns [`ArmError::Cancelled`], with the outputs partly written.
 //! * **Reductions.** With [`SweepOptions::reduce`], the cell fields are not stored per cell:
 //!   every `group` consecutive rows fold into one output row, NaN ignored (a group without a
 //!   value is NaN, its index −1). Per-pose outputs are still written per pose, except
@@ -404,8 +406,9 @@ pub fn sweep(
 /// Sweeps every pose of `poses` under every payload mass of `mass_kg` (`M`, kg), writing
 /// `out` in place; see the [module documentation](self).
 ///
-/// `cancel` is called on the calling thread between chunks with the number of poses finished
-/// so far (by all threads); when it returns true the sweep stops.
+/// `cancel` is called on the calling thread before each of its chunks, the first included,
+/// with the number of poses finished so far (by all threads); when it returns true the sweep
+/// stops.
 ///
 /// # Errors
 /// * [`ArmError::Shape`] for input or output buffers of the wrong length;
@@ -528,7 +531,7 @@ pub fn sweep_poses(
         let mut scratch = Scratch::default();
         let mut finished = 0;
         for (k, chunk) in chunks.into_iter().enumerate() {
-            if k > 0 && cancel(finished) {
+            if cancel(finished) {
                 cancelled = true;
                 break;
             }
@@ -590,8 +593,7 @@ struct Shared<'e, 'a> {
 }
 
 /// Runs the chunks on the calling thread and `threads − 1` workers of the scope's pool; the
-/// calling thread calls `cancel` before each of its chunks but the first. Returns whether
-/// it was cancelled.
+/// calling thread calls `cancel` before each of its chunks. Returns whether it was cancelled.
 fn drive<'e, 'a: 'e>(
     s: &rayon::Scope<'e>,
     threads: usize,
@@ -615,15 +617,13 @@ fn drive<'e, 'a: 'e>(
         });
     }
     let mut scratch = Scratch::default();
-    let mut first = true;
     while !sh.stop.load(Ordering::Relaxed) {
         let next = lock(sh.queue).next();
         let Some((k, chunk)) = next else { break };
-        if !first && cancel(sh.finished.load(Ordering::Relaxed)) {
+        if cancel(sh.finished.load(Ordering::Relaxed)) {
             sh.stop.store(true, Ordering::Relaxed);
             return true;
         }
-        first = false;
         work(k, chunk, &mut scratch);
     }
     false

@@ -2,7 +2,7 @@
 
 Each takes one pose's output of ``eodarm.solve(..., model="fem")`` (the arrays of one row, or
 the whole output and a ``row``) and returns a new :class:`matplotlib.figure.Figure` on its
-own Agg canvas, written as a PNG only when ``path=`` is given (as :mod:`eodarm.plots`).
+own Agg canvas, written as a PNG only when ``path=`` is given (as :mod:`eodarm.viz.plots`).
 
 * :func:`deformed_shape` — the members of the arm drawn in their exaggerated displaced
   positions, coloured by the magnitude of the displacement along them, over the undeformed
@@ -33,9 +33,9 @@ except ImportError as exc:  # pragma: no cover - depends on the environment
         "eodarm.fem_plots needs matplotlib: pip install 'eodarm[plot]' (or matplotlib>=3.8)"
     ) from exc
 
-from .arm import Arm
-from .errors import EodarmError
-from .plots import GREY, PALETTE, PathLike, _figure, _finish
+from eodarm.errors import EodarmError
+from eodarm.model.arm import Arm
+from eodarm.viz.style import GREY, PALETTE, PathLike, figure, finish
 
 __all__ = ["deformed_shape", "moment_diagrams", "nice_scale", "pin_forces"]
 
@@ -114,7 +114,7 @@ def deformed_shape(
     if not (math.isfinite(scale) and scale > 0):
         raise EodarmError(f"deformed_shape: scale must be finite and > 0, got {scale!r}")
     moved = xy + scale * d
-    fig = _figure(9.0, 6.6)
+    fig = figure(9.0, 6.6)
     ax = fig.add_subplot()
     # The undeformed arm: a thin wireframe.
     ax.add_collection(
@@ -201,7 +201,7 @@ def deformed_shape(
         f"{head}\nshape exaggerated ×{scale:g}; colour: |u|, loaded minus unloaded",
         fontsize="medium",
     )
-    return _finish(fig, path)
+    return finish(fig, path)
 
 
 def _tag(ax: Axes, text: str, at: npt.NDArray[np.float64]) -> None:
@@ -243,7 +243,7 @@ def moment_diagrams(
     dm = np.asarray(_row(out, "dmoment_nmm", row), dtype=float) / 1000.0
     xs = np.asarray(out["moment_x_mm"], dtype=float)
     n = arm.n
-    fig = _figure(8.4, 2.3 * n + 0.8)
+    fig = figure(8.4, 2.3 * n + 0.8)
     axes = fig.subplots(n, 1, squeeze=False)[:, 0]
     for i, ax in enumerate(axes):
         _moment_panel(ax, arm, i, xs[i], m[i], dm[i])
@@ -254,7 +254,7 @@ def moment_diagrams(
         title or f"{arm.name}: bending moment along the links (FE)",
         fontsize="medium",
     )
-    return _finish(fig, path)
+    return finish(fig, path)
 
 
 def _moment_panel(
@@ -332,7 +332,7 @@ def pin_forces(
     n = arm.n
     joints = [_node(node_kind, _JOINT, i + 1) for i in range(n)]
     a_pins = [_node(node_kind, _PIN_A, i + 1) for i in range(n)]
-    fig = _figure(9.0, 6.6)
+    fig = figure(9.0, 6.6)
     ax = fig.add_subplot()
     colours = {0: "0.55", 1: "0.65", 2: "#f5c38f", 3: "0.75"}
     for (a, b), k in zip(seg, kind, strict=True):
@@ -380,4 +380,4 @@ def pin_forces(
         title or f"{arm.name}: loaded pin forces on the links (FE; arrows ∝ force)",
         fontsize="medium",
     )
-    return _finish(fig, path)
+    return finish(fig, path)

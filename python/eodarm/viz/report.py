@@ -23,10 +23,7 @@ report names it.
 
 from __future__ import annotations
 
-import base64
 import datetime as _dt
-import html
-import io
 import math
 import os
 import warnings
@@ -36,177 +33,18 @@ from typing import Any
 
 import numpy as np
 
-from . import __version__
-from .arm import Arm
-from .diagnose import CONFUSION_CHI2, Candidate, Diagnosis
-from .errors import EodarmError, InputError
-from .fit import FitResult, FitWarning, cross_validate, fit
-from .measurements import Measurements, default_sigma
+from eodarm._version import __version__
+from eodarm.analysis.diagnose import CONFUSION_CHI2, Candidate, Diagnosis
+from eodarm.analysis.fit import FitResult, FitWarning, cross_validate
+from eodarm.analysis.ladder import build_ladder, check_same_model, model_name, solver_keywords
+from eodarm.data.measurements import Measurements, default_sigma
+from eodarm.errors import EodarmError
+from eodarm.model.arm import Arm
+from eodarm.viz import html as page
 
 __all__ = ["build_ladder", "write_report"]
 
 PathLike = str | os.PathLike[str]
-
-_CSS = """
-body { font-family: "DejaVu Sans", Helvetica, Arial, sans-serif; color: #222;
-       max-width: 1180px; margin: 1.5em auto; padding: 0 1em; line-height: 1.4; }
-h1 { font-size: 1.6em; border-bottom: 3px solid #1f77b4; padding-bottom: .2em; }
-h2 { font-size: 1.25em; margin-top: 2em; border-bottom: 1px solid #ccc; }
-h3 { font-size: 1.05em; margin-bottom: .3em; }
-table { border-collapse: collapse; margin: .5em 0 1em 0; font-size: .9em; display: block;
-        overflow-x: auto; max-width: 100%; }
-th, td { border: 1px solid #ccc; padding: .25em .6em; text-align: left; vertical-align: top; }
-th { background: #f0f3f7; }
-td.num { text-align: right; font-variant-numeric: tabular-nums; white-space: nowrap; }
-tr.hl td { background: #fff4d6; font-weight: bold; }
-.row { display: flex; flex-wrap: wrap; gap: 1.5em; align-items: flex-start; }
-.row > div { flex: 0 1 auto; max-width: 100%; overflow-x: auto; }
-.row > figure { flex: 1 1 520px; }
-figure.narrow { max-width: 820px; }
-figure { margin: .5em 0; }
-figure img { max-width: 100%; height: auto; border: 1px solid #ddd; }
-figcaption { font-size: .85em; color: #555; }
-.verdict { display: inline-block; padding: .2em .8em; border-radius: .3em; font-weight: bold;
-           font-size: 1.15em; }
-.missing { background: #d62728; color: white; }
-.adequate { background: #2ca02c; color: white; }
-.note { color: #555; font-size: .9em; }
-.warn { color: #8c3b00; }
-code { background: #f4f4f4; padding: 0 .2em; }
-footer { margin-top: 3em; font-size: .8em; color: #777; }
-"""
-
-
-# ---------------------------------------------------------------------------- the model
-def _solver(
-    diagnosis: Diagnosis, model: str | None, fem_options: Mapping[str, Any] | None
-) -> dict[str, Any]:
-    """The ``model``/``fem_options`` keywords of every evaluation: the diagnosis's own.
-
-    ``model=None`` takes the diagnosis's model; a model (or FE options) other than the one the
-    diagnosis was made with is refused rather than mixed into one report.
-    """
-    from . import fem
-
-    prob = diagnosis.baseline.problem
-    if model is None and fem_options is None:
-        return {"model": prob.model, "fem_options": prob.fem_options}
-    chosen = prob.model if model is None else model
-    fem.check_model(chosen)
-    if chosen != "fem" and fem_options is not None:
-        raise InputError("fem_options is for model='fem'")
-    opts = fem.options(fem_options) if chosen == "fem" else None
-    if (chosen, opts) != (prob.model, prob.fem_options):
-        raise EodarmError(
-            f"the diagnosis was made with the {_model_name(prob.model, prob.fem_options)}, "
-            f"not the {_model_name(chosen, opts)}: diagnose with solver_model={chosen!r} "
-            "(and the same fem_options)"
-        )
-    return {"model": chosen, "fem_options": opts}
-
-
-def _model_name(model: str, fem_options: Mapping[str, Any] | None) -> str:
-    if model != "fem":
-        return "analytic model"
-    epl = (fem_options or {}).get("elements_per_link")
-    return "finite-element model" + (f" with {epl} elements per flexible link" if epl else "")
-
-
-def _same_model(fit_result: FitResult, kw: Mapping[str, Any], what: str) -> None:
-    p = fit_result.problem
-    if (p.model, p.fem_options) != (kw["model"], kw["fem_options"]):
-        raise EodarmError(
-            f"{what} was fitted with the {_model_name(p.model, p.fem_options)}, the diagnosis "
-            f"with the {_model_name(kw['model'], kw['fem_options'])}"
-        )
-
-
-# ---------------------------------------------------------------------------- the ladder
-def build_ladder(
-    arm: Arm,
-    meas: Measurements,
-    diagnosis: Diagnosis,
-    self_weight: bool = True,
-    cv: bool = True,
-    model: str | None = None,
-    fem_options: Mapping[str, Any] | None = None,
-) -> list[dict[str, Any]]:
-    """The models of the error ladder: baseline, then the suggested effects one at a time.
-
-    The suggested effects are added in the order of their individual improvement Δχ² (the
-    candidate's own row of ``diagnosis.ranking``, largest first). Every step is fitted afresh
-    with :func:`eodarm.fit.fit` on all its effects jointly (the model's own ``--add`` effects
-    included), leaving out the cells the diagnosis named as outliers.
-
-    Parameters
-    ----------
-    arm, meas : the arm and the measurements the diagnosis was made on.
-    diagnosis : the result of :func:`eodarm.diagnose.diagnose`.
-    self_weight : as :func:`eodarm.solve`.
-    cv : add the leave-one-configuration-out RMS (:func:`eodarm.fit.cross_validate`) of every
-        step; only done when the data have at least two configurations. (Cross-validation
-        uses every measured cell, outliers included.)
-    model, fem_options : ``"analytic"`` or ``"fem"`` and its options, as in
-        :func:`eodarm.fit.fit`; default (``None``) the model the diagnosis was made with, and
-        nothing else is accepted.
-
-    Returns
-    -------
-    list of dict
-        One per step: ``label`` (``"baseline"``, ``"+ effect@place"``…), ``effects`` (the
-        ``effect@place`` keys fitted), ``rms`` ({channel: mm or deg}), ``cv_rms`` (same, or
-        ``None``), ``chi2_per_dof``, ``fit`` (the :class:`~eodarm.fit.FitResult`) and
-        ``warnings`` (parameters stuck at a bound).
-    """
-    prob = diagnosis.baseline.problem
-    if prob.meas.values.shape != meas.values.shape:
-        raise EodarmError(
-            f"build_ladder: the diagnosis was made on {prob.meas.n_rows} rows, "
-            f"the measurements have {meas.n_rows}"
-        )
-    kw = _solver(diagnosis, model, fem_options)
-    excluded = np.isfinite(meas.values) & ~prob.use
-    exclude = excluded if excluded.any() else None
-    gain = {c.slot.key: c.delta_chi2 for c in diagnosis.ranking}
-    added = sorted(diagnosis.suggested, key=lambda s: -gain.get(s.key, -math.inf))
-    do_cv = cv and len(meas.configs) >= 2
-    base_label = "baseline"
-    if diagnosis.model:
-        base_label = "model: " + ", ".join(s.key for s in diagnosis.model)
-    steps: list[dict[str, Any]] = []
-    for i in range(len(added) + 1):
-        slots = list(diagnosis.model) + added[:i]
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", FitWarning)
-            res = fit(arm, meas, slots, self_weight=self_weight, exclude=exclude, **kw)
-            cv_rms = (
-                cross_validate(arm, meas, slots, self_weight=self_weight, **kw)["rms"]
-                if do_cv
-                else None
-            )
-        steps.append(
-            {
-                "label": base_label if i == 0 else f"+ {added[i - 1].key}",
-                "effects": [s.key for s in slots],
-                "rms": res.rms(),
-                "cv_rms": cv_rms,
-                "chi2_per_dof": res.chi2_per_dof,
-                "fit": res,
-                "warnings": list(res.warnings),
-            }
-        )
-    return steps
-
-
-# ---------------------------------------------------------------------------- formatting
-def _e(text: Any) -> str:
-    return html.escape(str(text), quote=True)
-
-
-def _num(x: float, digits: int = 4) -> str:
-    if x is None or not math.isfinite(x):
-        return "∞" if x is not None and x > 0 else "–"
-    return f"{x:.{digits}g}"
 
 
 def _param(param: str, unit: str, value: float, name: str = "") -> str:
@@ -214,63 +52,7 @@ def _param(param: str, unit: str, value: float, name: str = "") -> str:
         # θ = 0: for an actuator body that is a rigid body, for anything else no effect.
         what = "rigid body" if name == "actuator_compliance" else "rigid: absent"
         return f"{param} = ∞ ({what})"
-    return f"{param} = {_num(value)} {unit}"
-
-
-def _table(head: Sequence[str], rows: Sequence[Sequence[Any]], hl: Sequence[bool] = ()) -> str:
-    """An HTML table; cells are escaped unless given as ``_Raw``; numbers right-aligned.
-
-    Without a ``head`` the first column is a column of row headings (a key/value table).
-    """
-    out = ["<table>"]
-    if head:
-        out.append("<tr>" + "".join(f"<th>{_e(h)}</th>" for h in head) + "</tr>")
-    for i, row in enumerate(rows):
-        cls = ' class="hl"' if i < len(hl) and hl[i] else ""
-        cells = []
-        for j, cell in enumerate(row):
-            if not head and j == 0:
-                cells.append(f"<th>{_e(cell)}</th>")
-            elif isinstance(cell, _Raw):
-                cells.append(f"<td>{cell.html}</td>")
-            elif isinstance(cell, _Num):
-                cells.append(f'<td class="num">{_e(cell.text)}</td>')
-            else:
-                cells.append(f"<td>{_e(cell)}</td>")
-        out.append(f"<tr{cls}>" + "".join(cells) + "</tr>")
-    out.append("</table>")
-    return "\n".join(out)
-
-
-class _Raw:
-    """Trusted HTML for a table cell."""
-
-    def __init__(self, text: str) -> None:
-        self.html = text
-
-
-class _Num:
-    """A right-aligned number cell."""
-
-    def __init__(self, x: float, digits: int = 4, suffix: str = "") -> None:
-        self.text = _num(x, digits) + suffix
-
-
-def _img(fig: Any, alt: str, caption: str, narrow: bool = False) -> str:
-    """A figure as an embedded PNG (base64) with a caption."""
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=120)
-    data = base64.b64encode(buf.getvalue()).decode("ascii")
-    cls = ' class="narrow"' if narrow else ""
-    return (
-        f"<figure{cls}>"
-        f'<img src="data:image/png;base64,{data}" alt="{_e(alt)}">'
-        f"<figcaption>{_e(caption)}</figcaption></figure>"
-    )
-
-
-def _row(left: str, right: str) -> str:
-    return f'<div class="row"><div>{left}</div>{right}</div>'
+    return f"{param} = {page.num(value)} {unit}"
 
 
 def _estimate(cand: Candidate) -> str:
@@ -288,12 +70,12 @@ def _nice_scale(max_dalpha_deg: float, target_deg: float = 8.0) -> float:
     return max(m * 10.0**k for m in (1, 2, 5) if m * 10.0**k <= raw)
 
 
-def _p_value(p: float) -> _Num | str:
-    return "< 1e-300" if p <= 0 else _Num(p, 3)
+def _p_value(p: float) -> page.Num | str:
+    return "< 1e-300" if p <= 0 else page.Num(p, 3)
 
 
 def _unit(channel: str) -> str:
-    from .plots import channel_unit
+    from eodarm.viz.style import channel_unit
 
     return channel_unit(channel)
 
@@ -331,21 +113,21 @@ def write_report(
     ----------
     path : the ``.html`` file to write (its folder must exist).
     arm, meas : the arm and the measurements the diagnosis was made on.
-    diagnosis : the result of :func:`eodarm.diagnose.diagnose`.
+    diagnosis : the result of :func:`eodarm.diagnose`.
     steps : the error ladder (:func:`build_ladder`); its figure and table are shown if given.
     cv : cross-validation of the suggested model: the dict returned by
-        :func:`eodarm.fit.cross_validate`, or ``True`` to compute it here (needs two or more
+        :func:`eodarm.cross_validate`, or ``True`` to compute it here (needs two or more
         configurations); ``None``/``False`` for none.
     title : the page title; default ``"eodarm diagnosis: <arm> / <source>"``.
     extra_sections : ``(heading, html)`` pairs appended at the end; the heading is escaped,
         the html is inserted as given.
     final_fit : the model the report ends with, when it is not the first diagnosis's
-        suggested set (e.g. after several rounds, :func:`eodarm.workflow.investigate`); the
+        suggested set (e.g. after several rounds, :func:`eodarm.analysis.workflow.investigate`); the
         fitted model, residual and share sections then show it, and ``cv`` belongs to it.
     rounds : every round of diagnosis (the first is ``diagnosis``), summarised in a table.
     intro_html : a paragraph shown under the title (inserted as given).
     model, fem_options : the model of every evaluation (``"analytic"`` or ``"fem"`` and its
-        options, as in :func:`eodarm.fit.fit`); default (``None``) the one the diagnosis was
+        options, as in :func:`eodarm.fit`); default (``None``) the one the diagnosis was
         made with, and only that one is accepted (also for ``final_fit`` and the fits of
         ``steps``). The report names it.
 
@@ -354,14 +136,14 @@ def write_report(
     Path
         The file written.
     """
-    from . import plots
+    from eodarm.viz import plots
 
-    kw = _solver(diagnosis, model, fem_options)
+    kw = solver_keywords(diagnosis, model, fem_options)
     if final_fit is not None:
-        _same_model(final_fit, kw, "final_fit")
+        check_same_model(final_fit, kw, "final_fit")
     for i, step in enumerate(steps or ()):
         if step.get("fit") is not None:
-            _same_model(step["fit"], kw, f"step {i} of the ladder")
+            check_same_model(step["fit"], kw, f"step {i} of the ladder")
     base = diagnosis.baseline
     best = final_fit if final_fit is not None else diagnosis.suggested_fit
     final = best if best is not None else base
@@ -381,13 +163,13 @@ def write_report(
     parts: list[str] = [
         "<!DOCTYPE html>",
         '<html lang="en"><head><meta charset="utf-8">',
-        f"<title>{_e(doc_title)}</title>",
-        f"<style>{_CSS}</style></head><body>",
-        f"<h1>{_e(doc_title)}</h1>",
-        f'<p>Verdict: <span class="verdict {_e(diagnosis.verdict)}">'
-        f"{_e(diagnosis.verdict)}</span> &nbsp; "
+        f"<title>{page.esc(doc_title)}</title>",
+        f"<style>{page.CSS}</style></head><body>",
+        f"<h1>{page.esc(doc_title)}</h1>",
+        f'<p>Verdict: <span class="verdict {page.esc(diagnosis.verdict)}">'
+        f"{page.esc(diagnosis.verdict)}</span> &nbsp; "
         + (
-            "suggested: <b>" + _e(", ".join(s.key for s in diagnosis.suggested)) + "</b>"
+            "suggested: <b>" + page.esc(", ".join(s.key for s in diagnosis.suggested)) + "</b>"
             if diagnosis.suggested
             else "nothing to add"
         )
@@ -406,10 +188,10 @@ def write_report(
     parts += _residual_section(meas, base, final, main)
     parts += _share_section(arm, meas, final, self_weight, kw)
     for heading, body in extra_sections or ():
-        parts += [f"<h2>{_e(heading)}</h2>", body]
+        parts += [f"<h2>{page.esc(heading)}</h2>", body]
     stamp = _dt.datetime.now(_dt.UTC).strftime("%Y-%m-%d %H:%M UTC")
     parts += [
-        f"<footer>eodarm {_e(__version__)} · {_e(_model_name(**kw))} · {stamp} · every "
+        f"<footer>eodarm {page.esc(__version__)} · {page.esc(model_name(**kw))} · {stamp} · every "
         "figure is embedded in this file"
         "</footer>",
         "</body></html>",
@@ -430,11 +212,11 @@ def _data_section(
     counts = {ch: int(meas.measured[:, meas.index(ch)].sum()) for ch in chans}
     if meas.defaulted:
         sig = "default σ used for " + ", ".join(
-            f"{ch} ({_num(default_sigma(ch), 3)} {_unit(ch)})" for ch in meas.defaulted
+            f"{ch} ({page.num(default_sigma(ch), 3)} {_unit(ch)})" for ch in meas.defaulted
         )
     else:
         sig = "none: every measured value came with its own σ"
-    summary = _table(
+    summary = page.table(
         [],
         [
             ["source", meas.source],
@@ -442,7 +224,7 @@ def _data_section(
             ["rows (states)", str(meas.n_rows)],
             ["measured values", str(meas.n_values)],
             ["configurations", str(len(meas.configs))],
-            ["payloads [kg]", ", ".join(_num(float(m), 4) for m in masses)],
+            ["payloads [kg]", ", ".join(page.num(float(m), 4) for m in masses)],
             [
                 "channels measured",
                 ", ".join(f"{ch} ({counts[ch]})" for ch in chans) or "none",
@@ -459,13 +241,13 @@ def _data_section(
         rows.append(
             [
                 label,
-                _Raw(", ".join(f"{a:.2f}" for a in meas.alpha_deg[first])),
-                ", ".join(_num(float(m), 4) for m in np.unique(meas.mass_kg[sel])),
-                _Num(float(sel.sum()), 4),
+                page.Raw(", ".join(f"{a:.2f}" for a in meas.alpha_deg[first])),
+                ", ".join(page.num(float(m), 4) for m in np.unique(meas.mass_kg[sel])),
+                page.Num(float(sel.sum()), 4),
             ]
         )
-    configs = _table(["config", "α unloaded [deg]", "payloads [kg]", "rows"], rows)
-    return ["<h2>1. The data</h2>", _row(summary, f"<div>{configs}</div>")]
+    configs = page.table(["config", "α unloaded [deg]", "payloads [kg]", "rows"], rows)
+    return ["<h2>1. The data</h2>", page.row(summary, f"<div>{configs}</div>")]
 
 
 def _model_line(kw: Mapping[str, Any]) -> str:
@@ -473,7 +255,7 @@ def _model_line(kw: Mapping[str, Any]) -> str:
     if kw["model"] != "fem":
         return "analytic: closed forms, the loaded pose closed exactly (docs/model.md)"
     return (
-        f"{_model_name(**kw)}: beams, bars, pins and springs, linear on the undeformed "
+        f"{model_name(**kw)}: beams, bars, pins and springs, linear on the undeformed "
         "geometry; agrees with the analytic model to first order in the load (docs/fem.md)"
     )
 
@@ -481,17 +263,17 @@ def _model_line(kw: Mapping[str, Any]) -> str:
 def _baseline_section(
     meas: Measurements, d: Diagnosis, main: str, kw: Mapping[str, Any]
 ) -> list[str]:
-    from . import plots
+    from eodarm.viz import plots
 
     base, best = d.baseline, d.suggested_fit
     model = ", ".join(s.key for s in d.model)
     what = (
-        f"Baseline: the arm file's model with {_e(model)} fitted."
+        f"Baseline: the arm file's model with {page.esc(model)} fitted."
         if model
         else "Baseline: rigid links, pins without clearance, each actuator an axial spring "
         "with the arm file's stiffness, rigid base; nothing fitted."
     )
-    what += f" Every model in this report is the {_e(_model_name(**kw))}."
+    what += f" Every model in this report is the {page.esc(model_name(**kw))}."
     rb, ra = base.rms(), best.rms() if best is not None else {}
     head = ["channel", "typical σ", "RMS baseline", "RMS/σ"]
     if best is not None:
@@ -502,25 +284,31 @@ def _baseline_section(
         u = _unit(ch)
         row: list[Any] = [
             f"{ch}",
-            _Num(s, 3, f" {u}"),
-            _Num(rb.get(ch, math.nan), 4, f" {u}"),
-            _Num(rb.get(ch, math.nan) / s, 3),
+            page.Num(s, 3, f" {u}"),
+            page.Num(rb.get(ch, math.nan), 4, f" {u}"),
+            page.Num(rb.get(ch, math.nan) / s, 3),
         ]
         if best is not None:
-            row += [_Num(ra.get(ch, math.nan), 4, f" {u}"), _Num(ra.get(ch, math.nan) / s, 3)]
+            row += [
+                page.Num(ra.get(ch, math.nan), 4, f" {u}"),
+                page.Num(ra.get(ch, math.nan) / s, 3),
+            ]
         rows.append(row)
     chi: list[list[Any]] = [
-        ["χ²/dof baseline", _Num(base.chi2_per_dof)],
+        ["χ²/dof baseline", page.Num(base.chi2_per_dof)],
         ["p-value of the baseline χ²", _p_value(d.p_baseline)],
     ]
     if best is not None:
-        chi.append(["χ²/dof suggested model", _Num(best.chi2_per_dof)])
-    tables = f'<div class="row"><div>{_table(head, rows)}</div><div>{_table([], chi)}</div></div>'
+        chi.append(["χ²/dof suggested model", page.Num(best.chi2_per_dof)])
+    tables = (
+        f'<div class="row"><div>{page.table(head, rows)}</div>'
+        f"<div>{page.table([], chi)}</div></div>"
+    )
     fits = {"baseline": base}
     if best is not None:
         fits["suggested"] = best
     fig = plots.measured_vs_model(meas, fits)
-    img = _img(
+    img = page.img(
         fig,
         "measured against model, per channel",
         "Measured (x, ±σ) against model (y) for every measured channel; on the dotted line "
@@ -540,14 +328,14 @@ def _diagnosis_section(meas: Measurements, d: Diagnosis, main: str, unit: str) -
         story = (
             "The baseline does not explain the data. The smallest set of effects that does "
             f"(searched over {d.sets_searched} sets, not just the top of the ranking) is "
-            f"<b>{_e(', '.join(sorted(sugg, key=[s.key for s in d.suggested].index)))}</b>."
+            f"<b>{page.esc(', '.join(sorted(sugg, key=[s.key for s in d.suggested].index)))}</b>."
         )
     elif d.suggested:
         story = (
             "The baseline does not explain the data, and no set of up to three effects explains "
             f"it within the noise (searched over {d.sets_searched} sets). Of those sets, the "
             "information criterion (BIC: χ² + k ln N) prefers "
-            f"<b>{_e(', '.join(sorted(sugg, key=[s.key for s in d.suggested].index)))}</b>; "
+            f"<b>{page.esc(', '.join(sorted(sugg, key=[s.key for s in d.suggested].index)))}</b>; "
             "more is missing than one round can add (see the further rounds below)."
         )
     else:
@@ -556,17 +344,17 @@ def _diagnosis_section(meas: Measurements, d: Diagnosis, main: str, unit: str) -
     for i, c in enumerate(d.ranking, start=1):
         rows.append(
             [
-                _Num(i, 3),
+                page.Num(i, 3),
                 c.slot.key,
                 _estimate(c),
-                _Num(c.delta_chi2, 4),
-                _Num(c.fit.chi2_per_dof, 4),
-                _Num(c.fit.rms().get(main, math.nan), 3, f" {unit}"),
+                page.Num(c.delta_chi2, 4),
+                page.Num(c.fit.chi2_per_dof, 4),
+                page.Num(c.fit.rms().get(main, math.nan), 3, f" {unit}"),
                 ", ".join(c.confused_with) or "–",
             ]
         )
         hl.append(c.slot.key in sugg)
-    ranking = _table(
+    ranking = page.table(
         [
             "#",
             "effect@place",
@@ -581,10 +369,11 @@ def _diagnosis_section(meas: Measurements, d: Diagnosis, main: str, unit: str) -
     )
     out = [
         "<h2>3. Diagnosis: which effect is missing?</h2>",
-        f'<p>Verdict: <span class="verdict {_e(d.verdict)}">{_e(d.verdict)}</span></p>',
+        f'<p>Verdict: <span class="verdict {page.esc(d.verdict)}">{page.esc(d.verdict)}</span></p>',
         f"<p>{story}</p>",
         "<h3>Every candidate added alone, its parameter fitted (best first)</h3>",
-        f'<p class="note">Highlighted: the suggested set. RMS of the main channel {_e(main)}; '
+        '<p class="note">Highlighted: the suggested set. RMS of the main channel '
+        f"{page.esc(main)}; "
         "Δχ² is the improvement over the baseline. “Confused with” lists the candidates the "
         "data cannot tell apart from this one.</p>",
         ranking,
@@ -592,19 +381,21 @@ def _diagnosis_section(meas: Measurements, d: Diagnosis, main: str, unit: str) -
     if d.outliers:
         orows = [
             [
-                _Num(o["line"], 6),
+                page.Num(o["line"], 6),
                 o["config"],
-                _Num(o["mass_kg"], 4),
+                page.Num(o["mass_kg"], 4),
                 o["channel"],
-                _Num(o["measured"], 4),
-                _Num(o["model"], 4),
-                _Num(o["z"], 3),
+                page.Num(o["measured"], 4),
+                page.Num(o["model"], 4),
+                page.Num(o["z"], 3),
             ]
             for o in d.outliers
         ]
         out += [
             "<h3>Outliers (left out of the fits)</h3>",
-            _table(["line", "config", "mass [kg]", "channel", "measured", "model", "z [σ]"], orows),
+            page.table(
+                ["line", "config", "mass [kg]", "channel", "measured", "model", "z [σ]"], orows
+            ),
         ]
     if d.advice:
         items = []
@@ -614,15 +405,16 @@ def _diagnosis_section(meas: Measurements, d: Diagnosis, main: str, unit: str) -
             if a.get("channel"):
                 ch = a["channel"]
                 bits.append(
-                    f"measure <code>{_e(ch['channel'])}</code> (the two would differ by "
-                    f"χ² = {_e(_num(ch['chi2_separation'], 3))} on the present poses)"
+                    f"measure <code>{page.esc(ch['channel'])}</code> (the two would differ by "
+                    f"χ² = {page.esc(page.num(ch['chi2_separation'], 3))} on the present poses)"
                 )
             pose = a.get("pose")
             if pose and pose["chi2_separation"] > CONFUSION_CHI2:
                 ang = ", ".join(f"{v:.1f}" for v in pose["alpha_deg"])
                 bits.append(
-                    f"add the pose α = ({_e(ang)})° at {_e(_num(pose['mass_kg']))} kg "
-                    f"(χ² separation {_e(_num(pose['chi2_separation'], 3))} on the channels "
+                    f"add the pose α = ({page.esc(ang)})° at "
+                    f"{page.esc(page.num(pose['mass_kg']))} kg (χ² separation "
+                    f"{page.esc(page.num(pose['chi2_separation'], 3))} on the channels "
                     "measured now)"
                 )
             todo = "; or ".join(bits) if bits else "no measurement found that separates them"
@@ -631,7 +423,7 @@ def _diagnosis_section(meas: Measurements, d: Diagnosis, main: str, unit: str) -
                     " (no pose separates them with the channels measured now: they act alike "
                     "in every pose)"
                 )
-            items.append(f"<li>To tell <b>{_e(pair)}</b> apart: {todo}.</li>")
+            items.append(f"<li>To tell <b>{page.esc(pair)}</b> apart: {todo}.</li>")
         out += ["<h3>Next measurement</h3>", "<ul>" + "".join(items) + "</ul>"]
     return out
 
@@ -656,35 +448,35 @@ def _fitted_section(
             [
                 s.key,
                 kind.param,
-                _Num(est, 5),
-                _Num(err, 2),
+                page.Num(est, 5),
+                page.Num(err, 2),
                 kind.unit,
-                _Num(100 * err / est if math.isfinite(est) and est else math.nan, 2, " %"),
+                page.Num(100 * err / est if math.isfinite(est) and est else math.nan, 2, " %"),
                 note,
             ]
         )
-    table = _table(
+    table = page.table(
         ["effect@place", "parameter", "estimate", "± stderr", "unit", "rel.", "note"], rows
     )
     rb, ra = d.baseline.rms(), best.rms()
     rms_rows = [
         [
             ch,
-            _Num(rb.get(ch, math.nan), 4, f" {_unit(ch)}"),
-            _Num(ra.get(ch, math.nan), 4, f" {_unit(ch)}"),
-            _Num(cv["rms"].get(ch, math.nan), 4, f" {_unit(ch)}") if cv else "–",
+            page.Num(rb.get(ch, math.nan), 4, f" {_unit(ch)}"),
+            page.Num(ra.get(ch, math.nan), 4, f" {_unit(ch)}"),
+            page.Num(cv["rms"].get(ch, math.nan), 4, f" {_unit(ch)}") if cv else "–",
         ]
         for ch in meas.measured_channels
     ]
     rms_rows.append(
-        ["χ²/dof", _Num(d.baseline.chi2_per_dof), _Num(best.chi2_per_dof), "–"],
+        ["χ²/dof", page.Num(d.baseline.chi2_per_dof), page.Num(best.chi2_per_dof), "–"],
     )
     out += [
-        f"<p>Model: {_e(_model_keys(best))}, all parameters fitted jointly "
+        f"<p>Model: {page.esc(_model_keys(best))}, all parameters fitted jointly "
         f"({best.problem.n_values} values, {best.n_params} "
         f"parameter{'s' if best.n_params != 1 else ''}).</p>",
         table,
-        _table(["channel", "RMS baseline", "RMS fitted", "RMS cross-validated"], rms_rows),
+        page.table(["channel", "RMS baseline", "RMS fitted", "RMS cross-validated"], rms_rows),
     ]
     if cv:
         out.append(
@@ -695,17 +487,18 @@ def _fitted_section(
         if per:
             chans = list(meas.measured_channels)
             prow = [
-                [label, *(_Num(v.get(ch, math.nan), 3) for ch in chans)] for label, v in per.items()
+                [label, *(page.Num(v.get(ch, math.nan), 3) for ch in chans)]
+                for label, v in per.items()
             ]
             out.append(
-                _table(
+                page.table(
                     ["held-out config", *(f"{ch} [{_unit(ch)}]" for ch in chans)],
                     prow,
                 )
             )
     if best.warnings:
         out.append(
-            '<p class="warn">' + "<br>".join(_e(w) for w in best.warnings) + "</p>",
+            '<p class="warn">' + "<br>".join(page.esc(w) for w in best.warnings) + "</p>",
         )
     return out
 
@@ -718,8 +511,8 @@ def _rounds_section(rounds: Sequence[Diagnosis], main: str) -> list[str]:
             [
                 str(i + 1),
                 ", ".join(s.key for s in d.model) or "baseline",
-                _Num(d.baseline.chi2_per_dof),
-                _Num(d.baseline.rms().get(main, math.nan), 4),
+                page.Num(d.baseline.chi2_per_dof),
+                page.Num(d.baseline.rms().get(main, math.nan), 4),
                 d.verdict,
                 ", ".join(s.key for s in d.suggested) or "—",
                 top,
@@ -729,7 +522,7 @@ def _rounds_section(rounds: Sequence[Diagnosis], main: str) -> list[str]:
         "<h2>3b. Further rounds</h2>",
         "<p>One diagnosis searches sets of up to three effects. Each further round adds the "
         "suggested set to the model, refits, and diagnoses again.</p>",
-        _table(
+        page.table(
             ["round", "model", "χ²/dof", f"RMS {main}", "verdict", "suggested", "best alone"],
             rows,
         ),
@@ -737,7 +530,7 @@ def _rounds_section(rounds: Sequence[Diagnosis], main: str) -> list[str]:
 
 
 def _ladder_section(steps: Sequence[Mapping[str, Any]], main: str, unit: str) -> list[str]:
-    from . import plots
+    from eodarm.viz import plots
 
     rows = []
     for s in steps:
@@ -745,25 +538,25 @@ def _ladder_section(steps: Sequence[Mapping[str, Any]], main: str, unit: str) ->
         rows.append(
             [
                 s["label"],
-                _Num(s["rms"].get(main, math.nan), 4, f" {unit}"),
-                _Num(cvr.get(main, math.nan), 4, f" {unit}") if cvr else "–",
-                _Num(s["chi2_per_dof"], 4),
+                page.Num(s["rms"].get(main, math.nan), 4, f" {unit}"),
+                page.Num(cvr.get(main, math.nan), 4, f" {unit}") if cvr else "–",
+                page.Num(s["chi2_per_dof"], 4),
             ]
         )
-    table = _table(["step", f"RMS {main}", "cross-validated RMS", "χ²/dof"], rows)
-    img = _img(
+    table = page.table(["step", f"RMS {main}", "cross-validated RMS", "χ²/dof"], rows)
+    img = page.img(
         plots.ladder(steps, channel=main),
         "error ladder",
         f"RMS of {main} (and its cross-validated value) as the suggested effects are added one "
         "at a time, every step refitted; χ²/dof on the right (1 = within the noise).",
     )
-    return ["<h2>5. The error ladder</h2>", _row(table, img)]
+    return ["<h2>5. The error ladder</h2>", page.row(table, img)]
 
 
 def _residual_section(
     meas: Measurements, before: FitResult, after: FitResult, main: str
 ) -> list[str]:
-    from . import plots
+    from eodarm.viz import plots
 
     unit = _unit(main)
     c = meas.index(main)
@@ -772,22 +565,22 @@ def _residual_section(
         sel = (np.asarray(meas.config) == label) & before.problem.use[:, c]
         rb = float(np.sqrt(np.mean(before.residual[sel, c] ** 2))) if sel.any() else math.nan
         ra = float(np.sqrt(np.mean(after.residual[sel, c] ** 2))) if sel.any() else math.nan
-        rows.append([label, _Num(rb, 3, f" {unit}"), _Num(ra, 3, f" {unit}")])
-    table = _table(["config", "RMS before", "RMS after"], rows)
-    img = _img(
+        rows.append([label, page.Num(rb, 3, f" {unit}"), page.Num(ra, 3, f" {unit}")])
+    table = page.table(["config", "RMS before", "RMS after"], rows)
+    img = page.img(
         plots.residual_vs_payload(meas, before, after, channel=main),
         "residuals against payload",
         f"Residual of {main} against payload, per configuration: the baseline (grey, dashed) "
         "and the fitted model (blue); the band is ±1σ of the measurement.",
     )
-    return ["<h2>6. Residuals against payload</h2>", _row(table, img)]
+    return ["<h2>6. Residuals against payload</h2>", page.row(table, img)]
 
 
 def _share_section(
     arm: Arm, meas: Measurements, final: FitResult, sw: bool, kw: Mapping[str, Any]
 ) -> list[str]:
-    from . import plots
-    from .solver import solve
+    from eodarm.model.solver import solve
+    from eodarm.viz import plots
 
     effects = final.effects
     mass = float(np.max(meas.mass_kg))
@@ -799,14 +592,14 @@ def _share_section(
     ]
     total = solve(arm, alpha, mass, effects=effects, self_weight=sw, **kw)["dy_mm"]
     rows = [
-        [label, _Num(base[i], 3), *(_Num(v[i], 3) for v in contrib), _Num(total[i], 3)]
+        [label, page.Num(base[i], 3), *(page.Num(v[i], 3) for v in contrib), page.Num(total[i], 3)]
         for i, label in enumerate(meas.configs)
     ]
-    table = _table(
+    table = page.table(
         ["config", "baseline [mm]", *(f"{e.key} [mm]" for e in effects), "total [mm]"],
         rows,
     )
-    img = _img(
+    img = page.img(
         plots.deflection_share(arm, meas, effects, self_weight=sw, mass=mass, **kw),
         "contributions to the sag",
         f"Contribution of each effect to the sag dy of the measure point at {mass:g} kg "
@@ -816,19 +609,19 @@ def _share_section(
     out = [
         "<h2>7. Who makes the sag?</h2>",
         f"<p>dy of the measure point [mm] at payload {mass:g} kg, model: "
-        f"{_e(', '.join(plots.effect_label(e) for e in effects) or 'baseline only')} "
-        f"({_e(_model_name(**kw))}).</p>",
-        _row(table, img),
+        f"{page.esc(', '.join(plots.effect_label(e) for e in effects) or 'baseline only')} "
+        f"({page.esc(model_name(**kw))}).</p>",
+        page.row(table, img),
     ]
     first = meas.configs[0]
     r0 = rows_idx[0]
     one = solve(arm, alpha[:1], mass, effects=effects, self_weight=sw, **kw)
     scale = _nice_scale(float(np.max(np.abs(one["dalpha_deg"]))))
-    pose = _img(
+    pose = page.img(
         plots.arm_pose(arm, alpha[0], out=one, scale=scale),
         f"the arm in configuration {first}",
         f"Configuration {first} (α = {', '.join(f'{a:.1f}' for a in meas.alpha_deg[r0])}°) "
-        f"under {mass:g} kg with the fitted model ({_model_name(**kw)}); the loaded pose is "
+        f"under {mass:g} kg with the fitted model ({model_name(**kw)}); the loaded pose is "
         f"exaggerated ×{scale:g}.",
         narrow=True,
     )

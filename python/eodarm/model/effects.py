@@ -9,9 +9,19 @@ from typing import Any
 
 import numpy as np
 
-from .errors import EffectError
+from eodarm.errors import EffectError, EodarmError
 
-__all__ = ["CATALOGUE", "Effect", "EffectKind", "candidate_places", "effect_arrays"]
+__all__ = [
+    "CATALOGUE",
+    "THETA_MAX",
+    "Effect",
+    "EffectKind",
+    "Slot",
+    "candidate_places",
+    "effect_arrays",
+    "param_from_theta",
+    "theta_from_param",
+]
 
 
 @dataclass(frozen=True)
@@ -176,3 +186,63 @@ def as_effects(effects: Any) -> list[Effect]:
     if isinstance(effects, Effect):
         return [effects]
     return list(effects)
+
+
+THETA_MAX = {"actuator_play": 5.0, "joint_clearance": 5.0}
+
+
+@dataclass(frozen=True)
+class Slot:
+    """An effect kind at a place, without a value: what a fit or a diagnosis varies."""
+
+    name: str
+    at: str
+
+    @classmethod
+    def parse(cls, spec: str) -> Slot:
+        """``"joint_clearance@O3"`` → Slot (validated against the catalogue)."""
+        name, sep, at = spec.partition("@")
+        if not sep or name not in CATALOGUE:
+            raise EodarmError(
+                f"'{spec}' is not of the form EFFECT@PLACE with EFFECT one of "
+                f"{', '.join(CATALOGUE)}"
+            )
+        kind = CATALOGUE[name]
+        Effect(name, at, **{kind.param: 1.0})  # validates the place's form
+        return cls(name, at)
+
+    @classmethod
+    def of(cls, effect: Effect | Slot | str) -> Slot:
+        if isinstance(effect, Slot):
+            return effect
+        if isinstance(effect, Effect):
+            return cls(effect.name, effect.at)
+        return cls.parse(effect)
+
+    @property
+    def kind(self) -> EffectKind:
+        return CATALOGUE[self.name]
+
+    @property
+    def key(self) -> str:
+        return f"{self.name}@{self.at}"
+
+    def index(self, n: int) -> int:
+        return Effect(self.name, self.at, **{self.kind.param: 1.0}).index(n)
+
+    def __str__(self) -> str:
+        return self.key
+
+
+def theta_from_param(name: str, value: float) -> float:
+    """θ of a physical parameter value (``inf`` stiffness → 0)."""
+    if CATALOGUE[name].compliance_like:
+        return 0.0 if math.isinf(value) else 1.0 / value
+    return float(value)
+
+
+def param_from_theta(name: str, theta: float) -> float:
+    """Physical parameter of a θ (θ = 0 of a compliance → ``inf``)."""
+    if CATALOGUE[name].compliance_like:
+        return math.inf if theta <= 0 else 1.0 / theta
+    return float(theta)

@@ -15,9 +15,9 @@ from typing import Any, Literal
 import numpy as np
 import numpy.typing as npt
 
-from .arm import Arm
-from .effects import Effect, as_effects, effect_arrays
-from .errors import InputError
+from eodarm.errors import InputError
+from eodarm.model.arm import Arm
+from eodarm.model.effects import Effect, as_effects, effect_arrays
 
 __all__ = [
     "angles_from_lengths",
@@ -53,7 +53,7 @@ def solve(
     backend : ``"rust"`` (compiled core) or ``"numpy"`` (independent reference).
     self_weight : include link and actuator weights in both states.
     model : ``"analytic"`` (closed forms, exact pose) or ``"fem"``: the frame finite-element
-        model of :mod:`eodarm.fem` (linear, the links' ``ei_n_mm2``/``ea_n`` used), which
+        model of :mod:`eodarm.model.fem` (linear, the links' ``ei_n_mm2``/``ea_n`` used), which
         agrees with the analytic model to first order in the load; compiled core only.
     fem_options : with ``model="fem"``: ``elements_per_link`` (default 8) and
         ``moment_samples`` (101).
@@ -100,7 +100,7 @@ def solve_payload(
     fem_options: Mapping[str, Any] | None = None,
 ) -> Arrays:
     """Like :func:`solve`, with any payload force vector (N, 2) in N at the load point."""
-    from . import fem
+    from eodarm.model import fem
 
     alpha = _poses(alpha_deg, arm.n, "alpha_deg")
     payload = _poses(payload_n, 2, "payload_n")
@@ -121,11 +121,11 @@ def solve_payload(
     if fem_options is not None:
         raise InputError("fem_options is for model='fem'")
     if backend == "rust":
-        from . import _core
+        from eodarm.model import native as _core
 
         return _core.solve(_core_arm(arm), alpha, payload, codes, places, values, self_weight)
     _check_backend(backend)
-    from . import reference
+    from eodarm.model import reference
 
     return reference.solve_payload(arm, alpha, payload, effs, self_weight=self_weight)
 
@@ -140,10 +140,10 @@ def forward(arm: Arm, alpha_deg: npt.ArrayLike, backend: Backend = "rust") -> Ar
     alpha = _poses(alpha_deg, arm.n, "alpha_deg")
     _check_backend(backend)
     if backend == "rust":
-        from . import _core
+        from eodarm.model import native as _core
 
         return _core.forward(_core_arm(arm), alpha)
-    from . import reference
+    from eodarm.model import reference
 
     return reference.forward(arm, alpha)
 
@@ -163,12 +163,12 @@ def angles_from_lengths(
     ref = _poses(alpha_ref_deg, arm.n, "alpha_ref_deg")
     _check_backend(backend)
     if backend == "rust":
-        from . import _core
+        from eodarm.model import native as _core
 
         return _core.angles_from_lengths(_core_arm(arm), length, ref)  # ref: 1 or N rows
     if ref.shape[0] == 1 and length.shape[0] != 1:
         ref = np.ascontiguousarray(np.broadcast_to(ref, length.shape))
-    from . import reference
+    from eodarm.model import reference
 
     return reference.angles_from_lengths(arm, length, ref)
 
@@ -197,10 +197,10 @@ def inverse_kinematics(
     if arm.n != 3:
         raise InputError(f"inverse kinematics needs a 3-link arm, this one has {arm.n} links")
     if backend == "numpy":
-        from . import reference
+        from eodarm.model import reference
 
         return reference.inverse_kinematics(arm, t, elbow=elbow)
-    from . import _core
+    from eodarm.model import native as _core
 
     alpha, ok = _core.inverse_kinematics(_core_arm(arm), t, float(elbow))
     length = np.full_like(alpha, np.nan)
@@ -261,7 +261,7 @@ def _per_row(values: npt.ArrayLike, rows: int, name: str) -> npt.NDArray[np.floa
 
 @lru_cache(maxsize=64)
 def _core_arm(arm: Arm) -> Any:
-    from . import _core
+    from eodarm.model import native as _core
 
     d = arm.arrays()
 

@@ -17,10 +17,11 @@ from typing import Any
 
 import numpy as np
 
-from .arm import Arm
-from .diagnose import Diagnosis, diagnose
-from .fit import FitResult, FitWarning, Slot, cross_validate, fit
-from .measurements import Measurements
+from eodarm.analysis.diagnose import Diagnosis, diagnose
+from eodarm.analysis.fit import FitResult, FitWarning, cross_validate, fit
+from eodarm.data.measurements import Measurements
+from eodarm.model.arm import Arm
+from eodarm.model.effects import Slot
 
 __all__ = ["Investigation", "investigate"]
 
@@ -67,7 +68,7 @@ def investigate(
 
     ``solver_model`` (``"analytic"`` or ``"fem"``) and ``fem_options`` choose the model that
     predicts the channels in every diagnosis, fit and cross-validation, as in
-    :func:`eodarm.diagnose.diagnose` (``model`` is the list of effects already in the model).
+    :func:`eodarm.diagnose` (``model`` is the list of effects already in the model).
     """
     kw: dict[str, Any] = {"model": solver_model, "fem_options": fem_options}
     current = [Slot.of(s) for s in model]

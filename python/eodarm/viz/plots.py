@@ -16,32 +16,52 @@ and dashed so that they stay distinguishable without colour.
 from __future__ import annotations
 
 import math
-import os
 import textwrap
 from collections.abc import Mapping, Sequence
-from typing import Any, Literal
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 
 try:
-    from matplotlib.axes import Axes
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
     from matplotlib.lines import Line2D
-    from matplotlib.patches import Patch, Polygon
+    from matplotlib.patches import Patch
     from matplotlib.ticker import FixedLocator, FuncFormatter, NullLocator
 except ImportError as exc:  # pragma: no cover - depends on the environment
     raise ImportError(
         "eodarm.plots needs matplotlib: pip install 'eodarm[plot]' (or matplotlib>=3.8)"
     ) from exc
 
-from .arm import Arm
-from .effects import Effect
-from .errors import EodarmError
-from .fit import FitResult
-from .measurements import Measurements, channel_family, channel_link
-from .solver import forward, solve
+from eodarm.analysis.fit import FitResult
+from eodarm.data.measurements import Measurements
+from eodarm.errors import EodarmError
+from eodarm.model.arm import Arm
+from eodarm.model.effects import Effect
+from eodarm.model.solver import solve
+from eodarm.viz.arm_drawing import arm_pose
+from eodarm.viz.style import (
+    DPI,
+    GREY,
+    LABEL_BOX,
+    MARKERS,
+    PALETTE,
+    PathLike,
+    angles_text,
+    axes_grid,
+    channel_title,
+    channel_unit,
+    check_fit,
+    config_rows,
+    effect_label,
+    figure,
+    finish,
+    free_corner,
+    main_channel,
+    num,
+    short_channel,
+    source_label,
+)
 
 __all__ = [
     "DPI",
@@ -56,162 +76,6 @@ __all__ = [
     "measured_vs_model",
     "residual_vs_payload",
 ]
-
-#: Resolution of saved PNGs (dots per inch).
-DPI = 120
-#: matplotlib's "tab10" colours (colour-blind friendly), in order.
-PALETTE: tuple[str, ...] = (
-    "#1f77b4",
-    "#ff7f0e",
-    "#2ca02c",
-    "#d62728",
-    "#9467bd",
-    "#8c564b",
-    "#e377c2",
-    "#7f7f7f",
-    "#bcbd22",
-    "#17becf",
-)
-#: Colour of "before"/baseline curves.
-GREY = "0.45"
-_LABEL_BOX = {"fc": "white", "ec": "none", "alpha": 0.75, "pad": 0.5}
-_MARKERS = ("o", "s", "^", "D", "v", "P", "X", "*")
-
-PathLike = str | os.PathLike[str]
-
-
-# ---------------------------------------------------------------------------- helpers
-def channel_unit(channel: str) -> str:
-    """Unit of a channel for axis labels: ``"mm"`` or ``"deg"``."""
-    return "deg" if channel_family(channel) == "dalpha_deg" else "mm"
-
-
-def channel_title(channel: str) -> str:
-    """Short description of a channel, e.g. ``"dy: measure point, vertical"``."""
-    fam, k = channel_family(channel), channel_link(channel)
-    return {
-        "dx_mm": "dx: measure point, horizontal",
-        "dy_mm": "dy: measure point, vertical",
-        "dalpha_deg": f"dα{k}: angle of link {k}",
-        "dl_mm": f"dl{k}: body of actuator {k}",
-    }[fam]
-
-
-def _source(meas: Measurements) -> str:
-    """The data's source, shortened to its last two path parts for titles."""
-    parts = str(meas.source).replace("\\", "/").split("/")
-    return "/".join(parts[-2:])
-
-
-def _short(channel: str) -> str:
-    """``dy_mm`` → ``dy``, ``dalpha2_deg`` → ``dα2``, ``dl1_mm`` → ``dl1``."""
-    fam, k = channel_family(channel), channel_link(channel)
-    return {"dx_mm": "dx", "dy_mm": "dy", "dalpha_deg": f"dα{k}", "dl_mm": f"dl{k}"}[fam]
-
-
-def _num(x: float, digits: int = 3) -> str:
-    """A number for a label: ``digits`` significant figures, ``∞`` for infinity."""
-    if not math.isfinite(x):
-        return "∞" if x > 0 else ("−∞" if x < 0 else "n/a")
-    if 10**digits <= abs(x) < 1e6:
-        return f"{x:.0f}".replace("-", "−")
-    return f"{x:.{digits}g}".replace("-", "−")
-
-
-def effect_label(effect: Effect) -> str:
-    """``"joint_clearance@O2 (clearance_mm = 0.1 mm)"``: an effect with its value and unit."""
-    return f"{effect.key} ({effect.param} = {_num(effect.value, 4)} {effect.kind.unit})"
-
-
-def main_channel(meas: Measurements, before: FitResult | None = None) -> str:
-    """The channel a one-channel view should show.
-
-    ``dy_mm`` (the sag) when it is measured; otherwise the measured channel on which ``before``
-    (usually the baseline) is worst in units of σ (largest RMS of the residual/σ); without
-    ``before``, the first measured channel.
-
-    Raises
-    ------
-    EodarmError
-        If nothing is measured.
-    """
-    chans = meas.measured_channels
-    if not chans:
-        raise EodarmError(f"{meas.source}: no channel is measured")
-    if "dy_mm" in chans:
-        return "dy_mm"
-    if before is None:
-        return chans[0]
-    z = before.z
-    use = before.problem.use
-
-    def score(ch: str) -> float:
-        c = meas.index(ch)
-        m = use[:, c]
-        return float(np.sqrt(np.mean(z[m, c] ** 2))) if m.any() else -1.0
-
-    return max(chans, key=score)
-
-
-def _figure(width: float, height: float) -> Figure:
-    """A new figure on its own Agg canvas (no pyplot, no global state), laid out tightly."""
-    fig = Figure(figsize=(width, height), dpi=DPI, layout="constrained")
-    FigureCanvasAgg(fig)
-    return fig
-
-
-def _finish(fig: Figure, path: PathLike | None) -> Figure:
-    """Save ``fig`` as PNG at :data:`DPI` when ``path`` is given; return it."""
-    if path is not None:
-        fig.savefig(os.fspath(path), format="png", dpi=DPI)
-    return fig
-
-
-def _grid(fig: Figure, count: int, ncols: int, **kw: Any) -> list[Axes]:
-    """``count`` axes on a grid of ``ncols`` columns; the unused cells are removed.
-
-    Where a removed cell leaves the axes above it at the bottom of their column, those
-    get back their x tick labels (shared axes hide them otherwise).
-    """
-    nrows = math.ceil(count / ncols)
-    grid = fig.subplots(nrows, ncols, squeeze=False, **kw)
-    flat = list(grid.flat)
-    for ax in flat[count:]:
-        fig.delaxes(ax)
-    if kw.get("sharex") and count < nrows * ncols and nrows > 1:
-        for col in range(count % ncols, ncols):
-            grid[nrows - 2, col].xaxis.set_tick_params(labelbottom=True)
-    return flat[:count]
-
-
-def _check_fit(meas: Measurements, fit: FitResult, label: str) -> None:
-    if fit.prediction.shape != meas.values.shape:
-        raise EodarmError(
-            f"fit '{label}' has predictions for {fit.prediction.shape[0]} rows, "
-            f"the measurements have {meas.n_rows}: it was fitted to other data"
-        )
-
-
-def _config_rows(meas: Measurements) -> list[npt.NDArray[np.intp]]:
-    return [np.flatnonzero(np.asarray(meas.config) == c) for c in meas.configs]
-
-
-def _angles(alpha: npt.ArrayLike, digits: int = 0) -> str:
-    """Angles as ``"86, 55, −21°"``."""
-    a = np.round(np.asarray(alpha, dtype=float), digits) + 0.0  # no "−0"
-    return ", ".join(f"{v:.{digits}f}".replace("-", "−") for v in a) + "°"
-
-
-def _free_corner(
-    x: npt.ArrayLike, y: npt.ArrayLike, lim: tuple[float, float]
-) -> Literal["upper left", "lower right"]:
-    """``"upper left"`` or ``"lower right"``: the corner of a square panel with fewer points."""
-    span = lim[1] - lim[0] or 1.0
-    u = (np.asarray(x, dtype=float) - lim[0]) / span
-    v = (np.asarray(y, dtype=float) - lim[0]) / span
-    upper_left = int(np.sum((u < 0.55) & (v > 0.6)))
-    lower_right = int(np.sum((u > 0.45) & (v < 0.4)))
-    return "upper left" if upper_left <= lower_right else "lower right"
 
 
 # ---------------------------------------------------------------------------- figures
@@ -242,11 +106,11 @@ def measured_vs_model(
     if not fits:
         raise EodarmError("measured_vs_model: give at least one fit")
     for label, f in fits.items():
-        _check_fit(meas, f, label)
+        check_fit(meas, f, label)
     ncols = min(3, len(chans))
     nrows = math.ceil(len(chans) / ncols)
-    fig = _figure(4.3 * ncols, 4.1 * nrows + 0.5)
-    axes = _grid(fig, len(chans), ncols)
+    fig = figure(4.3 * ncols, 4.1 * nrows + 0.5)
+    axes = axes_grid(fig, len(chans), ncols)
     for ax, ch in zip(axes, chans, strict=True):
         c = meas.index(ch)
         m = meas.measured[:, c]
@@ -262,14 +126,14 @@ def measured_vs_model(
                 x,
                 y,
                 xerr=sig,
-                fmt=_MARKERS[j % len(_MARKERS)],
+                fmt=MARKERS[j % len(MARKERS)],
                 ms=4.5,
                 mfc="none" if j == 0 and len(fits) > 1 else colour,
                 color=colour,
                 elinewidth=0.9,
                 capsize=0,
                 alpha=0.9,
-                label=f"{label}: RMS {_num(rms)} {unit}",
+                label=f"{label}: RMS {num(rms)} {unit}",
                 zorder=3 + j,
             )
             cont.lines[0].set_gid(f"model:{label}")
@@ -299,13 +163,13 @@ def measured_vs_model(
         ax.set_box_aspect(1)
         ax.grid(True, lw=0.4, alpha=0.5)
         ax.set_title(channel_title(ch), fontsize="medium")
-        ax.set_xlabel(f"measured {_short(ch)} [{unit}]")
-        ax.set_ylabel(f"model {_short(ch)} [{unit}]")
+        ax.set_xlabel(f"measured {short_channel(ch)} [{unit}]")
+        ax.set_ylabel(f"model {short_channel(ch)} [{unit}]")
         ys = np.concatenate([f.prediction[m, c] for f in fits.values()])
         xs = np.tile(x, len(fits))
-        ax.legend(fontsize="small", loc=_free_corner(xs, ys, lim), framealpha=0.85)
-    fig.suptitle(f"Measured vs model ({_source(meas)}, {meas.n_rows} states; bars ±σ)")
-    return _finish(fig, path)
+        ax.legend(fontsize="small", loc=free_corner(xs, ys, lim), framealpha=0.85)
+    fig.suptitle(f"Measured vs model ({source_label(meas)}, {meas.n_rows} states; bars ±σ)")
+    return finish(fig, path)
 
 
 def residual_vs_payload(
@@ -333,8 +197,8 @@ def residual_vs_payload(
         ``after`` coloured and solid; a shaded ±1σ band of the measurement around zero. Each
         panel states both RMS values of its configuration.
     """
-    _check_fit(meas, before, "before")
-    _check_fit(meas, after, "after")
+    check_fit(meas, before, "before")
+    check_fit(meas, after, "after")
     ch = channel or main_channel(meas, before)
     if ch not in meas.measured_channels:
         raise EodarmError(
@@ -347,12 +211,12 @@ def residual_vs_payload(
     k = len(configs)
     ncols = min(4, math.ceil(math.sqrt(k)))
     nrows = math.ceil(k / ncols)
-    fig = _figure(max(2.9 * ncols, 6.5), 2.35 * nrows + 1.2)
-    axes = _grid(fig, k, ncols, sharex=True, sharey=True)
+    fig = figure(max(2.9 * ncols, 6.5), 2.35 * nrows + 1.2)
+    axes = axes_grid(fig, k, ncols, sharex=True, sharey=True)
     res_b, res_a = before.residual[:, c], after.residual[:, c]
     same = after is before  # one model only: draw it once
     left_out = False
-    for i, (ax, label, rows) in enumerate(zip(axes, configs, _config_rows(meas), strict=True)):
+    for i, (ax, label, rows) in enumerate(zip(axes, configs, config_rows(meas), strict=True)):
         rows = rows[meas.measured[rows, c]]
         rows = rows[np.argsort(meas.mass_kg[rows], kind="stable")]
         m = meas.mass_kg[rows]
@@ -374,18 +238,18 @@ def residual_vs_payload(
         ax.text(
             0.03,
             0.04,
-            f"RMS {_num(ra, 2)} {unit}" if same else f"RMS {_num(rb, 2)} → {_num(ra, 2)} {unit}",
+            f"RMS {num(ra, 2)} {unit}" if same else f"RMS {num(rb, 2)} → {num(ra, 2)} {unit}",
             transform=ax.transAxes,
             fontsize="x-small",
             color="0.2",
             bbox={"fc": "white", "ec": "none", "alpha": 0.7, "pad": 1.0},
         )
         first = meas.alpha_deg[rows[0]] if rows.size else meas.alpha_deg[0]
-        ax.set_title(f"{label}: α = {_angles(first)}", fontsize="small")
+        ax.set_title(f"{label}: α = {angles_text(first)}", fontsize="small")
         ax.grid(True, lw=0.4, alpha=0.5)
         ax.tick_params(labelsize="small")
         if i % ncols == 0:
-            ax.set_ylabel(f"residual {_short(ch)} [{unit}]", fontsize="small")
+            ax.set_ylabel(f"residual {short_channel(ch)} [{unit}]", fontsize="small")
         if i + ncols >= k:
             ax.set_xlabel("payload [kg]", fontsize="small")
     # Before and after differ by orders of magnitude; on a linear axis the ±σ band and the
@@ -404,7 +268,7 @@ def residual_vs_payload(
         for ax in axes:
             ax.set_yscale("symlog", linthresh=lin, linscale=1.5)
             ax.yaxis.set_major_locator(FixedLocator(sorted(ticks)))
-            ax.yaxis.set_major_formatter(FuncFormatter(lambda v, _pos: _num(v, 2)))
+            ax.yaxis.set_major_formatter(FuncFormatter(lambda v, _pos: num(v, 2)))
             ax.yaxis.set_minor_locator(NullLocator())
     handles = [
         Line2D([], [], ls="--", marker="o", mfc="none", color=GREY),
@@ -412,13 +276,13 @@ def residual_vs_payload(
         Patch(color=PALETTE[0], alpha=0.15),
     ]
     names = [
-        f"before: {_model_name(before)} (RMS {_num(before.rms().get(ch, math.nan))} {unit})",
-        f"after: {_model_name(after)} (RMS {_num(after.rms().get(ch, math.nan))} {unit})",
+        f"before: {_model_name(before)} (RMS {num(before.rms().get(ch, math.nan))} {unit})",
+        f"after: {_model_name(after)} (RMS {num(after.rms().get(ch, math.nan))} {unit})",
         "±1σ of the measurement",
     ]
     if same:
         del handles[0], names[0]
-        names[0] = f"{_model_name(after)} (RMS {_num(after.rms().get(ch, math.nan))} {unit})"
+        names[0] = f"{_model_name(after)} (RMS {num(after.rms().get(ch, math.nan))} {unit})"
     if left_out:
         handles.append(Line2D([], [], ls="none", marker="o", ms=10, mfc="none", mec="k"))
         names.append("left out of the fit (outlier)")
@@ -430,11 +294,11 @@ def residual_vs_payload(
         ncols=1 if max(map(len, names)) > 60 else 2,
         fontsize="small",
     )
-    title = f"Residual of {_short(ch)} (measured − model) against payload, per configuration"
+    title = f"Residual of {short_channel(ch)} (measured − model) against payload, per configuration"
     if symlog:
-        title += f"\ny axis linear within ±3σ (±{_num(3 * s0, 2)} {unit}), logarithmic beyond"
+        title += f"\ny axis linear within ±3σ (±{num(3 * s0, 2)} {unit}), logarithmic beyond"
     fig.suptitle(title)
-    return _finish(fig, path)
+    return finish(fig, path)
 
 
 def _model_name(fit: FitResult) -> str:
@@ -454,7 +318,7 @@ def ladder(
     ----------
     steps : one dict per model, in order: ``{"label": str, "rms": {channel: float},
         "cv_rms": {channel: float} | None, "chi2_per_dof": float}``
-        (:func:`eodarm.report.build_ladder` makes them).
+        (:func:`eodarm.viz.report.build_ladder` makes them).
     channel : the channel whose RMS is drawn.
     path : where to write a PNG (120 dpi); nothing is written when ``None``.
 
@@ -488,9 +352,11 @@ def ladder(
     width = max(6.5, 2.1 * len(steps) + 2.5)
     # Rotate the step labels when they would not fit side by side (about 0.085 in a character).
     long = max(len(lb) for lb in labels) * 0.085 > 0.95 * (width - 2.0) / len(steps)
-    fig = _figure(width, 5.2 if long else 4.6)
+    fig = figure(width, 5.2 if long else 4.6)
     ax = fig.add_subplot()
-    ax.plot(x, rms, "-o", color=PALETTE[0], lw=2, ms=6, label=f"RMS {_short(channel)}", gid="rms")
+    ax.plot(
+        x, rms, "-o", color=PALETTE[0], lw=2, ms=6, label=f"RMS {short_channel(channel)}", gid="rms"
+    )
     values = [rms]
     if np.isfinite(cv).any():
         ax.plot(
@@ -500,7 +366,7 @@ def ladder(
             color=PALETTE[1],
             lw=1.6,
             ms=5,
-            label=f"cross-validated RMS {_short(channel)} (leave one configuration out)",
+            label=f"cross-validated RMS {short_channel(channel)} (leave one configuration out)",
             gid="cv_rms",
         )
         values.append(cv)
@@ -515,27 +381,27 @@ def ladder(
         show_cv = math.isfinite(c) and abs(c - r) > 0.02 * abs(r)
         cv_below = show_cv and c <= r
         ax.annotate(
-            _num(r),
+            num(r),
             (xi, r),
             textcoords="offset points",
             xytext=(8, -12 if show_cv and not cv_below else 4),
             fontsize="small",
             color=PALETTE[0],
-            bbox=_LABEL_BOX,
+            bbox=LABEL_BOX,
             zorder=6,
         )
         if show_cv:
             ax.annotate(
-                _num(c),
+                num(c),
                 (xi, c),
                 textcoords="offset points",
                 xytext=(8, -12 if cv_below else 4),
                 fontsize="small",
                 color=PALETTE[1],
-                bbox=_LABEL_BOX,
+                bbox=LABEL_BOX,
                 zorder=6,
             )
-    ax.set_ylabel(f"RMS of {_short(channel)} residual [{unit}]")
+    ax.set_ylabel(f"RMS of {short_channel(channel)} residual [{unit}]")
     # Long labels ("+ a@M1 + b@M2 + c@M3") are wrapped at the "+" into lines, never rotated:
     # a rotated label of 70 characters takes more room than the plot.
     width = max(14, int(90 / max(len(steps), 1)))
@@ -546,7 +412,7 @@ def ladder(
         words = lb.replace(" + ", " +\u00a0").split(" ")
         return textwrap.fill(" ".join(words), width).replace("\u00a0", " ")
 
-    ax.set_xticks(x, [f"{wrap(lb)}\nχ²/dof {_num(v)}" for lb, v in zip(labels, chi, strict=True)])
+    ax.set_xticks(x, [f"{wrap(lb)}\nχ²/dof {num(v)}" for lb, v in zip(labels, chi, strict=True)])
     ax.set_xlim(-0.45, len(steps) - 0.55)
     ax.grid(True, lw=0.4, alpha=0.5)
 
@@ -576,9 +442,9 @@ def ladder(
     h1, l1 = ax.get_legend_handles_labels()
     h2, l2 = ax2.get_legend_handles_labels()
     ax.legend(h1 + h2, l1 + l2, fontsize="small", loc="upper right", framealpha=0.9)
-    ax.set_title(f"Error ladder: {_short(channel)} as effects are added")
+    ax.set_title(f"Error ladder: {short_channel(channel)} as effects are added")
     ax.set_xlabel("model (each step adds effects to the previous one; all parameters refitted)")
-    return _finish(fig, path)
+    return finish(fig, path)
 
 
 def deflection_share(
@@ -618,7 +484,7 @@ def deflection_share(
     """
     effects = list(effects)
     m = float(np.max(meas.mass_kg)) if mass is None else float(mass)
-    rows = [r[0] for r in _config_rows(meas)]
+    rows = [r[0] for r in config_rows(meas)]
     alpha = meas.alpha_deg[rows]
     labels = list(meas.configs)
 
@@ -646,7 +512,7 @@ def deflection_share(
     entry = 0.075 * max(len(name) for name, _, _ in parts) + 0.6
     width = min(14.0, max(6.5, 0.55 * k + 4.0, entry + 0.4))
     legend_cols = 2 if 2 * entry <= width - 0.3 else 1
-    fig = _figure(width, 4.8)
+    fig = figure(width, 4.8)
     ax = fig.add_subplot()
     x = np.arange(k, dtype=float)
     up = np.zeros(k)
@@ -699,230 +565,4 @@ def deflection_share(
         f"Who makes the sag? Contributions to dy at payload {m:g} kg\n"
         f"(each effect alone minus the baseline; {sw} self-weight{fe})"
     )
-    return _finish(fig, path)
-
-
-def arm_pose(
-    arm: Arm,
-    alpha_deg: npt.ArrayLike,
-    out: Mapping[str, Any] | None = None,
-    scale: float = 50.0,
-    path: PathLike | None = None,
-) -> Figure:
-    """A drawing of the arm in one pose, optionally with its loaded pose exaggerated.
-
-    Parameters
-    ----------
-    arm : the arm.
-    alpha_deg : (n,) (or (1, n)) unloaded absolute link angles, degrees.
-    out : optional one row of :func:`eodarm.solve`'s output for this pose (arrays of one row,
-        or already indexed): its ``dalpha_deg`` (and ``dx_mm``, ``dy_mm``) are drawn.
-    scale : exaggeration of the loaded pose.
-    path : where to write a PNG (120 dpi); nothing is written when ``None``.
-
-    Returns
-    -------
-    Figure
-        Links as shaded plates with a thick line through their joints, actuators as lines
-        between their pins, joints as open circles, the measure point and the load point.
-        With ``out``, the loaded pose is approximated by turning each link by
-        ``scale·dα`` (the joints follow the chain; joint clearance shifts are not drawn) and
-        the true displacement of the measure point is an arrow ``scale·(dx, dy)``.
-    """
-    alpha = np.asarray(alpha_deg, dtype=float).reshape(-1)
-    if alpha.shape != (arm.n,):
-        raise EodarmError(f"arm_pose: alpha_deg must have {arm.n} angles, got {alpha.shape}")
-    if not (math.isfinite(scale) and scale > 0):
-        raise EodarmError(f"arm_pose: scale must be finite and > 0, got {scale!r}")
-    fig = _figure(8.6, 6.4)
-    ax = fig.add_subplot()
-    geo = forward(arm, alpha[None, :])
-    _draw_arm(ax, arm, geo, solid=True)
-    title = f"{arm.name}: pose α = {_angles(alpha)}"
-    if out is not None:
-        dalpha = _one_row(out, "dalpha_deg", arm.n)
-        geo2 = forward(arm, (alpha + scale * dalpha)[None, :])
-        _draw_arm(ax, arm, geo2, solid=False)
-        meas_pt = geo["measure"][0]
-        if "dx_mm" in out and "dy_mm" in out:
-            d = np.array([_one_value(out, "dx_mm"), _one_value(out, "dy_mm")])
-            ax.annotate(
-                "",
-                xy=tuple(meas_pt + scale * d),
-                xytext=tuple(meas_pt),
-                arrowprops={"arrowstyle": "-|>", "color": PALETTE[3], "lw": 1.6},
-                zorder=8,
-            )
-            ax.plot([], [], color=PALETTE[3], lw=1.6, label=f"measure point moves ×{scale:g}")
-            ax.text(
-                0.99,
-                0.01,
-                (
-                    f"dx = {d[0]:.3f} mm, dy = {d[1]:.3f} mm, "
-                    f"dα = ({', '.join(f'{v:.4f}' for v in dalpha)})°"
-                ).replace("-", "−"),
-                transform=ax.transAxes,
-                ha="right",
-                va="bottom",
-                fontsize="small",
-            )
-        title += (
-            f"\nloaded pose dashed, exaggerated ×{scale:g} (approximate: each link turned by "
-            f"{scale:g}·dα about its joint chain)"
-        )
-    ax.set_aspect("equal", adjustable="datalim")
-    ax.margins(0.08)
-    ax.grid(True, lw=0.4, alpha=0.5)
-    ax.set_xlabel("x [mm] (forward)")
-    ax.set_ylabel("y [mm] (up)")
-    fig.suptitle(title, fontsize="medium")
-    ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), fontsize="small", borderaxespad=0)
-    return _finish(fig, path)
-
-
-def _one_row(out: Mapping[str, Any], key: str, n: int) -> npt.NDArray[np.float64]:
-    if key not in out:
-        raise EodarmError(f"arm_pose: the solve output has no '{key}'")
-    a = np.asarray(out[key], dtype=float)
-    if a.ndim == 2 and a.shape[0] == 1:
-        a = a[0]
-    if a.shape != (n,):
-        raise EodarmError(
-            f"arm_pose: '{key}' must be one row of {n} values (index the solve output), "
-            f"got shape {a.shape}"
-        )
-    return a
-
-
-def _one_value(out: Mapping[str, Any], key: str) -> float:
-    a = np.asarray(out[key], dtype=float).reshape(-1)
-    if a.shape != (1,):
-        raise EodarmError(f"arm_pose: '{key}' must be one value, got shape {a.shape}")
-    return float(a[0])
-
-
-def _hull(points: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
-    """Convex hull (counter-clockwise) of a few 2-D points (monotone chain)."""
-    pts = sorted({(float(p[0]), float(p[1])) for p in points})
-    if len(pts) <= 2:
-        return np.array(pts)
-
-    def cross(o: tuple[float, float], a: tuple[float, float], b: tuple[float, float]) -> float:
-        return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
-
-    lower: list[tuple[float, float]] = []
-    for p in pts:
-        while len(lower) >= 2 and cross(lower[-2], lower[-1], p) <= 0:
-            lower.pop()
-        lower.append(p)
-    upper: list[tuple[float, float]] = []
-    for p in reversed(pts):
-        while len(upper) >= 2 and cross(upper[-2], upper[-1], p) <= 0:
-            upper.pop()
-        upper.append(p)
-    return np.array(lower[:-1] + upper[:-1])
-
-
-def _draw_arm(ax: Axes, arm: Arm, geo: Mapping[str, Any], solid: bool) -> None:
-    """Draw one pose from :func:`eodarm.forward`'s output (first row)."""
-    n = arm.n
-    o = np.asarray(geo["O"])[0]
-    a = np.asarray(geo["A"])[0]
-    b = np.asarray(geo["B"])[0]
-    meas_pt = np.asarray(geo["measure"])[0]
-    ls = "-" if solid else "--"
-    z = 2 if solid else 5
-    link_colour = "0.25" if solid else PALETTE[3]
-    act_colour = PALETTE[1] if solid else PALETTE[3]
-    tag = "" if solid else "loaded: "
-    if solid:
-        chassis = np.array([o[0], b[0], arm.pivot])
-        hull = _hull(chassis)
-        if len(hull) >= 3:
-            ax.add_patch(Polygon(hull, closed=True, fc="0.85", ec="0.6", lw=1, zorder=0))
-        ax.plot(*np.array(arm.pivot), marker="x", color="0.4", ms=7, ls="none", label="base pivot")
-    for i in range(n):
-        pts = [o[i], a[i], o[i + 1]]
-        if i < n - 1:
-            pts.append(b[i + 1])
-        else:
-            pts.append(meas_pt)
-        if solid:
-            hull = _hull(np.array(pts))
-            ax.add_patch(
-                Polygon(hull, closed=True, fc=PALETTE[0], alpha=0.18, ec=PALETTE[0], lw=0.8)
-            )
-        ax.plot(
-            [o[i][0], o[i + 1][0]],
-            [o[i][1], o[i + 1][1]],
-            ls=ls,
-            color=link_colour,
-            lw=5 if solid else 2,
-            solid_capstyle="round",
-            zorder=z,
-            label=f"{tag}links" if i == 0 else None,
-        )
-        # the actuator: B_{i-1} to A_i (b[i] is its base pin)
-        ax.plot(
-            [b[i][0], a[i][0]],
-            [b[i][1], a[i][1]],
-            ls=ls,
-            color=act_colour,
-            lw=3.5 if solid else 1.5,
-            zorder=z + 1,
-            label=f"{tag}actuators" if i == 0 else None,
-        )
-        if solid:
-            mid = 0.5 * (b[i] + a[i])
-            ax.annotate(
-                f"M{i + 1}",
-                tuple(mid),
-                textcoords="offset points",
-                xytext=(6, -4),
-                fontsize="small",
-                color=PALETTE[1],
-                bbox=_LABEL_BOX,
-                zorder=9,
-            )
-            ax.annotate(
-                f"O{i + 1}",
-                tuple(o[i]),
-                textcoords="offset points",
-                xytext=(-18, 8),
-                fontsize="small",
-                bbox=_LABEL_BOX,
-                zorder=9,
-            )
-    pins = np.vstack([a, b])
-    ax.plot(
-        pins[:, 0],
-        pins[:, 1],
-        "o",
-        color=act_colour,
-        ms=4 if solid else 3,
-        zorder=z + 2,
-        label="pins" if solid else None,
-    )
-    ax.plot(
-        o[:n, 0],
-        o[:n, 1],
-        "o",
-        mfc="white" if solid else "none",
-        mec="k" if solid else PALETTE[3],
-        mew=1.5,
-        ms=10 if solid else 7,
-        zorder=z + 3,
-        ls="none",
-        label="joints" if solid else None,
-    )
-    ax.plot(
-        *meas_pt,
-        marker="*",
-        color=PALETTE[2] if solid else PALETTE[3],
-        ms=13 if solid else 9,
-        zorder=z + 4,
-        ls="none",
-        label="measure point" if solid else "loaded: measure point (as drawn)",
-    )
-    if solid:
-        ax.plot(*o[n], marker="v", color="k", ms=8, zorder=z + 4, ls="none", label="load point")
+    return finish(fig, path)

@@ -32,11 +32,11 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from .arm import Arm
-from .effects import CATALOGUE, candidate_places
-from .errors import EodarmError
-from .fit import FitResult, FitWarning, Problem, Slot, fit, outlier_table, peel_outliers
-from .measurements import Measurements, default_sigma
+from eodarm.analysis.fit import FitResult, FitWarning, Problem, fit, outlier_table, peel_outliers
+from eodarm.data.measurements import Measurements, default_sigma
+from eodarm.errors import EodarmError
+from eodarm.model.arm import Arm
+from eodarm.model.effects import CATALOGUE, Slot, candidate_places
 
 __all__ = ["Candidate", "Diagnosis", "all_slots", "diagnose"]
 
@@ -444,7 +444,7 @@ def _advice(
     arm: Arm, meas: Measurements, diag: Diagnosis, self_weight: bool, kw: dict[str, Any]
 ) -> list[dict[str, Any]]:
     """For the leading candidate's confusions: the channel and the pose that separate them."""
-    from .synth import random_configs
+    from eodarm.analysis.synth import random_configs
 
     top = diag.ranking[0]
     if not top.confused_with:
@@ -500,7 +500,7 @@ def _problem_at(
     arm: Arm, alpha: npt.NDArray[np.float64], mass: float, sw: bool, kw: dict[str, Any]
 ) -> Problem:
     """A measurement-less Problem at given poses (for predictions only)."""
-    from .measurements import channel_names
+    from eodarm.data.measurements import channel_names
 
     n = len(alpha)
     chans = channel_names(arm.n)

@@ -42,11 +42,10 @@ What the reader promises
 from __future__ import annotations
 
 import csv
-import io
 import math
 import re
 import warnings
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, TextIO
@@ -54,7 +53,17 @@ from typing import TYPE_CHECKING, Any, TextIO
 import numpy as np
 import numpy.typing as npt
 
-from .errors import EodarmError
+from eodarm.data.channels import (
+    _CHANNEL,
+    DEFAULT_SIGMA,
+    channel_family,
+    channel_link,
+    channel_names,
+    channel_values,
+    default_sigma,
+    expand_channels,
+)
+from eodarm.errors import EodarmError
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -63,42 +72,21 @@ __all__ = [
     "DEFAULT_SIGMA",
     "MeasurementFileError",
     "Measurements",
+    "build",
     "channel_family",
     "channel_link",
     "channel_names",
     "channel_values",
     "default_sigma",
     "expand_channels",
-    "from_dataframe",
-    "read_measurements",
 ]
-
-#: Default standard deviation of one measured value, per channel family (mm or degrees).
-#: See the module docstring for where the numbers come from.
-DEFAULT_SIGMA: dict[str, float] = {
-    "dx_mm": 0.02,
-    "dy_mm": 0.02,
-    "dalpha_deg": 0.02,
-    "dl_mm": 0.002,
-}
 
 #: Most bad rows listed in one error message; the rest are counted.
 MAX_LISTED = 10
 
-_CHANNEL = re.compile(r"^(?:(dx_mm|dy_mm)|dalpha([1-9][0-9]*)_deg|dl([1-9][0-9]*)_mm)$")
 _ALPHA = re.compile(r"^alpha([1-9][0-9]*)_deg$")
 _NUMBER = re.compile(r"^[+-]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][+-]?[0-9]+)?$")
 _NONFINITE = {"nan", "+nan", "-nan", "inf", "+inf", "-inf", "infinity", "+infinity", "-infinity"}
-_FAMILY_ALIASES = {
-    "dx": "dx_mm",
-    "dx_mm": "dx_mm",
-    "dy": "dy_mm",
-    "dy_mm": "dy_mm",
-    "dalpha": "dalpha_deg",
-    "dalpha_deg": "dalpha_deg",
-    "dl": "dl_mm",
-    "dl_mm": "dl_mm",
-}
 
 Cell = str | float | None
 FloatArray = npt.NDArray[np.float64]
@@ -109,117 +97,14 @@ class MeasurementFileError(EodarmError):
     for every bad row, its line number and column."""
 
 
-# ---------------------------------------------------------------------------- channels
-def channel_names(n: int) -> list[str]:
-    """The measurement channels of an ``n``-link arm, in the fixed order of the contract.
-
-    >>> channel_names(2)
-    ['dx_mm', 'dy_mm', 'dalpha1_deg', 'dalpha2_deg', 'dl1_mm', 'dl2_mm']
-    """
-    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
-        raise EodarmError(f"the number of links must be an integer >= 1, got {n!r}")
-    k = range(1, int(n) + 1)
-    return ["dx_mm", "dy_mm", *(f"dalpha{i}_deg" for i in k), *(f"dl{i}_mm" for i in k)]
-
-
-def channel_family(channel: str) -> str:
-    """The family of a channel: ``"dx_mm"``, ``"dy_mm"``, ``"dalpha_deg"`` or ``"dl_mm"``.
-
-    Raises
-    ------
-    EodarmError
-        If ``channel`` is not a channel name.
-    """
-    m = _CHANNEL.match(channel) if isinstance(channel, str) else None
-    if m is None:
-        raise EodarmError(
-            f"'{channel}' is not a measurement channel (dx_mm, dy_mm, dalphaK_deg, dlK_mm)"
-        )
-    if m.group(1):
-        return m.group(1)
-    return "dalpha_deg" if m.group(2) else "dl_mm"
-
-
-def channel_link(channel: str) -> int | None:
-    """The 1-based link (or actuator) number of a channel, ``None`` for ``dx_mm``/``dy_mm``."""
-    m = _CHANNEL.match(channel) if isinstance(channel, str) else None
-    if m is None:
-        raise EodarmError(f"'{channel}' is not a measurement channel")
-    k = m.group(2) or m.group(3)
-    return int(k) if k else None
-
-
-def default_sigma(channel: str) -> float:
-    """Default standard deviation of one value of ``channel`` (mm, or degrees for angles)."""
-    return DEFAULT_SIGMA[channel_family(channel)]
-
-
-def expand_channels(spec: str | Iterable[str] | None, n: int) -> list[str]:
-    """Channel names from a user's selection, in the fixed channel order, without repeats.
-
-    Parameters
-    ----------
-    spec : ``None`` or ``"all"`` for every channel; otherwise channel names and family names
-        (``dx``/``dx_mm``, ``dy``/``dy_mm``, ``dalpha``/``dalpha_deg`` for every link's angle,
-        ``dl``/``dl_mm`` for every actuator), as an iterable or one comma-separated string.
-    n : number of links.
-
-    Raises
-    ------
-    EodarmError
-        On an unknown name or a channel of a link beyond ``n``.
-    """
-    every = channel_names(n)
-    if spec is None:
-        return every
-    items = spec.split(",") if isinstance(spec, str) else list(spec)
-    chosen: set[str] = set()
-    for raw in items:
-        item = str(raw).strip()
-        if not item:
-            continue
-        if item == "all":
-            chosen.update(every)
-        elif item in _FAMILY_ALIASES:
-            fam = _FAMILY_ALIASES[item]
-            chosen.update(c for c in every if channel_family(c) == fam)
-        elif item in every:
-            chosen.add(item)
-        else:
-            link = channel_link(item) if _CHANNEL.match(item) else None
-            if link is not None:
-                raise EodarmError(f"channel '{item}': the arm has only {n} links")
-            raise EodarmError(
-                f"unknown channel '{item}'; expected 'all', dx_mm, dy_mm, dalpha, dl "
-                f"or one of {', '.join(every)}"
-            )
-    if not chosen:
-        raise EodarmError("no channel selected")
-    return [c for c in every if c in chosen]
-
-
-def channel_values(out: Mapping[str, Any], channels: Sequence[str]) -> FloatArray:
-    """Arrange a solver result (:func:`eodarm.solve`) as a (N, C) array of ``channels``.
-
-    ``dx_mm``/``dy_mm`` come from ``out["dx_mm"]``/``out["dy_mm"]``, ``dalphaK_deg`` from
-    column K−1 of ``out["dalpha_deg"]`` and ``dlK_mm`` from column K−1 of ``out["dl_mm"]``.
-    """
-    cols = []
-    for ch in channels:
-        fam, k = channel_family(ch), channel_link(ch)
-        a = np.asarray(out[fam], dtype=float)
-        cols.append(a if k is None else a[:, k - 1])
-    rows = len(np.asarray(out["dx_mm"]))
-    return np.column_stack(cols) if cols else np.zeros((rows, 0))
-
-
 # ---------------------------------------------------------------------------- the data
 @dataclass(frozen=True, eq=False)
 class Measurements:
     """Measured states of an ``n``-link arm: one row per configuration × payload.
 
     Build one with :func:`read_measurements`, :func:`from_dataframe`,
-    :meth:`Measurements.from_arrays` or :func:`eodarm.synth.synth`. The arrays are read-only.
+    :meth:`Measurements.from_arrays` or :func:`eodarm.analysis.synth.synth`. The arrays are
+    read-only.
 
     Attributes
     ----------
@@ -486,136 +371,11 @@ class Measurements:
         body: list[tuple[int, list[Cell]]] = [
             (r + 2, [labels[r], *(float(c[r]) for c in cols)]) for r in range(rows)
         ]
-        return _build(header, body, n, source, unknown_is_error=True)
-
-
-# ---------------------------------------------------------------------------- reading
-def read_measurements(path: str | Path | TextIO, n: int) -> Measurements:
-    """Read and validate a measurement file (CONTRACT §3) for an ``n``-link arm.
-
-    Parameters
-    ----------
-    path : file name, or an open text (or binary, UTF-8) file.
-    n : number of links of the arm (``arm.n``).
-
-    Returns
-    -------
-    Measurements
-        Values in mm and degrees; ``line`` holds each state's line in the file.
-
-    Raises
-    ------
-    MeasurementFileError
-        If the file cannot be read, is empty or header-only, misses a required column, has a
-        column for a link beyond ``n``, or has bad rows (all of them listed in one message with
-        their lines and columns).
-
-    Warns
-    -----
-    UserWarning
-        Once, listing the columns that are not part of the contract (they are ignored).
-    """
-    channel_names(n)
-    if isinstance(path, (str, Path)):
-        source = str(path)
-        try:
-            with open(path, encoding="utf-8-sig", newline="") as f:
-                text = f.read()
-        except OSError as exc:
-            raise MeasurementFileError(
-                f"{source}: cannot read measurement file: {exc.strerror or exc}"
-            ) from None
-        except UnicodeDecodeError as exc:
-            raise MeasurementFileError(f"{source}: not a UTF-8 text file ({exc.reason})") from None
-    else:
-        source = str(getattr(path, "name", "<stream>"))
-        raw = path.read()
-        if isinstance(raw, bytes):
-            try:
-                raw = raw.decode("utf-8-sig")
-            except UnicodeDecodeError as exc:
-                raise MeasurementFileError(
-                    f"{source}: not a UTF-8 text file ({exc.reason})"
-                ) from None
-        text = raw.removeprefix("\ufeff")
-
-    reader = csv.reader(io.StringIO(text, newline=""), strict=True)
-    records: list[tuple[int, list[str]]] = []
-    prev = 0
-    try:
-        for cells in reader:
-            start, prev = prev + 1, reader.line_num
-            if cells:  # an entirely blank line is not a row
-                records.append((start, cells))
-    except csv.Error as exc:
-        raise MeasurementFileError(
-            f"{source}: line {reader.line_num}: not valid CSV ({exc})"
-        ) from None
-    if not records:
-        raise MeasurementFileError(
-            f"{source}: line 1: the file is empty (expected a header with config, "
-            f"alpha1_deg…alpha{n}_deg, mass_kg)"
-        )
-    (hline, header), body = records[0], records[1:]
-    if hline != 1:
-        raise MeasurementFileError(f"{source}: line 1: is blank; the header must be line 1")
-    return _build(header, list(body), n, source, stacklevel=3)
-
-
-def from_dataframe(df: pd.DataFrame, n: int, source: str = "<DataFrame>") -> Measurements:
-    """Measurements from a pandas DataFrame with the file's columns, validated like a file.
-
-    ``NaN``/``None`` cells are empty cells; string cells are parsed as in a file; numbers are
-    taken as they are. Row r is reported as line r + 2 (as if written to a CSV with its header),
-    unless the frame has an integer ``line`` column (as :meth:`Measurements.to_dataframe`
-    writes), which is then used.
-    """
-    import pandas as pd
-
-    channel_names(n)
-    cols = list(df.columns)
-    header = [c if isinstance(c, str) else repr(c) for c in cols]
-    lines: list[int]
-    if "line" in header:
-        j = header.index("line")
-        raw = df.iloc[:, j]
-        if not pd.api.types.is_integer_dtype(raw.dtype):
-            raise MeasurementFileError(f"{source}: column 'line' must hold integers")
-        lines = [int(x) for x in raw]
-        keep = [i for i in range(len(header)) if i != j]
-    else:
-        lines = [r + 2 for r in range(len(df))]
-        keep = list(range(len(header)))
-    header = [header[i] for i in keep]
-    body: list[tuple[int, list[Cell]]] = []
-    jc = header.index("config") if "config" in header else -1
-    for r, row in enumerate(df.itertuples(index=False, name=None)):
-        cells = [_df_cell(row[i]) for i in keep]
-        if jc >= 0 and cells[jc] is not None:
-            cells[jc] = str(row[keep[jc]])  # a label, even when it looks like a number
-        body.append((lines[r], cells))
-    return _build(header, body, n, source, stacklevel=3)
-
-
-def _df_cell(x: Any) -> Cell:
-    if x is None or (isinstance(x, float) and math.isnan(x)):
-        return None
-    if isinstance(x, (bool, np.bool_)):
-        return str(x)  # a boolean is not a number: reported as such
-    if isinstance(x, (int, float, np.integer, np.floating)):
-        return float(x)
-    try:
-        import pandas as pd
-
-        if pd.isna(x):
-            return None
-    except (TypeError, ValueError):
-        pass
-    return str(x)
+        return build(header, body, n, source, unknown_is_error=True)
 
 
 # ---------------------------------------------------------------------------- the validator
-def _build(
+def build(
     header: Sequence[str],
     body: Sequence[tuple[int, Sequence[Cell]]],
     n: int,

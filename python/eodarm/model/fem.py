@@ -22,12 +22,12 @@ from typing import TYPE_CHECKING, Any, Literal
 import numpy as np
 import numpy.typing as npt
 
-from .arm import Arm
-from .effects import CATALOGUE, Effect, effect_arrays
-from .errors import InputError
+from eodarm.errors import InputError
+from eodarm.model.arm import Arm
+from eodarm.model.effects import CATALOGUE, Effect, effect_arrays
 
 if TYPE_CHECKING:
-    from .fit import Slot
+    from eodarm.model.effects import Slot
 
 __all__ = [
     "DEFAULTS",
@@ -101,8 +101,8 @@ def _raw(
     opts: dict[str, int],
     nan_on_failure: bool,
 ) -> dict[str, Any]:
-    from . import _core
-    from .solver import _core_arm
+    from eodarm.model import native as _core
+    from eodarm.model.solver import _core_arm
 
     ei, ea = sections(arm)
     return _core.fem_solve(

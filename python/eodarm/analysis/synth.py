@@ -2,7 +2,7 @@
 
 :func:`synth` solves the model (:func:`eodarm.solve`) with some effects *hidden* in it, adds
 Gaussian noise of a stated standard deviation to every measured channel and returns
-:class:`~eodarm.measurements.Measurements`, exactly what :func:`~eodarm.measurements.
+:class:`~eodarm.data.measurements.Measurements`, exactly what :func:`~eodarm.measurements.
 read_measurements` would give for a real bench. Whatever a diagnosis finds in such data can
 be checked against the truth. :func:`random_configs` draws well-conditioned poses to measure.
 
@@ -16,19 +16,13 @@ Command line (registered by :func:`add_parser`)::
 
 from __future__ import annotations
 
-import argparse
 import math
-import sys
 from collections.abc import Iterable, Mapping, Sequence
-from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 
-from .arm import Arm
-from .effects import CATALOGUE, Effect, as_effects
-from .errors import EodarmError
-from .measurements import (
+from eodarm.data.measurements import (
     Measurements,
     channel_family,
     channel_names,
@@ -36,9 +30,12 @@ from .measurements import (
     default_sigma,
     expand_channels,
 )
-from .solver import forward, solve, stroke_violations
+from eodarm.errors import EodarmError
+from eodarm.model.arm import Arm
+from eodarm.model.effects import Effect, as_effects
+from eodarm.model.solver import forward, solve, stroke_violations
 
-__all__ = ["add_parser", "cmd_synth", "moment_arm_ratio", "random_configs", "synth"]
+__all__ = ["moment_arm_ratio", "random_configs", "synth"]
 
 #: Default ranges of the absolute link angles drawn by :func:`random_configs` (degrees):
 #: link 1, link 2, and every further link.
@@ -190,7 +187,7 @@ def synth(
         N = K·M states, configuration-major (row ``i·M + j`` is configuration i, mass j).
     hidden : the effects present in the "real" arm (the truth is
         ``eodarm.solve(arm, alpha, mass, effects=hidden, self_weight=self_weight)``).
-    channels : channels measured (:func:`~eodarm.measurements.expand_channels`: names,
+    channels : channels measured (:func:`~eodarm.data.measurements.expand_channels`: names,
         families ``dalpha``/``dl``, or ``"all"``); default all. The others are ``NaN``.
     sigma : standard deviation per channel (mm or degrees); a key may also be a family
         (``dx_mm``, ``dy_mm``, ``dalpha``, ``dl``), an exact channel name wins. Channels not
@@ -294,165 +291,3 @@ def _sigmas(given: Mapping[str, float], every: list[str], noise: float) -> np.nd
         fam = channel_family(ch)
         out.append(exact.get(ch, family.get(fam, default_sigma(ch) * noise)))
     return np.array(out)
-
-
-# ---------------------------------------------------------------------------- CLI
-def add_parser(subparsers: Any) -> argparse.ArgumentParser:
-    """Register the ``synth`` subcommand on an argparse ``add_subparsers()`` object."""
-    p: argparse.ArgumentParser = subparsers.add_parser(
-        "synth",
-        help="write a synthetic measurement file (the model with hidden effects + noise)",
-        description="Virtual test bench: solve the arm with hidden effects for configurations "
-        "× payloads, add Gaussian noise and write a measurement CSV (CONTRACT §3).",
-    )
-    p.add_argument("--arm", metavar="ARM.toml", help="arm file (default: the bundled example)")
-    poses = p.add_mutually_exclusive_group()
-    poses.add_argument(
-        "--configs",
-        type=int,
-        metavar="K",
-        help="number of random well-conditioned configurations (default 16)",
-    )
-    poses.add_argument(
-        "--alpha",
-        action="append",
-        metavar="A1,A2,...",
-        help="unloaded absolute link angles in degrees (repeat for more configurations)",
-    )
-    p.add_argument(
-        "--masses",
-        default="1.5,5,6.5",
-        metavar="M1,M2,...",
-        help="payload masses in kg, each applied to every configuration (default 1.5,5,6.5)",
-    )
-    p.add_argument(
-        "--hidden",
-        action="append",
-        metavar="EFFECT@PLACE=VALUE",
-        help="an effect present in the synthetic arm, e.g. joint_clearance@O3=0.15 (repeatable)",
-    )
-    p.add_argument(
-        "--channels",
-        default="all",
-        metavar="LIST",
-        help="measured channels: names or families dx_mm,dy_mm,dalpha,dl, or 'all' (default)",
-    )
-    p.add_argument(
-        "--noise",
-        type=float,
-        default=1.0,
-        help="multiple of the default noise levels (default 1.0)",
-    )
-    p.add_argument(
-        "--sigma",
-        action="append",
-        metavar="CHANNEL=VALUE",
-        help="noise standard deviation of a channel or family, mm or deg (repeatable)",
-    )
-    p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
-    p.add_argument("--no-self-weight", action="store_true", help="drop link/actuator weights")
-    p.add_argument(
-        "--no-sigma-columns",
-        action="store_true",
-        help="do not write sigma_ columns (readers then use the default noise levels)",
-    )
-    p.add_argument("-o", "--output", metavar="OUT.csv", help="output file (default: stdout)")
-    p.set_defaults(func=cmd_synth)
-    return p
-
-
-def cmd_synth(args: argparse.Namespace) -> int:
-    """Run ``eodarm synth``: write the CSV, report on stderr, return the exit status 0.
-
-    Raises
-    ------
-    EodarmError
-        With a one-line reason (the main CLI prints it and exits with status 2).
-    """
-    if args.arm is None:
-        from .cli import _bundled_arm  # late: cli imports this module
-
-        arm = _bundled_arm()
-    else:
-        arm = Arm.from_toml(args.arm)
-    n = arm.n
-    masses = _floats(args.masses, "--masses")
-    if not masses:
-        raise EodarmError("--masses: give at least one payload mass")
-    hidden = [_hidden_effect(s) for s in args.hidden or []]
-    sigma: dict[str, float] = {}
-    for spec in args.sigma or []:
-        key, _, value = spec.partition("=")
-        try:
-            sigma[key.strip()] = float(value)
-        except ValueError:
-            raise EodarmError(
-                f"--sigma '{spec}': expected CHANNEL=VALUE, e.g. dy_mm=0.01"
-            ) from None
-    if args.alpha:
-        alpha = np.array([_angles(a, n) for a in args.alpha])
-    else:
-        k = 16 if args.configs is None else args.configs
-        if k < 1:
-            raise EodarmError(f"--configs: need at least 1 configuration, got {k}")
-        # configurations from their own stream, so that they do not share draws with the noise
-        alpha = random_configs(arm, k, np.random.default_rng([1, args.seed]))
-    meas = synth(
-        arm,
-        alpha,
-        masses,
-        hidden=hidden,
-        channels=args.channels,
-        sigma=sigma,
-        noise=args.noise,
-        seed=args.seed,
-        self_weight=not args.no_self_weight,
-        sigma_columns=not args.no_sigma_columns,
-    )
-    if args.output:
-        meas.to_csv(args.output)
-        where = args.output
-    else:
-        meas.to_csv(sys.stdout)
-        sys.stdout.flush()
-        where = "stdout"
-    model = ", ".join(f"{e.key}={e.value:g}" for e in hidden) or "none"
-    print(
-        f"eodarm: wrote {meas.n_rows} states ({alpha.shape[0]} configs × {len(masses)} "
-        f"payloads, {len(meas.measured_channels)} channels; hidden: {model}) to {where}",
-        file=sys.stderr,
-    )
-    return 0
-
-
-def _floats(text: str, what: str) -> list[float]:
-    try:
-        vals = [float(t) for t in text.replace(";", ",").split(",") if t.strip()]
-    except ValueError:
-        raise EodarmError(f"{what} '{text}': expected comma-separated numbers") from None
-    if not all(math.isfinite(v) for v in vals):
-        raise EodarmError(f"{what} '{text}': numbers must be finite")
-    return vals
-
-
-def _angles(text: str, n: int) -> list[float]:
-    vals = _floats(text, "--alpha")
-    if len(vals) != n:
-        raise EodarmError(f"--alpha '{text}': expected {n} angles for a {n}-link arm")
-    return vals
-
-
-def _hidden_effect(spec: str) -> Effect:
-    """``EFFECT@PLACE=VALUE`` → Effect."""
-    head, sep, value = spec.partition("=")
-    name = head.partition("@")[0].strip()
-    if not sep or name not in CATALOGUE:
-        raise EodarmError(
-            f"--hidden '{spec}': expected EFFECT@PLACE=VALUE with EFFECT one of "
-            f"{', '.join(CATALOGUE)}, e.g. joint_clearance@O3=0.15"
-        )
-    try:
-        x = float(value)
-    except ValueError:
-        raise EodarmError(f"--hidden '{spec}': '{value}' is not a number") from None
-    return Effect.parse(head.strip(), **{CATALOGUE[name].param: x})

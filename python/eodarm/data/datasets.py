@@ -1,10 +1,10 @@
-"""Bundled data sets: ``eodarm.datasets.load("seed2022")``.
+"""Bundled data sets: ``eodarm.data.datasets.load("seed2022")``.
 
 ``seed2022`` is the bomb-disposal arm of Ștefan et al., *Electronics* 2022, 11, 2355: its
 Tables 1–9 as published (``paper_tables/``), every interpretation in ``NOTES.md``, the arm as
 printed (``arm_published.toml``), the arm calibrated on Table 5 (``arm.toml``, see
-:func:`seed2022_calibration`) and the measurements of Tables 3–4 in the measurement-file
-format (``measurements.csv``).
+:func:`eodarm.analysis.calibrate.seed2022_calibration`) and the measurements of Tables 3–4
+in the measurement-file format (``measurements.csv``).
 """
 
 from __future__ import annotations
@@ -19,17 +19,18 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from .arm import Arm
-from .errors import EodarmError
-from .measurements import Measurements, read_measurements
+from eodarm.data.measurements import Measurements
+from eodarm.data.reader import read_measurements
+from eodarm.errors import EodarmError
+from eodarm.model.arm import Arm
 
 __all__ = [
     "SEED2022_SIGMA",
     "Dataset",
+    "example_arm",
     "export",
     "load",
     "names",
-    "seed2022_calibration",
     "seed2022_measurements",
 ]
 
@@ -162,7 +163,7 @@ def seed2022_measurements(tables: dict[str, Any]) -> Measurements:
 def seed2022_published_dict() -> dict[str, Any]:
     """Table 1 as printed (NOTES.md for each split), the paper's 500 N/mm springs, no masses.
 
-    B0 is not published; it is filled in by :func:`seed2022_calibration`.
+    B0 is not published; it is filled in by :func:`eodarm.analysis.calibrate.seed2022_calibration`.
     """
     return {
         "name": "seed2022-published",
@@ -195,82 +196,8 @@ def seed2022_published_dict() -> dict[str, Any]:
     }
 
 
-# Masses assumed for the measured arm (none is published; NOTES.md). Link 3's is the 28.8 N
-# that Table 5 carries at O3 (divided by the paper's g = 10).
-SEED2022_ASSUMED_MASSES = {
-    "link": [3.0, 2.5, 2.88],
-    "actuator": [1.5, 1.2, 1.0],
-}
-
-
-def seed2022_calibration(tables: dict[str, Any]) -> dict[str, Any]:
-    """Calibrate the printed geometry on Table 5 (self-weight off, as the paper says).
-
-    Fitted: B0 (unknown, free), the paper's g (prior 9.81 ± 0.5), the payload point on arm 3
-    (printed O4 = (400, 0), prior ± 200 mm), the garbled cells A1 and B2 (± 5 mm), the clearly
-    printed pins and link lengths (± 0.5 mm, their rounding), and a lumped weight at O3
-    (Table 5's offsets in F1 and F2, which no geometry produces with self-weight off: it is
-    modelled as link 3's mass at its joint, contributing no moment to arm 3).
-
-    Returns the :class:`~eodarm.calibrate.Calibration` of every parameter and the two arms:
-    ``published`` (Table 1 with the calibrated B0) and ``calibrated`` (the measured arm:
-    calibrated geometry, the real g = 9.81, assumed masses).
-    """
-    from .calibrate import GeomParam, calibrate_geometry
-
-    t3 = tables["table3"].sort_values(["config", "mass_kg"]).reset_index(drop=True)
-    t5 = tables["table5"].sort_values(["config", "mass_kg"]).reset_index(drop=True)
-    alpha = t3[[f"alpha{k}_unloaded_deg" for k in (1, 2, 3)]].to_numpy(dtype=float)
-    mass = t3["mass_kg"].to_numpy(dtype=float)
-    forces = t5[["F1_N", "F2_N", "F3_N"]].to_numpy(dtype=float)
-    d = seed2022_published_dict()
-    d["link"][2]["C"] = [0.0, 0.0]  # the O3 lump: a weight at the joint of arm 3
-    start = Arm.from_dict(d, source="seed2022 Table 1")
-
-    def payload(a: Arm) -> npt.NDArray[np.float64]:
-        return np.column_stack([np.zeros_like(mass), -mass * a.g])
-
-    params = [
-        GeomParam("base.B0.x", 1000.0, -550.0),
-        GeomParam("base.B0.y", 1000.0, -60.0),
-        GeomParam("g", 0.5),
-        GeomParam("link[3].next.x", 200.0),
-        GeomParam("link[3].next.y", 200.0),
-        GeomParam("link[3].mass_kg", 10.0),
-        GeomParam("link[1].A.x", 5.0),
-        GeomParam("link[1].A.y", 5.0),
-        GeomParam("link[2].B.x", 5.0),
-        GeomParam("link[2].B.y", 5.0),
-        GeomParam("link[1].B.x", 0.5),
-        GeomParam("link[1].B.y", 0.5),
-        GeomParam("link[2].A.x", 0.5),
-        GeomParam("link[2].A.y", 0.5),
-        GeomParam("link[3].A.x", 0.5),
-        GeomParam("link[3].A.y", 0.5),
-        GeomParam("link[1].next.x", 0.5),
-        GeomParam("link[2].next.x", 0.5),
-    ]
-    cal = calibrate_geometry(
-        start,
-        alpha,
-        None,
-        forces,
-        params,
-        force_sigma=0.05,
-        self_weight=True,
-        payload_fn=payload,
-    )
-    b0 = [float(cal.value[0]), float(cal.value[1])]
-    pub = seed2022_published_dict()
-    pub["base"]["B0"] = b0
-    published = Arm.from_dict(pub, source="seed2022 arm_published")
-    measured = cal.arm.to_dict()
-    measured["name"] = "seed2022"
-    measured["g"] = 9.81
-    measured["link"][2]["C"] = list(seed2022_published_dict()["link"][2]["C"])
-    for i, m in enumerate(SEED2022_ASSUMED_MASSES["link"]):
-        measured["link"][i]["mass_kg"] = m
-    for i, m in enumerate(SEED2022_ASSUMED_MASSES["actuator"]):
-        measured["actuator"][i]["mass_kg"] = m
-    calibrated = Arm.from_dict(measured, source="seed2022 arm")
-    return {"calibration": cal, "published": published, "calibrated": calibrated}
+def example_arm() -> Arm:
+    """The bundled example arm (``data/example_arm.toml``, CONTRACT §2)."""
+    ref = resources.files("eodarm.data").joinpath("example_arm.toml")
+    with resources.as_file(ref) as path:
+        return Arm.from_toml(path)

@@ -17,7 +17,7 @@ The compiled core returns the model's channels and their sensitivities ∂y/∂�
 places in one call (:func:`eodarm._core.jacobian`); each Gauss–Newton step is then a small
 bounded linear least-squares problem. Residuals are whitened by the measurement σ.
 
-With ``model="fem"`` the channels come from the finite-element model (:mod:`eodarm.fem`) and
+With ``model="fem"`` the channels come from the finite-element model (:mod:`eodarm.model.fem`) and
 the sensitivities from forward differences of it, one more FE solve per parameter.
 """
 
@@ -32,84 +32,29 @@ from typing import Any, TypeVar
 import numpy as np
 import numpy.typing as npt
 
-from .arm import Arm
-from .effects import CATALOGUE, Effect, EffectKind
-from .errors import EodarmError
-from .measurements import Measurements
+from eodarm.data.measurements import Measurements
+from eodarm.errors import EodarmError
+from eodarm.model.arm import Arm
+from eodarm.model.effects import (
+    CATALOGUE,
+    THETA_MAX,
+    Effect,
+    Slot,
+    param_from_theta,
+    theta_from_param,
+)
 
 __all__ = [
     "FitResult",
     "FitWarning",
     "Problem",
-    "Slot",
     "compare",
     "cross_validate",
     "fit",
     "outlier_table",
-    "param_from_theta",
-    "theta_from_param",
 ]
 
 T = TypeVar("T")
-
-THETA_MAX = {"actuator_play": 5.0, "joint_clearance": 5.0}
-
-
-@dataclass(frozen=True)
-class Slot:
-    """An effect kind at a place, without a value: what a fit or a diagnosis varies."""
-
-    name: str
-    at: str
-
-    @classmethod
-    def parse(cls, spec: str) -> Slot:
-        """``"joint_clearance@O3"`` → Slot (validated against the catalogue)."""
-        name, sep, at = spec.partition("@")
-        if not sep or name not in CATALOGUE:
-            raise EodarmError(
-                f"'{spec}' is not of the form EFFECT@PLACE with EFFECT one of "
-                f"{', '.join(CATALOGUE)}"
-            )
-        kind = CATALOGUE[name]
-        Effect(name, at, **{kind.param: 1.0})  # validates the place's form
-        return cls(name, at)
-
-    @classmethod
-    def of(cls, effect: Effect | Slot | str) -> Slot:
-        if isinstance(effect, Slot):
-            return effect
-        if isinstance(effect, Effect):
-            return cls(effect.name, effect.at)
-        return cls.parse(effect)
-
-    @property
-    def kind(self) -> EffectKind:
-        return CATALOGUE[self.name]
-
-    @property
-    def key(self) -> str:
-        return f"{self.name}@{self.at}"
-
-    def index(self, n: int) -> int:
-        return Effect(self.name, self.at, **{self.kind.param: 1.0}).index(n)
-
-    def __str__(self) -> str:
-        return self.key
-
-
-def theta_from_param(name: str, value: float) -> float:
-    """θ of a physical parameter value (``inf`` stiffness → 0)."""
-    if CATALOGUE[name].compliance_like:
-        return 0.0 if math.isinf(value) else 1.0 / value
-    return float(value)
-
-
-def param_from_theta(name: str, theta: float) -> float:
-    """Physical parameter of a θ (θ = 0 of a compliance → ``inf``)."""
-    if CATALOGUE[name].compliance_like:
-        return math.inf if theta <= 0 else 1.0 / theta
-    return float(theta)
 
 
 class Problem:
@@ -134,7 +79,7 @@ class Problem:
         model: str = "analytic",
         fem_options: Mapping[str, Any] | None = None,
     ) -> None:
-        from . import fem
+        from eodarm.model import fem
 
         fem.check_model(model)
         self.model = model
@@ -170,8 +115,8 @@ class Problem:
 
         With ``nan_on_failure`` a pose the model cannot solve is NaN instead of an error.
         """
-        from . import _core
-        from .solver import _core_arm
+        from eodarm.model import native as _core
+        from eodarm.model.solver import _core_arm
 
         n = self.arm.n
         alpha, payload = self.alpha, self.payload
@@ -179,7 +124,7 @@ class Problem:
             alpha = np.ascontiguousarray(alpha[rows])
             payload = np.ascontiguousarray(payload[rows])
         if self.model == "fem":
-            from . import fem
+            from eodarm.model import fem
 
             return fem.evaluate(
                 self.arm,
@@ -212,7 +157,7 @@ class Problem:
     def neutral(self, slot: Slot) -> float:
         """θ of a slot when it is not in the model."""
         if self.model == "fem":
-            from . import fem
+            from eodarm.model import fem
 
             return fem.neutral(self.arm, slot)
         if slot.name == "actuator_compliance":

@@ -17,7 +17,7 @@ from typing import Any, NoReturn
 
 import numpy as np
 
-from .errors import ArmFileError
+from eodarm.errors import ArmFileError
 
 __all__ = ["Actuator", "Arm", "Link"]
 

@@ -1,0 +1,188 @@
+"""What every command shares: arm and effect arguments, the model switch, reading
+measurements, number formatting, tables and figures.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from eodarm.data.datasets import example_arm
+from eodarm.errors import EodarmError
+from eodarm.model.arm import Arm
+from eodarm.model.effects import CATALOGUE, Effect
+
+if TYPE_CHECKING:
+    from eodarm.analysis.fit import FitResult
+    from eodarm.data.measurements import Measurements
+    from eodarm.model.effects import Slot
+
+
+def _load_arm(path: str | None) -> Arm:
+    return example_arm() if path is None else Arm.from_toml(path)
+
+
+def _valued_effect(spec: str) -> Effect:
+    """``effect@place=value`` → Effect."""
+    head, sep, value = spec.partition("=")
+    name = head.partition("@")[0]
+    if not sep or name not in CATALOGUE:
+        raise EodarmError(
+            f"--add '{spec}': expected EFFECT@PLACE=VALUE, e.g. joint_clearance@O3=0.15"
+        )
+    try:
+        x = float(value)
+    except ValueError:
+        raise EodarmError(f"--add '{spec}': '{value}' is not a number") from None
+    return Effect.parse(head, **{CATALOGUE[name].param: x})
+
+
+def _floats(text: str, what: str) -> list[float]:
+    try:
+        return [float(t) for t in text.replace(";", ",").split(",") if t.strip()]
+    except ValueError:
+        raise EodarmError(f"{what} '{text}': expected comma-separated numbers") from None
+
+
+def _model_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "--model",
+        choices=("analytic", "fem"),
+        default="analytic",
+        help="analytic (closed forms, exact pose; default) or fem (the frame finite-element "
+        "model: linear, uses the links' ei_n_mm2/ea_n)",
+    )
+    p.add_argument(
+        "--elements-per-link",
+        type=int,
+        metavar="N",
+        help="with --model fem: beam elements per flexible link (default 8)",
+    )
+
+
+def _model_kw(args: argparse.Namespace) -> dict[str, Any]:
+    """The model=/fem_options= keywords of the command's --model."""
+    if args.model != "fem":
+        if args.elements_per_link is not None:
+            raise EodarmError("--elements-per-link needs --model fem")
+        return {"model": "analytic", "fem_options": None}
+    opts = {} if args.elements_per_link is None else {"elements_per_link": args.elements_per_link}
+    return {"model": "fem", "fem_options": opts}
+
+
+# ----------------------------------------------------------------- compare / fit / diagnose
+def _note(msg: str) -> None:
+    print(f"eodarm: {msg}", file=sys.stderr)
+
+
+def _read(path: str, arm: Arm) -> Measurements:
+    from eodarm.data.reader import read_measurements
+
+    meas = read_measurements(path, arm.n)
+    if meas.defaulted:
+        from eodarm.data.measurements import default_sigma
+
+        parts = ", ".join(f"{ch} {default_sigma(ch):g}" for ch in meas.defaulted)
+        _note(f"no sigma given for {parts}: using the default noise levels (docs/diagnosis.md)")
+    return meas
+
+
+def _model(specs: list[str] | None, allow_values: bool) -> list[Effect | Slot]:
+    """--add EFFECT@PLACE (fitted) or EFFECT@PLACE=VALUE (fixed / starting value)."""
+    from eodarm.model.effects import Slot
+
+    out: list[Effect | Slot] = []
+    for spec in specs or []:
+        if "=" in spec:
+            if not allow_values:
+                raise EodarmError(f"--add '{spec}': give EFFECT@PLACE only; it is fitted")
+            out.append(_valued_effect(spec))
+        else:
+            out.append(Slot.parse(spec))
+    return out
+
+
+def _fmt(x: float, unit: str = "") -> str:
+    if x is None or not np.isfinite(x):
+        return "—"
+    return f"{x:.4g}{unit}"
+
+
+def _rms_line(rms: dict[str, float]) -> str:
+    return "  ".join(f"{ch} {v:.4g}" for ch, v in rms.items())
+
+
+def _print_table(head: list[str], rows: list[list[str]]) -> None:
+    widths = [
+        max(len(h), *(len(r[i]) for r in rows)) if rows else len(h) for i, h in enumerate(head)
+    ]
+    print("  ".join(h.rjust(w) for h, w in zip(head, widths, strict=True)))
+    for r in rows:
+        print("  ".join(c.rjust(w) for c, w in zip(r, widths, strict=True)))
+
+
+def _describe_data(meas: Measurements) -> str:
+    masses = "/".join(f"{m:g}" for m in dict.fromkeys(np.asarray(meas.mass_kg).tolist()))
+    return (
+        f"{meas.n_rows} states, {len(meas.configs)} configurations, payloads {masses} kg, "
+        f"{meas.n_values} values on {', '.join(meas.measured_channels)}"
+    )
+
+
+def _plots(
+    dirname: str | None,
+    meas: Measurements,
+    before: FitResult,
+    after: FitResult,
+    effects: list[Effect],
+    arm: Arm,
+    self_weight: bool,
+    steps: list[dict[str, Any]] | None = None,
+    model_kw: dict[str, Any] | None = None,
+) -> None:
+    """The command's figures into ``dirname``; ``model_kw`` (``_model_kw``) is the model that
+    solves where a figure solves (the deflection shares)."""
+    if not dirname:
+        return
+
+    from eodarm.viz import plots
+
+    out = Path(dirname)
+    out.mkdir(parents=True, exist_ok=True)
+    written = []
+    p = out / "measured_vs_model.png"
+    plots.measured_vs_model(meas, {"before": before, "after": after}, path=p)
+    written.append(p)
+    p = out / "residual_vs_payload.png"
+    plots.residual_vs_payload(meas, before, after, path=p)
+    written.append(p)
+    if effects:
+        p = out / "deflection_share.png"
+        plots.deflection_share(
+            arm, meas, effects, self_weight=self_weight, path=p, **(model_kw or {})
+        )
+        written.append(p)
+    if steps:
+        p = out / "ladder.png"
+        plots.ladder(steps, path=p)
+        written.append(p)
+    _note("wrote " + ", ".join(str(w) for w in written))
+
+
+def data_command(sub: Any, name: str, helptext: str, desc: str) -> argparse.ArgumentParser:
+    c = sub.add_parser(name, help=helptext, description=desc)
+    c.add_argument("measurements", metavar="MEAS.csv", help="measurement file (CONTRACT §3)")
+    c.add_argument("--arm", metavar="ARM.toml", help="arm file (default: the bundled example)")
+    c.add_argument("--json", action="store_true", help="print one JSON object on stdout")
+    c.add_argument("--plot", metavar="DIR", help="write PNG figures into DIR")
+    c.add_argument(
+        "--no-self-weight",
+        action="store_true",
+        help="the measured arm carried no self-weight in the model",
+    )
+    _model_args(c)
+    return c

@@ -1,0 +1,193 @@
+"""``eodarm compare``: the model against the measurements, where it misses."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from eodarm.model.effects import Effect
+
+if TYPE_CHECKING:
+    from eodarm.analysis.fit import FitResult
+from eodarm.cli._common import (
+    _describe_data,
+    _fmt,
+    _load_arm,
+    _model,
+    _model_kw,
+    _note,
+    _plots,
+    _print_table,
+    _read,
+    _rms_line,
+    data_command,
+)
+
+
+def _by(result: FitResult, key: str) -> dict[str, dict[str, float]]:
+    meas = result.problem.meas
+    labels = meas.config if key == "config" else np.asarray(meas.mass_kg)
+    out: dict[str, dict[str, float]] = {}
+    for lab in dict.fromkeys(labels.tolist()):
+        out[str(lab)] = result.rms(np.asarray(labels) == lab)
+    return out
+
+
+def _worst(result: FitResult, k: int = 8) -> list[dict[str, Any]]:
+    from eodarm.analysis.fit import outlier_table
+
+    z = np.abs(result.z)
+    z[~result.problem.use] = np.nan
+    flat = np.argsort(np.nan_to_num(z, nan=-1.0), axis=None)[::-1][:k]
+    mask = np.zeros_like(result.problem.use)
+    mask.flat[flat] = True
+    mask &= np.isfinite(z)
+    rows = outlier_table(result, mask)
+    return sorted(rows, key=lambda r: -abs(r["z"]))
+
+
+def run(args: argparse.Namespace) -> int:
+    from eodarm.analysis.fit import FitWarning, outlier_table, robust_fit
+
+    arm = _load_arm(args.arm)
+    meas = _read(args.measurements, arm)
+    sw = not args.no_self_weight
+    model = _model(args.add, allow_values=True)
+    fixed = [m for m in model if isinstance(m, Effect)]
+    free = [m for m in model if not isinstance(m, Effect)]
+    import warnings
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", FitWarning)
+        from eodarm.analysis.fit import compare
+
+        mk = _model_kw(args)
+        if free:
+            res, flagged = robust_fit(arm, meas, [*fixed, *free], self_weight=sw, **mk)
+        else:
+            res = compare(arm, meas, fixed, self_weight=sw, **mk)
+            # with nothing to fit, flag cells only if they are few and the rest agree
+            _, flagged = (
+                robust_fit(arm, meas, [], self_weight=sw, **mk)
+                if not fixed
+                else (res, np.zeros(meas.values.shape, dtype=bool))
+            )
+        outliers = outlier_table(res, flagged)
+    for w in caught:
+        _note(str(w.message))
+    base = compare(arm, meas, [], self_weight=sw, **mk)
+    doc: dict[str, Any] = {
+        "model": [m.key for m in model],
+        "solver_model": args.model,
+        "rms": res.rms(),
+        "chi2_per_dof": res.chi2_per_dof,
+        "by_config": _by(res, "config"),
+        "by_payload": _by(res, "mass"),
+        "worst": _worst(res),
+        "outliers": outliers,
+    }
+    if res.slots:
+        doc["estimate"] = res.summary()["effects"]
+    if args.residuals:
+        _write_residuals(args.residuals, res, flagged)
+        _note(f"wrote every row's residuals to {args.residuals}")
+    if args.json:
+        print(json.dumps(doc))
+    else:
+        print(
+            f"compare {meas.source} with arm '{arm.name}', model: baseline"
+            + "".join(f" + {m.key}" for m in model)
+        )
+        print(_describe_data(meas))
+        print(
+            f"chi2/dof = {res.chi2_per_dof:.4g}  ({res.problem.n_values} values, "
+            f"{res.n_params} fitted parameters)"
+        )
+        print(f"RMS       {_rms_line(res.rms())}")
+        chans = list(res.rms())
+        for key, title in (("by_config", "configuration"), ("by_payload", "payload kg")):
+            print(f"\nRMS by {title}:")
+            _print_table(
+                [title, *chans],
+                [[lab, *(_fmt(v.get(c, np.nan)) for c in chans)] for lab, v in doc[key].items()],
+            )
+        print("\nworst cells (measured − model, in σ):")
+        _print_table(
+            ["line", "config", "kg", "channel", "measured", "model", "z"],
+            [
+                [
+                    str(r["line"]),
+                    r["config"],
+                    f"{r['mass_kg']:g}",
+                    r["channel"],
+                    _fmt(r["measured"]),
+                    _fmt(r["model"]),
+                    f"{r['z']:+.1f}",
+                ]
+                for r in doc["worst"]
+            ],
+        )
+        if outliers:
+            print(
+                "\noutliers (> 4σ after the fit, left out of it): "
+                + "; ".join(f"line {r['line']} {r['channel']} z={r['z']:+.1f}" for r in outliers)
+            )
+    _plots(args.plot, meas, base, res, fixed + list(res.effects), arm, sw, None, _model_kw(args))
+    return 0
+
+
+def _write_residuals(path: str, res: FitResult, flagged: Any) -> None:
+    """Every state's measured value, model value, residual and z for each measured channel."""
+    import csv
+
+    meas = res.problem.meas
+    chans = list(meas.measured_channels)
+    cols = [meas.channels.index(ch) for ch in chans]
+    with open(path, "w", newline="", encoding="utf-8") as fh:
+        wr = csv.writer(fh)
+        head = ["line", "config", "mass_kg"]
+        for ch in chans:
+            head += [ch, f"model_{ch}", f"residual_{ch}", f"z_{ch}", f"outlier_{ch}"]
+        wr.writerow(head)
+        z = res.z
+        for r in range(meas.n_rows):
+            row: list[Any] = [int(meas.line[r]), str(meas.config[r]), float(meas.mass_kg[r])]
+            for c in cols:
+                v = meas.values[r, c]
+                if np.isfinite(v):
+                    row += [
+                        repr(float(v)),
+                        repr(float(res.prediction[r, c])),
+                        repr(float(v - res.prediction[r, c])),
+                        f"{z[r, c]:.4g}",
+                        int(bool(flagged[r, c])),
+                    ]
+                else:
+                    row += ["", repr(float(res.prediction[r, c])), "", "", ""]
+            wr.writerow(row)
+
+
+def add_parser(sub: Any) -> argparse.ArgumentParser:
+    """Register ``eodarm compare`` on the sub-parser collection."""
+    c = data_command(
+        sub,
+        "compare",
+        "model vs measurements: residuals, RMS, chi2, worst rows, outliers",
+        "Compare the model (baseline, plus --add effects) with the measurements.",
+    )
+    c.add_argument(
+        "--add",
+        action="append",
+        metavar="EFFECT@PLACE[=VALUE]",
+        help="an effect in the model: fixed at VALUE, or fitted without one",
+    )
+    c.add_argument(
+        "--residuals",
+        metavar="FILE.csv",
+        help="write every row's measured, model, residual and z for each channel",
+    )
+    c.set_defaults(func=run)
+    return c

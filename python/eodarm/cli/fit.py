@@ -1,0 +1,110 @@
+"""``eodarm fit``: fit the parameters of the added effects."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from typing import Any
+
+from eodarm.cli._common import (
+    _describe_data,
+    _fmt,
+    _load_arm,
+    _model,
+    _model_kw,
+    _note,
+    _plots,
+    _print_table,
+    _read,
+    _rms_line,
+    data_command,
+)
+from eodarm.errors import EodarmError
+
+
+def run(args: argparse.Namespace) -> int:
+    import warnings
+
+    from eodarm.analysis.fit import FitWarning, compare, cross_validate, outlier_table, robust_fit
+
+    arm = _load_arm(args.arm)
+    meas = _read(args.measurements, arm)
+    sw = not args.no_self_weight
+    model = _model(args.add, allow_values=True)
+    if not model:
+        raise EodarmError("fit needs at least one --add EFFECT@PLACE")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", FitWarning)
+        mk = _model_kw(args)
+        res, flagged = robust_fit(arm, meas, model, self_weight=sw, **mk)
+        outliers = outlier_table(res, flagged)
+        cv = cross_validate(arm, meas, res.slots, self_weight=sw, **mk) if args.cv else None
+        cv0 = cross_validate(arm, meas, [], self_weight=sw, **mk) if args.cv else None
+    for w in {str(w.message) for w in caught}:
+        _note(w)
+    before = compare(arm, meas, [], self_weight=sw, **mk)
+    summ = res.summary()
+    doc: dict[str, Any] = {
+        "effects": summ["effects"],
+        "before": {"rms": before.rms(), "chi2_per_dof": before.chi2_per_dof},
+        "after": {"rms": res.rms(), "chi2_per_dof": res.chi2_per_dof},
+    }
+    if cv is not None:
+        doc["cv"] = {"rms": cv["rms"]}
+    if args.json:
+        print(json.dumps(doc))
+    else:
+        print(f"fit {meas.source} with arm '{arm.name}'")
+        print(_describe_data(meas))
+        rows = []
+        for i, s in enumerate(res.slots):
+            flag = "  (at bound)" if res.at_bound[i] else ""
+            rows.append([s.key, s.kind.param, _fmt(res.estimate(i)), _fmt(res.stderr(i)) + flag])
+        _print_table(["effect", "parameter", "estimate", "stderr"], rows)
+        print(f"\nbefore  chi2/dof {before.chi2_per_dof:10.4g}   RMS {_rms_line(before.rms())}")
+        print(f"after   chi2/dof {res.chi2_per_dof:10.4g}   RMS {_rms_line(res.rms())}")
+        if cv is not None and cv0 is not None:
+            print(f"CV (leave one configuration out)  baseline RMS {_rms_line(cv0['rms'])}")
+            print(f"CV (leave one configuration out)  fitted   RMS {_rms_line(cv['rms'])}")
+        if outliers:
+            print(
+                "outliers (> 4σ, left out of the fit): "
+                + "; ".join(f"line {r['line']} {r['channel']} z={r['z']:+.1f}" for r in outliers)
+            )
+    steps = None
+    if cv is not None and cv0 is not None:
+        steps = [
+            {
+                "label": "baseline",
+                "rms": before.rms(),
+                "cv_rms": cv0["rms"],
+                "chi2_per_dof": before.chi2_per_dof,
+            },
+            {
+                "label": " + ".join(s.key for s in res.slots),
+                "rms": res.rms(),
+                "cv_rms": cv["rms"],
+                "chi2_per_dof": res.chi2_per_dof,
+            },
+        ]
+    _plots(args.plot, meas, before, res, list(res.effects), arm, sw, steps, _model_kw(args))
+    return 0
+
+
+def add_parser(sub: Any) -> argparse.ArgumentParser:
+    """Register ``eodarm fit`` on the sub-parser collection."""
+    c = data_command(
+        sub,
+        "fit",
+        "fit the parameters of the added effects",
+        "Least-squares fit of the --add effects' parameters, with bounds.",
+    )
+    c.add_argument(
+        "--add",
+        action="append",
+        metavar="EFFECT@PLACE[=START]",
+        help="an effect to fit (repeat); =START gives a starting value",
+    )
+    c.add_argument("--cv", choices=("config",), help="leave-one-configuration-out cross-validation")
+    c.set_defaults(func=run)
+    return c

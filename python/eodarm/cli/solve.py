@@ -1,0 +1,167 @@
+"""``eodarm solve``: deflections and forces of given poses × payloads."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from eodarm.cli._common import (
+    _floats,
+    _load_arm,
+    _model_args,
+    _model_kw,
+    _note,
+    _valued_effect,
+)
+from eodarm.errors import EodarmError
+from eodarm.model.arm import Arm
+from eodarm.model.solver import solve
+
+_SOLVE_KEYS = (
+    "force_n",
+    "reaction_n",
+    "dforce_n",
+    "dx_mm",
+    "dy_mm",
+    "dalpha_deg",
+    "dl_mm",
+    "dlength_mm",
+    "length_mm",
+)
+
+
+def _fem_plots(
+    directory: str, arm: Arm, out: dict[str, Any], alpha: Any, mass: Any, model: str
+) -> None:
+    """The FE figures of the first pose (deformed shape, moments, pin forces) into DIR."""
+
+    if model != "fem":
+        raise EodarmError("solve --plot draws the finite-element model: add --model fem")
+    from eodarm.viz import fem_plots
+
+    d = Path(directory)
+    d.mkdir(parents=True, exist_ok=True)
+    pose = ", ".join(f"{a:g}" for a in alpha[0])
+    head = f"{arm.name}: α = {pose}°, {mass[0]:g} kg"
+    paths = [d / f"fem-{k}.png" for k in ("deformed-shape", "moments", "pin-forces")]
+    fem_plots.deformed_shape(arm, out, title=f"{head} (FE, {out['n_dof']} DOF)", path=paths[0])
+    fem_plots.moment_diagrams(arm, out, title=f"{head}: bending moments (FE)", path=paths[1])
+    fem_plots.pin_forces(
+        arm, out, title=f"{head}: forces on the links at their pins", path=paths[2]
+    )
+    _note("wrote " + ", ".join(str(p) for p in paths))
+
+
+def run(args: argparse.Namespace) -> int:
+    arm = _load_arm(args.arm)
+    alphas = [_floats(a, "--alpha") for a in (args.alpha or [])]
+    if not alphas:
+        alphas = [[90.0] + [10.0] * (arm.n - 2) + [0.0]] if arm.n >= 2 else [[60.0]]
+    masses = _floats(args.mass, "--mass")
+    effects = [_valued_effect(s) for s in args.add or []]
+    rows = [(a, m) for a in alphas for m in masses]
+    alpha = np.array([r[0] for r in rows], dtype=float)
+    mass = np.array([r[1] for r in rows], dtype=float)
+    out = solve(
+        arm,
+        alpha,
+        mass,
+        effects,
+        backend=args.backend,
+        self_weight=not args.no_self_weight,
+        **_model_kw(args),
+    )
+    dofs = int(out["n_dof"]) if args.model == "fem" else 0
+    if args.plot:
+        _fem_plots(args.plot, arm, out, alpha, mass, args.model)
+    if args.model == "fem":
+        # The plotting extras (shape, moments) stay in the Python API; print the channels.
+        out = {k: out[k] for k in (*_SOLVE_KEYS, "pin_force_n")}
+    if args.json:
+        doc = {
+            "arm": arm.name,
+            "model": [e.key for e in effects],
+            "solver_model": args.model,
+            "self_weight": not args.no_self_weight,
+            "poses": [
+                {
+                    "alpha_deg": alpha[i].tolist(),
+                    "mass_kg": float(mass[i]),
+                    **{k: np.asarray(v[i]).tolist() for k, v in out.items()},
+                }
+                for i in range(len(rows))
+            ],
+        }
+        json.dump(doc, sys.stdout, indent=None if args.compact else 1)
+        sys.stdout.write("\n")
+        return 0
+    n = arm.n
+    print(
+        f"arm {arm.name!r} ({n} links), model: baseline"
+        + "".join(f" + {e.name}@{e.at}" for e in effects)
+        + ("" if not args.no_self_weight else ", self-weight off")
+        + (f", finite-element model ({dofs} DOF)" if dofs else "")
+    )
+    head = ["alpha_deg", "mass_kg", "dx_mm", "dy_mm"]
+    head += [f"F{i + 1}_N" for i in range(n)] + [f"da{i + 1}_deg" for i in range(n)]
+    head += [f"dl{i + 1}_mm" for i in range(n)]
+    print("  ".join(f"{h:>12}" for h in head))
+    for i in range(len(rows)):
+        cells = [
+            "/".join(f"{a:g}" for a in alpha[i]),
+            f"{mass[i]:g}",
+            f"{out['dx_mm'][i]:.4f}",
+            f"{out['dy_mm'][i]:.4f}",
+        ]
+        cells += [f"{f:.1f}" for f in out["force_n"][i]]
+        cells += [f"{d:.5f}" for d in out["dalpha_deg"][i]]
+        cells += [f"{d:.5f}" for d in out["dl_mm"][i]]
+        print("  ".join(f"{c:>12}" for c in cells))
+    return 0
+
+
+def add_parser(sub: Any) -> argparse.ArgumentParser:
+    """Register ``eodarm solve`` on the sub-parser collection."""
+    s = sub.add_parser(
+        "solve",
+        help="loaded minus unloaded pose, actuator forces and deflections for given poses",
+        description="Solve the arm model for poses × payloads and print deflections and forces.",
+    )
+    s.add_argument("--arm", metavar="ARM.toml", help="arm file (default: the bundled example)")
+    s.add_argument(
+        "--alpha",
+        action="append",
+        metavar="A1,A2,...",
+        help="unloaded absolute link angles in degrees (repeat for more poses)",
+    )
+    s.add_argument(
+        "--mass",
+        default="1.5,5,6.5",
+        metavar="M1,M2,...",
+        help="payload masses in kg (default: 1.5,5,6.5, the seed's)",
+    )
+    s.add_argument(
+        "--add",
+        action="append",
+        metavar="EFFECT@PLACE=VALUE",
+        help="add an effect with its parameter, e.g. joint_clearance@O3=0.15",
+    )
+    s.add_argument("--backend", choices=("rust", "numpy"), default="rust")
+    _model_args(s)
+    s.add_argument(
+        "--plot",
+        metavar="DIR",
+        help="with --model fem: write the first pose's deformed shape, bending moments and "
+        "pin forces as PNG figures into DIR",
+    )
+    s.add_argument("--no-self-weight", action="store_true", help="drop link/actuator weights")
+    s.add_argument("--json", action="store_true", help="print one JSON object on stdout")
+    s.add_argument("--compact", action="store_true", help="with --json: no indentation")
+    s.set_defaults(func=run)
+
+    return s

@@ -1,0 +1,340 @@
+"""``eodarm sweep``: a whole grid of poses × payloads, written as NetCDF/Zarr, and its maps."""
+
+from __future__ import annotations
+
+import argparse
+import math
+import re
+import time
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import numpy.typing as npt
+
+from eodarm.errors import EodarmError
+from eodarm.model.arm import Arm
+from eodarm.workspace.sweep import CHUNK_SIZE, REDUCE_OPS, sweep
+
+if TYPE_CHECKING:
+    import xarray as xr
+from eodarm.cli._common import (
+    _note,
+    _valued_effect,
+)
+
+FloatArray = npt.NDArray[np.float64]
+
+
+def parse_range(text: str, what: str) -> FloatArray:
+    """``LO:HI:N`` → N values from LO to HI; ``V`` → [V]; ``a,b,c`` → [a, b, c]."""
+    t = text.strip()
+    try:
+        if ":" in t:
+            parts = t.split(":")
+            if len(parts) != 3:
+                raise ValueError
+            lo, hi, k = float(parts[0]), float(parts[1]), int(parts[2])
+            if k < 1 or not (math.isfinite(lo) and math.isfinite(hi)):
+                raise ValueError
+            vals = np.linspace(lo, hi, k)
+        else:
+            vals = np.array([float(v) for v in t.replace(";", ",").split(",") if v.strip()])
+    except ValueError:
+        raise EodarmError(
+            f"{what} '{text}': expected LO:HI:N (N values from LO to HI), one value, or a "
+            "comma-separated list"
+        ) from None
+    if vals.size == 0 or not np.isfinite(vals).all():
+        raise EodarmError(f"{what} '{text}': give finite numbers")
+    return vals
+
+
+#: The CLI's default angle grid (degrees): link 1, link 2, and every further link. It spans
+#: the seed arm's measured configurations with a margin.
+DEFAULT_ALPHA = ("40:130:46", "-20:40:31", "-20:20:21")
+
+#: Force limit (N) assumed by the CLI's capacity map for actuators without ``max_force_n``.
+ASSUMED_MAX_FORCE_N = 1000.0
+
+_MAX_LINKS = 9
+
+
+# ---------------------------------------------------------------------------- command line
+def add_parser(subparsers: Any) -> argparse.ArgumentParser:
+    """Register ``eodarm sweep`` on an argparse sub-parser collection."""
+    p = subparsers.add_parser(
+        "sweep",
+        help="solve a whole grid of poses × payloads; write NetCDF/Zarr and the four maps",
+        description="Sweep a grid of joint angles (--alphaK), actuator lengths (--lK) or "
+        "effector positions (--x --y --phi) under payloads (--mass), write the result as "
+        "NetCDF (.nc) or Zarr (.zarr) and, with --plot, the four maps: sag, actuator forces, "
+        "payload capacity and the dominant effect. Without --arm: the bundled seed2022 arm; "
+        "without a grid: alpha1 40:130:46, alpha2 -20:40:31, alpha3 -20:20:21 (degrees).",
+    )
+    # let "--alpha3 -20:20:21" read the range as a value, not as an option (argparse only
+    # knows plain negative numbers); "--alpha3=-20:20:21" works regardless
+    p._negative_number_matcher = re.compile(r"^-\d+$|^-\d*\.\d+$|^-[\d.]+(:[-\d.]+)+$|^-[\d.]+,")
+    p.add_argument("--arm", metavar="ARM.toml", help="arm file (default: the bundled seed arm)")
+    for k in range(1, _MAX_LINKS + 1):
+        p.add_argument(
+            f"--alpha{k}",
+            metavar="LO:HI:N",
+            help="grid of link K's absolute angle, degrees (LO:HI:N, a value or a list)"
+            if k == 1
+            else argparse.SUPPRESS,
+        )
+    for k in range(1, _MAX_LINKS + 1):
+        p.add_argument(
+            f"--l{k}",
+            metavar="LO:HI:N",
+            help="or a grid of actuator K's pin-to-pin length, mm" if k == 1 else argparse.SUPPRESS,
+        )
+    p.add_argument("--x", metavar="LO:HI:N", help="or an effector grid: load point x, mm")
+    p.add_argument("--y", metavar="LO:HI:N", help="load point y, mm")
+    p.add_argument("--phi", metavar="LO:HI:N", help="last link's absolute angle, degrees")
+    p.add_argument("--elbow", type=int, choices=(-1, 1), default=-1, help="IK branch (-1)")
+    p.add_argument(
+        "--mass",
+        default="1.5,5,6.5",
+        metavar="M1,M2,...",
+        help="payload masses, kg (default 1.5,5,6.5; also LO:HI:N)",
+    )
+    p.add_argument(
+        "--add",
+        action="append",
+        metavar="EFFECT@PLACE=VALUE",
+        help="add an effect to the model, e.g. mount_compliance@M2=580 (repeatable)",
+    )
+    p.add_argument(
+        "--reduce",
+        metavar="OP:DIM[,DIM]",
+        help="reduce in the core, e.g. max:mass_kg or min:alpha3,mass_kg "
+        "(OP: max, min, argmax, argmin)",
+    )
+    p.add_argument(
+        "--mask-unreachable",
+        action="store_true",
+        help="treat out-of-stroke poses as not solved (NaN, skipped by --reduce)",
+    )
+    p.add_argument("--no-self-weight", action="store_true", help="drop link/actuator weights")
+    p.add_argument("-o", "--output", metavar="OUT.nc|OUT.zarr", help="write the Dataset")
+    p.add_argument("--plot", metavar="DIR", help="write the four maps as PNGs into DIR")
+    p.add_argument(
+        "--plot-prefix",
+        default="",
+        metavar="TEXT",
+        help="prefix of the map file names (sag.png, forces.png, capacity.png, "
+        "dominant_effect.png)",
+    )
+    p.add_argument(
+        "--plot-mass",
+        type=float,
+        metavar="KG",
+        help="payload of the sag, force and dominant-effect maps (default: the largest --mass)",
+    )
+    p.add_argument(
+        "--max-force",
+        type=float,
+        default=ASSUMED_MAX_FORCE_N,
+        metavar="N",
+        help="force limit assumed for actuators without max_force_n in the capacity map "
+        f"(default {ASSUMED_MAX_FORCE_N:g} N)",
+    )
+    p.add_argument(
+        "--max-payload",
+        type=float,
+        default=100.0,
+        metavar="KG",
+        help="cap of the capacity map, kg (default 100)",
+    )
+    p.add_argument("--chunk-size", type=int, default=CHUNK_SIZE, help="poses per chunk")
+    p.add_argument("--threads", type=int, metavar="K", help="threads of the core")
+    p.add_argument(
+        "--model",
+        choices=("analytic", "fem"),
+        default="analytic",
+        help="the exact-pose analytic model (default) or the finite-element model",
+    )
+    p.add_argument(
+        "--scheduler",
+        metavar="ADDRESS",
+        help="Dask scheduler address (tcp://host:8786) to run the chunks on (eodarm[dask])",
+    )
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.set_defaults(func=run)
+    return p
+
+
+def _cli_grid(args: argparse.Namespace, n: int) -> dict[str, Any]:
+    alphas = {k: getattr(args, f"alpha{k}", None) for k in range(1, _MAX_LINKS + 1)}
+    lens = {k: getattr(args, f"l{k}", None) for k in range(1, _MAX_LINKS + 1)}
+    eff = {"x": args.x, "y": args.y, "phi": args.phi}
+    kinds = [
+        name
+        for name, d in (("alpha", alphas), ("lengths", lens), ("effector", eff))
+        if any(v is not None for v in d.values())
+    ]
+    if len(kinds) > 1:
+        raise EodarmError("sweep: give one kind of grid: --alphaK, --lK, or --x --y --phi")
+    for d, flag in ((alphas, "alpha"), (lens, "l")):
+        beyond = [k for k, v in d.items() if v is not None and k > n]
+        if beyond:
+            raise EodarmError(f"--{flag}{beyond[0]}: the arm has only {n} links")
+    if kinds == ["lengths"]:
+        missing = [k for k in range(1, n + 1) if lens[k] is None]
+        if missing:
+            raise EodarmError(
+                f"sweep: a lengths grid needs --l1 … --l{n} (missing --l{missing[0]})"
+            )
+        return {"lengths": {f"l{k}": parse_range(str(lens[k]), f"--l{k}") for k in range(1, n + 1)}}
+    if kinds == ["effector"]:
+        missing_e = [k for k, v in eff.items() if v is None]
+        if missing_e:
+            raise EodarmError(
+                f"sweep: an effector grid needs --x, --y and --phi (missing --{missing_e[0]})"
+            )
+        return {
+            "effector": {k: parse_range(v, f"--{k}") for k, v in eff.items() if v is not None},
+            "elbow": args.elbow,
+        }
+    grid = {}
+    for k in range(1, n + 1):
+        text = alphas[k] or DEFAULT_ALPHA[min(k - 1, len(DEFAULT_ALPHA) - 1)]
+        grid[f"alpha{k}"] = parse_range(text, f"--alpha{k}")
+    return {"alpha_deg": grid}
+
+
+def _cli_reduce(text: str | None) -> dict[str, Any] | None:
+    if not text:
+        return None
+    op, sep, dims = text.partition(":")
+    if not sep or op not in REDUCE_OPS or not dims.strip():
+        raise EodarmError(
+            f"--reduce '{text}': expected OP:DIM[,DIM] with OP one of {', '.join(REDUCE_OPS)}, "
+            "e.g. max:mass_kg"
+        )
+    return {"op": op, "dims": [d.strip() for d in dims.split(",") if d.strip()]}
+
+
+def _write(ds: xr.Dataset, path: str) -> None:
+    p = Path(path)
+    if p.suffix == ".zarr":
+        try:
+            import zarr  # noqa: F401
+        except ImportError:
+            raise EodarmError("writing Zarr needs the zarr package: pip install zarr") from None
+        ds.to_zarr(p, mode="w", consolidated=False)
+    elif p.suffix in (".nc", ".nc4", ".netcdf"):
+        ds.to_netcdf(p, engine="scipy")
+    else:
+        raise EodarmError(f"-o '{path}': the file must end in .nc (NetCDF) or .zarr (Zarr)")
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run ``eodarm sweep``: sweep, write the Dataset and the maps, summarise on stdout.
+
+    Returns 0, or 130 when interrupted with Ctrl-C.
+
+    Raises
+    ------
+    EodarmError
+        With a one-line reason (the main CLI prints it and exits with status 2).
+    """
+    if args.arm is None:
+        from eodarm.data import datasets
+
+        arm = datasets.load("seed2022").arm
+        _note("no --arm: sweeping the bundled seed2022 arm")
+    else:
+        arm = Arm.from_toml(args.arm)
+    grid = _cli_grid(args, arm.n)
+    mass = parse_range(args.mass, "--mass")
+    effects = [_valued_effect(s) for s in args.add or []]
+    reduce = _cli_reduce(args.reduce)
+    scheduler: Any = None
+    client = None
+    if args.scheduler:
+        try:
+            from distributed import Client
+        except ImportError:
+            raise EodarmError("--scheduler needs Dask: pip install 'eodarm[dask]'") from None
+        client = Client(args.scheduler)
+        scheduler = client
+    import xarray  # noqa: F401  (imported here so that the time below is the sweep's)
+
+    t0 = time.perf_counter()
+    try:
+        ds = sweep(
+            arm,
+            **grid,
+            mass_kg=mass,
+            effects=effects,
+            self_weight=not args.no_self_weight,
+            reduce=reduce,
+            chunk_size=args.chunk_size,
+            progress=False if args.no_progress else None,
+            scheduler=scheduler,
+            model=args.model,
+            threads=args.threads,
+            mask_unreachable=args.mask_unreachable,
+        )
+    except KeyboardInterrupt:
+        _note("interrupted: nothing written")
+        return 130
+    finally:
+        if client is not None:
+            client.close()
+    dt = time.perf_counter() - t0
+    size = math.prod(len(v) for v in next(v for v in grid.values() if isinstance(v, dict)).values())
+    _note(
+        f"swept {size:,} poses × {len(mass)} payloads in {dt:.2f} s "
+        f"({size * len(mass) / max(dt, 1e-9):,.0f} cells/s, {args.model} model)"
+    )
+    _summary(ds)
+    if args.output:
+        _write(ds, args.output)
+        _note(f"wrote {args.output}")
+    if args.plot:
+        from eodarm.viz import maps
+
+        plot_mass = args.plot_mass if args.plot_mass is not None else float(np.max(mass))
+        written = maps.render_all(
+            arm,
+            grid,
+            effects,
+            plot_mass,
+            args.plot,
+            self_weight=not args.no_self_weight,
+            assumed_max_force_n=args.max_force,
+            max_payload_kg=args.max_payload,
+            ds=ds if reduce is None and plot_mass in mass else None,
+            note=_note,
+            prefix=args.plot_prefix,
+        )
+        _note("wrote " + ", ".join(str(w) for w in written))
+    return 0
+
+
+def _summary(ds: xr.Dataset) -> None:
+    """A few lines on stdout: the sweep's shape, reachable share, extreme sag and forces."""
+    dims = ", ".join(f"{d} {s}" for d, s in ds.sizes.items())
+    print(f"arm '{ds.attrs['arm']}', model {ds.attrs['model']}, reduce: {ds.attrs['reduce']}")
+    print(f"dimensions: {dims}")
+    reach = float(ds["reachable"].mean())
+    ok = float(ds["ok"].mean())
+    print(f"reachable poses: {100 * reach:.1f} %   solved cells: {100 * ok:.1f} %")
+    if ds.attrs["reduce"] == "none" or ds.attrs["reduce"].split()[0] in ("max", "min"):
+        dy = ds["dy_mm"].where(ds["reachable"]).values
+        dy = dy[np.isfinite(dy)]
+        if dy.size:
+            q = np.quantile(dy, [0.02, 0.5, 0.98])
+            print(
+                f"dy over reachable poses: {dy.min():.4g} … {dy.max():.4g} mm "
+                f"(2 %, 50 %, 98 %: {q[0]:.4g}, {q[1]:.4g}, {q[2]:.4g} mm)"
+            )
+        f = abs(ds["force_n"].where(ds["reachable"]))
+        for i in ds["actuator"].values:
+            fi = f.sel(actuator=i)
+            if bool(np.isfinite(fi).any()):
+                print(f"|F{i}| up to {float(fi.max()):.4g} N")

@@ -1,0 +1,786 @@
+"""Independent numpy reference implementation of the eodarm model.
+
+Everything here is derived from ``docs/model.md`` (and ``CONTRACT.md``) alone; it is the
+yardstick the compiled core is tested against, so where the document allows it, it uses a
+*different but equivalent* formulation:
+
+* statics: all 3n equilibrium equations (Σx, Σy, ΣM about the global origin, per link) as one
+  3n×3n linear system per pose, solved batched (the core recurses from tip to base);
+* triangle closure: circle–circle intersection (the core uses an arccos formula);
+* link bending: the bending moment from the loads to the *left* of a section (the document
+  writes it with the loads to the right; both agree because every link is in equilibrium).
+
+Units everywhere: mm, N, kg, N·mm, degrees at the interface (radians inside). Global frame:
+x forward, y up, angles counter-clockwise positive. Arrays are batched over poses (first axis
+N); there is no Python loop over poses, only over the n links.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from eodarm.errors import EffectError, InputError
+from eodarm.model.arm import Arm
+from eodarm.model.effects import Effect, as_effects, effect_arrays
+
+__all__ = [
+    "angles_from_lengths",
+    "forward",
+    "inverse_kinematics",
+    "solve",
+    "solve_payload",
+    "statics",
+]
+
+FloatArray = NDArray[np.float64]
+
+#: Relative threshold on the actuator moment arm below which a pose is singular (model §3).
+SINGULAR_RTOL = 1e-9
+# A force below this (N) has no direction: play and clearance stay centred (docs/model.md).
+FORCE_ZERO_N = 1e-9
+
+
+# ---------------------------------------------------------------------------- small helpers
+def _rotate(theta: ArrayLike, v: ArrayLike) -> FloatArray:
+    """Rotate 2-vectors ``v`` (..., 2) counter-clockwise by ``theta`` (...) radians."""
+    c, s = np.cos(theta), np.sin(theta)
+    v = np.asarray(v, dtype=float)
+    vx, vy = v[..., 0], v[..., 1]
+    return np.stack([c * vx - s * vy, s * vx + c * vy], axis=-1)
+
+
+def _cross(a: ArrayLike, b: ArrayLike) -> FloatArray:
+    """Planar cross product ``a_x b_y − a_y b_x`` over the last axis."""
+    a = np.asarray(a, dtype=float)
+    b = np.asarray(b, dtype=float)
+    return a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
+
+
+def _angle(v: ArrayLike) -> FloatArray:
+    """Angle of 2-vectors (radians, in (−π, π])."""
+    v = np.asarray(v, dtype=float)
+    return np.arctan2(v[..., 1], v[..., 0])
+
+
+def _wrap(x: ArrayLike) -> FloatArray:
+    """Wrap angles (radians) into [−π, π)."""
+    return (np.asarray(x, dtype=float) + np.pi) % (2.0 * np.pi) - np.pi
+
+
+def _first_row(mask: NDArray[np.bool_]) -> tuple[int, ...]:
+    """Index of the first True entry of ``mask`` (row-major)."""
+    return tuple(int(k) for k in np.argwhere(mask)[0])
+
+
+def _as_float(x: ArrayLike, name: str) -> FloatArray:
+    try:
+        return np.asarray(x, dtype=float)
+    except (TypeError, ValueError):
+        raise InputError(f"{name} must be an array of numbers") from None
+
+
+def _check_finite(x: FloatArray, name: str) -> None:
+    """Refuse non-finite values, naming the first offending pose row."""
+    bad = ~np.isfinite(x)
+    if bad.any():
+        row = int(np.argmax(bad.reshape(bad.shape[0], -1).any(axis=1)))
+        raise InputError(f"pose row {row}: {name} has a non-finite value")
+
+
+def _as_poses(x: ArrayLike, n: int, name: str) -> FloatArray:
+    """A (N, n) array of finite values, or InputError."""
+    a = _as_float(x, name)
+    if a.ndim != 2 or a.shape[1] != n:
+        raise InputError(f"{name} must have shape (N, {n}), got {a.shape}")
+    _check_finite(a, name)
+    return a
+
+
+def _as_payload(x: ArrayLike, n_rows: int) -> FloatArray:
+    """A (N, 2) force array (a single (2,) vector is broadcast to every row)."""
+    p = _as_float(x, "payload_n")
+    if p.shape == (2,):
+        p = np.broadcast_to(p, (n_rows, 2))
+    if p.shape != (n_rows, 2):
+        raise InputError(f"payload_n must have shape ({n_rows}, 2), got {p.shape}")
+    p = np.array(p, dtype=float)
+    _check_finite(p, "payload_n")
+    return p
+
+
+def _as_mass(x: ArrayLike, n_rows: int) -> FloatArray:
+    """A (N,) array of finite, non-negative masses (a scalar is broadcast to every row)."""
+    m = _as_float(x, "mass_kg")
+    if m.ndim == 0:
+        m = np.full(n_rows, float(m))
+    if m.shape != (n_rows,):
+        raise InputError(f"mass_kg must be a scalar or have shape ({n_rows},), got {m.shape}")
+    _check_finite(m, "mass_kg")
+    neg = m < 0
+    if neg.any():
+        row = _first_row(neg)[0]
+        raise InputError(f"pose row {row}: mass_kg is negative ({m[row]!r})")
+    return m
+
+
+# ---------------------------------------------------------------------------- kinematics
+def _forward(arr: dict[str, FloatArray], alpha: FloatArray) -> dict[str, FloatArray]:
+    """Global points of every pose; ``alpha`` in radians, (N, n). No validation."""
+    n_rows, n = alpha.shape
+    o = np.empty((n_rows, n + 1, 2))
+    a = np.empty((n_rows, n, 2))
+    b = np.empty((n_rows, n, 2))
+    c = np.empty((n_rows, n, 2))
+    o[:, 0] = arr["O1"]
+    b[:, 0] = arr["B0"]
+    for i in range(n):
+        ai = alpha[:, i]
+        o[:, i + 1] = o[:, i] + _rotate(ai, arr["next"][i])
+        a[:, i] = o[:, i] + _rotate(ai, arr["A"][i])
+        c[:, i] = o[:, i] + _rotate(ai, arr["C"][i])
+        if i + 1 < n:
+            b[:, i + 1] = o[:, i] + _rotate(ai, arr["B"][i])
+    measure = o[:, n - 1] + _rotate(alpha[:, n - 1], arr["measure"])
+    length = np.linalg.norm(a - b, axis=-1)
+    return {"O": o, "A": a, "B": b, "C": c, "measure": measure, "length_mm": length}
+
+
+def forward(arm: Arm, alpha_deg: ArrayLike) -> dict[str, FloatArray]:
+    """Forward kinematics of the rigid arm (model §1, seed relation 1).
+
+    Parameters
+    ----------
+    arm : Arm
+        The arm (points in mm).
+    alpha_deg : array_like, shape (N, n)
+        Absolute link angles in degrees (counter-clockwise from global x).
+
+    Returns
+    -------
+    dict of str to ndarray
+        Global points in mm:
+
+        ``"O"`` (N, n+1, 2)
+            Joints O_1…O_n followed by the load point.
+        ``"A"`` (N, n, 2)
+            Pin A_i of actuator i on link i.
+        ``"B"`` (N, n, 2)
+            Base pin of actuator i: row 0 is the chassis pin B_0, row i is link i's B point.
+        ``"C"`` (N, n, 2)
+            Centre of mass of each link.
+        ``"measure"`` (N, 2)
+            The measurement point.
+        ``"length_mm"`` (N, n)
+            Pin-to-pin length |A_i − B_{i−1}| of every actuator, mm.
+
+    Raises
+    ------
+    InputError
+        On a wrong shape or a non-finite angle (the row is named).
+    """
+    alpha = _as_poses(alpha_deg, arm.n, "alpha_deg")
+    return _forward(arm.arrays(), np.radians(alpha))
+
+
+# ---------------------------------------------------------------------------- statics
+def _unit_and_check(
+    geo: dict[str, FloatArray],
+) -> tuple[FloatArray, FloatArray]:
+    """Actuator unit vectors e_i (N, n, 2) and moment arms h_i (N, n); refuse singular poses."""
+    n = geo["A"].shape[1]
+    d = geo["A"] - geo["B"]
+    ell = geo["length_mm"]
+    r = geo["A"] - geo["O"][:, :n]
+    r_norm = np.linalg.norm(r, axis=-1)
+    zero = ~(ell > 1e-12 * (1.0 + r_norm))
+    if zero.any():
+        row, i = _first_row(zero)
+        raise InputError(f"pose row {row}: actuator {i + 1} has coincident pins (zero length)")
+    e = d / ell[..., None]
+    h = _cross(r, e)
+    # |h| is a length (mm): compared with the pin's distance |A − O|, a dimensionless test.
+    bad = ~(np.abs(h) >= SINGULAR_RTOL * r_norm)
+    if bad.any():
+        row, i = _first_row(bad)
+        raise InputError(
+            f"pose row {row}: actuator {i + 1} passes through joint O{i + 1} (singular pose)"
+        )
+    return e, h
+
+
+def _statics_system(
+    arr: dict[str, FloatArray],
+    geo: dict[str, FloatArray],
+    e: FloatArray,
+    self_weight: bool,
+) -> tuple[FloatArray, FloatArray]:
+    """The batched 3n×3n equilibrium matrix and the self-weight right-hand side.
+
+    Unknowns per link i (0-based), at columns 3i, 3i+1, 3i+2: F_i, R_i,x, R_i,y. Equations at
+    rows 3i, 3i+1, 3i+2: Σ F_x, Σ F_y and Σ M about the global origin on link i.
+    """
+    o, a, b, c = geo["O"], geo["A"], geo["B"], geo["C"]
+    n_rows, n = geo["length_mm"].shape
+    k = np.zeros((n_rows, 3 * n, 3 * n))
+    rhs = np.zeros((n_rows, 3 * n))
+    g = float(arr["g"])
+    link_w = arr["link_mass"] * g if self_weight else np.zeros(n)
+    act_w = arr["act_mass"] * g if self_weight else np.zeros(n)
+    for i in range(n):
+        r = 3 * i
+        # own actuator force +F_i e_i at A_i
+        k[:, r, r] = e[:, i, 0]
+        k[:, r + 1, r] = e[:, i, 1]
+        k[:, r + 2, r] = _cross(a[:, i], e[:, i])
+        # proximal reaction R_i at O_i
+        k[:, r, r + 1] = 1.0
+        k[:, r + 1, r + 2] = 1.0
+        k[:, r + 2, r + 1] = -o[:, i, 1]
+        k[:, r + 2, r + 2] = o[:, i, 0]
+        # known loads: weights (downward) at C_i, half actuator i at A_i
+        fy = -link_w[i] - 0.5 * act_w[i]
+        mz = -link_w[i] * c[:, i, 0] - 0.5 * act_w[i] * a[:, i, 0]
+        if i + 1 < n:
+            j = 3 * (i + 1)
+            # next actuator's reaction −F_{i+1} e_{i+1} at B_i (global row i+1 of "B")
+            k[:, r, j] = -e[:, i + 1, 0]
+            k[:, r + 1, j] = -e[:, i + 1, 1]
+            k[:, r + 2, j] = -_cross(b[:, i + 1], e[:, i + 1])
+            # distal reaction −R_{i+1} at O_{i+1}
+            k[:, r, j + 1] = -1.0
+            k[:, r + 1, j + 2] = -1.0
+            k[:, r + 2, j + 1] = o[:, i + 1, 1]
+            k[:, r + 2, j + 2] = -o[:, i + 1, 0]
+            # half of actuator (i+1)'s weight at B_i
+            fy = fy - 0.5 * act_w[i + 1]
+            mz = mz - 0.5 * act_w[i + 1] * b[:, i + 1, 0]
+        rhs[:, r + 1] = -fy
+        rhs[:, r + 2] = -mz
+    return k, rhs
+
+
+def _payload_rhs(geo: dict[str, FloatArray], payload: FloatArray) -> FloatArray:
+    """Right-hand side of the payload P at the load point (last link only)."""
+    n_rows, n = geo["length_mm"].shape
+    rhs = np.zeros((n_rows, 3 * n))
+    r = 3 * (n - 1)
+    load_pt = geo["O"][:, n]
+    rhs[:, r] = -payload[:, 0]
+    rhs[:, r + 1] = -payload[:, 1]
+    rhs[:, r + 2] = -_cross(load_pt, payload)
+    return rhs
+
+
+def _split(x: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """Solution vectors (N, 3n) → forces (N, n) and reactions (N, n, 2)."""
+    return x[:, 0::3], np.stack([x[:, 1::3], x[:, 2::3]], axis=-1)
+
+
+def _statics(
+    arr: dict[str, FloatArray],
+    geo: dict[str, FloatArray],
+    payload: FloatArray,
+    self_weight: bool,
+) -> dict[str, FloatArray]:
+    """Unloaded, loaded and payload-only statics on the undeformed geometry."""
+    e, h = _unit_and_check(geo)
+    k, rhs_w = _statics_system(arr, geo, e, self_weight)
+    rhs_p = _payload_rhs(geo, payload)
+    cols = np.stack([rhs_w, rhs_w + rhs_p, rhs_p], axis=-1)  # (N, 3n, 3)
+    x = np.asarray(np.linalg.solve(k, cols), dtype=np.float64)
+    f0, r0 = _split(x[..., 0])
+    f1, r1 = _split(x[..., 1])
+    df, dr = _split(x[..., 2])
+    return {
+        "e": e,
+        "h": h,
+        "force_unloaded_n": f0,
+        "reaction_unloaded_n": r0,
+        "force_n": f1,
+        "reaction_n": r1,
+        "dforce_n": df,
+        "dreaction_n": dr,
+    }
+
+
+def statics(
+    arm: Arm,
+    alpha_deg: ArrayLike,
+    payload_n: ArrayLike,
+    self_weight: bool = True,
+) -> dict[str, FloatArray]:
+    """Actuator forces and joint reactions on the undeformed arm (model §2–§3).
+
+    All 3n equilibrium equations (Σx, Σy, ΣM about the global origin for every link) are
+    solved as one 3n×3n linear system per pose, batched over poses.
+
+    Parameters
+    ----------
+    arm : Arm
+        The arm.
+    alpha_deg : array_like, shape (N, n)
+        Unloaded absolute link angles, degrees.
+    payload_n : array_like, shape (N, 2) or (2,)
+        Payload force vector (N) applied at the load point, global frame.
+    self_weight : bool, default True
+        Include link weights (at C) and actuator weights (half at each pin; the chassis half of
+        actuator 1 is lost into the chassis). ``g = arm.g`` in m/s², masses in kg → N.
+
+    Returns
+    -------
+    dict of str to ndarray
+        ``"force_n"`` (N, n)
+            Loaded actuator forces in N, compression positive.
+        ``"reaction_n"`` (N, n, 2)
+            Loaded joint reactions in N: the force body i−1 exerts on link i at O_i (global).
+        ``"force_unloaded_n"``, ``"reaction_unloaded_n"``
+            The same for the unloaded state (self-weight only).
+
+    Raises
+    ------
+    InputError
+        Wrong shape or non-finite input, or a singular pose (an actuator's line through its
+        joint); the message names the row.
+    """
+    arr = arm.arrays()
+    alpha = _as_poses(alpha_deg, arm.n, "alpha_deg")
+    payload = _as_payload(payload_n, alpha.shape[0])
+    geo = _forward(arr, np.radians(alpha))
+    st = _statics(arr, geo, payload, bool(self_weight))
+    return {
+        key: st[key] for key in ("force_n", "reaction_n", "force_unloaded_n", "reaction_unloaded_n")
+    }
+
+
+# ---------------------------------------------------------------------------- effects
+def _effect_params(arm: Arm, effects: Any) -> dict[str, Any]:
+    """Per-place parameters of the effects (validated), defaults meaning "absent"."""
+    effs: list[Effect] = as_effects(effects)
+    effect_arrays(effs, arm.n)  # refuses non-Effects, places beyond n and duplicates
+    n = arm.n
+    p: dict[str, Any] = {
+        "k_body": np.array([a.stiffness_n_per_mm for a in arm.actuators], dtype=float),
+        "k_mount": np.full(n, np.inf),
+        "play": np.zeros(n),
+        "clearance": np.zeros(n),
+        "ei": [None] * n,
+        "k_base": None,
+    }
+    for e in effs:
+        i = e.index(n)
+        if e.name == "actuator_compliance":
+            p["k_body"][i] = e.value
+        elif e.name == "mount_compliance":
+            p["k_mount"][i] = e.value
+        elif e.name == "actuator_play":
+            p["play"][i] = e.value
+        elif e.name == "joint_clearance":
+            p["clearance"][i] = e.value
+        elif e.name == "link_bending":
+            if arm.links[i].A[0] == 0.0:
+                raise EffectError(
+                    f"effect {e.key}: link {i + 1} has its pin A at x = 0, so the beam has "
+                    "only one support"
+                )
+            p["ei"][i] = e.value
+        elif e.name == "base_compliance":
+            p["k_base"] = e.value
+        else:  # pragma: no cover - the catalogue and this list must agree
+            raise EffectError(f"effect {e.key}: not implemented by the numpy reference")
+    return p
+
+
+def _bending_displacement(
+    points: FloatArray,
+    load_points: FloatArray,
+    f_local: FloatArray,
+    ei: float,
+    x_a: float,
+) -> FloatArray:
+    """Displacement (−y·v′(x), v(x)) of local points of a bent link (model §4, link bending).
+
+    The bending moment is taken from the loads to the *left* of a section,
+    ``M(x) = Σ_{x_p < x} [f_y,p·(x − x_p) − C_p]`` with ``C_p = −y_p·f_x,p``, which equals the
+    document's "loads to the right" form because the loads on the link are in equilibrium
+    (Σ f_y = 0 and Σ (x_p f_y,p + C_p) = 0). Integrating ``EI·v″ = M`` twice in closed form:
+    ``W(x) = (1/EI)·Σ_p [f_y,p·(x − x_p)₊³/6 − C_p·(x − x_p)₊²/2]``, and
+    ``v = W(x) − W(0) − (W(x_A) − W(0))·x/x_A`` meets the supports v(0) = v(x_A) = 0.
+
+    Parameters
+    ----------
+    points : ndarray, shape (m, 2)
+        Local points (mm) whose displacement is wanted.
+    load_points : ndarray, shape (k, 2)
+        Local points (mm) where the force changes act.
+    f_local : ndarray, shape (N, k, 2)
+        Force changes (N) in the link frame.
+    ei : float
+        Flexural rigidity, N·mm².
+    x_a : float
+        Local abscissa of the second support (pin A), mm, nonzero.
+
+    Returns
+    -------
+    ndarray, shape (N, m, 2)
+        Displacements in the link frame, mm.
+    """
+    xp = load_points[:, 0]
+    yp = load_points[:, 1]
+    fy = f_local[..., 1][:, None, :]  # (N, 1, k)
+    cp = (-yp * f_local[..., 0])[:, None, :]  # (N, 1, k)
+
+    def w(x: FloatArray) -> FloatArray:
+        s = np.maximum(x[:, None] - xp[None, :], 0.0)  # (m, k)
+        return np.sum(fy * s**3 / 6.0 - cp * s**2 / 2.0, axis=-1) / ei  # (N, m)
+
+    def dw(x: FloatArray) -> FloatArray:
+        s = np.maximum(x[:, None] - xp[None, :], 0.0)
+        return np.sum(fy * s**2 / 2.0 - cp * s, axis=-1) / ei
+
+    ends = w(np.array([0.0, x_a]))  # (N, 2)
+    w0 = ends[:, 0:1]
+    slope = (ends[:, 1:2] - w0) / x_a  # (N, 1)
+    x = points[:, 0]
+    y = points[:, 1]
+    v = w(x) - w0 - slope * x[None, :]
+    dv = dw(x) - slope
+    return np.stack([-y[None, :] * dv, v], axis=-1)
+
+
+def _circle_intersection(
+    c0: FloatArray, r0: FloatArray, c1: FloatArray, r1: FloatArray, side: FloatArray
+) -> tuple[FloatArray, NDArray[np.bool_]]:
+    """Intersection of circle (c0, r0) with circle (c1, r1), on ``side`` of the line c0→c1.
+
+    ``side = +1`` picks the point P with ``(c1 − c0) × (P − c0) > 0``, ``−1`` the other one,
+    ``0`` the foot on the line. Returns the points (N, 2) and a mask of rows where the circles
+    meet.
+    """
+    dvec = c1 - c0
+    d = np.linalg.norm(dvec, axis=-1)
+    u = dvec / d[:, None]
+    along = (r0**2 - r1**2 + d**2) / (2.0 * d)
+    h2 = (r0 - along) * (r0 + along)
+    ok = np.isfinite(h2) & (h2 >= 0.0)
+    h = np.sqrt(np.where(ok, h2, 0.0))
+    perp = np.stack([-u[:, 1], u[:, 0]], axis=-1)
+    pt = c0 + along[:, None] * u + (side * h)[:, None] * perp
+    return pt, ok
+
+
+# ---------------------------------------------------------------------------- the solver
+def solve_payload(
+    arm: Arm,
+    alpha_deg: ArrayLike,
+    payload_n: ArrayLike,
+    effects: Any = (),
+    self_weight: bool = True,
+) -> dict[str, FloatArray]:
+    """Loaded minus unloaded response of the arm to a payload force (model §4–§5).
+
+    Forces of both states come from statics on the undeformed geometry; the loaded pose is
+    then closed exactly, link by link from the base, with every effect's cause applied at once
+    (length changes, joint-pin offsets, bending displacements, chassis tilt). Each actuator
+    triangle is closed as a circle–circle intersection (centre O′_i radius |a|, centre B′_{i−1}
+    radius ℓ′_i) on the same side as in the unloaded pose.
+
+    Parameters
+    ----------
+    arm : Arm
+        The arm.
+    alpha_deg : array_like, shape (N, n)
+        Unloaded absolute link angles, degrees.
+    payload_n : array_like, shape (N, 2) or (2,)
+        Payload force (N) at the load point, global frame.
+    effects : iterable of Effect, optional
+        The effects added to the baseline model (at most one per name and place).
+    self_weight : bool, default True
+        Whether both states carry the link and actuator weights.
+
+    Returns
+    -------
+    dict of str to ndarray
+        ``"force_n"`` (N, n)
+            Loaded actuator forces, N (compression positive).
+        ``"reaction_n"`` (N, n, 2)
+            Loaded joint reactions (body i−1 on link i at O_i), N, global.
+        ``"dforce_n"`` (N, n)
+            Loaded minus unloaded actuator force, N.
+        ``"dx_mm"``, ``"dy_mm"`` (N,)
+            Displacement of the measure point, mm, global.
+        ``"dalpha_deg"`` (N, n)
+            Change of each link's absolute angle (the chord angle of a bent link), degrees.
+        ``"dl_mm"`` (N, n)
+            Change of each actuator body's length as its own sensor sees it, −ΔF/k_body, mm.
+        ``"dlength_mm"`` (N, n)
+            Total pin-to-pin length change (body, mount and play), mm.
+        ``"length_mm"`` (N, n)
+            Unloaded pin-to-pin length, mm.
+
+    Raises
+    ------
+    InputError
+        Wrong shape, non-finite input, a singular pose or a loaded triangle that cannot close
+        (the row and actuator are named).
+    EffectError
+        Unknown, duplicated or misplaced effects, or link bending on a link with A at x = 0.
+    """
+    n = arm.n
+    arr = arm.arrays()
+    alpha_d = _as_poses(alpha_deg, n, "alpha_deg")
+    n_rows = alpha_d.shape[0]
+    payload = _as_payload(payload_n, n_rows)
+    par = _effect_params(arm, effects)
+    alpha = np.radians(alpha_d)
+    geo = _forward(arr, alpha)
+    st = _statics(arr, geo, payload, bool(self_weight))
+    e = st["e"]
+    df, dr = st["dforce_n"], st["dreaction_n"]
+
+    # --- actuator lengths
+    ell = geo["length_mm"]
+    d_body = -df / par["k_body"]
+    d_mount = -df / par["k_mount"]
+    f_loaded = st["force_n"]
+    d_play = -par["play"] * np.where(np.abs(f_loaded) < FORCE_ZERO_N, 0.0, np.sign(f_loaded))
+    d_length = d_body + d_mount + d_play
+    ell_new = ell + d_length
+
+    # --- joint clearance: offset c_i u_i, a global vector (the force of the undeformed statics)
+    r_loaded = st["reaction_n"]
+    r_norm = np.linalg.norm(r_loaded, axis=-1)
+    pressed = r_norm >= FORCE_ZERO_N
+    safe = np.where(pressed, r_norm, 1.0)
+    u = np.where(pressed[..., None], -r_loaded / safe[..., None], 0.0)  # (N, n, 2)
+    clear = par["clearance"][None, :, None] * u  # (N, n, 2), global
+
+    # --- link bending: displacement fields of the local points that matter
+    zero = np.zeros((n_rows, 2))
+    d_next = [zero] * n
+    d_a = [zero] * n
+    d_b = [zero] * n
+    d_meas = zero
+    for i in range(n):
+        ei = par["ei"][i]
+        if ei is None:
+            continue
+        last = i == n - 1
+        pts = [np.zeros(2), arr["A"][i], arr["next"][i]]
+        forces = [dr[:, i], df[:, i, None] * e[:, i], payload if last else -dr[:, i + 1]]
+        if not last:
+            pts.append(arr["B"][i])
+            forces.append(-df[:, i + 1, None] * e[:, i + 1])
+        f_local = _rotate(-alpha[:, i, None], np.stack(forces, axis=1))  # (N, k, 2)
+        wanted = np.stack([arr["A"][i], arr["next"][i], arr["B"][i], arr["measure"]])
+        disp = _bending_displacement(
+            wanted, np.stack(pts), f_local, float(ei), float(arr["A"][i, 0])
+        )
+        d_a[i], d_next[i] = disp[:, 0], disp[:, 1]
+        if not last:
+            d_b[i] = disp[:, 2]
+        else:
+            d_meas = disp[:, 3]
+
+    # --- base compliance: chassis tilt about the pivot
+    pivot = arr["pivot"]
+    if par["k_base"] is None:
+        dphi = np.zeros(n_rows)
+    else:
+        dphi = _cross(geo["O"][:, n] - pivot, payload) / par["k_base"]
+
+    # --- close the loaded pose from the base to the tip
+    side = np.sign(_cross(geo["B"] - geo["O"][:, :n], geo["A"] - geo["O"][:, :n]))  # (N, n)
+    alpha_new = np.empty_like(alpha)
+    o_new = pivot + _rotate(dphi, arr["O1"] - pivot) + clear[:, 0]
+    b_new = pivot + _rotate(dphi, arr["B0"] - pivot)
+    for i in range(n):
+        if i > 0:
+            prev_o, prev_a = o_new, alpha_new[:, i - 1]
+            o_new = prev_o + _rotate(prev_a, arr["next"][i - 1] + d_next[i - 1]) + clear[:, i]
+            b_new = prev_o + _rotate(prev_a, arr["B"][i - 1] + d_b[i - 1])
+        a_loc = arr["A"][i] + d_a[i]  # (N, 2)
+        rho = np.linalg.norm(a_loc, axis=-1)
+        a_new, ok = _circle_intersection(o_new, rho, b_new, ell_new[:, i], side[:, i])
+        if not ok.all():
+            row = _first_row(~ok)[0]
+            raise InputError(
+                f"pose row {row}: actuator {i + 1} cannot close its triangle with the loaded length"
+            )
+        turn = _angle(a_new - o_new) - _angle(a_loc) - alpha[:, i]
+        alpha_new[:, i] = alpha[:, i] + _wrap(turn)
+
+    m_new = o_new + _rotate(alpha_new[:, n - 1], arr["measure"] + d_meas)
+    dm = m_new - geo["measure"]
+    return {
+        "force_n": st["force_n"],
+        "reaction_n": st["reaction_n"],
+        "dforce_n": df,
+        "dx_mm": dm[:, 0],
+        "dy_mm": dm[:, 1],
+        "dalpha_deg": np.degrees(alpha_new - alpha),
+        "dl_mm": d_body,
+        "dlength_mm": d_length,
+        "length_mm": ell,
+    }
+
+
+def solve(
+    arm: Arm,
+    alpha_deg: ArrayLike,
+    mass_kg: ArrayLike,
+    effects: Any = (),
+    self_weight: bool = True,
+) -> dict[str, FloatArray]:
+    """Response of the arm to a payload mass at the load point (CONTRACT §5, numpy backend).
+
+    Parameters
+    ----------
+    arm : Arm
+        The arm.
+    alpha_deg : array_like, shape (N, n)
+        Unloaded absolute link angles, degrees.
+    mass_kg : float or array_like, shape (N,)
+        Payload mass, kg (≥ 0); the payload force is ``(0, −m·g)`` N with ``g = arm.g``.
+    effects : iterable of Effect, optional
+        The effects added to the baseline model.
+    self_weight : bool, default True
+        Whether both states carry the link and actuator weights.
+
+    Returns
+    -------
+    dict of str to ndarray
+        As :func:`solve_payload`.
+
+    Raises
+    ------
+    InputError, EffectError
+        As :func:`solve_payload`; also a non-finite or negative mass (row named).
+    """
+    alpha = _as_poses(alpha_deg, arm.n, "alpha_deg")
+    mass = _as_mass(mass_kg, alpha.shape[0])
+    payload = np.stack([np.zeros_like(mass), -mass * arm.g], axis=-1)
+    return solve_payload(arm, alpha, payload, effects=effects, self_weight=self_weight)
+
+
+# ---------------------------------------------------------------------------- kinematics
+def angles_from_lengths(arm: Arm, length_mm: ArrayLike, alpha_ref_deg: ArrayLike) -> FloatArray:
+    """Link angles of the rigid arm from its actuators' pin-to-pin lengths (model §6).
+
+    Each triangle (O_i, B_{i−1}, A_i) is closed link by link from the base, choosing the
+    branch of the reference pose; each angle is returned within 180° of the reference.
+
+    Parameters
+    ----------
+    arm : Arm
+        The arm.
+    length_mm : array_like, shape (N, n)
+        Pin-to-pin actuator lengths |A_i − B_{i−1}|, mm (> 0).
+    alpha_ref_deg : array_like, shape (N, n) or (n,)
+        Reference pose(s), degrees, that fix the branch of every triangle.
+
+    Returns
+    -------
+    ndarray, shape (N, n)
+        Absolute link angles, degrees.
+
+    Raises
+    ------
+    InputError
+        Wrong shape, non-finite or non-positive lengths, or a triangle that cannot close (row
+        and actuator named).
+    """
+    n = arm.n
+    arr = arm.arrays()
+    ell = _as_poses(length_mm, n, "length_mm")
+    n_rows = ell.shape[0]
+    nonpos = ell <= 0.0
+    if nonpos.any():
+        row, i = _first_row(nonpos)
+        raise InputError(f"pose row {row}: length_mm of actuator {i + 1} must be > 0")
+    ref = _as_float(alpha_ref_deg, "alpha_ref_deg")
+    if ref.shape == (n,):
+        ref = np.broadcast_to(ref, (n_rows, n))
+    ref = _as_poses(ref, n, "alpha_ref_deg")
+    if ref.shape[0] != n_rows:
+        raise InputError(
+            f"alpha_ref_deg must have shape ({n_rows}, {n}) or ({n},), got {ref.shape}"
+        )
+    ref_rad = np.radians(ref)
+    geo = _forward(arr, ref_rad)
+    side = np.sign(_cross(geo["B"] - geo["O"][:, :n], geo["A"] - geo["O"][:, :n]))
+    alpha = np.empty((n_rows, n))
+    o = np.broadcast_to(arr["O1"], (n_rows, 2))
+    b = np.broadcast_to(arr["B0"], (n_rows, 2))
+    for i in range(n):
+        rho = np.full(n_rows, np.hypot(*arr["A"][i]))
+        a_new, ok = _circle_intersection(o, rho, b, ell[:, i], side[:, i])
+        if not ok.all():
+            row = _first_row(~ok)[0]
+            raise InputError(
+                f"pose row {row}: actuator {i + 1} cannot close its triangle with the given length"
+            )
+        turn = _angle(a_new - o) - _angle(arr["A"][i]) - ref_rad[:, i]
+        alpha[:, i] = ref_rad[:, i] + _wrap(turn)
+        if i + 1 < n:
+            b = o + _rotate(alpha[:, i], arr["B"][i])
+            o = o + _rotate(alpha[:, i], arr["next"][i])
+    return np.degrees(alpha)
+
+
+def inverse_kinematics(arm: Arm, target: ArrayLike, elbow: int = -1) -> dict[str, FloatArray]:
+    """Closed-form inverse kinematics of a 3-link arm (model §6).
+
+    From the load point L and the last angle α_3: ``O_3 = L − R(α_3)·next_3``, then the
+    two-link chain O_1 → O_3 with ``β = α_2 − α_1``:
+    ``|next_1 + R(β)·next_2| = |O_3 − O_1|`` gives
+    ``β = ∠next_1 − ∠next_2 + elbow·arccos(...)`` and
+    ``α_1 = ∠(O_3 − O_1) − ∠(next_1 + R(β)·next_2)``.
+
+    Parameters
+    ----------
+    arm : Arm
+        A 3-link arm.
+    target : array_like, shape (N, 3)
+        Load point x, y (global, mm) and the last link's angle α_3 (degrees).
+    elbow : {-1, 1}, default -1
+        Branch of the arccos (−1: α_2 < α_1 for links along their x axes).
+
+    Returns
+    -------
+    dict of str to ndarray
+        ``"alpha_deg"`` (N, 3)
+            Absolute link angles, degrees (α_1, α_2 in [−180°, 180°); NaN where unreachable).
+        ``"length_mm"`` (N, 3)
+            Pin-to-pin actuator lengths of that pose, mm (NaN where unreachable).
+        ``"reachable"`` (N,)
+            Whether the arccos argument lies within [−1, 1].
+
+    Raises
+    ------
+    InputError
+        If the arm does not have 3 links, ``elbow`` is not ±1, or the target has a wrong shape
+        or a non-finite value (row named).
+    """
+    if arm.n != 3:
+        raise InputError(f"inverse_kinematics needs a 3-link arm, this one has {arm.n} links")
+    if elbow not in (-1, 1):
+        raise InputError(f"elbow must be -1 or 1, got {elbow!r}")
+    arr = arm.arrays()
+    tgt = _as_poses(target, 3, "target")
+    n1, n2, n3 = arr["next"]
+    a3 = np.radians(tgt[:, 2])
+    o3 = tgt[:, :2] - _rotate(a3, n3)
+    d = o3 - arr["O1"]
+    l1, l2 = np.hypot(*n1), np.hypot(*n2)
+    cos_arg = (np.sum(d**2, axis=-1) - l1**2 - l2**2) / (2.0 * l1 * l2)
+    reachable = np.abs(cos_arg) <= 1.0
+    beta = _angle(n1) - _angle(n2) + elbow * np.arccos(np.where(reachable, cos_arg, np.nan))
+    chain = n1 + _rotate(beta, n2)  # (N, 2)
+    a1 = _wrap(_angle(d) - _angle(chain))
+    a2 = _wrap(a1 + beta)
+    alpha = np.degrees(np.stack([a1, a2, np.where(reachable, a3, np.nan)], axis=-1))
+    length = _forward(arr, np.radians(alpha))["length_mm"]
+    return {"alpha_deg": alpha, "length_mm": length, "reachable": reachable}

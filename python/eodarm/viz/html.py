@@ -1,0 +1,113 @@
+"""The pieces of the HTML report: its stylesheet, escaping, numbers, tables and figures
+embedded as PNG data URIs.
+"""
+
+from __future__ import annotations
+
+import base64
+import html
+import io
+import math
+import os
+from collections.abc import Sequence
+from typing import Any
+
+__all__ = ["CSS", "Num", "Raw", "esc", "img", "num", "row", "table"]
+
+PathLike = str | os.PathLike[str]
+
+CSS = """
+body { font-family: "DejaVu Sans", Helvetica, Arial, sans-serif; color: #222;
+       max-width: 1180px; margin: 1.5em auto; padding: 0 1em; line-height: 1.4; }
+h1 { font-size: 1.6em; border-bottom: 3px solid #1f77b4; padding-bottom: .2em; }
+h2 { font-size: 1.25em; margin-top: 2em; border-bottom: 1px solid #ccc; }
+h3 { font-size: 1.05em; margin-bottom: .3em; }
+table { border-collapse: collapse; margin: .5em 0 1em 0; font-size: .9em; display: block;
+        overflow-x: auto; max-width: 100%; }
+th, td { border: 1px solid #ccc; padding: .25em .6em; text-align: left; vertical-align: top; }
+th { background: #f0f3f7; }
+td.num { text-align: right; font-variant-numeric: tabular-nums; white-space: nowrap; }
+tr.hl td { background: #fff4d6; font-weight: bold; }
+.row { display: flex; flex-wrap: wrap; gap: 1.5em; align-items: flex-start; }
+.row > div { flex: 0 1 auto; max-width: 100%; overflow-x: auto; }
+.row > figure { flex: 1 1 520px; }
+figure.narrow { max-width: 820px; }
+figure { margin: .5em 0; }
+figure img { max-width: 100%; height: auto; border: 1px solid #ddd; }
+figcaption { font-size: .85em; color: #555; }
+.verdict { display: inline-block; padding: .2em .8em; border-radius: .3em; font-weight: bold;
+           font-size: 1.15em; }
+.missing { background: #d62728; color: white; }
+.adequate { background: #2ca02c; color: white; }
+.note { color: #555; font-size: .9em; }
+.warn { color: #8c3b00; }
+code { background: #f4f4f4; padding: 0 .2em; }
+footer { margin-top: 3em; font-size: .8em; color: #777; }
+"""
+
+
+# ---------------------------------------------------------------------------- formatting
+def esc(text: Any) -> str:
+    return html.escape(str(text), quote=True)
+
+
+def num(x: float, digits: int = 4) -> str:
+    if x is None or not math.isfinite(x):
+        return "∞" if x is not None and x > 0 else "–"
+    return f"{x:.{digits}g}"
+
+
+def table(head: Sequence[str], rows: Sequence[Sequence[Any]], hl: Sequence[bool] = ()) -> str:
+    """An HTML table; cells are escaped unless given as ``Raw``; numbers right-aligned.
+
+    Without a ``head`` the first column is a column of row headings (a key/value table).
+    """
+    out = ["<table>"]
+    if head:
+        out.append("<tr>" + "".join(f"<th>{esc(h)}</th>" for h in head) + "</tr>")
+    for i, row in enumerate(rows):
+        cls = ' class="hl"' if i < len(hl) and hl[i] else ""
+        cells = []
+        for j, cell in enumerate(row):
+            if not head and j == 0:
+                cells.append(f"<th>{esc(cell)}</th>")
+            elif isinstance(cell, Raw):
+                cells.append(f"<td>{cell.html}</td>")
+            elif isinstance(cell, Num):
+                cells.append(f'<td class="num">{esc(cell.text)}</td>')
+            else:
+                cells.append(f"<td>{esc(cell)}</td>")
+        out.append(f"<tr{cls}>" + "".join(cells) + "</tr>")
+    out.append("</table>")
+    return "\n".join(out)
+
+
+class Raw:
+    """Trusted HTML for a table cell."""
+
+    def __init__(self, text: str) -> None:
+        self.html = text
+
+
+class Num:
+    """A right-aligned number cell."""
+
+    def __init__(self, x: float, digits: int = 4, suffix: str = "") -> None:
+        self.text = num(x, digits) + suffix
+
+
+def img(fig: Any, alt: str, caption: str, narrow: bool = False) -> str:
+    """A figure as an embedded PNG (base64) with a caption."""
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=120)
+    data = base64.b64encode(buf.getvalue()).decode("ascii")
+    cls = ' class="narrow"' if narrow else ""
+    return (
+        f"<figure{cls}>"
+        f'<img src="data:image/png;base64,{data}" alt="{esc(alt)}">'
+        f"<figcaption>{esc(caption)}</figcaption></figure>"
+    )
+
+
+def row(left: str, right: str) -> str:
+    return f'<div class="row"><div>{left}</div>{right}</div>'

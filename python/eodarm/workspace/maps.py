@@ -1,0 +1,300 @@
+"""The numbers behind the workspace maps: payload capacity and what each effect contributes.
+
+:func:`payload_capacity` finds, for every pose of a grid, the largest payload before an
+actuator reaches its force limit or a stroke limit, and which limit it is;
+:func:`effect_contributions` solves each effect alone on top of the baseline. The maps that
+draw them are in :mod:`eodarm.viz.maps`.
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from collections.abc import Iterable, Mapping
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import numpy.typing as npt
+
+from eodarm.errors import EodarmError
+from eodarm.model.arm import Arm
+from eodarm.model.effects import Effect, as_effects
+from eodarm.workspace.grid import grid_kwargs, grid_of
+from eodarm.workspace.sweep import sweep
+
+if TYPE_CHECKING:
+    import xarray as xr
+
+__all__ = [
+    "F_EPS",
+    "SPRINGS",
+    "arm_of",
+    "as_sweep_kwargs",
+    "assume_max_force",
+    "effect_contributions",
+    "payload_capacity",
+]
+
+FloatArray = npt.NDArray[np.float64]
+
+
+GridLike = "xr.Dataset | Mapping[str, npt.ArrayLike]"
+
+
+#: Label of the baseline's own deflection in the dominant-effect map.
+SPRINGS = "actuator springs (baseline)"
+
+
+#: Numerical zero of a force (N), as in the model (docs/model.md §4).
+F_EPS = 1e-9
+
+
+# ---------------------------------------------------------------------------- helpers
+def arm_of(ds: xr.Dataset) -> Arm:
+    text = ds.attrs.get("arm_toml")
+    if not text:
+        raise EodarmError("this Dataset does not carry its arm (attrs['arm_toml']); pass arm=")
+    return Arm.from_dict(tomllib.loads(str(text)), source=f"sweep of {ds.attrs.get('arm')}")
+
+
+# ---------------------------------------------------------------------------- capacity
+def assume_max_force(arm: Arm, max_force_n: float) -> Arm:
+    """A copy of ``arm`` where every actuator without ``max_force_n`` gets this one (N)."""
+    if not (math.isfinite(max_force_n) and max_force_n > 0):
+        raise EodarmError(f"max_force_n must be finite and > 0, got {max_force_n!r}")
+    d = arm.to_dict()
+    for a in d["actuator"]:
+        a.setdefault("max_force_n", float(max_force_n))
+    return Arm.from_dict(d, source=arm.source)
+
+
+def as_sweep_kwargs(grid: Any) -> dict[str, Any]:
+    if isinstance(grid, Mapping):
+        if {"alpha_deg", "lengths", "effector"} & set(grid):
+            return dict(grid)
+        return grid_kwargs(grid)
+    return grid_of(grid)
+
+
+def payload_capacity(
+    arm: Arm,
+    grid: Any,
+    *,
+    effects: Effect | Iterable[Effect] | None = (),
+    self_weight: bool = True,
+    max_payload_kg: float = 100.0,
+    probe_kg: float = 1.0,
+    **sweep_kw: Any,
+) -> xr.Dataset:
+    """The largest payload each pose carries before an actuator reaches a limit.
+
+    Statics are solved on the undeformed geometry, so each loaded force is affine in the
+    payload: F_i(m) = F_i(0) + m·s_i, with F_i(0) the self-weight force and s_i found from a
+    sweep at 0 and ``probe_kg``. The force limit is reached at the smallest m ≥ 0 with
+    |F_i(m)| = ``max_force_n``. The loaded pin-to-pin length is
+    ℓ_i(m) = ℓ_i − m·s_i·(1/k_body + 1/k_mount) − p·sign(F_i(m)) (body springs from the arm
+    file or ``actuator_compliance``, ``mount_compliance``, ``actuator_play``; model §4), and the
+    stroke limit is reached at the smallest m ≥ 0 where it leaves
+    [``min_length_mm``, ``max_length_mm``] (play jumps where F_i changes sign). The capacity is
+    the smallest of these over every actuator and limit, capped at ``max_payload_kg``.
+
+    Poses that are not reachable unloaded (out of stroke, singular) have NaN. Whether the
+    loaded pose still closes at the capacity is not checked (it does, unless the capacity is
+    near a singular pose).
+
+    Parameters
+    ----------
+    arm : the arm; actuators without ``max_force_n`` (and without stroke limits) are not
+        limited by them (:func:`assume_max_force` sets one).
+    grid : a sweep's Dataset (its grid is reused), a grid dict (``{"alpha1": …}``), or
+        :func:`eodarm.sweep` keyword arguments (``{"alpha_deg": {…}}``).
+    effects, self_weight : the model.
+    max_payload_kg : the cap, kg.
+    probe_kg : the second payload of the sweep, kg (> 0).
+
+    Returns
+    -------
+    xarray.Dataset
+        ``capacity_kg`` (grid…), ``limit`` (grid…): the code of the binding limit, −1 where
+        NaN; ``attrs["limit_labels"]`` names the codes: ``F1 force`` … ``Fn force``,
+        ``l1 stroke`` … ``ln stroke``, then ``cap``; plus the sweep's ``reachable``,
+        ``effector_x_mm``, ``effector_y_mm``.
+    """
+    if not (math.isfinite(max_payload_kg) and max_payload_kg > 0):
+        raise EodarmError(f"max_payload_kg must be finite and > 0, got {max_payload_kg!r}")
+    if not (math.isfinite(probe_kg) and probe_kg > 0):
+        raise EodarmError(f"probe_kg must be finite and > 0, got {probe_kg!r}")
+    effs = list(as_effects(effects))
+    kw = {**as_sweep_kwargs(grid), **sweep_kw}
+    ds = sweep(arm, mass_kg=[0.0, probe_kg], effects=effs, self_weight=self_weight, **kw)
+    n = arm.n
+    f = ds["force_n"].transpose(..., "mass_kg", "actuator").values
+    f0, f1 = f[..., 0, :], f[..., 1, :]
+    s = (f1 - f0) / probe_kg  # N per kg
+    ell0 = ds["length_mm"].values
+    kb = np.array([a.stiffness_n_per_mm for a in arm.actuators], dtype=float)
+    km = np.full(n, np.inf)
+    play = np.zeros(n)
+    for e in effs:
+        i = e.index(n)
+        if e.name == "actuator_compliance":
+            kb[i] = e.value
+        elif e.name == "mount_compliance":
+            km[i] = e.value
+        elif e.name == "actuator_play":
+            play[i] = e.value
+    comp = 1.0 / kb + 1.0 / km  # mm per N
+    fmax = np.array([np.inf if a.max_force_n is None else a.max_force_n for a in arm.actuators])
+    lo = np.array([-np.inf if a.min_length_mm is None else a.min_length_mm for a in arm.actuators])
+    hi = np.array([np.inf if a.max_length_mm is None else a.max_length_mm for a in arm.actuators])
+    m_force = _force_limit(f0, s, fmax)
+    m_stroke = _stroke_limit(ell0, f0, s, comp, play, lo, hi)
+    cand = np.concatenate(
+        [m_force, m_stroke, np.full((*m_force.shape[:-1], 1), max_payload_kg)], -1
+    )
+    cand = np.minimum(cand, max_payload_kg)
+    which = np.argmin(cand, axis=-1)
+    # a cap tie goes to the cap
+    which = np.where(cand.min(axis=-1) >= max_payload_kg, 2 * n, which)
+    cap = cand.min(axis=-1)
+    good = ds["reachable"].values & np.isfinite(f0).all(-1) & np.isfinite(s).all(-1)
+    cap = np.where(good, cap, np.nan)
+    which = np.where(good, which, -1)
+    dims = list(ds["reachable"].dims)
+    labels = [f"F{i + 1} force" for i in range(n)] + [f"l{i + 1} stroke" for i in range(n)]
+    out = ds[["reachable", "effector_x_mm", "effector_y_mm"]].copy()
+    out["capacity_kg"] = (
+        dims,
+        cap,
+        {"units": "kg", "long_name": "largest payload before an actuator limit (capped)"},
+    )
+    out["limit"] = (dims, which.astype(np.int64), {"long_name": "binding limit (see limit_labels)"})
+    out = out.drop_vars(["mass_kg"], errors="ignore")
+    out.attrs.update(
+        ds.attrs,
+        limit_labels=", ".join([*labels, "cap"]),
+        max_payload_kg=float(max_payload_kg),
+        max_force_n=np.where(np.isfinite(fmax), fmax, -1.0),
+    )
+    return out
+
+
+def _force_limit(f0: FloatArray, s: FloatArray, fmax: FloatArray) -> FloatArray:
+    """Smallest m ≥ 0 with |f0 + m·s| = fmax (0 if already beyond, inf if never)."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        up = (fmax - f0) / s  # reaches +fmax, for s > 0
+        down = (-fmax - f0) / s  # reaches −fmax, for s < 0
+    m = np.where(s > 0, up, np.where(s < 0, down, np.inf))
+    m = np.where(np.abs(f0) >= fmax, 0.0, m)
+    return np.where(np.isfinite(fmax), np.maximum(m, 0.0), np.inf)
+
+
+def _stroke_limit(
+    ell0: FloatArray,
+    f0: FloatArray,
+    s: FloatArray,
+    comp: FloatArray,
+    play: FloatArray,
+    lo: FloatArray,
+    hi: FloatArray,
+) -> FloatArray:
+    """Smallest m ≥ 0 where ℓ0 − m·s·comp − play·sign(f0 + m·s) leaves [lo, hi]."""
+    rate = -s * comp  # mm per kg
+    sgn0 = _sign(f0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        m_flip = np.where(s != 0, -f0 / s, np.inf)
+    m_flip = np.where(m_flip > 0, m_flip, np.inf)  # where the force changes sign
+    sgn1 = np.where(np.isfinite(m_flip), np.sign(s), sgn0)
+    best = np.full(ell0.shape, np.inf)
+    for a, b, sg in (
+        (np.zeros_like(m_flip), m_flip, sgn0),
+        (m_flip, np.full_like(m_flip, np.inf), sgn1),
+    ):
+        start = ell0 - play * sg  # length at m = 0 of this piece's line
+        at_a = start + rate * np.where(np.isfinite(a), a, 0.0)
+        out_at_a = np.isfinite(a) & ((at_a < lo) | (at_a > hi))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            to_lo = np.where(rate < 0, (lo - start) / rate, np.inf)
+            to_hi = np.where(rate > 0, (hi - start) / rate, np.inf)
+        hit = np.minimum(np.where(to_lo >= a, to_lo, np.inf), np.where(to_hi >= a, to_hi, np.inf))
+        hit = np.where(hit < b, hit, np.inf)
+        piece = np.where(out_at_a, a, hit)
+        best = np.minimum(best, piece)
+    return np.where(np.isnan(best), np.inf, best)
+
+
+def _sign(f: FloatArray) -> FloatArray:
+    return np.where(np.abs(f) < F_EPS, 0.0, np.sign(f))
+
+
+# ---------------------------------------------------------------------------- dominant effect
+def effect_contributions(
+    arm: Arm,
+    grid: Any,
+    effects: Effect | Iterable[Effect] | None,
+    mass: float,
+    *,
+    self_weight: bool = True,
+    include_baseline: bool | None = None,
+    **sweep_kw: Any,
+) -> xr.Dataset:
+    """How far each effect alone moves the measure point, at each pose of a grid.
+
+    The baseline is the arm's spring model: its actuator springs, replaced by any
+    ``actuator_compliance`` among ``effects`` (that effect changes the springs rather than
+    adding a mechanism). Every other effect e is added alone to it, and its contribution is
+    |d(baseline + e) − d(baseline)|, d = (dx, dy) the measure point's displacement (mm). With
+    ``include_baseline`` the baseline's own |d| is a contender too (:data:`SPRINGS`); by
+    default only when there is no other effect.
+
+    Returns
+    -------
+    xarray.Dataset
+        ``contribution_mm`` (grid…, effect), ``dominant`` (grid…): index along ``effect`` of the
+        largest contribution, −1 where a pose is not reachable or not solved; the ``effect``
+        coordinate holds the labels; plus ``reachable``, ``effector_x_mm``, ``effector_y_mm``.
+    """
+
+    effs = list(as_effects(effects))
+    springs = [e for e in effs if e.name == "actuator_compliance"]
+    others = [e for e in effs if e.name != "actuator_compliance"]
+    if include_baseline is None:
+        include_baseline = not others
+    if not others and not include_baseline:
+        raise EodarmError("effect_contributions: no effect to compare")
+    kw = {**as_sweep_kwargs(grid), **sweep_kw}
+    common = {"mass_kg": [float(mass)], "self_weight": self_weight, **kw}
+    base = sweep(arm, effects=springs, **common).isel(mass_kg=0)
+    d0x, d0y = base["dx_mm"].values, base["dy_mm"].values
+    labels: list[str] = []
+    contrib: list[FloatArray] = []
+    ok = base["ok"].values & base["reachable"].values
+    if include_baseline:
+        labels.append(SPRINGS)
+        contrib.append(np.hypot(d0x, d0y))
+    for e in others:
+        r = sweep(arm, effects=[*springs, e], **common).isel(mass_kg=0)
+        ok &= r["ok"].values
+        labels.append(f"{e.key} ({e.value:g} {e.kind.unit})")
+        contrib.append(np.hypot(r["dx_mm"].values - d0x, r["dy_mm"].values - d0y))
+    c = np.stack(contrib, axis=-1)
+    good = ok & np.isfinite(c).all(axis=-1)
+    dom = np.where(good, np.argmax(np.where(np.isfinite(c), c, -np.inf), axis=-1), -1)
+    dims = list(base["reachable"].dims)
+    out = base[["reachable", "effector_x_mm", "effector_y_mm"]].drop_vars("mass_kg")
+    out = out.assign_coords(effect=("effect", np.array(labels, dtype=object)))
+    out["contribution_mm"] = (
+        [*dims, "effect"],
+        np.where(good[..., None], c, np.nan),
+        {"units": "mm", "long_name": "displacement of the measure point by the effect alone"},
+    )
+    out["dominant"] = (dims, dom.astype(np.int64), {"long_name": "index of the largest effect"})
+    out["ok"] = (dims, good, {"long_name": "reachable and solved with every effect"})
+    out.attrs.update(
+        base.attrs,
+        payload_kg=float(mass),
+        model=" + ".join(["baseline", *(f"{e.key}={e.value:g}" for e in effs)]),
+        baseline_model=" + ".join(["arm springs", *(f"{e.key}={e.value:g}" for e in springs)]),
+        candidates=", ".join(f"{e.key}={e.value:g}" for e in others),
+    )
+    return out

@@ -1,0 +1,558 @@
+"""Whole-workspace sweeps: a grid of poses × payloads, solved in chunks, as an xarray Dataset.
+
+:func:`sweep` solves every pose of a grid (of joint angles, of actuator lengths, or of
+effector positions through inverse kinematics) under every payload of a list, with any
+effects, and returns an :class:`xarray.Dataset` with named dimensions, coordinates and units::
+
+    >>> import eodarm, eodarm.datasets, numpy as np
+    >>> arm = eodarm.data.datasets.load("seed2022").arm                       # doctest: +SKIP
+    >>> ds = eodarm.sweep(arm, alpha_deg={"alpha1": np.linspace(40, 130, 46),
+    ...                                   "alpha2": np.linspace(-20, 40, 31),
+    ...                                   "alpha3": np.linspace(-20, 20, 21)},
+    ...                   mass_kg=[1.5, 5.0, 6.5])                       # doctest: +SKIP
+    >>> ds.dy_mm.sel(alpha1=90, alpha2=10, alpha3=0, mass_kg=5.0)        # doctest: +SKIP
+
+A local sweep of an angle grid is one call of the compiled core (``eodarm._core.sweep`` with
+``grid=``): the core makes each chunk's poses from the grid's axes, solves, masks and reduces
+them in parallel and writes straight into the result arrays. Other grids (lengths, effector
+targets), the finite-element model and Dask schedulers walk the grid in chunks of
+``chunk_size`` poses from Python; each chunk's poses are made from the flat pose index, solved
+by the compiled core (the FE model by :func:`sweep_fallback`) and, for a reduced sweep,
+reduced at once. Either way nothing of the grid's size is built for a reduced sweep, so memory
+stays bounded by the chunk and the reduced output. The layout, the mask and the reductions
+are described in ``docs/sweeps.md``.
+
+Command line (registered by :func:`add_parser`)::
+
+    eodarm sweep [--arm ARM.toml] [--alpha1 LO:HI:N ...] [--mass 1.5,5,6.5]
+                 [--add EFFECT@PLACE=VALUE ...] [--reduce max:mass_kg] [-o OUT.nc | OUT.zarr]
+                 [--plot DIR] [--threads K] [--no-progress]
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+import uuid
+from collections.abc import Iterable, Iterator, Mapping
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import numpy.typing as npt
+
+from eodarm.errors import InputError
+from eodarm.model.arm import Arm
+from eodarm.model.effects import Effect, as_effects, effect_arrays
+from eodarm.model.solver import _core_arm, forward, stroke_violations
+from eodarm.workspace.fallback import REDUCE_OPS, kernel, placeholder, singular
+from eodarm.workspace.grid import Grid, coord_attrs, make_grid, masses_axis
+
+if TYPE_CHECKING:
+    import xarray as xr
+
+__all__ = [
+    "CELL_VARS",
+    "REDUCE_OPS",
+    "sweep",
+]
+
+FloatArray = npt.NDArray[np.float64]
+BoolArray = npt.NDArray[np.bool_]
+
+#: Outputs per (pose, payload) cell, reduced by a reduction.
+CELL_VARS = ("force_n", "dx_mm", "dy_mm", "dalpha_deg", "dl_mm", "ok")
+#: Outputs per pose (no payload dimension).
+POSE_VARS = ("reachable", "length_mm", "effector_x_mm", "effector_y_mm")
+#: Default number of poses per chunk.
+CHUNK_SIZE = 2**16
+#: A progress bar shows at once for more chunks than this, else after 2 s.
+PROGRESS_CHUNKS = 50
+
+_ATTRS: dict[str, dict[str, str]] = {
+    "force_n": {"units": "N", "long_name": "loaded actuator force (compression positive)"},
+    "dx_mm": {"units": "mm", "long_name": "horizontal displacement of the measure point"},
+    "dy_mm": {
+        "units": "mm",
+        "long_name": "vertical displacement of the measure point (sag is negative)",
+    },
+    "dalpha_deg": {"units": "deg", "long_name": "change of the absolute link angle"},
+    "dl_mm": {
+        "units": "mm",
+        "long_name": "change of actuator body length as its sensor sees it",
+    },
+    "ok": {
+        "long_name": "solved: the pose exists, is not singular and the loaded pose closes",
+    },
+    "reachable": {
+        "long_name": "pose exists, is not singular and every actuator is within its stroke",
+    },
+    "length_mm": {"units": "mm", "long_name": "unloaded pin-to-pin actuator length"},
+    "effector_x_mm": {"units": "mm", "long_name": "x of the unloaded load point (global)"},
+    "effector_y_mm": {"units": "mm", "long_name": "y of the unloaded load point (global)"},
+    "alpha_deg": {"units": "deg", "long_name": "unloaded absolute link angle of the pose"},
+}
+
+
+# ---------------------------------------------------------------------------- one chunk
+@dataclass(frozen=True)
+class _Job:
+    """Everything a chunk needs; picklable, so it can travel to a Dask worker."""
+
+    arm: Arm
+    grid: Grid
+    mass: FloatArray
+    effects: tuple[Effect, ...]
+    self_weight: bool
+    op: str | None
+    block: int  # poses per reduction group (1 unless an angle is reduced)
+    mask_unreachable: bool
+    threads: int | None
+    model: str = "analytic"
+    fem_options: tuple[tuple[str, Any], ...] | None = None  # hashable, like the rest
+
+
+def _chunk(job: _Job, start: int, stop: int) -> dict[str, npt.NDArray[Any]]:
+    """Solve flat poses [start, stop) of the grid (a whole number of reduction blocks)."""
+    arm, n = job.arm, job.arm.n
+    alpha, exists = job.grid.poses(arm, start, stop)
+    keep = np.ones(stop - start, dtype=bool) if exists is None else exists.copy()
+    geo_len: FloatArray | None = None
+    geo_eff: FloatArray | None = None
+    if job.mask_unreachable:
+        run = np.where(keep[:, None], alpha, placeholder(arm))
+        geo = forward(arm, run)
+        geo_len, geo_eff = geo["length_mm"], geo["O"][:, n]
+        keep &= (stroke_violations(arm, geo_len) == 0).all(axis=1) & ~singular(geo, n)
+    pose_alpha = alpha  # the poses themselves (NaN where none), before any placeholder
+    if not keep.all():
+        alpha = np.where(keep[:, None], alpha, placeholder(arm))
+    codes, places, values = effect_arrays(job.effects, n)
+    m = job.mass.shape[0]
+    out = kernel(
+        arm,
+        np.ascontiguousarray(alpha, dtype=float),
+        job.mass,
+        codes,
+        places,
+        values,
+        job.self_weight,
+        job.op,
+        m * job.block if job.op else 1,
+        job.threads,
+        job.model,
+        dict(job.fem_options) if job.fem_options is not None else None,
+        job.effects,
+    )
+    res = {k: np.asarray(out[k]) for k in CELL_VARS}
+    length = np.array(out["length_mm"], dtype=float)
+    ex = np.array(out["effector_x_mm"], dtype=float)
+    ey = np.array(out["effector_y_mm"], dtype=float)
+    reach = np.array(out["reachable"], dtype=bool)
+    if geo_len is not None and geo_eff is not None:  # masked poses that exist: their geometry
+        put = ~keep if exists is None else exists & ~keep
+        length[put], ex[put], ey[put] = geo_len[put], geo_eff[put, 0], geo_eff[put, 1]
+        reach[put] = False
+    if exists is not None:
+        length[~exists], ex[~exists], ey[~exists] = np.nan, np.nan, np.nan
+        reach[~exists] = False
+    if job.block > 1:
+        res["reachable"] = np.asarray(reach.reshape(-1, job.block).any(axis=1))
+    else:
+        res["reachable"] = reach
+        res["length_mm"], res["effector_x_mm"], res["effector_y_mm"] = length, ex, ey
+        if job.grid.kind != "alpha":
+            res["alpha_deg"] = np.asarray(pose_alpha, dtype=float)
+    return res
+
+
+def _plan(grid: Grid, reduce: Mapping[str, Any] | None) -> tuple[str | None, list[str], int]:
+    """(op, reduced dims, poses per reduction block) of a reduce spec."""
+    if reduce is None:
+        return None, [], 1
+    if not isinstance(reduce, Mapping) or set(reduce) - {"op", "dims"}:
+        raise InputError(
+            "sweep: reduce must be a dict {'op': 'max'|'min'|'argmax'|'argmin', 'dims': [...]}"
+        )
+    op = reduce.get("op")
+    if op not in REDUCE_OPS:
+        raise InputError(f"sweep: reduce op {op!r} is not one of {', '.join(REDUCE_OPS)}")
+    dims_raw = reduce.get("dims", ["mass_kg"])
+    dims = [dims_raw] if isinstance(dims_raw, str) else [str(d) for d in dims_raw]
+    all_dims = [*grid.names, "mass_kg"]
+    for d in dims:
+        if d not in all_dims:
+            raise InputError(
+                f"sweep: reduce over unknown dimension '{d}'; the dimensions are "
+                f"{', '.join(all_dims)}"
+            )
+    if not dims or len(set(dims)) != len(dims):
+        raise InputError(f"sweep: reduce dims must be distinct and non-empty, got {dims}")
+    suffix = all_dims[len(all_dims) - len(dims) :]
+    if set(dims) != set(suffix):
+        inner = next(d for d in dims if d not in suffix)
+        raise InputError(
+            f"sweep: cannot reduce over '{inner}': reduced dimensions must be the innermost of "
+            f"({', '.join(all_dims)}), e.g. ['mass_kg'] or ['{grid.names[-1]}', 'mass_kg']; "
+            "order the grid dict so that the reduced angles come last"
+        )
+    block = math.prod(grid.shape[len(grid.names) - (len(dims) - 1) :])
+    return str(op), suffix, block
+
+
+def sweep(
+    arm: Arm,
+    *,
+    alpha_deg: Mapping[str, npt.ArrayLike] | None = None,
+    lengths: Mapping[str, npt.ArrayLike] | None = None,
+    effector: Mapping[str, npt.ArrayLike] | None = None,
+    mass_kg: npt.ArrayLike,
+    effects: Effect | Iterable[Effect] | None = (),
+    self_weight: bool = True,
+    reduce: Mapping[str, Any] | None = None,
+    chunk_size: int = CHUNK_SIZE,
+    progress: bool | None = None,
+    scheduler: Any = None,
+    threads: int | None = None,
+    alpha_ref_deg: npt.ArrayLike | None = None,
+    elbow: int = -1,
+    mask_unreachable: bool = False,
+    model: str = "analytic",
+    fem_options: Mapping[str, Any] | None = None,
+) -> xr.Dataset:
+    """Solve every pose of a grid under every payload, in chunks; an xarray Dataset.
+
+    Parameters
+    ----------
+    arm : the arm.
+    alpha_deg : a grid of unloaded absolute angles: ``{"alpha1": [...], …, "alphaN": [...]}``
+        (degrees; 1-D arrays, a scalar for a fixed angle). The dict's order is the order of
+        the dimensions (the last varies fastest).
+    lengths : or a grid of unloaded pin-to-pin actuator lengths ``{"l1": …, "lN": …}`` (mm),
+        turned into angles by :func:`eodarm.angles_from_lengths` on the side of
+        ``alpha_ref_deg`` (default 90°, 10°, …, 0°). Lengths with which the arm cannot be
+        assembled give cells that are not ok and not reachable; out-of-stroke lengths give
+        poses that are not reachable.
+    effector : or a grid of load-point targets ``{"x": mm, "y": mm, "phi": deg}`` (the last
+        link's absolute angle), through :func:`eodarm.inverse_kinematics` with ``elbow``
+        (3-link arms). Targets out of reach are not ok and not reachable.
+    mass_kg : payload masses, kg (1-D); each pose is solved under each.
+    effects : effects added to the baseline model (CONTRACT §4).
+    self_weight : include link and actuator weights in both states.
+    reduce : ``{"op": "max"|"min"|"argmax"|"argmin", "dims": [...]}``: reduce the per-cell
+        outputs over the innermost dims (``["mass_kg"]``, or ``["alpha3", "mass_kg"]`` …),
+        ignoring cells that are not ok. arg-reductions give int64 indices into the reduced
+        dims in C order (``np.unravel_index``), −1 where no cell is ok. The reduced dims'
+        coordinates are kept in ``attrs["reduced_<dim>"]``. Per-pose outputs other than
+        ``reachable`` (which becomes "any pose of the group") are dropped when an angle is
+        reduced.
+    chunk_size : poses per chunk (rounded up to whole reduction groups). Memory of a reduced
+        sweep is bounded by the chunk and the reduced output. A local angle-grid sweep runs
+        in the core's own chunks (about 16 384 cells) unless this is given.
+    progress : show a progress bar on stderr: None (auto: at once for more than 50 chunks, or
+        more than 50 × 65 536 poses for a local angle grid; else after 2 s), True or False.
+    scheduler : None (run here), a ``distributed.Client`` (chunks are submitted to its cluster
+        and gathered as they finish) or any Dask scheduler name/callable for
+        ``dask.compute`` (``"threads"``, ``"processes"``, ``"synchronous"``).
+    threads : threads of the compiled core per chunk (None: its default).
+    alpha_ref_deg, elbow : the branch of a lengths grid, of an effector grid.
+    mask_unreachable : treat cells of unreachable poses (out of stroke) as not ok: NaN, and
+        skipped by reductions.
+    model : ``"analytic"`` (the exact-pose model of docs/model.md, the fast core) or
+        ``"fem"`` (the frame finite-element model of docs/fem.md, solved cell by cell; linear,
+        so it agrees with the analytic model to first order in the load).
+    fem_options : with ``model="fem"``, e.g. ``{"elements_per_link": 8}``.
+
+    Returns
+    -------
+    xarray.Dataset
+        dims (grid dims…, ``mass_kg``[, ``actuator`` | ``link``]) minus reduced ones, with
+        ``force_n``, ``dx_mm``, ``dy_mm``, ``dalpha_deg`` (…, link), ``dl_mm`` (…, actuator),
+        ``ok`` per cell; ``reachable``, ``length_mm`` (…, actuator), ``effector_x_mm``,
+        ``effector_y_mm`` (and ``alpha_deg`` for lengths and effector grids) per pose. Every
+        variable and coordinate has ``units`` and ``long_name`` attrs; the dataset's attrs
+        name the arm (and carry its TOML), the model, self-weight, the grid kind and the
+        reduction.
+
+    Raises
+    ------
+    ValueError
+        (:class:`~eodarm.errors.InputError`) with one line naming the problem: no or several
+        grids, an unknown or missing grid name, an empty or non-finite grid, a bad mass,
+        an unknown reduce dimension or one that is not innermost.
+    KeyboardInterrupt
+        On Ctrl-C, between chunks; nothing is returned.
+    """
+    import xarray as xr
+
+    if not isinstance(arm, Arm):
+        raise InputError(f"sweep: arm must be an eodarm.Arm, got {type(arm).__name__}")
+    grid = make_grid(arm, alpha_deg, lengths, effector, alpha_ref_deg, elbow)
+    mass = masses_axis(mass_kg)
+    effs = tuple(as_effects(effects))
+    effect_arrays(effs, arm.n)  # validates places and duplicates now
+    op, rdims, block = _plan(grid, reduce)
+    if isinstance(chunk_size, bool) or not isinstance(chunk_size, (int, np.integer)):
+        raise InputError(f"sweep: chunk_size must be an integer, got {chunk_size!r}")
+    if chunk_size < 1:
+        raise InputError(f"sweep: chunk_size must be >= 1, got {chunk_size}")
+    if threads is not None and (
+        isinstance(threads, bool) or not isinstance(threads, (int, np.integer)) or threads < 1
+    ):
+        raise InputError(f"sweep: threads must be an integer >= 1, got {threads!r}")
+    n, m, size = arm.n, mass.shape[0], grid.size
+    step = block * max(1, int(chunk_size) // block)
+    spans = [(s, min(s + step, size)) for s in range(0, size, step)]
+    from eodarm.model.fem import check_model
+
+    check_model(model)
+    job = _Job(
+        arm,
+        grid,
+        mass,
+        effs,
+        bool(self_weight),
+        op,
+        block,
+        mask_unreachable,
+        threads,
+        model,
+        tuple(sorted(fem_options.items())) if fem_options is not None else None,
+    )
+
+    out_poses = size // block  # poses (or reduction groups) in the output
+    shapes: dict[str, tuple[int, ...]] = {}
+    for key in CELL_VARS:
+        per = (n,) if key in ("force_n", "dalpha_deg", "dl_mm") else ()
+        shapes[key] = (out_poses, *per) if op else (out_poses, m, *per)
+    shapes["reachable"] = (out_poses,)
+    if block == 1:
+        shapes.update(length_mm=(size, n), effector_x_mm=(size,), effector_y_mm=(size,))
+        if grid.kind != "alpha":
+            shapes["alpha_deg"] = (size, n)
+    arg = op in ("argmax", "argmin")
+    dtypes = {
+        key: (
+            np.bool_
+            if key in ("ok", "reachable")
+            else np.int64
+            if arg and key in CELL_VARS
+            else np.float64
+        )
+        for key in shapes
+    }
+    result = _allocate(shapes, dtypes)
+
+    def place(span: tuple[int, int], res: Mapping[str, npt.NDArray[Any]]) -> None:
+        a, b = span[0] // block, span[1] // block
+        for key, arr in result.items():
+            arr[a:b] = res[key]
+
+    if scheduler is None and model == "analytic" and grid.kind == "alpha":
+        # One call: the core walks the grid itself, in parallel, straight into `result`.
+        _sweep_grid(job, result, None if chunk_size == CHUNK_SIZE else step, progress)
+    else:
+        bar = _progress_bar(len(spans), progress)
+        try:
+            for span, res in _run(job, spans, scheduler):
+                place(span, res)
+                if bar is not None:
+                    bar.update(1)
+        finally:
+            if bar is not None:
+                bar.close()
+
+    # --------------------------------------------------------------- the Dataset
+    kept = list(grid.names[: len(grid.names) - (len(rdims) - 1)] if op else grid.names)
+    kept_shape = [grid.shape[grid.names.index(d)] for d in kept]
+    cell_dims = kept if op else [*kept, "mass_kg"]
+    cell_shape = kept_shape if op else [*kept_shape, m]
+    pose_dims = kept if block > 1 else list(grid.names)
+    coords: dict[str, Any] = {
+        name: (name, c, coord_attrs(grid.kind, name))
+        for name, c in zip(grid.names, grid.coords, strict=True)
+        if name in kept
+    }
+    if not op:
+        coords["mass_kg"] = ("mass_kg", mass, {"units": "kg", "long_name": "payload mass"})
+    coords["actuator"] = ("actuator", np.arange(1, n + 1), {"long_name": "actuator number"})
+    coords["link"] = ("link", np.arange(1, n + 1), {"long_name": "link number"})
+    variables: dict[str, Any] = {}
+    over = ", ".join(rdims)
+    for key, arr in result.items():
+        inner = ["actuator"] if key in ("force_n", "dl_mm", "length_mm") else []
+        inner = ["link"] if key in ("dalpha_deg", "alpha_deg") else inner
+        if key in CELL_VARS:
+            dims, shape = [*cell_dims, *inner], [*cell_shape, *([n] if inner else [])]
+        else:
+            dims = [*pose_dims, *inner]
+            shape = [*(grid.shape if block == 1 else kept_shape), *([n] if inner else [])]
+        vattrs = dict(_ATTRS[key])
+        if op and key in CELL_VARS:
+            if key == "ok":
+                vattrs["long_name"] = f"some cell over ({over}) is solved"
+            elif arg:
+                vattrs = {
+                    "units": "1",
+                    "long_name": f"{op} of {key} over ({over}): flat index in C order, "
+                    "-1 where no cell is solved",
+                }
+            else:
+                vattrs["long_name"] = f"{op} over ({over}) of the {vattrs['long_name']}"
+        if key == "reachable" and block > 1:
+            vattrs["long_name"] = f"some pose over ({', '.join(rdims[:-1])}) is reachable"
+        variables[key] = (dims, arr.reshape(shape), vattrs)
+    model = " + ".join(["baseline", *(f"{e.key}={e.value:g}" for e in effs)])
+    attrs: dict[str, Any] = {
+        "title": f"eodarm sweep of arm '{arm.name}'",
+        "arm": arm.name,
+        "arm_toml": arm.to_toml(),
+        "model": model,
+        "effects": " ".join(e.key for e in effs),
+        "self_weight": int(bool(self_weight)),
+        "mask_unreachable": int(bool(mask_unreachable)),
+        "grid": grid.kind,
+        "g": arm.g,
+        "reduce": f"{op} over {over}" if op else "none",
+        "Conventions": "eodarm CONTRACT: mm, N, kg, deg; y up; force compression positive",
+    }
+    if grid.kind == "lengths":
+        assert grid.ref is not None
+        attrs["alpha_ref_deg"] = grid.ref
+    if grid.kind == "effector":
+        attrs["elbow"] = grid.elbow
+    for d in rdims:
+        attrs[f"reduced_{d}"] = mass if d == "mass_kg" else grid.coords[grid.names.index(d)]
+    return xr.Dataset(variables, coords=coords, attrs=attrs)
+
+
+# ---------------------------------------------------------------------------- running
+def _allocate(
+    shapes: Mapping[str, tuple[int, ...]], dtypes: Mapping[str, Any]
+) -> dict[str, npt.NDArray[Any]]:
+    """Uninitialised result arrays, those of one dtype as views of one buffer.
+
+    One large allocation instead of ten: numpy asks the kernel for transparent huge pages
+    for it, and only its two ends fall on ordinary pages. Ten separate arrays, none aligned
+    to 2 MB, leave tens of MB on 4 kB pages, whose page faults cost a sweep of 10⁶ poses
+    with all outputs about a quarter of its time (docs/benchmarks.md).
+    """
+    out: dict[str, npt.NDArray[Any]] = {}
+    for dtype in dict.fromkeys(dtypes.values()):
+        keys = [k for k in shapes if dtypes[k] == dtype]
+        sizes = [math.prod(shapes[k]) for k in keys]
+        buf = np.empty(sum(sizes), dtype=dtype)
+        at = 0
+        for key, size in zip(keys, sizes, strict=True):
+            out[key] = buf[at : at + size].reshape(shapes[key])
+            at += size
+    return {k: out[k] for k in shapes}
+
+
+def _sweep_grid(
+    job: _Job,
+    result: dict[str, npt.NDArray[Any]],
+    chunk_poses: int | None,
+    progress: bool | None,
+) -> None:
+    """Sweep a whole angle grid in one call of the compiled core, into ``result``.
+
+    The core makes each chunk's poses from the grid's axes, solves and (if asked) masks and
+    reduces them, and writes straight into the result arrays (a reduction's ``reachable`` as
+    "any pose of the group"); it checks for Ctrl-C and reports progress between chunks.
+    """
+    from eodarm.model import native as _core
+
+    arm, grid, m = job.arm, job.grid, job.mass.shape[0]
+    codes, places, values = effect_arrays(job.effects, arm.n)
+    axes = [np.ascontiguousarray(c, dtype=float) for c in grid.coords]
+    size = grid.size
+    bar = _progress_bar(size, progress, unit="pose", auto_at=PROGRESS_CHUNKS * CHUNK_SIZE)
+
+    def report(done: int) -> None:
+        bar.update(done - bar.n)
+
+    try:
+        _core.sweep(
+            _core_arm(arm),
+            None,
+            job.mass,
+            codes,
+            places,
+            values,
+            job.self_weight,
+            job.op,
+            m * job.block if job.op else 1,
+            job.threads,
+            grid=(axes, list(grid.columns), 0, size),
+            out=result,
+            mask_unreachable=job.mask_unreachable,
+            progress=report if bar is not None else None,
+            chunk_rows=None if chunk_poses is None else chunk_poses * m,
+        )
+        if bar is not None:
+            bar.update(size - bar.n)
+    finally:
+        if bar is not None:
+            bar.close()
+
+
+def _run(
+    job: _Job, spans: list[tuple[int, int]], scheduler: Any
+) -> Iterator[tuple[tuple[int, int], dict[str, npt.NDArray[Any]]]]:
+    """Yield (span, chunk result) for every span, here or on a Dask scheduler."""
+    if scheduler is None:
+        for span in spans:
+            yield span, _chunk(job, *span)
+        return
+    if hasattr(scheduler, "submit") and hasattr(scheduler, "scatter"):  # distributed.Client
+        from distributed import as_completed
+
+        client = scheduler
+        [remote_job] = client.scatter([job], broadcast=True)
+        tag = uuid.uuid4().hex  # task keys unique to this sweep
+        futures = {
+            client.submit(_chunk, remote_job, a, b, pure=False, key=f"eodarm-sweep-{tag}-{a}"): (
+                a,
+                b,
+            )
+            for a, b in spans
+        }
+        try:
+            for fut, res in as_completed(list(futures), with_results=True):
+                yield futures[fut], res
+                fut.release()
+        finally:
+            client.cancel(list(futures))
+        return
+    import dask
+
+    wave = 64
+    for i in range(0, len(spans), wave):
+        part = spans[i : i + wave]
+        tasks = [dask.delayed(_chunk, pure=False)(job, a, b) for a, b in part]
+        results = dask.compute(*tasks, scheduler=scheduler)
+        yield from zip(part, results, strict=True)
+
+
+def _progress_bar(
+    total: int, progress: bool | None, unit: str = "chunk", auto_at: int = PROGRESS_CHUNKS
+) -> Any:
+    """A tqdm bar on stderr over ``total`` units: shown at once when asked or when ``total``
+    exceeds ``auto_at``, after 2 s when ``progress`` is None, never when it is False."""
+    if progress is False or (progress is None and total <= 1):
+        return None
+    try:
+        from tqdm import tqdm
+    except ImportError:  # pragma: no cover - tqdm is a dependency
+        return None
+    delay = 0.0 if progress or total > auto_at else 2.0
+    return tqdm(
+        total=total,
+        desc="eodarm sweep",
+        unit=unit,
+        unit_scale=unit == "pose",
+        file=sys.stderr,
+        delay=delay,
+        leave=False,
+    )

@@ -1,0 +1,65 @@
+"""The package's layers (docs/architecture.md), checked by import-linter.
+
+The contracts live in pyproject.toml: model → data → analysis → workspace → viz → cli, each
+importing only from the layers below it; the command modules independent of each other; and
+argparse nowhere but in the command line. These tests run them on the package as it is, and
+once on a copy with an upward import planted, to show that the check can fail.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+import eodarm
+
+ROOT = Path(__file__).resolve().parents[1]
+PACKAGE = Path(eodarm.__file__).resolve().parent
+
+
+def _lint_imports(pythonpath: Path) -> subprocess.CompletedProcess[str]:
+    """``lint-imports`` with the project's contracts on the package found on ``pythonpath``."""
+    exe = Path(sys.executable).with_name("lint-imports")
+    if not exe.exists():
+        pytest.fail("import-linter is not installed: pip install '.[test]'")
+    env = {**os.environ, "PYTHONPATH": str(pythonpath)}
+    return subprocess.run(
+        [str(exe), "--config", str(ROOT / "pyproject.toml"), "--no-cache"],
+        capture_output=True,
+        text=True,
+        env=env,
+        cwd=ROOT,
+        timeout=300,
+    )
+
+
+def test_the_layers_are_kept() -> None:
+    res = _lint_imports(PACKAGE.parent)
+    assert res.returncode == 0, res.stdout + res.stderr
+    assert "3 kept, 0 broken" in res.stdout
+
+
+@pytest.mark.parametrize(
+    ("module", "planted", "broken"),
+    [
+        # the model reaching up into the analysis (what fem.py once did with Slot)
+        ("model/fem.py", "from eodarm.analysis.fit import FitResult", "eodarm.model"),
+        # a library module reaching into the command line (what sweep.py once did)
+        ("workspace/sweep.py", "from eodarm.cli._common import _valued_effect", "eodarm.workspace"),
+        # a library module parsing arguments
+        ("analysis/synth.py", "import argparse", "argparse"),
+    ],
+)
+def test_an_upward_import_is_caught(tmp_path: Path, module: str, planted: str, broken: str) -> None:
+    copy = tmp_path / "eodarm"
+    shutil.copytree(PACKAGE, copy, ignore=shutil.ignore_patterns("__pycache__", "*.so", "*.pyd"))
+    target = copy / module
+    target.write_text(target.read_text(encoding="utf-8") + f"\n{planted}  # noqa\n")
+    res = _lint_imports(tmp_path)
+    assert res.returncode != 0, res.stdout
+    assert "BROKEN" in res.stdout.upper() and broken in res.stdout
