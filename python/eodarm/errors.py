@@ -18,7 +18,15 @@ class ArmFileError(EodarmError):
 
 
 class EffectError(EodarmError):
-    """An effect is unknown, placed where it cannot be, or has a bad parameter."""
+    """An effect is unknown, placed where it cannot be, or has a bad parameter.
+
+    ``key`` names the offending key of an ``[[effect]]`` table (``effect``, ``at`` or the
+    parameter) when the error came from one, so that the arm file's message can name it.
+    """
+
+    def __init__(self, message: str, key: str | None = None) -> None:
+        super().__init__(message)
+        self.key = key
 
 
 class InputError(EodarmError):

@@ -31,7 +31,7 @@ const PROGRESS_EVERY_S: f64 = 0.1;
 /// number of elements; the cell arrays and `ok` required, per-pose arrays optional; with a
 /// reduction over whole poses, `reachable` may hold one value per group: any pose of it
 /// reachable); it is returned. `mask_unreachable`: cells of poses out of stroke are not
-/// solved. `progress(done_poses)` is called after the first chunk, then every 0.1 s or so. `chunk_rows`: rows per chunk
+/// solved. `progress(done_poses)` is called before the first chunk (with 0), then every 0.1 s or so. `chunk_rows`: rows per chunk
 /// of the core (default `arm_core::sweep::CHUNK_ROWS`, less for small sweeps). The GIL is released while the
 /// core works; Ctrl-C (or an exception in `progress`) stops it between chunks.
 #[pyfunction(name = "sweep")]

@@ -3,6 +3,11 @@
 An :class:`Arm` is immutable and always valid: every constructor goes through
 :meth:`Arm.from_dict`, which checks every key before anything is built, so nothing
 half-loaded is ever used.
+
+An arm file may carry a fitted model (CONTRACT §7): ``[[effect]]`` tables (effect, place,
+parameter, optional standard error) become :attr:`Arm.effects`, and an optional ``[fit]``
+table keeps what the fit knew: the covariance of the fitted parameters, the data it was
+fitted to (name and SHA-256) and its χ²/dof (:class:`FitRecord`).
 """
 
 from __future__ import annotations
@@ -17,16 +22,18 @@ from typing import Any, NoReturn
 
 import numpy as np
 
-from eodarm.errors import ArmFileError
+from eodarm.errors import ArmFileError, EffectError
+from eodarm.model.effects import Effect, effect_from_table
 
-__all__ = ["Actuator", "Arm", "Link"]
+__all__ = ["Actuator", "Arm", "FitRecord", "Link"]
 
 Point = tuple[float, float]
 
 _BASE_KEYS = {"O1", "B0", "pivot"}
 _LINK_KEYS = {"next", "A", "B", "C", "mass_kg", "measure", "ei_n_mm2", "ea_n"}
 _ACT_KEYS = {"stiffness_n_per_mm", "mass_kg", "min_length_mm", "max_length_mm", "max_force_n"}
-_TOP_KEYS = {"name", "g", "base", "link", "actuator"}
+_TOP_KEYS = {"name", "g", "base", "link", "actuator", "effect", "fit"}
+_FIT_KEYS = {"parameters", "covariance", "data", "data_sha256", "chi2_per_dof", "date", "n_values"}
 
 
 @dataclass(frozen=True)
@@ -66,6 +73,48 @@ class Actuator:
 
 
 @dataclass(frozen=True)
+class FitRecord:
+    """What a fit knew about the parameters it wrote into an arm file (its ``[fit]`` table).
+
+    Attributes
+    ----------
+    parameters : ``effect@place:parameter`` of each fitted parameter, in the covariance's
+        order (physical units, as the ``[[effect]]`` tables give them).
+    covariance : the parameters' covariance matrix (units²), symmetric.
+    data : the measurement file's name; ``data_sha256`` its SHA-256 (hex).
+    chi2_per_dof : χ²/dof of the fit; ``n_values`` the number of measured values it used.
+    date : when it was fitted (ISO 8601).
+    """
+
+    parameters: tuple[str, ...]
+    covariance: tuple[tuple[float, ...], ...]
+    data: str = ""
+    data_sha256: str = ""
+    chi2_per_dof: float = math.nan
+    n_values: int = 0
+    date: str = ""
+
+    def matrix(self) -> np.ndarray:
+        """The covariance as a (P, P) float array."""
+        k = len(self.parameters)
+        return np.array(self.covariance, dtype=float).reshape(k, k)
+
+    def to_dict(self) -> dict[str, Any]:
+        d: dict[str, Any] = {
+            "parameters": list(self.parameters),
+            "covariance": [list(r) for r in self.covariance],
+        }
+        for key in ("data", "data_sha256", "date"):
+            if getattr(self, key):
+                d[key] = getattr(self, key)
+        if math.isfinite(self.chi2_per_dof):
+            d["chi2_per_dof"] = self.chi2_per_dof
+        if self.n_values:
+            d["n_values"] = self.n_values
+        return d
+
+
+@dataclass(frozen=True)
 class Arm:
     """A planar arm of n links, each driven by a linear actuator (CONTRACT §2).
 
@@ -80,6 +129,12 @@ class Arm:
     actuators: tuple[Actuator, ...]
     g: float = 9.81
     source: str = field(default="<dict>", compare=False)
+    #: The fitted model the file carries (``[[effect]]`` tables); every solver includes it.
+    effects: tuple[Effect, ...] = ()
+    #: Standard error of each effect's parameter (same order; ``None`` when not given).
+    effect_stderr: tuple[float | None, ...] = ()
+    #: The ``[fit]`` table: covariance and provenance of the fitted parameters.
+    fit: FitRecord | None = None
 
     # ------------------------------------------------------------------ loading
     @classmethod
@@ -177,6 +232,8 @@ class Arm:
             fmax = v.number(raw, "max_force_n", pre, default=None, positive=True)
             acts.append(Actuator(k, m, lo, hi, fmax))
 
+        effects, stderr = _effects(v, data.get("effect", []), n)
+        fit = _fit_record(v, data["fit"], effects) if "fit" in data else None
         return cls(
             name=name,
             O1=o1,
@@ -186,6 +243,9 @@ class Arm:
             actuators=tuple(acts),
             g=g,
             source=source,
+            effects=effects,
+            effect_stderr=stderr,
+            fit=fit,
         )
 
     # ------------------------------------------------------------------ views
@@ -248,7 +308,46 @@ class Arm:
                     d[key] = getattr(a, key)
             acts.append(d)
         out["actuator"] = acts
+        if self.effects:
+            out["effect"] = [
+                e.to_table() | ({} if s is None else {"stderr": s})
+                for e, s in zip(self.effects, self.stderrs(), strict=True)
+            ]
+        if self.fit is not None:
+            out["fit"] = self.fit.to_dict()
         return out
+
+    def stderrs(self) -> tuple[float | None, ...]:
+        """The standard error of each of :attr:`effects` (``None`` where unknown)."""
+        return self.effect_stderr or (None,) * len(self.effects)
+
+    def with_effects(
+        self,
+        effects: Any,
+        stderr: Any = None,
+        fit: FitRecord | None = None,
+    ) -> Arm:
+        """A copy carrying ``effects`` (replacing the same effect@place, appending others).
+
+        ``stderr`` gives the new effects' standard errors (same order, ``None`` for unknown);
+        ``fit`` replaces the ``[fit]`` table (the old one is dropped whenever effects change,
+        as its covariance no longer describes them).
+        """
+        new = list(effects)
+        errs = list(stderr) if stderr is not None else [None] * len(new)
+        if len(errs) != len(new):
+            raise ArmFileError(f"{self.source}: {len(errs)} standard errors for {len(new)} effects")
+        keys = {e.key for e in new}
+        kept = [
+            (e, s) for e, s in zip(self.effects, self.stderrs(), strict=True) if e.key not in keys
+        ]
+        pairs = kept + list(zip(new, errs, strict=True))
+        d = self.to_dict()
+        d["effect"] = [e.to_table() | ({} if s is None else {"stderr": s}) for e, s in pairs]
+        d.pop("fit", None)
+        if fit is not None:
+            d["fit"] = fit.to_dict()
+        return Arm.from_dict(d, source=self.source)
 
     def to_toml(self) -> str:
         """Render the arm as an arm file (CONTRACT §2)."""
@@ -261,6 +360,12 @@ class Arm:
         for i, a in enumerate(d["actuator"]):
             lines += ["", f"[[actuator]]  # actuator {i + 1}"]
             lines += [f"{k} = {_toml_value(v)}" for k, v in a.items()]
+        for i, e in enumerate(d.get("effect", [])):
+            lines += ["", f"[[effect]]  # effect {i + 1}"]
+            lines += [f"{k} = {_toml_value(v)}" for k, v in e.items()]
+        if "fit" in d:
+            lines += ["", "[fit]  # the fit that wrote the effects above"]
+            lines += [f"{k} = {_toml_value(v)}" for k, v in d["fit"].items()]
         return "\n".join(lines) + "\n"
 
     def replace(self, **changes: Any) -> Arm:
@@ -285,7 +390,86 @@ def _toml_value(v: Any) -> str:
         return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
     if isinstance(v, list):
         return "[" + ", ".join(_toml_value(x) for x in v) + "]"
-    return repr(float(v))
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, int):
+        return str(v)
+    x = float(v)
+    if math.isinf(x):  # a rigid effect (infinite stiffness) or an unknown error
+        return "inf" if x > 0 else "-inf"
+    return repr(x)
+
+
+def _effects(
+    v: _Validator, raw: Any, n: int
+) -> tuple[tuple[Effect, ...], tuple[float | None, ...]]:
+    """The ``[[effect]]`` tables: validated effects and their optional standard errors."""
+    if not isinstance(raw, list):
+        v.fail("effect", "must be [[effect]] tables")
+    effects: list[Effect] = []
+    errs: list[float | None] = []
+    for i, table in enumerate(raw):
+        pre = f"effect[{i + 1}]"
+        if not isinstance(table, Mapping):
+            v.fail(pre, "must be a table")
+        body = {k: val for k, val in table.items() if k != "stderr"}
+        try:
+            e = effect_from_table(body)
+        except EffectError as exc:
+            v.fail(f"{pre}.{exc.key}" if exc.key else pre, str(exc))
+        try:
+            e.index(n)
+        except EffectError as exc:
+            v.fail(f"{pre}.at", str(exc))
+        if any(p.key == e.key for p in effects):
+            v.fail(f"{pre}.at", f"{e.key} is given twice")
+        effects.append(e)
+        errs.append(v.number(table, "stderr", pre + ".", default=None, nonneg=True))
+    return tuple(effects), tuple(errs)
+
+
+def _fit_record(v: _Validator, raw: Any, effects: tuple[Effect, ...]) -> FitRecord:
+    """The ``[fit]`` table, checked against the effects it describes."""
+    if not isinstance(raw, Mapping):
+        v.fail("fit", "must be a table [fit]")
+    v.unknown(raw, _FIT_KEYS, "fit.")
+    names = raw.get("parameters")
+    if not isinstance(names, list) or not all(isinstance(s, str) for s in names):
+        v.fail("fit.parameters", "must be a list of 'effect@place:parameter' strings")
+    known = {f"{e.key}:{e.param}" for e in effects}
+    for s in names:
+        if s not in known:
+            v.fail("fit.parameters", f"'{s}' is not a parameter of the file's [[effect]] tables")
+    k = len(names)
+    cov = raw.get("covariance")
+    if (
+        not isinstance(cov, list)
+        or len(cov) != k
+        or not all(isinstance(r, list) and len(r) == k for r in cov)
+    ):
+        v.fail("fit.covariance", f"must be a {k}×{k} matrix (one row per parameter)")
+    rows = []
+    for i, r in enumerate(cov):
+        row = []
+        for j, x in enumerate(r):
+            if isinstance(x, bool) or not isinstance(x, (int, float)) or not math.isfinite(x):
+                v.fail(f"fit.covariance[{i + 1}][{j + 1}]", f"must be a finite number, got {x!r}")
+            row.append(float(x))
+        rows.append(tuple(row))
+    m = np.array(rows, dtype=float).reshape(k, k)
+    if k and (not np.allclose(m, m.T, rtol=1e-9, atol=0.0) or (np.diag(m) < 0).any()):
+        v.fail("fit.covariance", "must be symmetric with a non-negative diagonal")
+    texts = {}
+    for key in ("data", "data_sha256", "date"):
+        val = raw.get(key, "")
+        if not isinstance(val, str):
+            v.fail(f"fit.{key}", f"must be a string, got {val!r}")
+        texts[key] = val
+    chi = v.number(raw, "chi2_per_dof", "fit.", default=math.nan, nonneg=True)
+    nv = raw.get("n_values", 0)
+    if isinstance(nv, bool) or not isinstance(nv, int) or nv < 0:
+        v.fail("fit.n_values", f"must be a non-negative integer, got {nv!r}")
+    return FitRecord(tuple(names), tuple(rows), chi2_per_dof=chi, n_values=nv, **texts)
 
 
 class _Validator:

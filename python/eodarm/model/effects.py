@@ -19,6 +19,7 @@ __all__ = [
     "Slot",
     "candidate_places",
     "effect_arrays",
+    "effect_from_table",
     "param_from_theta",
     "theta_from_param",
 ]
@@ -135,6 +136,50 @@ class Effect:
 
     def __repr__(self) -> str:
         return f"Effect({self.name!r}, {self.at!r}, {self.kind.param}={self.value!r})"
+
+    def to_table(self) -> dict[str, Any]:
+        """The effect as an arm file's ``[[effect]]`` table (CONTRACT §7)."""
+        return {"effect": self.name, "at": self.at, self.kind.param: self.value}
+
+
+def effect_from_table(table: Any) -> Effect:
+    """An :class:`Effect` from an ``[[effect]]`` table's keys (``effect``, ``at``, parameter).
+
+    Raises
+    ------
+    EffectError
+        Naming the offending key (its ``key`` attribute) and what is wrong with it.
+    """
+    name = table.get("effect")
+    if not isinstance(name, str) or name not in CATALOGUE:
+        raise EffectError(
+            f"unknown effect {name!r}; known: {', '.join(CATALOGUE)}"
+            if isinstance(name, str)
+            else 'missing or not a string: the effect\'s name, e.g. "mount_compliance"',
+            key="effect",
+        )
+    kind = CATALOGUE[name]
+    at = table.get("at")
+    if not isinstance(at, str):
+        raise EffectError('missing or not a string: the effect\'s place, e.g. "M2"', key="at")
+    try:
+        _place_index(kind, at)
+    except EffectError as exc:
+        raise EffectError(str(exc), key="at") from None
+    extra = sorted(set(table) - {"effect", "at", kind.param})
+    if extra:
+        raise EffectError(
+            f"{name} takes the parameter '{kind.param}', not {', '.join(extra)}", key=extra[0]
+        )
+    if kind.param not in table:
+        raise EffectError(f"missing: {name}@{at}'s parameter", key=kind.param)
+    raw = table[kind.param]
+    if isinstance(raw, bool) or not isinstance(raw, (int, float)):
+        raise EffectError(f"must be a number, got {raw!r}", key=kind.param)
+    try:
+        return Effect(name, at, **{kind.param: raw})
+    except EffectError as exc:
+        raise EffectError(str(exc), key=kind.param) from None
 
 
 def _place_index(kind: EffectKind, at: str) -> int:

@@ -1,0 +1,125 @@
+"""A fitted model in the arm file (CONTRACT §7): ``[[effect]]`` and ``[fit]`` tables."""
+
+from __future__ import annotations
+
+import re
+import tomllib
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import eodarm
+from eodarm.errors import ArmFileError
+from eodarm.model.arm import FitRecord
+
+EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "example_arm.toml"
+MOUNT = eodarm.Effect("mount_compliance", "M2", stiffness_n_per_mm=1512.0)
+CLEAR = eodarm.Effect("joint_clearance", "O3", clearance_mm=0.15)
+
+
+@pytest.fixture(scope="module")
+def arm() -> eodarm.Arm:
+    return eodarm.Arm.from_toml(EXAMPLE)
+
+
+def test_effect_tables_are_read_into_arm_effects(arm: eodarm.Arm, tmp_path: Path) -> None:
+    text = arm.to_toml() + (
+        '\n[[effect]]\neffect = "mount_compliance"\nat = "M2"\nstiffness_n_per_mm = 1512.0\n'
+        "stderr = 35.0\n"
+        '\n[[effect]]\neffect = "joint_clearance"\nat = "O3"\nclearance_mm = 0.15\n'
+    )
+    path = tmp_path / "fitted.toml"
+    path.write_text(text)
+    fitted = eodarm.Arm.from_toml(path)
+    assert fitted.effects == (MOUNT, CLEAR)
+    assert fitted.effect_stderr == (35.0, None)
+    assert fitted.fit is None
+
+
+def test_to_toml_keeps_effects_errors_and_the_fit_record(arm: eodarm.Arm) -> None:
+    rec = FitRecord(
+        parameters=("mount_compliance@M2:stiffness_n_per_mm", "joint_clearance@O3:clearance_mm"),
+        covariance=((1225.0, -0.02), (-0.02, 4e-6)),
+        data="meas.csv",
+        data_sha256="ab" * 32,
+        chi2_per_dof=1.04,
+        n_values=96,
+        date="2026-11-23T21:00:00+00:00",
+    )
+    fitted = arm.with_effects([MOUNT, CLEAR], [35.0, 0.002], fit=rec)
+    back = eodarm.Arm.from_dict(tomllib.loads(fitted.to_toml()))
+    assert back == fitted  # effects, errors and the fit record, to the last digit
+    assert back.fit is not None
+    np.testing.assert_array_equal(back.fit.matrix(), np.array(rec.covariance))
+
+
+def test_with_effects_replaces_the_same_place_and_drops_a_stale_fit(arm: eodarm.Arm) -> None:
+    rec = FitRecord(("mount_compliance@M2:stiffness_n_per_mm",), ((1.0,),))
+    first = arm.with_effects([MOUNT], [35.0], fit=rec)
+    softer = MOUNT.with_value(900.0)
+    second = first.with_effects([softer, CLEAR])
+    assert second.effects == (softer, CLEAR)
+    assert second.effect_stderr == (None, None)
+    assert second.fit is None, "a covariance of other values must not travel with new ones"
+
+
+@pytest.mark.parametrize(
+    ("table", "key", "why"),
+    [
+        ('effect = "mount"\nat = "M1"\nstiffness_n_per_mm = 1.0', "effect[1].effect", "unknown"),
+        ("at = 'M1'\nstiffness_n_per_mm = 1.0", "effect[1].effect", "missing"),
+        ('effect = "mount_compliance"\nat = "O1"\nstiffness_n_per_mm = 1.0', "effect[1].at", ""),
+        ('effect = "mount_compliance"\nat = "M7"\nstiffness_n_per_mm = 1.0', "effect[1].at", "3"),
+        ('effect = "mount_compliance"\nat = "M1"\nstiffness = 1.0', "effect[1].stiffness", ""),
+        ('effect = "mount_compliance"\nat = "M1"', "effect[1].stiffness_n_per_mm", "missing"),
+        (
+            'effect = "mount_compliance"\nat = "M1"\nstiffness_n_per_mm = -1.0',
+            "effect[1].stiffness_n_per_mm",
+            "> 0",
+        ),
+        (
+            'effect = "mount_compliance"\nat = "M1"\nstiffness_n_per_mm = "stiff"',
+            "effect[1].stiffness_n_per_mm",
+            "number",
+        ),
+        (
+            'effect = "joint_clearance"\nat = "O1"\nclearance_mm = 0.1\nstderr = -1.0',
+            "effect[1].stderr",
+            ">= 0",
+        ),
+    ],
+)
+def test_a_wrong_effect_table_is_refused_naming_its_index_and_key(
+    arm: eodarm.Arm, table: str, key: str, why: str
+) -> None:
+    text = arm.to_toml() + "\n[[effect]]\n" + table + "\n"
+    with pytest.raises(ArmFileError, match=rf"fitted\.toml: key .{re.escape(key)}.: .*{why}"):
+        eodarm.Arm.from_dict(tomllib.loads(text), source="fitted.toml")
+
+
+def test_the_same_effect_twice_is_refused(arm: eodarm.Arm) -> None:
+    text = arm.to_toml() + "".join(
+        f'\n[[effect]]\neffect = "joint_clearance"\nat = "O3"\nclearance_mm = {c}\n'
+        for c in (0.1, 0.2)
+    )
+    with pytest.raises(ArmFileError, match=r"key 'effect\[2\]\.at'.*twice"):
+        eodarm.Arm.from_dict(tomllib.loads(text), source="fitted.toml")
+
+
+@pytest.mark.parametrize(
+    ("fit", "key"),
+    [
+        ('parameters = ["mount_compliance@M1:stiffness_n_per_mm"]\ncovariance = [[1.0]]', "fit"),
+        (
+            'parameters = ["mount_compliance@M2:stiffness_n_per_mm"]\ncovariance = [[1.0, 2.0]]',
+            "fit",
+        ),
+        ('parameters = ["mount_compliance@M2:stiffness_n_per_mm"]\ncovariance = [[-1.0]]', "fit"),
+        ('parameters = ["mount_compliance@M2:stiffness_n_per_mm"]\ncovariance = [["a"]]', "fit"),
+    ],
+)
+def test_a_wrong_fit_table_is_refused(arm: eodarm.Arm, fit: str, key: str) -> None:
+    text = arm.with_effects([MOUNT]).to_toml() + "\n[fit]\n" + fit + "\n"
+    with pytest.raises(ArmFileError, match=rf"key '{key}"):
+        eodarm.Arm.from_dict(tomllib.loads(text), source="fitted.toml")
