@@ -6,7 +6,7 @@ that names the file and key, the row, or the pose at fault.
 
 from __future__ import annotations
 
-__all__ = ["ArmFileError", "EffectError", "EodarmError", "InputError"]
+__all__ = ["ArgumentTypeError", "ArmFileError", "EffectError", "EodarmError", "InputError"]
 
 
 class EodarmError(ValueError):
@@ -31,3 +31,8 @@ class EffectError(EodarmError):
 
 class InputError(EodarmError):
     """Arrays given to a solver have the wrong shape or non-finite values (row named)."""
+
+
+class ArgumentTypeError(TypeError):
+    """An API function was given an argument of the wrong type (a path where an
+    :class:`~eodarm.Arm` belongs, say); the message says what to pass instead."""

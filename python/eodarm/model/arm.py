@@ -22,10 +22,10 @@ from typing import Any, NoReturn
 
 import numpy as np
 
-from eodarm.errors import ArmFileError, EffectError
+from eodarm.errors import ArgumentTypeError, ArmFileError, EffectError
 from eodarm.model.effects import Effect, effect_from_table
 
-__all__ = ["Actuator", "Arm", "FitRecord", "Link"]
+__all__ = ["Actuator", "Arm", "FitRecord", "Link", "check_arm"]
 
 Point = tuple[float, float]
 
@@ -33,6 +33,15 @@ _BASE_KEYS = {"O1", "B0", "pivot"}
 _LINK_KEYS = {"next", "A", "B", "C", "mass_kg", "measure", "ei_n_mm2", "ea_n"}
 _ACT_KEYS = {"stiffness_n_per_mm", "mass_kg", "min_length_mm", "max_length_mm", "max_force_n"}
 _TOP_KEYS = {"name", "g", "base", "link", "actuator", "effect", "fit"}
+#: An arm file is a few kB; anything this large is not one (and would be slow to parse).
+MAX_FILE_BYTES = 1_000_000
+#: The physical range of an arm file's numbers (docs/model.md §8): beyond it a number is a typo
+#: or a unit mistake, and the small-deflection model would not apply anyway.
+MAX_LENGTH_MM = 1e6  # coordinates: 1 km
+MAX_MASS_KG = 1e6
+MAX_STIFFNESS = 1e20  # N/mm, N·mm² and N: "rigid" (tests use 1e18), not an overflow
+MAX_G = 100.0  # m/s², ten times Earth's
+
 _FIT_KEYS = {"parameters", "covariance", "data", "data_sha256", "chi2_per_dof", "date", "n_values"}
 
 
@@ -147,15 +156,28 @@ class Arm:
             If the file cannot be read or parsed, or any key is missing or invalid. The message
             names the file and the key.
         """
+        if not isinstance(path, (str, Path)):
+            raise ArmFileError(f"an arm file's path must be a str or Path, got {_short(path)}")
         p = Path(path)
         try:
-            text = p.read_text(encoding="utf-8")
+            with open(p, "rb") as fh:
+                raw = fh.read(MAX_FILE_BYTES + 1)
         except OSError as exc:
             raise ArmFileError(f"{p}: cannot read arm file: {exc.strerror or exc}") from None
+        if len(raw) > MAX_FILE_BYTES:
+            raise ArmFileError(f"{p}: larger than {MAX_FILE_BYTES:,} bytes: not an arm file")
+        try:
+            text = raw.decode("utf-8-sig")  # a byte-order mark is allowed, as in CSV files
+        except UnicodeDecodeError as exc:
+            raise ArmFileError(f"{p}: not UTF-8 text (byte {exc.start})") from None
         try:
             data = tomllib.loads(text)
         except tomllib.TOMLDecodeError as exc:
-            raise ArmFileError(f"{p}: not valid TOML: {exc}") from None
+            raise ArmFileError(f"{p}: not valid TOML: {_one_line(str(exc))}") from None
+        except RecursionError:
+            raise ArmFileError(
+                f"{p}: not an arm file: arrays or tables nested too deeply"
+            ) from None
         return cls.from_dict(data, source=str(p))
 
     @classmethod
@@ -166,8 +188,10 @@ class Arm:
             v.fail("<top>", "the arm must be a table of keys")
         v.unknown(data, _TOP_KEYS, "")
         name = data.get("name", Path(source).stem if source != "<dict>" else "arm")
-        if not isinstance(name, str):
-            v.fail("name", f"must be a string, got {name!r}")
+        if not isinstance(name, str) or len(name) > 200 or not name.isprintable():
+            v.fail(
+                "name", f"must be a printable string of at most 200 characters, got {_short(name)}"
+            )
         g = v.number(data, "g", "", default=9.81, positive=True)
 
         base = data.get("base")
@@ -381,6 +405,41 @@ class Arm:
         return Arm.from_dict(d, source=self.source)
 
 
+def check_arm(arm: Any, where: str) -> Arm:
+    """``arm`` if it is an :class:`Arm`; else an :class:`ArgumentTypeError` saying what to do."""
+    if isinstance(arm, Arm):
+        return arm
+    hint = (
+        f": load it first with eodarm.Arm.from_toml({str(arm)!r})"
+        if isinstance(arm, (str, Path))
+        else ""
+    )
+    raise ArgumentTypeError(f"{where}: arm must be an eodarm.Arm, got {type(arm).__name__}{hint}")
+
+
+def _limit(key: str) -> float:
+    """The largest magnitude an arm file's number may have (by the key's unit)."""
+    if key in ("stiffness_n_per_mm", "ei_n_mm2", "ea_n", "max_force_n"):
+        return MAX_STIFFNESS
+    if key == "g":
+        return MAX_G
+    if key == "mass_kg":
+        return MAX_MASS_KG
+    if key.endswith("_mm"):
+        return MAX_LENGTH_MM
+    return math.inf
+
+
+def _short(val: Any, limit: int = 40) -> str:
+    """``repr`` of a value, cut to one short line (messages stay one line)."""
+    text = _one_line(repr(val))
+    return text if len(text) <= limit else text[: limit - 1] + "…"
+
+
+def _one_line(text: str) -> str:
+    return " ".join(text.split())
+
+
 def _same(p: Point, q: Point) -> bool:
     return math.hypot(p[0] - q[0], p[1] - q[1]) <= 1e-9 * (1.0 + math.hypot(*p) + math.hypot(*q))
 
@@ -453,7 +512,9 @@ def _fit_record(v: _Validator, raw: Any, effects: tuple[Effect, ...]) -> FitReco
         row = []
         for j, x in enumerate(r):
             if isinstance(x, bool) or not isinstance(x, (int, float)) or not math.isfinite(x):
-                v.fail(f"fit.covariance[{i + 1}][{j + 1}]", f"must be a finite number, got {x!r}")
+                v.fail(
+                    f"fit.covariance[{i + 1}][{j + 1}]", f"must be a finite number, got {_short(x)}"
+                )
             row.append(float(x))
         rows.append(tuple(row))
     m = np.array(rows, dtype=float).reshape(k, k)
@@ -463,12 +524,12 @@ def _fit_record(v: _Validator, raw: Any, effects: tuple[Effect, ...]) -> FitReco
     for key in ("data", "data_sha256", "date"):
         val = raw.get(key, "")
         if not isinstance(val, str):
-            v.fail(f"fit.{key}", f"must be a string, got {val!r}")
+            v.fail(f"fit.{key}", f"must be a string, got {_short(val)}")
         texts[key] = val
     chi = v.number(raw, "chi2_per_dof", "fit.", default=math.nan, nonneg=True)
     nv = raw.get("n_values", 0)
     if isinstance(nv, bool) or not isinstance(nv, int) or nv < 0:
-        v.fail("fit.n_values", f"must be a non-negative integer, got {nv!r}")
+        v.fail("fit.n_values", f"must be a non-negative integer, got {_short(nv)}")
     return FitRecord(tuple(names), tuple(rows), chi2_per_dof=chi, n_values=nv, **texts)
 
 
@@ -504,16 +565,26 @@ class _Validator:
             if default is self._MISSING:
                 self.fail(prefix + key, "missing")
             return default
-        val = table[key]
-        if isinstance(val, bool) or not isinstance(val, (int, float)):
-            self.fail(prefix + key, f"must be a number, got {val!r}")
-        x = float(val)
-        if not math.isfinite(x):
-            self.fail(prefix + key, f"must be finite, got {val!r}")
+        x = self.finite(table[key], prefix + key)
         if positive and x <= 0:
-            self.fail(prefix + key, f"must be > 0, got {val!r}")
+            self.fail(prefix + key, f"must be > 0, got {x!r}")
         if nonneg and x < 0:
-            self.fail(prefix + key, f"must be >= 0, got {val!r}")
+            self.fail(prefix + key, f"must be >= 0, got {x!r}")
+        limit = _limit(key)
+        if abs(x) > limit:
+            self.fail(prefix + key, f"{x:.6g} is beyond the physical range (|x| <= {limit:g})")
+        return x
+
+    def finite(self, val: Any, key: str) -> float:
+        """A finite float from a TOML number (an integer too large for a float is refused)."""
+        if isinstance(val, bool) or not isinstance(val, (int, float)):
+            self.fail(key, f"must be a number, got {_short(val)}")
+        try:
+            x = float(val)
+        except OverflowError:
+            self.fail(key, f"the number {_short(val)} is too large")
+        if not math.isfinite(x):
+            self.fail(key, f"must be finite, got {val!r}")
         return x
 
     def point(
@@ -529,8 +600,12 @@ class _Validator:
             or len(val) != 2
             or any(isinstance(x, bool) or not isinstance(x, (int, float)) for x in val)
         ):
-            self.fail(prefix + key, f"must be a pair of numbers [x, y], got {val!r}")
-        x, y = float(val[0]), float(val[1])
-        if not (math.isfinite(x) and math.isfinite(y)):
-            self.fail(prefix + key, f"must be finite, got {val!r}")
+            self.fail(prefix + key, f"must be a pair of numbers [x, y], got {_short(val)}")
+        x, y = (self.finite(c, prefix + key) for c in val)
+        if max(abs(x), abs(y)) > MAX_LENGTH_MM:
+            self.fail(
+                prefix + key,
+                f"[{x:.6g}, {y:.6g}] is beyond the physical range "
+                f"(|x|, |y| <= {MAX_LENGTH_MM:g} mm)",
+            )
         return (x, y)

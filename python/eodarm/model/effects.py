@@ -85,9 +85,10 @@ class Effect:
         raw = params[kind.param]
         try:
             value = float(raw)
-        except (TypeError, ValueError):
+        except (TypeError, ValueError, OverflowError):
+            got = repr(raw) if len(repr(raw)) <= 40 else repr(raw)[:39] + "…"
             raise EffectError(
-                f"effect {name}@{at}: {kind.param} must be a number, got {raw!r}"
+                f"effect {name}@{at}: {kind.param} must be a finite number, got {got}"
             ) from None
         if not math.isfinite(value) or value < 0 or (value == 0 and not kind.allow_zero):
             bound = ">= 0" if kind.allow_zero else "> 0"
@@ -188,7 +189,8 @@ def _place_index(kind: EffectKind, at: str) -> int:
             raise EffectError(f"effect {kind.name} sits at 'base', not '{at}'")
         return 0
     letter = kind.place_letter
-    if not (isinstance(at, str) and at[:1] == letter and at[1:].isdigit() and int(at[1:]) >= 1):
+    ok = isinstance(at, str) and at[:1] == letter and at[1:].isascii() and at[1:].isdigit()
+    if not (ok and int(at[1:]) >= 1):
         raise EffectError(f"effect {kind.name} sits at {letter}1…{letter}n, not '{at}'")
     return int(at[1:]) - 1
 

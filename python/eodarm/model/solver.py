@@ -16,7 +16,7 @@ import numpy as np
 import numpy.typing as npt
 
 from eodarm.errors import InputError
-from eodarm.model.arm import Arm
+from eodarm.model.arm import Arm, check_arm
 from eodarm.model.effects import Effect, as_effects, effect_arrays
 
 __all__ = [
@@ -79,6 +79,7 @@ def solve(
         (an :class:`~eodarm.errors.EodarmError`) naming the row for a wrong shape, a non-finite
         value, a negative mass, a singular pose or a triangle that cannot close.
     """
+    check_arm(arm, "solve")
     alpha = _poses(alpha_deg, arm.n, "alpha_deg")
     mass = _per_row(mass_kg, alpha.shape[0], "mass_kg")
     bad = np.flatnonzero(mass < 0)
@@ -100,6 +101,7 @@ def solve_payload(
     fem_options: Mapping[str, Any] | None = None,
 ) -> Arrays:
     """Like :func:`solve`, with any payload force vector (N, 2) in N at the load point."""
+    check_arm(arm, "solve_payload")
     from eodarm.model import fem
 
     alpha = _poses(alpha_deg, arm.n, "alpha_deg")
@@ -137,6 +139,7 @@ def forward(arm: Arm, alpha_deg: npt.ArrayLike, backend: Backend = "rust") -> Ar
     pins on the links; ``B`` (N, n, 2): base pin of each actuator (B_0 for actuator 1);
     ``C`` (N, n, 2): centres of mass; ``measure`` (N, 2); ``length_mm`` (N, n) pin-to-pin.
     """
+    check_arm(arm, "forward")
     alpha = _poses(alpha_deg, arm.n, "alpha_deg")
     _check_backend(backend)
     if backend == "rust":
@@ -159,6 +162,7 @@ def angles_from_lengths(
     Each actuator triangle is closed in closed form; of its two solutions the one on the side
     of the reference pose ``alpha_ref_deg`` ((n,) or (N, n)) is taken.
     """
+    check_arm(arm, "angles_from_lengths")
     length = _poses(length_mm, arm.n, "length_mm")
     ref = _poses(alpha_ref_deg, arm.n, "alpha_ref_deg")
     _check_backend(backend)
@@ -190,6 +194,7 @@ def inverse_kinematics(
     -------
     ``alpha_deg`` (N, 3) (NaN where unreachable), ``length_mm`` (N, 3) and ``reachable`` (N,).
     """
+    check_arm(arm, "inverse_kinematics")
     t = _poses(target, 3, "target")
     _check_backend(backend)
     if elbow not in (-1, 1):
@@ -212,6 +217,7 @@ def inverse_kinematics(
 def stroke_violations(arm: Arm, length_mm: npt.ArrayLike) -> npt.NDArray[np.int8]:
     """Stroke check of pin-to-pin lengths (N, n): −1 below ``min_length_mm``, +1 above
     ``max_length_mm``, 0 within the stroke (or no limit set)."""
+    check_arm(arm, "stroke_violations")
     length = _poses(length_mm, arm.n, "length_mm")
     lo = np.array(
         [a.min_length_mm if a.min_length_mm is not None else -np.inf for a in arm.actuators]
@@ -232,8 +238,8 @@ def _poses(values: npt.ArrayLike, n: int, name: str) -> npt.NDArray[np.float64]:
     """(N, n) contiguous float64, or a clear InputError naming the shape or the row."""
     try:
         a = np.asarray(values, dtype=float)
-    except (TypeError, ValueError):
-        raise InputError(f"{name}: cannot be read as an array of numbers") from None
+    except (TypeError, ValueError, OverflowError):
+        raise InputError(f"{name}: cannot be read as an array of finite numbers") from None
     if a.ndim == 1 and a.shape[0] == n:
         a = a[None, :]
     if a.ndim != 2 or a.shape[1] != n:
@@ -247,8 +253,8 @@ def _poses(values: npt.ArrayLike, n: int, name: str) -> npt.NDArray[np.float64]:
 def _per_row(values: npt.ArrayLike, rows: int, name: str) -> npt.NDArray[np.float64]:
     try:
         a = np.asarray(values, dtype=float)
-    except (TypeError, ValueError):
-        raise InputError(f"{name}: cannot be read as numbers") from None
+    except (TypeError, ValueError, OverflowError):
+        raise InputError(f"{name}: cannot be read as finite numbers") from None
     if a.ndim == 0:
         a = np.full(rows, float(a))
     if a.shape != (rows,):

@@ -1,0 +1,106 @@
+"""Hostile input gets one clear line, never a traceback (issue 15's reproducers).
+
+Through the command line: exit status 2 with exactly one line on stderr, or exit 0 with the
+data on stdout and notes on stderr. Through the API: a ValueError or TypeError subclass of
+eodarm's with a one-line message, never OverflowError, AttributeError or a bare int() error.
+"""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+import eodarm
+from eodarm.errors import ArgumentTypeError, EffectError, EodarmError, InputError
+
+EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "example_arm.toml"
+TEXT = EXAMPLE.read_text(encoding="utf-8")
+
+
+def cli(*args: str) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        [sys.executable, "-m", "eodarm", *args],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+
+
+def one_error_line(res: subprocess.CompletedProcess[str]) -> str:
+    assert res.returncode == 2, res.stderr
+    lines = res.stderr.splitlines()
+    assert len(lines) == 1, res.stderr
+    assert lines[0].startswith("eodarm: error: "), lines[0]
+    assert "Traceback" not in res.stderr
+    return lines[0]
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "says"),
+    [
+        ("mass_kg = 3.0", "mass_kg = 1" + "0" * 309, "too large"),
+        ("mass_kg = 3.0", "mass_kg = 1e200", "physical range"),
+        ("O1 = [0.0, 0.0]", "O1 = [0.0, 1e300]", "physical range"),
+        ("stiffness_n_per_mm = 3000.0", "stiffness_n_per_mm = 1e300", "physical range"),
+    ],
+)
+def test_numbers_an_arm_cannot_have_are_refused_in_one_line(
+    tmp_path: Path, old: str, new: str, says: str
+) -> None:
+    assert old in TEXT
+    path = tmp_path / "arm.toml"
+    path.write_text(TEXT.replace(old, new, 1), encoding="utf-8")
+    line = one_error_line(cli("solve", "--arm", str(path)))
+    assert str(path) in line and says in line
+
+
+def test_a_deeply_nested_array_is_refused_in_one_line(tmp_path: Path) -> None:
+    path = tmp_path / "deep.toml"
+    path.write_text("a = " + "[" * 2000 + "]" * 2000 + "\n" + TEXT, encoding="utf-8")
+    assert "nested too deeply" in one_error_line(cli("solve", "--arm", str(path)))
+
+
+def test_a_byte_order_mark_is_accepted(tmp_path: Path) -> None:
+    path = tmp_path / "bom.toml"
+    path.write_bytes(b"\xef\xbb\xbf" + TEXT.encode("utf-8"))
+    assert eodarm.Arm.from_toml(path) == eodarm.Arm.from_toml(EXAMPLE)
+
+
+def test_a_typo_is_a_note_after_success_and_silent_on_failure(tmp_path: Path) -> None:
+    path = tmp_path / "typo.toml"
+    path.write_text(TEXT.replace("mass_kg = 3.0", "mass_kg = 3.0\nmas_kg = 3.0", 1))
+    ok = cli("solve", "--arm", str(path), "--json")
+    assert ok.returncode == 0, ok.stderr
+    assert ok.stderr.splitlines() == [
+        f"eodarm: note: {path}: key 'link[1].mas_kg' is not an arm-file key and is ignored"
+    ]
+    bad = tmp_path / "typo_and_error.toml"
+    bad.write_text(path.read_text().replace("stiffness_n_per_mm = 3000.0", "", 1))
+    assert "actuator[1].stiffness_n_per_mm" in one_error_line(cli("solve", "--arm", str(bad)))
+
+
+@pytest.mark.parametrize(
+    ("call", "error"),
+    [
+        (lambda: eodarm.Effect("joint_clearance", "O3", clearance_mm=10**400), EffectError),
+        (lambda: eodarm.Effect("joint_clearance", "O³", clearance_mm=0.1), EffectError),
+        (lambda: eodarm.Effect("joint_clearance", 3, clearance_mm=0.1), EffectError),
+        (lambda: eodarm.solve(_arm(), [[90, 10, 0]], mass_kg=10**400), InputError),
+        (lambda: eodarm.solve(_arm(), [[10**400, 10, 0]], mass_kg=1.0), InputError),
+        (lambda: eodarm.solve(str(EXAMPLE), [[90, 10, 0]], 1.0), ArgumentTypeError),
+        (lambda: eodarm.forward(None, [[90, 10, 0]]), ArgumentTypeError),  # type: ignore[arg-type]
+    ],
+)
+def test_hostile_api_arguments_get_eodarm_errors(call: object, error: type) -> None:
+    with pytest.raises(error) as info:
+        call()  # type: ignore[operator]
+    assert isinstance(info.value, (EodarmError, TypeError))
+    msg = str(info.value)
+    assert "\n" not in msg and len(msg) < 300, msg
+
+
+def _arm() -> eodarm.Arm:
+    return eodarm.Arm.from_toml(EXAMPLE)
