@@ -1,0 +1,111 @@
+"""Numbers and names as people read them: one formatter for every table, line and page.
+
+* :func:`value_error`: a value with its standard error, the error rounded to two
+  significant digits and the value to the same decimal place, the unit once
+  (``"1290 ± 300 N/mm"``, ``"0.151 ± 0.0020 mm"``, ``"(4.4 ± 3.3)×10⁵ N/mm"``);
+* :func:`value`: a value alone, to a few significant digits, the unit once;
+* :func:`interval95`: the 95 % interval of a normal estimate;
+* :func:`parameter_name`: a parameter in words (``"actuator 1 body stiffness"``), for the
+  identifier ``mount_compliance@M1`` shown alongside.
+
+Infinite and undefined numbers read as words, never as ``inf`` or ``nan``.
+"""
+
+from __future__ import annotations
+
+import math
+
+__all__ = [
+    "interval95",
+    "parameter_name",
+    "value",
+    "value_error",
+]
+
+#: z of a two-sided 95 % normal interval.
+Z95 = 1.959963984540054
+
+_SUPERSCRIPT = str.maketrans("-0123456789", "⁻⁰¹²³⁴⁵⁶⁷⁸⁹")
+
+_NAMES = {
+    "actuator_compliance": "actuator {i} body stiffness",
+    "mount_compliance": "actuator {i} mount stiffness",
+    "actuator_play": "actuator {i} play",
+    "joint_clearance": "joint O{i} clearance",
+    "link_bending": "link {i} bending stiffness EI",
+    "base_compliance": "chassis tilt stiffness",
+}
+
+
+def _with_unit(text: str, unit: str) -> str:
+    return f"{text} {unit}" if unit else text
+
+
+def value(x: float, unit: str = "", digits: int = 4) -> str:
+    """``x`` to ``digits`` significant digits with its unit; words for ∞ and NaN."""
+    if x is None or math.isnan(x):
+        return "—"
+    if math.isinf(x):
+        return "∞" if x > 0 else "−∞"
+    return _with_unit(f"{x:.{digits}g}".replace("-", "−"), unit)
+
+
+def value_error(x: float, err: float, unit: str = "", digits: int = 2) -> str:
+    """``x ± err`` with the error rounded to ``digits`` significant digits.
+
+    The value is rounded to the error's last digit. Beyond 10⁵ or below 10⁻³ a common power
+    of ten is factored out. An undefined or infinite error gives the value alone, marked
+    ``(± ?)`` — the data did not determine it.
+    """
+    if x is None or math.isnan(x):
+        return "—"
+    if math.isinf(x):
+        return value(x, unit)
+    if err is None or not math.isfinite(err) or err < 0:
+        return _with_unit(f"{value(x)} (± ?)", unit)
+    if err == 0:
+        return _with_unit(f"{value(x, digits=6)} ± 0", unit)
+    exp_err = math.floor(math.log10(err))
+    decimals = digits - 1 - exp_err  # decimal places that keep `digits` digits of err
+    big = max(abs(x), err)
+    scale = math.floor(math.log10(big)) if big > 0 else 0
+    if scale >= 5 or scale < -3:
+        k = scale
+        xs, es = x / 10**k, err / 10**k
+        d = max(decimals + k, 0)
+        body = f"({xs:.{d}f} ± {es:.{d}f})×10{str(k).translate(_SUPERSCRIPT)}"
+        return _with_unit(body.replace("-", "−"), unit)
+    d = max(decimals, 0)
+    if decimals < 0:  # round to tens, hundreds, ...
+        q = 10 ** (-decimals)
+        xr, er = round(x / q) * q, round(err / q) * q
+        return _with_unit(f"{xr:.0f} ± {er:.0f}".replace("-", "−"), unit)
+    return _with_unit(f"{x:.{d}f} ± {err:.{d}f}".replace("-", "−"), unit)
+
+
+def interval95(x: float, err: float, unit: str = "", digits: int = 2) -> str:
+    """The 95 % interval ``[x − 1.96σ, x + 1.96σ]``, at the precision of :func:`value_error`."""
+    if not (math.isfinite(x) and err is not None and math.isfinite(err) and err > 0):
+        return "—"
+    lo, hi = x - Z95 * err, x + Z95 * err
+    decimals = digits - 1 - math.floor(math.log10(err))
+    big = max(abs(lo), abs(hi))
+    scale = math.floor(math.log10(big)) if big > 0 else 0
+    if scale >= 5 or scale < -3:
+        return _with_unit(f"[{lo:.2e}, {hi:.2e}]".replace("-", "−"), unit)
+    if decimals < 0:
+        q = 10 ** (-decimals)
+        lo, hi = round(lo / q) * q, round(hi / q) * q
+    d = max(decimals, 0)
+    return _with_unit(f"[{lo:.{d}f}, {hi:.{d}f}]".replace("-", "−"), unit)
+
+
+def parameter_name(effect: str, at: str) -> str:
+    """A parameter in words, e.g. ``parameter_name("mount_compliance", "M1")`` →
+    ``"actuator 1 mount stiffness"``; effects outside the catalogue read as
+    ``"<effect> at <place>"``."""
+    template = _NAMES.get(effect)
+    index = at[1:] if at[:1] in ("M", "O", "L") and at[1:].isdigit() else at
+    if template is None:
+        return f"{effect.replace('_', ' ')} at {at}"
+    return template.format(i=index)
