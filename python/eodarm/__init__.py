@@ -10,27 +10,43 @@ with an independent numpy reference.
 >>> out = eodarm.solve(arm, [[90.0, 10.0, 0.0]], 5.0, effects=eff)     # doctest: +SKIP
 """
 
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING, Any
+
 from eodarm._version import __version__
-from eodarm.analysis.diagnose import Diagnosis, diagnose
-from eodarm.analysis.fit import FitResult, cross_validate, fit
-from eodarm.data.measurements import Measurements
-from eodarm.data.reader import read_measurements
-from eodarm.errors import ArmFileError, EffectError, EodarmError, InputError
-from eodarm.model.arm import Actuator, Arm, Link
-from eodarm.model.effects import CATALOGUE, Effect, Slot
-from eodarm.model.solver import (
-    angles_from_lengths,
-    forward,
-    inverse_kinematics,
-    solve,
-    solve_payload,
-    stroke_violations,
-)
-from eodarm.workspace.sweep import sweep
+from eodarm.errors import ArgumentTypeError, ArmFileError, EffectError, EodarmError, InputError
+
+#: Where each public name lives; a name is imported on first use (PEP 562), so that
+#: ``import eodarm`` and ``eodarm --help`` do not pay for the layers a script never touches.
+_PUBLIC = {
+    "CATALOGUE": "eodarm.model.effects",
+    "Effect": "eodarm.model.effects",
+    "Slot": "eodarm.model.effects",
+    "Actuator": "eodarm.model.arm",
+    "Arm": "eodarm.model.arm",
+    "Link": "eodarm.model.arm",
+    "angles_from_lengths": "eodarm.model.solver",
+    "forward": "eodarm.model.solver",
+    "inverse_kinematics": "eodarm.model.solver",
+    "solve": "eodarm.model.solver",
+    "solve_payload": "eodarm.model.solver",
+    "stroke_violations": "eodarm.model.solver",
+    "Measurements": "eodarm.data.measurements",
+    "read_measurements": "eodarm.data.reader",
+    "FitResult": "eodarm.analysis.fit",
+    "cross_validate": "eodarm.analysis.fit",
+    "fit": "eodarm.analysis.fit",
+    "Diagnosis": "eodarm.analysis.diagnose",
+    "diagnose": "eodarm.analysis.diagnose",
+    "sweep": "eodarm.workspace.sweep",
+}
 
 __all__ = [
     "CATALOGUE",
     "Actuator",
+    "ArgumentTypeError",
     "Arm",
     "ArmFileError",
     "Diagnosis",
@@ -55,3 +71,34 @@ __all__ = [
     "stroke_violations",
     "sweep",
 ]
+
+
+def __getattr__(name: str) -> Any:
+    where = _PUBLIC.get(name)
+    if where is None:
+        raise AttributeError(f"module 'eodarm' has no attribute '{name}'")
+    obj = getattr(importlib.import_module(where), name)
+    globals()[name] = obj  # once imported, an ordinary attribute
+    return obj
+
+
+def __dir__() -> list[str]:
+    return sorted({*globals(), *_PUBLIC})
+
+
+if TYPE_CHECKING:
+    from eodarm.analysis.diagnose import Diagnosis, diagnose
+    from eodarm.analysis.fit import FitResult, cross_validate, fit
+    from eodarm.data.measurements import Measurements
+    from eodarm.data.reader import read_measurements
+    from eodarm.model.arm import Actuator, Arm, Link
+    from eodarm.model.effects import CATALOGUE, Effect, Slot
+    from eodarm.model.solver import (
+        angles_from_lengths,
+        forward,
+        inverse_kinematics,
+        solve,
+        solve_payload,
+        stroke_violations,
+    )
+    from eodarm.workspace.sweep import sweep
