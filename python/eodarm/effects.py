@@ -11,7 +11,19 @@ import numpy as np
 
 from .errors import EffectError
 
-__all__ = ["CATALOGUE", "Effect", "EffectKind", "candidate_places", "effect_arrays"]
+__all__ = [
+    "CATALOGUE",
+    "UNLOADED",
+    "Effect",
+    "EffectKind",
+    "candidate_places",
+    "effect_arrays",
+]
+
+#: Where a gap (``actuator_play``, ``joint_clearance``) sits in the unloaded state:
+#: ``"centred"`` (the whole offset appears under load, CONTRACT §4) or ``"taken_up"`` (the
+#: unloaded forces already closed it; only the change of offset shows). docs/model.md §4.
+UNLOADED = ("centred", "taken_up")
 
 
 @dataclass(frozen=True)
@@ -29,6 +41,8 @@ class EffectKind:
     unit: str
     compliance_like: bool
     allow_zero: bool
+    #: The compiled core's code of this effect taken up when unloaded (gaps only).
+    taken_up_code: int | None = None
 
 
 CATALOGUE: dict[str, EffectKind] = {
@@ -36,8 +50,8 @@ CATALOGUE: dict[str, EffectKind] = {
     for k in (
         EffectKind("actuator_compliance", 0, "M", "stiffness_n_per_mm", "N/mm", True, False),
         EffectKind("mount_compliance", 1, "M", "stiffness_n_per_mm", "N/mm", True, False),
-        EffectKind("actuator_play", 2, "M", "play_mm", "mm", False, True),
-        EffectKind("joint_clearance", 3, "O", "clearance_mm", "mm", False, True),
+        EffectKind("actuator_play", 2, "M", "play_mm", "mm", False, True, 6),
+        EffectKind("joint_clearance", 3, "O", "clearance_mm", "mm", False, True, 7),
         EffectKind("link_bending", 4, "L", "ei_n_mm2", "N·mm²", True, False),
         EffectKind("base_compliance", 5, "", "stiffness_nmm_per_rad", "N·mm/rad", True, False),
     )
@@ -54,18 +68,35 @@ class Effect:
         ``actuator_play``, ``joint_clearance``, ``link_bending``, ``base_compliance``).
     at : the place: ``M1``…``Mn`` (actuators), ``O1``…``On`` (joints), ``L1``…``Ln`` (links)
         or ``base``.
+    unloaded : keyword, for ``actuator_play`` and ``joint_clearance`` only: ``"centred"``
+        (default: the
+        gap is centred in the unloaded state, so under load its whole offset appears, even at
+        zero payload when the weights load it) or ``"taken_up"`` (the unloaded forces, i.e.
+        self-weight, already closed it: only the change of the offset between the states
+        shows, zero at zero payload). See docs/model.md §4.
     **params : exactly the effect's parameter, e.g. ``stiffness_n_per_mm=500.0``.
     """
 
     name: str
     at: str
     value: float
+    unloaded: str = "centred"
 
-    def __init__(self, name: str, at: str, **params: float) -> None:
+    def __init__(self, name: str, at: str, **params: float | str) -> None:
+        unloaded = params.pop("unloaded", "centred")
         kind = CATALOGUE.get(name)
         if kind is None:
             raise EffectError(f"unknown effect '{name}'; known: {', '.join(CATALOGUE)}")
         _place_index(kind, at)  # validates the place's form
+        if unloaded not in UNLOADED:
+            raise EffectError(
+                f"effect {name}@{at}: unloaded must be 'centred' or 'taken_up', got {unloaded!r}"
+            )
+        if unloaded != "centred" and kind.taken_up_code is None:
+            raise EffectError(
+                f"effect {name}@{at}: only actuator_play and joint_clearance take "
+                f"unloaded={unloaded!r}"
+            )
         if set(params) != {kind.param}:
             raise EffectError(
                 f"effect {name}@{at} takes exactly the parameter '{kind.param}', "
@@ -86,6 +117,7 @@ class Effect:
         object.__setattr__(self, "name", name)
         object.__setattr__(self, "at", at)
         object.__setattr__(self, "value", value)
+        object.__setattr__(self, "unloaded", unloaded)
 
     @classmethod
     def parse(cls, spec: str, **params: float) -> Effect:
@@ -110,8 +142,22 @@ class Effect:
 
     @property
     def key(self) -> str:
-        """``effect@place``, the form used by the CLI and the JSON output."""
+        """``effect@place``, the form used by the CLI and the JSON output (one effect of a name
+        per place, whatever its ``unloaded`` mode)."""
         return f"{self.name}@{self.at}"
+
+    @property
+    def label(self) -> str:
+        """``effect@place`` for people: ``actuator_play@M1 (taken up)`` for a taken-up gap."""
+        return self.key + (" (taken up)" if self.unloaded == "taken_up" else "")
+
+    @property
+    def code(self) -> int:
+        """The compiled core's code of this effect (its mode included)."""
+        kind = self.kind
+        if self.unloaded == "taken_up" and kind.taken_up_code is not None:
+            return kind.taken_up_code
+        return kind.code
 
     def index(self, n: int) -> int:
         """0-based index of the place on an arm of ``n`` links (0 for the base)."""
@@ -121,10 +167,11 @@ class Effect:
         return i
 
     def with_value(self, value: float) -> Effect:
-        return Effect(self.name, self.at, **{self.kind.param: value})
+        return Effect(self.name, self.at, unloaded=self.unloaded, **{self.kind.param: value})
 
     def __repr__(self) -> str:
-        return f"Effect({self.name!r}, {self.at!r}, {self.kind.param}={self.value!r})"
+        mode = "" if self.unloaded == "centred" else f", unloaded={self.unloaded!r}"
+        return f"Effect({self.name!r}, {self.at!r}, {self.kind.param}={self.value!r}{mode})"
 
 
 def _place_index(kind: EffectKind, at: str) -> int:
@@ -149,6 +196,9 @@ def candidate_places(name: str, n: int) -> list[str]:
 def effect_arrays(effects: Iterable[Effect], n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Effects as (codes, 0-based place indices, values) for the compiled core.
 
+    The code is the catalogue's, or for a gap taken up when unloaded its ``taken_up_code``
+    (6 ``actuator_play``, 7 ``joint_clearance``).
+
     Raises
     ------
     EffectError
@@ -163,7 +213,7 @@ def effect_arrays(effects: Iterable[Effect], n: int) -> tuple[np.ndarray, np.nda
         if e.key in seen:
             raise EffectError(f"effect {e.key} is given twice")
         seen.add(e.key)
-    codes = np.array([e.kind.code for e in effs], dtype=np.int64)
+    codes = np.array([e.code for e in effs], dtype=np.int64)
     places = np.array([e.index(n) for e in effs], dtype=np.int64)
     values = np.array([e.value for e in effs], dtype=float)
     return codes, places, values

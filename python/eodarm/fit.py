@@ -80,6 +80,12 @@ class Slot:
         if isinstance(effect, Slot):
             return effect
         if isinstance(effect, Effect):
+            if effect.unloaded != "centred":
+                # A slot has no gap mode: fitting this one as centred would change its physics.
+                raise EodarmError(
+                    f"effect {effect.label}: fit and diagnose vary gaps centred when unloaded "
+                    "only; solve or sweep a taken-up gap instead"
+                )
             return cls(effect.name, effect.at)
         return cls.parse(effect)
 

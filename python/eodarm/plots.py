@@ -119,8 +119,9 @@ def _num(x: float, digits: int = 3) -> str:
 
 
 def effect_label(effect: Effect) -> str:
-    """``"joint_clearance@O2 (clearance_mm = 0.1 mm)"``: an effect with its value and unit."""
-    return f"{effect.key} ({effect.param} = {_num(effect.value, 4)} {effect.kind.unit})"
+    """``"joint_clearance@O2 (clearance_mm = 0.1 mm)"``: an effect with its value and unit
+    (``"actuator_play@M1 (taken up) (play_mm = 0.05 mm)"`` for a gap taken up when unloaded)."""
+    return f"{effect.label} ({effect.param} = {_num(effect.value, 4)} {effect.kind.unit})"
 
 
 def main_channel(meas: Measurements, before: FitResult | None = None) -> str:
