@@ -258,8 +258,11 @@ def effect_places(arm: eodarm.Arm, kinds: tuple[str, ...] = ALL_KINDS) -> list[t
     return out
 
 
-def effect_value(draw: Any, arm: eodarm.Arm, name: str, at: str) -> eodarm.Effect:
-    """One effect with a physically plausible parameter (see the module notes)."""
+def effect_value(
+    draw: Any, arm: eodarm.Arm, name: str, at: str, unloaded: tuple[str, ...] = ("centred",)
+) -> eodarm.Effect:
+    """One effect with a physically plausible parameter (see the module notes); a gap (play,
+    clearance) in one of the ``unloaded`` modes (drawn only when there is a choice)."""
     i = int(at[1:]) - 1 if at != "base" else 0
     if name in ("actuator_compliance", "mount_compliance"):
         lo = max(200.0, arm.actuators[i].stiffness_n_per_mm / 4.0)
@@ -271,7 +274,12 @@ def effect_value(draw: Any, arm: eodarm.Arm, name: str, at: str) -> eodarm.Effec
         value = draw(_log(lo, max(1e11, 4.0 * lo)))
     else:
         value = draw(_log(1e7, 1e9))
-    return eodarm.Effect(name, at, **{eodarm.CATALOGUE[name].param: value})
+    mode = "centred"
+    if eodarm.CATALOGUE[name].taken_up_code is not None and len(unloaded) > 1:
+        mode = draw(st.sampled_from(unloaded))
+    elif eodarm.CATALOGUE[name].taken_up_code is not None:
+        mode = unloaded[0]
+    return eodarm.Effect(name, at, unloaded=mode, **{eodarm.CATALOGUE[name].param: value})
 
 
 @st.composite
@@ -282,14 +290,50 @@ def effect_at(draw: Any, arm: eodarm.Arm, name: str, at: str) -> eodarm.Effect:
 
 @st.composite
 def effects_for(
-    draw: Any, arm: eodarm.Arm, kinds: tuple[str, ...] = ALL_KINDS, max_size: int = 6
+    draw: Any,
+    arm: eodarm.Arm,
+    kinds: tuple[str, ...] = ALL_KINDS,
+    max_size: int = 6,
+    unloaded: tuple[str, ...] = ("centred",),
+    min_size: int = 0,
 ) -> list[eodarm.Effect]:
-    """0–``max_size`` distinct effects (any of ``kinds``, any valid place) for ``arm``."""
+    """``min_size``–``max_size`` distinct effects (any of ``kinds``, any valid place) for
+    ``arm``; gaps in the ``unloaded`` modes (``eodarm.effects.UNLOADED`` for both)."""
     places = effect_places(arm, kinds)
     chosen = draw(
-        st.lists(st.sampled_from(places), unique=True, max_size=min(max_size, len(places)))
+        st.lists(
+            st.sampled_from(places),
+            unique=True,
+            min_size=min(min_size, len(places)),
+            max_size=min(max_size, len(places)),
+        )
     )
-    return [effect_value(draw, arm, name, at) for name, at in chosen]
+    return [effect_value(draw, arm, name, at, unloaded) for name, at in chosen]
+
+
+@st.composite
+def extra_deformations(draw: Any, arm: eodarm.Arm, rows: int) -> dict[str, np.ndarray]:
+    """What user-written effects add (CONTRACT §8), as ``solve(extra=...)`` takes it: each key
+    present or not, in sizes a real mechanism shows (length changes and joint offsets up to
+    0.3 mm, a chassis tilt up to 1e-4 rad, a measure-point shift up to 1 mm), small enough that
+    every loaded triangle still closes."""
+    n = arm.n
+    sizes = {
+        "extra_seen_mm": ((rows, n), 0.3),
+        "extra_unseen_mm": ((rows, n), 0.3),
+        "extra_joint_mm": ((rows, n, 2), 0.3),
+        "extra_tilt_rad": ((rows,), 1e-4),
+        "extra_measure_mm": ((rows, 2), 1.0),
+    }
+    out = {}
+    for key, (shape, size) in sizes.items():
+        if draw(st.booleans(), label=f"{key} given"):
+            values = draw(
+                st.lists(_f(-size, size), min_size=math.prod(shape), max_size=math.prod(shape)),
+                label=key,
+            )
+            out[key] = np.array(values).reshape(shape)
+    return out
 
 
 # ---------------------------------------------------------------------------- arm variants

@@ -8,6 +8,7 @@ use std::time::Duration;
 use arm_benches::{example_arm, ok, uniform, v};
 use arm_core::effects::{
     ActuatorCompliance, ActuatorPlay, BaseCompliance, JointClearance, LinkBending, MountCompliance,
+    Unloaded,
 };
 use arm_core::{Arm, BatchBuffers, BatchInput, Effect, EffectSet, SolveOptions, Workspace};
 use criterion::{
@@ -34,10 +35,12 @@ fn all_effects(arm: &Arm) -> EffectSet {
                 Effect::ActuatorPlay(ActuatorPlay {
                     actuator: 2,
                     play: 0.05,
+                    unloaded: Unloaded::Centred,
                 }),
                 Effect::JointClearance(JointClearance {
                     joint: 2,
                     clearance: 0.15,
+                    unloaded: Unloaded::Centred,
                 }),
                 Effect::LinkBending(LinkBending {
                     link: 1,

@@ -15,6 +15,7 @@ __all__ = [
     "inverse_kinematics",
     "jacobian",
     "solve",
+    "statics",
     "sweep",
 ]
 
@@ -52,6 +53,18 @@ def solve(
     values: npt.NDArray[np.float64],
     self_weight: bool,
     nan_on_failure: bool = False,
+    *,
+    extra_seen_mm: npt.NDArray[np.float64] | None = None,
+    extra_unseen_mm: npt.NDArray[np.float64] | None = None,
+    extra_joint_mm: npt.NDArray[np.float64] | None = None,
+    extra_tilt_rad: npt.NDArray[np.float64] | None = None,
+    extra_measure_mm: npt.NDArray[np.float64] | None = None,
+) -> dict[str, npt.NDArray[np.float64]]: ...
+def statics(
+    arm: CoreArm,
+    alpha_deg: npt.NDArray[np.float64],
+    payload_n: npt.NDArray[np.float64],
+    self_weight: bool,
 ) -> dict[str, npt.NDArray[np.float64]]: ...
 def sweep(
     arm: CoreArm,

@@ -5,11 +5,13 @@
 //!
 //! * [`kinematics`]: frame transforms (the seed's relation 1), actuator lengths, angles from
 //!   lengths and inverse kinematics;
-//! * [`statics`]: actuator forces and joint reactions (relations 2–8 for `n` links);
+//! * [`statics`]: actuator forces and joint reactions (relations 2–8 for `n` links), of both
+//!   states for many poses in [`statics_batch`];
 //! * [`effects`]: the catalogue of physical effects (compliance, play, clearance, bending,
 //!   base tilt), one module each;
 //! * [`pose`]: the loaded pose, closed exactly;
-//! * [`solve`]: all of it for many poses at once, in parallel;
+//! * [`solve`]: all of it for many poses at once, in parallel, with per-pose extra
+//!   deformations from user-written effects ([`solve_batch_extra`]);
 //! * [`mod@sweep`]: poses × payloads in bounded memory, with per-group reductions (fast kernel);
 //! * [`sensitivity`]: predicted channels and their derivatives by effect parameter, for fits;
 //! * [`fem`]: the numerical model, a frame finite-element model of the same arm solved with
@@ -34,8 +36,12 @@ pub mod statics;
 pub mod sweep;
 
 pub use arm::{Actuator, Arm, Link};
+pub use effects::ExtraDeformations;
 pub use effects::{Effect, EffectSet, Mechanism};
 pub use error::{ArmError, Result};
 pub use geometry::V2;
-pub use solve::{solve_batch, BatchBuffers, BatchInput, BatchOutput, SolveOptions, Workspace};
+pub use solve::{
+    solve_batch, solve_batch_extra, BatchBuffers, BatchInput, BatchOutput, SolveOptions, Workspace,
+};
+pub use statics::{statics_batch, StaticsBuffers, StaticsOutput};
 pub use sweep::{sweep, CellFields, Cells, Reduce, ReduceOp, SweepOptions, SweepOut};

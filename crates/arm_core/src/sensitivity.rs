@@ -15,7 +15,7 @@ use rayon::prelude::*;
 use crate::arm::Arm;
 use crate::effects::{
     ActuatorCompliance, ActuatorPlay, BaseCompliance, Effect, EffectSet, JointClearance,
-    LinkBending, MountCompliance,
+    LinkBending, MountCompliance, Unloaded, CODE_CLEARANCE_TAKEN_UP, CODE_PLAY_TAKEN_UP,
 };
 use crate::error::{ArmError, Result};
 use crate::geometry::V2;
@@ -25,7 +25,8 @@ use crate::solve::{check_input, BatchInput, SolveOptions, Workspace, CHUNK, PARA
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Place {
     /// Catalogue code: 0 actuator_compliance, 1 mount_compliance, 2 actuator_play,
-    /// 3 joint_clearance, 4 link_bending, 5 base_compliance.
+    /// 3 joint_clearance, 4 link_bending, 5 base_compliance; 6 actuator_play and
+    /// 7 joint_clearance taken up by the unloaded forces ([`Unloaded::TakenUp`]).
     pub code: i64,
     /// 0-based place index (0 for the base).
     pub index: usize,
@@ -48,13 +49,15 @@ pub fn effect_from_theta(place: Place, theta: f64) -> Result<Effect> {
             actuator: i,
             stiffness: inv(theta),
         }),
-        2 => Effect::ActuatorPlay(ActuatorPlay {
+        2 | CODE_PLAY_TAKEN_UP => Effect::ActuatorPlay(ActuatorPlay {
             actuator: i,
             play: theta,
+            unloaded: gap_mode(place.code),
         }),
-        3 => Effect::JointClearance(JointClearance {
+        3 | CODE_CLEARANCE_TAKEN_UP => Effect::JointClearance(JointClearance {
             joint: i,
             clearance: theta,
+            unloaded: gap_mode(place.code),
         }),
         4 => Effect::LinkBending(LinkBending {
             link: i,
@@ -72,6 +75,15 @@ pub fn effect_from_theta(place: Place, theta: f64) -> Result<Effect> {
     })
 }
 
+/// The gap mode of a play or clearance code.
+fn gap_mode(code: i64) -> Unloaded {
+    if code == CODE_PLAY_TAKEN_UP || code == CODE_CLEARANCE_TAKEN_UP {
+        Unloaded::TakenUp
+    } else {
+        Unloaded::Centred
+    }
+}
+
 /// The θ of a place when it is not in the model (absent; the file's `1/k` for an actuator body).
 pub fn neutral_theta(arm: &Arm, place: Place) -> f64 {
     if place.code == 0 {
@@ -85,7 +97,7 @@ pub fn neutral_theta(arm: &Arm, place: Place) -> f64 {
 fn typical_theta(arm: &Arm, place: Place) -> f64 {
     match place.code {
         0 | 1 => 1.0 / arm.actuators[place.index].stiffness,
-        2 | 3 => 0.1,
+        2 | 3 | CODE_PLAY_TAKEN_UP | CODE_CLEARANCE_TAKEN_UP => 0.1,
         4 => 1e-10,
         _ => 1e-8,
     }
@@ -155,7 +167,7 @@ pub fn jacobian_batch(
     let mut sets = Vec::with_capacity(2 * p);
     let mut steps = Vec::with_capacity(p);
     for &q in probes {
-        if q.index >= arm.n() || !(0..=5).contains(&q.code) {
+        if q.index >= arm.n() || !(0..=CODE_CLEARANCE_TAKEN_UP).contains(&q.code) {
             return Err(ArmError::InvalidEffect {
                 effect: format!("code {} at index {}", q.code, q.index),
                 reason: format!("no such place on a {}-link arm", arm.n()),

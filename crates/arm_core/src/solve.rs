@@ -6,7 +6,7 @@
 use rayon::prelude::*;
 
 use crate::arm::Arm;
-use crate::effects::{Deformation, EffectContext, EffectSet};
+use crate::effects::{Deformation, EffectContext, EffectSet, ExtraDeformations};
 use crate::error::{ArmError, Result};
 use crate::geometry::V2;
 use crate::kinematics::Frames;
@@ -93,6 +93,33 @@ impl Workspace {
         opts: SolveOptions,
         row: usize,
     ) -> Result<()> {
+        self.solve_extra(
+            arm,
+            effects,
+            alpha,
+            payload,
+            opts,
+            row,
+            (&ExtraDeformations::none(), 0),
+        )
+    }
+
+    /// [`Self::solve`] with the extra deformations `extra.0` of its row `extra.1` added to the
+    /// effects' (a checked batch, see [`ExtraDeformations::check`]).
+    ///
+    /// # Errors
+    /// Singular poses and triangles that cannot close, naming `row`.
+    #[allow(clippy::too_many_arguments)]
+    pub fn solve_extra(
+        &mut self,
+        arm: &Arm,
+        effects: &EffectSet,
+        alpha: &[f64],
+        payload: V2,
+        opts: SolveOptions,
+        row: usize,
+        extra: (&ExtraDeformations<'_>, usize),
+    ) -> Result<()> {
         self.frames.fill(arm, alpha);
         self.lines.fill(&self.frames, row)?;
         solve_forces(
@@ -116,13 +143,17 @@ impl Workspace {
             arm,
             frames: &self.frames,
             lines: &self.lines,
+            unloaded: &self.weight,
             loaded: &self.loaded,
             delta: &self.delta,
             payload,
         };
         effects.apply(&ctx, &mut self.def);
+        if !extra.0.is_none() {
+            extra.0.add_to(extra.1, &mut self.def);
+        }
         for i in 0..arm.n() {
-            let body = -self.delta.f[i] * self.def.body_compliance[i];
+            let body = -self.delta.f[i] * self.def.body_compliance[i] + self.def.seen_length[i];
             self.body_dl[i] = body;
             self.new_length[i] = self.lines.length[i] + body + self.def.extra_length[i];
         }
@@ -134,7 +165,7 @@ impl Workspace {
             row,
             &mut self.new_alpha,
         )?;
-        self.dmeasure = m - self.frames.measure;
+        self.dmeasure = m + self.def.measure_shift - self.frames.measure;
         Ok(())
     }
 }
@@ -309,11 +340,29 @@ pub fn solve_batch(
     opts: SolveOptions,
     out: BatchOutput<'_>,
 ) -> Result<()> {
+    solve_batch_extra(arm, effects, input, ExtraDeformations::none(), opts, out)
+}
+
+/// [`solve_batch`] with per-pose deformations from outside the catalogue (user effects,
+/// CONTRACT §8) added to the built-in effects' before each pose is closed.
+///
+/// # Errors
+/// The error of the lowest failing row (shape, non-finite, singular, unreachable); a wrong
+/// size or a non-finite value of an extra array names the array (and the row).
+pub fn solve_batch_extra(
+    arm: &Arm,
+    effects: &EffectSet,
+    input: BatchInput<'_>,
+    extra: ExtraDeformations<'_>,
+    opts: SolveOptions,
+    out: BatchOutput<'_>,
+) -> Result<()> {
     let n = arm.n();
     let rows = check_input(arm, &input)?;
+    extra.check(rows, n)?;
     out.check(rows, n)?;
     if rows < PARALLEL_THRESHOLD {
-        return solve_chunk(arm, effects, input, opts, out, 0);
+        return solve_chunk(arm, effects, input, extra, opts, out, 0);
     }
     let chunks = split_output(out, n, CHUNK);
     let errors: Vec<ArmError> = chunks
@@ -326,7 +375,8 @@ pub fn solve_batch(
                 alpha_deg: &input.alpha_deg[start * n..(start + m) * n],
                 payload_n: &input.payload_n[2 * start..2 * (start + m)],
             };
-            solve_chunk(arm, effects, sub, opts, chunk, start).err()
+            let extra = extra.rows(start, m, n);
+            solve_chunk(arm, effects, sub, extra, opts, chunk, start).err()
         })
         .collect();
     // Chunks come back in order, so the first error is the lowest failing chunk's.
@@ -392,6 +442,7 @@ fn solve_chunk(
     arm: &Arm,
     effects: &EffectSet,
     input: BatchInput<'_>,
+    extra: ExtraDeformations<'_>,
     opts: SolveOptions,
     mut out: BatchOutput<'_>,
     first_row: usize,
@@ -405,7 +456,7 @@ fn solve_chunk(
             *a = d.to_radians();
         }
         let payload = V2::new(input.payload_n[2 * p], input.payload_n[2 * p + 1]);
-        if let Err(e) = ws.solve(arm, effects, &alpha, payload, opts, row) {
+        if let Err(e) = ws.solve_extra(arm, effects, &alpha, payload, opts, row, (&extra, p)) {
             if !opts.nan_on_failure || !e.is_pose_failure() {
                 return Err(e);
             }

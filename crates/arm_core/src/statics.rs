@@ -3,6 +3,10 @@
 //! Solved from the tip to the base: the moment of every known load on link i about O_i fixes
 //! the actuator force F_i, and the force balance then gives the joint reaction R_i.
 
+pub mod batch;
+
+pub use batch::{statics_batch, StaticsBuffers, StaticsOutput};
+
 use crate::arm::Arm;
 use crate::error::{ArmError, Result};
 use crate::geometry::{cross, V2};

@@ -14,6 +14,7 @@
 #![allow(clippy::unwrap_used, clippy::needless_range_loop)] // test code: a failure should panic
 use arm_core::effects::{
     ActuatorCompliance, ActuatorPlay, BaseCompliance, JointClearance, LinkBending, MountCompliance,
+    Unloaded,
 };
 use arm_core::examples::{example_arm, seed2022_arm};
 use arm_core::fem::forces::{link_forces, section_moment, Applied, PointForce};
@@ -247,18 +248,22 @@ fn gap_elements_reproduce_clearance_and_play() {
                 Effect::JointClearance(JointClearance {
                     joint: 1,
                     clearance: 0.15 * s,
+                    unloaded: Unloaded::Centred,
                 }),
                 Effect::JointClearance(JointClearance {
                     joint: 2,
                     clearance: 0.1 * s,
+                    unloaded: Unloaded::Centred,
                 }),
                 Effect::ActuatorPlay(ActuatorPlay {
                     actuator: 0,
                     play: 0.05 * s,
+                    unloaded: Unloaded::Centred,
                 }),
                 Effect::ActuatorPlay(ActuatorPlay {
                     actuator: 2,
                     play: 0.08 * s,
+                    unloaded: Unloaded::Centred,
                 }),
             ]
         },
@@ -283,10 +288,12 @@ fn everything_at_once_agrees_at_second_order() {
                 Effect::ActuatorPlay(ActuatorPlay {
                     actuator: 2,
                     play: 0.05 * s,
+                    unloaded: Unloaded::Centred,
                 }),
                 Effect::JointClearance(JointClearance {
                     joint: 2,
                     clearance: 0.15 * s,
+                    unloaded: Unloaded::Centred,
                 }),
                 Effect::LinkBending(LinkBending { link: 1, ei: 2e10 }),
                 Effect::BaseCompliance(BaseCompliance { stiffness: 5e8 }),
@@ -305,10 +312,12 @@ fn gaps_close_on_the_side_of_the_loaded_force_and_are_bounded() {
             Effect::JointClearance(JointClearance {
                 joint: 1,
                 clearance: 0.2,
+                unloaded: Unloaded::Centred,
             }),
             Effect::ActuatorPlay(ActuatorPlay {
                 actuator: 2,
                 play: 0.1,
+                unloaded: Unloaded::Centred,
             }),
         ],
     )
@@ -350,6 +359,7 @@ fn forces_equal_the_statics_of_the_analytic_model() {
                 Effect::JointClearance(JointClearance {
                     joint: 2,
                     clearance: 0.1,
+                    unloaded: Unloaded::Centred,
                 }),
             ],
         )
@@ -475,6 +485,7 @@ fn the_three_linear_solvers_agree() {
         vec![Effect::JointClearance(JointClearance {
             joint: 1,
             clearance: 0.1,
+            unloaded: Unloaded::Centred,
         })],
     )
     .unwrap();
@@ -755,6 +766,7 @@ fn batch_equals_one_pose_at_a_time_and_masks_failures() {
         vec![Effect::JointClearance(JointClearance {
             joint: 2,
             clearance: 0.1,
+            unloaded: Unloaded::Centred,
         })],
     )
     .unwrap();

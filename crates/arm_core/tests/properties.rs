@@ -6,6 +6,7 @@
 #![allow(clippy::unwrap_used, clippy::needless_range_loop)] // test code: a failure should panic
 use arm_core::effects::{
     ActuatorCompliance, ActuatorPlay, BaseCompliance, JointClearance, LinkBending, MountCompliance,
+    Unloaded,
 };
 use arm_core::examples::example_arm;
 use arm_core::geometry::{cross, rot};
@@ -72,14 +73,17 @@ fn all_effects() -> Vec<Effect> {
     e.push(Effect::JointClearance(JointClearance {
         joint: 2,
         clearance: 0.2,
+        unloaded: Unloaded::Centred,
     }));
     e.push(Effect::JointClearance(JointClearance {
         joint: 0,
         clearance: 0.1,
+        unloaded: Unloaded::Centred,
     }));
     e.push(Effect::ActuatorPlay(ActuatorPlay {
         actuator: 2,
         play: 0.15,
+        unloaded: Unloaded::Centred,
     }));
     e
 }
@@ -247,7 +251,7 @@ proptest! {
         };
         let (alpha, load) = (rad(pose), v(0.0, -m * arm.g));
         for j in 0..3 {
-            let e = Effect::JointClearance(JointClearance { joint: j, clearance: c });
+            let e = Effect::JointClearance(JointClearance { joint: j, clearance: c, unloaded: Unloaded::Centred });
             let a = solve(&arm, stiff(e.clone()), &alpha, load, false);
             let b = solve(&arm, stiff(e.clone()), &alpha, 3.0 * load, false);
             let sw = solve(&arm, stiff(e), &alpha, load, true);
@@ -274,7 +278,7 @@ proptest! {
                 prop_assert!((a.dalpha[k] - want).abs() < 1e-9, "O{}: dα{} {} vs {want}", j + 1, k + 1, a.dalpha[k]);
             }
             prop_assert!((a.d - b.d).norm() < 1e-6 * (1.0 + a.d.norm()), "clearance grew with load");
-            let p = Effect::ActuatorPlay(ActuatorPlay { actuator: j, play: c });
+            let p = Effect::ActuatorPlay(ActuatorPlay { actuator: j, play: c, unloaded: Unloaded::Centred });
             let a = solve(&arm, stiff(p.clone()), &rad(pose), v(0.0, -m * arm.g), false);
             let b = solve(&arm, stiff(p), &rad(pose), v(0.0, -3.0 * m * arm.g), false);
             let dl = a.ws.new_length[j] - a.ws.lines.length[j];
@@ -369,6 +373,7 @@ fn duplicate_and_misplaced_effects_are_refused() {
     let e = Effect::JointClearance(JointClearance {
         joint: 1,
         clearance: 0.1,
+        unloaded: Unloaded::Centred,
     });
     let err = EffectSet::new(&arm, vec![e.clone(), e]).unwrap_err();
     assert!(err.to_string().contains("joint_clearance@O2"));
@@ -380,6 +385,7 @@ fn duplicate_and_misplaced_effects_are_refused() {
     let neg = Effect::ActuatorPlay(ActuatorPlay {
         actuator: 0,
         play: -0.1,
+        unloaded: Unloaded::Centred,
     });
     assert!(EffectSet::new(&arm, vec![neg]).is_err());
 }

@@ -6,6 +6,7 @@
 #![allow(clippy::unwrap_used, clippy::needless_range_loop)] // test code: a failure should panic
 use arm_core::effects::{
     ActuatorCompliance, ActuatorPlay, BaseCompliance, JointClearance, LinkBending, MountCompliance,
+    Unloaded,
 };
 use arm_core::examples::example_arm;
 use arm_core::kinematics::Frames;
@@ -315,6 +316,15 @@ fn length_only() -> Vec<(&'static str, Vec<Effect>)> {
             vec![Effect::ActuatorPlay(ActuatorPlay {
                 actuator: 1,
                 play: 0.2,
+                unloaded: Unloaded::Centred,
+            })],
+        ),
+        (
+            "actuator_play taken up",
+            vec![Effect::ActuatorPlay(ActuatorPlay {
+                actuator: 0,
+                play: 0.2,
+                unloaded: Unloaded::TakenUp,
             })],
         ),
         (
@@ -335,10 +345,12 @@ fn length_only() -> Vec<(&'static str, Vec<Effect>)> {
                 Effect::ActuatorPlay(ActuatorPlay {
                     actuator: 0,
                     play: 0.1,
+                    unloaded: Unloaded::Centred,
                 }),
                 Effect::ActuatorPlay(ActuatorPlay {
                     actuator: 1,
                     play: 0.3,
+                    unloaded: Unloaded::TakenUp,
                 }),
             ],
         ),
@@ -352,6 +364,15 @@ fn other_effects() -> Vec<(&'static str, Vec<Effect>)> {
             vec![Effect::JointClearance(JointClearance {
                 joint: 1,
                 clearance: 0.15,
+                unloaded: Unloaded::Centred,
+            })],
+        ),
+        (
+            "joint_clearance taken up",
+            vec![Effect::JointClearance(JointClearance {
+                joint: 2,
+                clearance: 0.15,
+                unloaded: Unloaded::TakenUp,
             })],
         ),
         (
@@ -369,10 +390,12 @@ fn other_effects() -> Vec<(&'static str, Vec<Effect>)> {
                 Effect::ActuatorPlay(ActuatorPlay {
                     actuator: 0,
                     play: 0.05,
+                    unloaded: Unloaded::Centred,
                 }),
                 Effect::JointClearance(JointClearance {
                     joint: 0,
                     clearance: 0.1,
+                    unloaded: Unloaded::Centred,
                 }),
             ],
         ),

@@ -5,7 +5,8 @@ use crate::errors::{value_error, PyArmError};
 use arm_core::effects::{Effect, EffectSet};
 use arm_core::{Actuator, Arm, BatchBuffers, BatchInput, Link, V2};
 use numpy::{
-    IntoPyArray, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods,
+    IntoPyArray, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyReadonlyArrayDyn,
+    PyUntypedArrayMethods,
 };
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -27,6 +28,27 @@ pub(crate) fn matrix<'a>(
         .as_slice()
         .map_err(|_| value_error(format!("{name}: array must be C-contiguous")))?;
     Ok((s, shape[0]))
+}
+
+/// Borrows an optional C-contiguous float64 array of exactly `shape` as a slice (`None` when
+/// absent); `dims` spells the expected shape in the error, e.g. `(N, n, 2)`.
+pub(crate) fn optional<'a>(
+    a: &'a Option<PyReadonlyArrayDyn<'_, f64>>,
+    name: &str,
+    shape: &[usize],
+    dims: &str,
+) -> PyResult<Option<&'a [f64]>> {
+    let Some(a) = a else { return Ok(None) };
+    if a.shape() != shape {
+        return Err(value_error(format!(
+            "{name}: expected shape {dims} = {shape:?}, got {:?}",
+            a.shape()
+        )));
+    }
+    let s = a
+        .as_slice()
+        .map_err(|_| value_error(format!("{name}: array must be C-contiguous")))?;
+    Ok(Some(s))
 }
 
 pub(crate) fn vector<'a>(

@@ -2,7 +2,7 @@
 //! out, core errors to Python exceptions); every function is one call into `arm_core`.
 //!
 //! One module per thing exposed: [`convert`] (arrays, the arm, effects), [`errors`],
-//! [`solve`], [`fem`], [`sweep`], [`kinematics`], [`jacobian`]; this file only registers them.
+//! [`solve`] (and `statics`), [`fem`], [`sweep`], [`kinematics`], [`jacobian`]; this file only registers them.
 
 mod convert;
 mod errors;
@@ -20,6 +20,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("CoreError", m.py().get_type::<errors::CoreError>())?;
     m.add_class::<convert::CoreArm>()?;
     m.add_function(wrap_pyfunction!(solve::solve, m)?)?;
+    m.add_function(wrap_pyfunction!(solve::statics, m)?)?;
     m.add_function(wrap_pyfunction!(fem::fem_solve, m)?)?;
     m.add_function(wrap_pyfunction!(sweep::py_sweep, m)?)?;
     m.add_function(wrap_pyfunction!(kinematics::forward, m)?)?;

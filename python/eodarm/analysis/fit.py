@@ -36,7 +36,6 @@ from eodarm.data.measurements import Measurements
 from eodarm.errors import EodarmError
 from eodarm.model.arm import Arm
 from eodarm.model.effects import (
-    CATALOGUE,
     THETA_MAX,
     Effect,
     Slot,
@@ -136,10 +135,10 @@ class Problem:
                 self.fem_options,
                 nan_on_failure,
             )
-        mc = np.array([CATALOGUE[s.name].code for s, _ in model], dtype=np.int64)
+        mc = np.array([s.code for s, _ in model], dtype=np.int64)
         mp = np.array([s.index(n) for s, _ in model], dtype=np.int64)
         mt = np.array([t for _, t in model], dtype=float)
-        pc = np.array([CATALOGUE[s.name].code for s in probes], dtype=np.int64)
+        pc = np.array([s.code for s in probes], dtype=np.int64)
         pp = np.array([s.index(n) for s in probes], dtype=np.int64)
         return _core.jacobian(
             _core_arm(self.arm),
@@ -198,7 +197,7 @@ class FitResult:
         for s, t in zip(self.slots, self.theta, strict=True):
             value = param_from_theta(s.name, float(t))
             if math.isfinite(value) and (value > 0 or s.kind.allow_zero):
-                out.append(Effect(s.name, s.at, **{s.kind.param: value}))
+                out.append(s.effect(value))
         return out
 
     @property

@@ -14,6 +14,7 @@ from eodarm.errors import EffectError, EodarmError
 __all__ = [
     "CATALOGUE",
     "THETA_MAX",
+    "UNLOADED",
     "Effect",
     "EffectKind",
     "Slot",
@@ -23,6 +24,11 @@ __all__ = [
     "param_from_theta",
     "theta_from_param",
 ]
+
+#: Where a gap (``actuator_play``, ``joint_clearance``) sits in the unloaded state:
+#: ``"centred"`` (the whole offset appears under load, CONTRACT §4) or ``"taken_up"`` (the
+#: unloaded forces already closed it; only the change of offset shows). docs/model.md §4.
+UNLOADED = ("centred", "taken_up")
 
 
 @dataclass(frozen=True)
@@ -40,6 +46,8 @@ class EffectKind:
     unit: str
     compliance_like: bool
     allow_zero: bool
+    #: The compiled core's code of this effect taken up when unloaded (gaps only).
+    taken_up_code: int | None = None
 
 
 CATALOGUE: dict[str, EffectKind] = {
@@ -47,8 +55,8 @@ CATALOGUE: dict[str, EffectKind] = {
     for k in (
         EffectKind("actuator_compliance", 0, "M", "stiffness_n_per_mm", "N/mm", True, False),
         EffectKind("mount_compliance", 1, "M", "stiffness_n_per_mm", "N/mm", True, False),
-        EffectKind("actuator_play", 2, "M", "play_mm", "mm", False, True),
-        EffectKind("joint_clearance", 3, "O", "clearance_mm", "mm", False, True),
+        EffectKind("actuator_play", 2, "M", "play_mm", "mm", False, True, 6),
+        EffectKind("joint_clearance", 3, "O", "clearance_mm", "mm", False, True, 7),
         EffectKind("link_bending", 4, "L", "ei_n_mm2", "N·mm²", True, False),
         EffectKind("base_compliance", 5, "", "stiffness_nmm_per_rad", "N·mm/rad", True, False),
     )
@@ -65,18 +73,35 @@ class Effect:
         ``actuator_play``, ``joint_clearance``, ``link_bending``, ``base_compliance``).
     at : the place: ``M1``…``Mn`` (actuators), ``O1``…``On`` (joints), ``L1``…``Ln`` (links)
         or ``base``.
+    unloaded : keyword, for ``actuator_play`` and ``joint_clearance`` only: ``"centred"``
+        (default: the
+        gap is centred in the unloaded state, so under load its whole offset appears, even at
+        zero payload when the weights load it) or ``"taken_up"`` (the unloaded forces, i.e.
+        self-weight, already closed it: only the change of the offset between the states
+        shows, zero at zero payload). See docs/model.md §4.
     **params : exactly the effect's parameter, e.g. ``stiffness_n_per_mm=500.0``.
     """
 
     name: str
     at: str
     value: float
+    unloaded: str = "centred"
 
-    def __init__(self, name: str, at: str, **params: float) -> None:
+    def __init__(self, name: str, at: str, **params: float | str) -> None:
+        unloaded = params.pop("unloaded", "centred")
         kind = CATALOGUE.get(name)
         if kind is None:
             raise EffectError(f"unknown effect '{name}'; known: {', '.join(CATALOGUE)}")
         _place_index(kind, at)  # validates the place's form
+        if unloaded not in UNLOADED:
+            raise EffectError(
+                f"effect {name}@{at}: unloaded must be 'centred' or 'taken_up', got {unloaded!r}"
+            )
+        if unloaded != "centred" and kind.taken_up_code is None:
+            raise EffectError(
+                f"effect {name}@{at}: only actuator_play and joint_clearance take "
+                f"unloaded={unloaded!r}"
+            )
         if set(params) != {kind.param}:
             raise EffectError(
                 f"effect {name}@{at} takes exactly the parameter '{kind.param}', "
@@ -98,13 +123,15 @@ class Effect:
         object.__setattr__(self, "name", name)
         object.__setattr__(self, "at", at)
         object.__setattr__(self, "value", value)
+        object.__setattr__(self, "unloaded", unloaded)
 
     @classmethod
-    def parse(cls, spec: str, **params: float) -> Effect:
-        """Build from ``"effect@place"`` (the CLI's ``--add`` form)."""
-        name, sep, at = spec.partition("@")
-        if not sep:
-            raise EffectError(f"'{spec}' is not of the form EFFECT@PLACE (e.g. joint_clearance@O3)")
+    def parse(cls, spec: str, **params: Any) -> Effect:
+        """Build from ``"effect@place"`` (the CLI's ``--add`` form); a gap taken up when
+        unloaded is ``"actuator_play@M1:taken_up"``."""
+        name, at, unloaded = _split_spec(spec)
+        if unloaded != "centred":
+            params = {**params, "unloaded": unloaded}
         return cls(name, at, **params)
 
     @property
@@ -122,8 +149,22 @@ class Effect:
 
     @property
     def key(self) -> str:
-        """``effect@place``, the form used by the CLI and the JSON output."""
+        """``effect@place``, the form used by the CLI and the JSON output (one effect of a name
+        per place, whatever its ``unloaded`` mode)."""
         return f"{self.name}@{self.at}"
+
+    @property
+    def label(self) -> str:
+        """``effect@place`` for people: ``actuator_play@M1 (taken up)`` for a taken-up gap."""
+        return self.key + (" (taken up)" if self.unloaded == "taken_up" else "")
+
+    @property
+    def code(self) -> int:
+        """The compiled core's code of this effect (its mode included)."""
+        kind = self.kind
+        if self.unloaded == "taken_up" and kind.taken_up_code is not None:
+            return kind.taken_up_code
+        return kind.code
 
     def index(self, n: int) -> int:
         """0-based index of the place on an arm of ``n`` links (0 for the base)."""
@@ -133,14 +174,37 @@ class Effect:
         return i
 
     def with_value(self, value: float) -> Effect:
-        return Effect(self.name, self.at, **{self.kind.param: value})
+        return Effect(self.name, self.at, unloaded=self.unloaded, **{self.kind.param: value})
 
     def __repr__(self) -> str:
-        return f"Effect({self.name!r}, {self.at!r}, {self.kind.param}={self.value!r})"
+        mode = "" if self.unloaded == "centred" else f", unloaded={self.unloaded!r}"
+        return f"Effect({self.name!r}, {self.at!r}, {self.kind.param}={self.value!r}{mode})"
+
+    @property
+    def spec(self) -> str:
+        """``effect@place``, or ``effect@place:taken_up`` for a taken-up gap: what ``--add``
+        and :meth:`parse` read back."""
+        return self.key + (":taken_up" if self.unloaded == "taken_up" else "")
 
     def to_table(self) -> dict[str, Any]:
         """The effect as an arm file's ``[[effect]]`` table (CONTRACT §7)."""
-        return {"effect": self.name, "at": self.at, self.kind.param: self.value}
+        table: dict[str, Any] = {"effect": self.name, "at": self.at, self.kind.param: self.value}
+        if self.unloaded != "centred":
+            table["unloaded"] = self.unloaded
+        return table
+
+
+def _split_spec(spec: str) -> tuple[str, str, str]:
+    """``"effect@place[:taken_up]"`` → (effect, place, unloaded mode)."""
+    if not isinstance(spec, str):
+        raise EffectError(f"an effect is given as 'EFFECT@PLACE', got {spec!r}")
+    name, sep, at = spec.strip().partition("@")
+    if not sep:
+        raise EffectError(f"'{spec}' is not of the form EFFECT@PLACE (e.g. joint_clearance@O3)")
+    at, colon, mode = at.partition(":")
+    if colon and mode not in UNLOADED:
+        raise EffectError(f"'{spec}': the mode after ':' is one of {', '.join(UNLOADED)}")
+    return name, at, mode or "centred"
 
 
 def effect_from_table(table: Any) -> Effect:
@@ -167,7 +231,10 @@ def effect_from_table(table: Any) -> Effect:
         _place_index(kind, at)
     except EffectError as exc:
         raise EffectError(str(exc), key="at") from None
-    extra = sorted(set(table) - {"effect", "at", kind.param})
+    unloaded = table.get("unloaded", "centred")
+    if unloaded not in UNLOADED:
+        raise EffectError(f"must be one of {', '.join(UNLOADED)}, got {unloaded!r}", key="unloaded")
+    extra = sorted(set(table) - {"effect", "at", kind.param, "unloaded"})
     if extra:
         raise EffectError(
             f"{name} takes the parameter '{kind.param}', not {', '.join(extra)}", key=extra[0]
@@ -177,8 +244,10 @@ def effect_from_table(table: Any) -> Effect:
     raw = table[kind.param]
     if isinstance(raw, bool) or not isinstance(raw, (int, float)):
         raise EffectError(f"must be a number, got {raw!r}", key=kind.param)
+    if unloaded != "centred" and kind.taken_up_code is None:
+        raise EffectError(f"{name} has no gap to take up", key="unloaded")
     try:
-        return Effect(name, at, **{kind.param: raw})
+        return Effect(name, at, unloaded=unloaded, **{kind.param: raw})
     except EffectError as exc:
         raise EffectError(str(exc), key=kind.param) from None
 
@@ -206,6 +275,9 @@ def candidate_places(name: str, n: int) -> list[str]:
 def effect_arrays(effects: Iterable[Effect], n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Effects as (codes, 0-based place indices, values) for the compiled core.
 
+    The code is the catalogue's, or for a gap taken up when unloaded its ``taken_up_code``
+    (6 ``actuator_play``, 7 ``joint_clearance``).
+
     Raises
     ------
     EffectError
@@ -220,7 +292,7 @@ def effect_arrays(effects: Iterable[Effect], n: int) -> tuple[np.ndarray, np.nda
         if e.key in seen:
             raise EffectError(f"effect {e.key} is given twice")
         seen.add(e.key)
-    codes = np.array([e.kind.code for e in effs], dtype=np.int64)
+    codes = np.array([e.code for e in effs], dtype=np.int64)
     places = np.array([e.index(n) for e in effs], dtype=np.int64)
     values = np.array([e.value for e in effs], dtype=float)
     return codes, places, values
@@ -240,30 +312,39 @@ THETA_MAX = {"actuator_play": 5.0, "joint_clearance": 5.0}
 
 @dataclass(frozen=True)
 class Slot:
-    """An effect kind at a place, without a value: what a fit or a diagnosis varies."""
+    """An effect kind at a place, without a value: what a fit or a diagnosis varies.
+
+    ``unloaded`` is a gap's mode (``"centred"`` or ``"taken_up"``, see :class:`Effect`); the
+    ``key`` is the same for both, as a place has one gap of a kind.
+    """
 
     name: str
     at: str
+    unloaded: str = "centred"
 
     @classmethod
     def parse(cls, spec: str) -> Slot:
-        """``"joint_clearance@O3"`` → Slot (validated against the catalogue)."""
-        name, sep, at = spec.partition("@")
-        if not sep or name not in CATALOGUE:
+        """``"joint_clearance@O3"`` (or ``"joint_clearance@O3:taken_up"``) → Slot, validated
+        against the catalogue."""
+        try:
+            name, at, unloaded = _split_spec(spec)
+        except EffectError as exc:
+            raise EodarmError(str(exc)) from None
+        if name not in CATALOGUE:
             raise EodarmError(
                 f"'{spec}' is not of the form EFFECT@PLACE with EFFECT one of "
                 f"{', '.join(CATALOGUE)}"
             )
         kind = CATALOGUE[name]
-        Effect(name, at, **{kind.param: 1.0})  # validates the place's form
-        return cls(name, at)
+        Effect(name, at, unloaded=unloaded, **{kind.param: 1.0})  # validates place and mode
+        return cls(name, at, unloaded)
 
     @classmethod
     def of(cls, effect: Effect | Slot | str) -> Slot:
         if isinstance(effect, Slot):
             return effect
         if isinstance(effect, Effect):
-            return cls(effect.name, effect.at)
+            return cls(effect.name, effect.at, effect.unloaded)
         return cls.parse(effect)
 
     @property
@@ -274,11 +355,30 @@ class Slot:
     def key(self) -> str:
         return f"{self.name}@{self.at}"
 
+    @property
+    def spec(self) -> str:
+        """What :meth:`parse` reads back (the key, with ``:taken_up`` for a taken-up gap)."""
+        return self.key + (":taken_up" if self.unloaded == "taken_up" else "")
+
+    @property
+    def label(self) -> str:
+        """For people: ``actuator_play@M1 (taken up)`` for a taken-up gap."""
+        return self.key + (" (taken up)" if self.unloaded == "taken_up" else "")
+
+    @property
+    def code(self) -> int:
+        """The compiled core's code of this slot (its mode included)."""
+        return self.effect(1.0).code
+
+    def effect(self, value: float) -> Effect:
+        """This slot with a value."""
+        return Effect(self.name, self.at, unloaded=self.unloaded, **{self.kind.param: value})
+
     def index(self, n: int) -> int:
-        return Effect(self.name, self.at, **{self.kind.param: 1.0}).index(n)
+        return self.effect(1.0).index(n)
 
     def __str__(self) -> str:
-        return self.key
+        return self.spec
 
 
 def theta_from_param(name: str, value: float) -> float:

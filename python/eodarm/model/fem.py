@@ -183,7 +183,7 @@ def evaluate(
     thetas = {s.key: (s, float(t)) for s, t in model}
 
     def run(th: Mapping[str, tuple[Slot, float]]) -> npt.NDArray[np.float64]:
-        codes = np.array([CATALOGUE[s.name].code for s, _ in th.values()], dtype=np.int64)
+        codes = np.array([s.code for s, _ in th.values()], dtype=np.int64)
         places = np.array([s.index(n) for s, _ in th.values()], dtype=np.int64)
         values = np.array([_param(s.name, t) for s, t in th.values()], dtype=float)
         out = _raw(arm, alpha, payload, codes, places, values, self_weight, opts, nan_on_failure)

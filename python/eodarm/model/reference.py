@@ -338,6 +338,10 @@ def statics(
             Loaded joint reactions in N: the force body i−1 exerts on link i at O_i (global).
         ``"force_unloaded_n"``, ``"reaction_unloaded_n"``
             The same for the unloaded state (self-weight only).
+        ``"force0_n"``, ``"reaction0_n"``
+            The same unloaded arrays under the compiled core's names (``_core.statics``).
+        ``"length_mm"`` (N, n)
+            Unloaded pin-to-pin actuator lengths, mm.
 
     Raises
     ------
@@ -350,9 +354,13 @@ def statics(
     payload = _as_payload(payload_n, alpha.shape[0])
     geo = _forward(arr, np.radians(alpha))
     st = _statics(arr, geo, payload, bool(self_weight))
-    return {
+    out = {
         key: st[key] for key in ("force_n", "reaction_n", "force_unloaded_n", "reaction_unloaded_n")
     }
+    out["force0_n"] = st["force_unloaded_n"]
+    out["reaction0_n"] = st["reaction_unloaded_n"]
+    out["length_mm"] = geo["length_mm"]
+    return out
 
 
 # ---------------------------------------------------------------------------- effects
@@ -366,6 +374,9 @@ def _effect_params(arm: Arm, effects: Any) -> dict[str, Any]:
         "k_mount": np.full(n, np.inf),
         "play": np.zeros(n),
         "clearance": np.zeros(n),
+        # Gaps taken up by the unloaded forces (Effect.unloaded == "taken_up").
+        "play_up": np.zeros(n, dtype=bool),
+        "clearance_up": np.zeros(n, dtype=bool),
         "ei": [None] * n,
         "k_base": None,
     }
@@ -377,8 +388,10 @@ def _effect_params(arm: Arm, effects: Any) -> dict[str, Any]:
             p["k_mount"][i] = e.value
         elif e.name == "actuator_play":
             p["play"][i] = e.value
+            p["play_up"][i] = e.unloaded == "taken_up"
         elif e.name == "joint_clearance":
             p["clearance"][i] = e.value
+            p["clearance_up"][i] = e.unloaded == "taken_up"
         elif e.name == "link_bending":
             if arm.links[i].A[0] == 0.0:
                 raise EffectError(
@@ -471,6 +484,44 @@ def _circle_intersection(
     return pt, ok
 
 
+# ---------------------------------------------------------------------------- extras
+#: The extra deformations of user effects (CONTRACT §8) as whole-arm arrays: name → the shape
+#: of one pose's values ("n" the number of links). The same names as ``_core.solve``'s.
+EXTRA_SHAPES: dict[str, tuple[str | int, ...]] = {
+    "extra_seen_mm": ("n",),
+    "extra_unseen_mm": ("n",),
+    "extra_joint_mm": ("n", 2),
+    "extra_tilt_rad": (),
+    "extra_measure_mm": (2,),
+}
+
+
+def _extras(extra: Any, n_rows: int, n: int) -> dict[str, FloatArray]:
+    """The extra deformations, every key present (zeros when absent), checked.
+
+    ``extra_seen_mm`` (N, n) pin-to-pin length change each actuator's sensor sees,
+    ``extra_unseen_mm`` (N, n) one it does not see, ``extra_joint_mm`` (N, n, 2) offset of link
+    i's pin centre at O_i (global), ``extra_tilt_rad`` (N,) chassis tilt about the pivot,
+    ``extra_measure_mm`` (N, 2) global displacement of the measure point.
+    """
+    given = {} if extra is None else dict(extra)
+    unknown = sorted(set(given) - set(EXTRA_SHAPES))
+    if unknown:
+        raise InputError(f"extra: unknown key {unknown[0]!r}; known: {', '.join(EXTRA_SHAPES)}")
+    out: dict[str, FloatArray] = {}
+    for key, per_row in EXTRA_SHAPES.items():
+        shape = (n_rows, *(n if d == "n" else int(d) for d in per_row))
+        if key not in given or given[key] is None:
+            out[key] = np.zeros(shape)
+            continue
+        a = _as_float(given[key], key)
+        if a.shape != shape:
+            raise InputError(f"{key} must have shape {shape}, got {a.shape}")
+        _check_finite(a, key)
+        out[key] = a
+    return out
+
+
 # ---------------------------------------------------------------------------- the solver
 def solve_payload(
     arm: Arm,
@@ -478,6 +529,7 @@ def solve_payload(
     payload_n: ArrayLike,
     effects: Any = (),
     self_weight: bool = True,
+    extra: Any = None,
 ) -> dict[str, FloatArray]:
     """Loaded minus unloaded response of the arm to a payload force (model §4–§5).
 
@@ -499,6 +551,10 @@ def solve_payload(
         The effects added to the baseline model (at most one per name and place).
     self_weight : bool, default True
         Whether both states carry the link and actuator weights.
+    extra : dict of str to array_like, optional
+        Deformations of user-written effects added to the effects' (CONTRACT §8), each
+        optional: ``extra_seen_mm`` (N, n), ``extra_unseen_mm`` (N, n), ``extra_joint_mm``
+        (N, n, 2), ``extra_tilt_rad`` (N,), ``extra_measure_mm`` (N, 2) (see ``_extras``).
 
     Returns
     -------
@@ -514,7 +570,8 @@ def solve_payload(
         ``"dalpha_deg"`` (N, n)
             Change of each link's absolute angle (the chord angle of a bent link), degrees.
         ``"dl_mm"`` (N, n)
-            Change of each actuator body's length as its own sensor sees it, −ΔF/k_body, mm.
+            Change of each actuator body's length as its own sensor sees it, −ΔF/k_body (plus
+            ``extra_seen_mm``), mm.
         ``"dlength_mm"`` (N, n)
             Total pin-to-pin length change (body, mount and play), mm.
         ``"length_mm"`` (N, n)
@@ -534,6 +591,7 @@ def solve_payload(
     n_rows = alpha_d.shape[0]
     payload = _as_payload(payload_n, n_rows)
     par = _effect_params(arm, effects)
+    ext = _extras(extra, n_rows, n)
     alpha = np.radians(alpha_d)
     geo = _forward(arr, alpha)
     st = _statics(arr, geo, payload, bool(self_weight))
@@ -542,20 +600,30 @@ def solve_payload(
 
     # --- actuator lengths
     ell = geo["length_mm"]
-    d_body = -df / par["k_body"]
-    d_mount = -df / par["k_mount"]
-    f_loaded = st["force_n"]
-    d_play = -par["play"] * np.where(np.abs(f_loaded) < FORCE_ZERO_N, 0.0, np.sign(f_loaded))
+    d_body = -df / par["k_body"] + ext["extra_seen_mm"]
+    d_mount = -df / par["k_mount"] + ext["extra_unseen_mm"]
+
+    def sign0(f: FloatArray) -> FloatArray:
+        return np.where(np.abs(f) < FORCE_ZERO_N, 0.0, np.sign(f))
+
+    # Play: the loaded side, less the unloaded side where the weights took the play up.
+    turned = sign0(st["force_n"]) - np.where(par["play_up"], sign0(st["force_unloaded_n"]), 0.0)
+    d_play = -par["play"] * turned
     d_length = d_body + d_mount + d_play
     ell_new = ell + d_length
 
-    # --- joint clearance: offset c_i u_i, a global vector (the force of the undeformed statics)
-    r_loaded = st["reaction_n"]
-    r_norm = np.linalg.norm(r_loaded, axis=-1)
-    pressed = r_norm >= FORCE_ZERO_N
-    safe = np.where(pressed, r_norm, 1.0)
-    u = np.where(pressed[..., None], -r_loaded / safe[..., None], 0.0)  # (N, n, 2)
-    clear = par["clearance"][None, :, None] * u  # (N, n, 2), global
+    # --- joint clearance: offset c_i u_i, a global vector (the force of the undeformed statics);
+    # taken up: c_i (u_i − u0_i), u0_i the direction of the unloaded state's force
+    def press_dir(r: FloatArray) -> FloatArray:
+        r_norm = np.linalg.norm(r, axis=-1)
+        pressed = r_norm >= FORCE_ZERO_N
+        safe = np.where(pressed, r_norm, 1.0)
+        return np.where(pressed[..., None], -r / safe[..., None], 0.0)  # (N, n, 2)
+
+    u = press_dir(st["reaction_n"]) - np.where(
+        par["clearance_up"][None, :, None], press_dir(st["reaction_unloaded_n"]), 0.0
+    )
+    clear = par["clearance"][None, :, None] * u + ext["extra_joint_mm"]  # (N, n, 2), global
 
     # --- link bending: displacement fields of the local points that matter
     zero = np.zeros((n_rows, 2))
@@ -590,6 +658,7 @@ def solve_payload(
         dphi = np.zeros(n_rows)
     else:
         dphi = _cross(geo["O"][:, n] - pivot, payload) / par["k_base"]
+    dphi = dphi + ext["extra_tilt_rad"]
 
     # --- close the loaded pose from the base to the tip
     side = np.sign(_cross(geo["B"] - geo["O"][:, :n], geo["A"] - geo["O"][:, :n]))  # (N, n)
@@ -613,7 +682,7 @@ def solve_payload(
         alpha_new[:, i] = alpha[:, i] + _wrap(turn)
 
     m_new = o_new + _rotate(alpha_new[:, n - 1], arr["measure"] + d_meas)
-    dm = m_new - geo["measure"]
+    dm = m_new - geo["measure"] + ext["extra_measure_mm"]
     return {
         "force_n": st["force_n"],
         "reaction_n": st["reaction_n"],
@@ -633,6 +702,7 @@ def solve(
     mass_kg: ArrayLike,
     effects: Any = (),
     self_weight: bool = True,
+    extra: Any = None,
 ) -> dict[str, FloatArray]:
     """Response of the arm to a payload mass at the load point (CONTRACT §5, numpy backend).
 
@@ -648,6 +718,8 @@ def solve(
         The effects added to the baseline model.
     self_weight : bool, default True
         Whether both states carry the link and actuator weights.
+    extra : dict of str to array_like, optional
+        Deformations of user-written effects, as :func:`solve_payload` takes them.
 
     Returns
     -------
@@ -662,7 +734,7 @@ def solve(
     alpha = _as_poses(alpha_deg, arm.n, "alpha_deg")
     mass = _as_mass(mass_kg, alpha.shape[0])
     payload = np.stack([np.zeros_like(mass), -mass * arm.g], axis=-1)
-    return solve_payload(arm, alpha, payload, effects=effects, self_weight=self_weight)
+    return solve_payload(arm, alpha, payload, effects=effects, self_weight=self_weight, extra=extra)
 
 
 # ---------------------------------------------------------------------------- kinematics

@@ -25,6 +25,7 @@ __all__ = [
     "inverse_kinematics",
     "solve",
     "solve_payload",
+    "statics",
     "stroke_violations",
 ]
 
@@ -41,6 +42,7 @@ def solve(
     self_weight: bool = True,
     model: str = "analytic",
     fem_options: Mapping[str, Any] | None = None,
+    extra: Mapping[str, npt.ArrayLike | None] | None = None,
 ) -> Arrays:
     """Loaded minus unloaded state of N poses under a payload mass at the load point.
 
@@ -57,6 +59,12 @@ def solve(
         agrees with the analytic model to first order in the load; compiled core only.
     fem_options : with ``model="fem"``: ``elements_per_link`` (default 8) and
         ``moment_samples`` (101).
+    extra : deformations of user-written effects (CONTRACT §8) added to the effects', each
+        optional, global frame: ``extra_seen_mm`` (N, n) pin-to-pin length change that the
+        actuator's sensor sees, ``extra_unseen_mm`` (N, n) one it does not see,
+        ``extra_joint_mm`` (N, n, 2) offset of link i's pin centre at O_i, ``extra_tilt_rad``
+        (N,) chassis tilt about the base pivot, ``extra_measure_mm`` (N, 2) displacement of
+        the measure point. Analytic model only.
 
     Returns
     -------
@@ -87,7 +95,9 @@ def solve(
         raise InputError(f"pose row {bad[0]}: mass_kg is negative ({mass[bad[0]]})")
     payload = np.zeros((alpha.shape[0], 2))
     payload[:, 1] = -mass * arm.g
-    return solve_payload(arm, alpha, payload, effects, backend, self_weight, model, fem_options)
+    return solve_payload(
+        arm, alpha, payload, effects, backend, self_weight, model, fem_options, extra
+    )
 
 
 def solve_payload(
@@ -99,6 +109,7 @@ def solve_payload(
     self_weight: bool = True,
     model: str = "analytic",
     fem_options: Mapping[str, Any] | None = None,
+    extra: Mapping[str, npt.ArrayLike | None] | None = None,
 ) -> Arrays:
     """Like :func:`solve`, with any payload force vector (N, 2) in N at the load point."""
     check_arm(arm, "solve_payload")
@@ -115,6 +126,9 @@ def solve_payload(
     effs = as_effects(effects)
     codes, places, values = effect_arrays(effs, arm.n)
     fem.check_model(model)
+    extras = _extras(extra, alpha.shape[0], arm.n)
+    if extras and model == "fem":
+        raise InputError("extra deformations are for model='analytic'")
     if model == "fem":
         _check_backend(backend)
         if backend != "rust":
@@ -125,11 +139,59 @@ def solve_payload(
     if backend == "rust":
         from eodarm.model import native as _core
 
-        return _core.solve(_core_arm(arm), alpha, payload, codes, places, values, self_weight)
+        return _core.solve(
+            _core_arm(arm),
+            alpha,
+            payload,
+            codes,
+            places,
+            values,
+            self_weight,
+            extra_seen_mm=extras.get("extra_seen_mm"),
+            extra_unseen_mm=extras.get("extra_unseen_mm"),
+            extra_joint_mm=extras.get("extra_joint_mm"),
+            extra_tilt_rad=extras.get("extra_tilt_rad"),
+            extra_measure_mm=extras.get("extra_measure_mm"),
+        )
     _check_backend(backend)
     from eodarm.model import reference
 
-    return reference.solve_payload(arm, alpha, payload, effs, self_weight=self_weight)
+    return reference.solve_payload(arm, alpha, payload, effs, self_weight=self_weight, extra=extras)
+
+
+def statics(
+    arm: Arm,
+    alpha_deg: npt.ArrayLike,
+    mass_kg: npt.ArrayLike = 0.0,
+    backend: Backend = "rust",
+    self_weight: bool = True,
+) -> Arrays:
+    """Forces of both states of N poses on the undeformed geometry (CONTRACT §1, §8).
+
+    Returns
+    -------
+    dict of arrays: ``force_n``, ``force0_n`` (N, n) loaded and unloaded actuator forces
+    (compression +, N); ``reaction_n``, ``reaction0_n`` (N, n, 2) loaded and unloaded joint
+    reactions (force of body i−1 on link i, global, N); ``length_mm`` (N, n) unloaded
+    pin-to-pin lengths. The unloaded state carries the self-weight (none without it).
+    """
+    check_arm(arm, "statics")
+    alpha = _poses(alpha_deg, arm.n, "alpha_deg")
+    mass = _per_row(mass_kg, alpha.shape[0], "mass_kg")
+    bad = np.flatnonzero(mass < 0)
+    if bad.size:
+        raise InputError(f"pose row {bad[0]}: mass_kg is negative ({mass[bad[0]]})")
+    payload = np.zeros((alpha.shape[0], 2))
+    payload[:, 1] = -mass * arm.g
+    _check_backend(backend)
+    if backend == "rust":
+        from eodarm.model import native as _core
+
+        return _core.statics(_core_arm(arm), alpha, payload, self_weight)
+    from eodarm.model import reference
+
+    st = reference.statics(arm, alpha, payload, self_weight=self_weight)
+    return {k: st[k] for k in ("force_n", "force0_n", "reaction_n", "reaction0_n", "length_mm")}
 
 
 def forward(arm: Arm, alpha_deg: npt.ArrayLike, backend: Backend = "rust") -> Arrays:
@@ -248,6 +310,35 @@ def _poses(values: npt.ArrayLike, n: int, name: str) -> npt.NDArray[np.float64]:
     if bad.any():
         raise InputError(f"pose row {int(np.flatnonzero(bad)[0])}: {name} has a non-finite value")
     return np.ascontiguousarray(a)
+
+
+def _extras(
+    extra: Mapping[str, npt.ArrayLike | None] | None, rows: int, n: int
+) -> dict[str, npt.NDArray[np.float64]]:
+    """The given extra deformations as contiguous float64 arrays of their shapes (absent or
+    None keys left out), or a clear InputError naming the key (and the row)."""
+    from eodarm.model.reference import EXTRA_SHAPES
+
+    out: dict[str, npt.NDArray[np.float64]] = {}
+    for key, value in (extra or {}).items():
+        if key not in EXTRA_SHAPES:
+            raise InputError(f"extra: unknown key {key!r}; known: {', '.join(EXTRA_SHAPES)}")
+        if value is None:
+            continue
+        shape = (rows, *(n if d == "n" else int(d) for d in EXTRA_SHAPES[key]))
+        try:
+            a = np.asarray(value, dtype=float)
+        except (TypeError, ValueError):
+            raise InputError(f"{key}: cannot be read as an array of numbers") from None
+        if a.shape != shape:
+            raise InputError(f"{key}: expected shape {shape}, got {a.shape}")
+        bad = ~np.isfinite(a.reshape(rows, -1)).all(axis=1)
+        if bad.any():
+            raise InputError(
+                f"pose row {int(np.flatnonzero(bad)[0])}: {key} has a non-finite value"
+            )
+        out[key] = np.ascontiguousarray(a)
+    return out
 
 
 def _per_row(values: npt.ArrayLike, rows: int, name: str) -> npt.NDArray[np.float64]:

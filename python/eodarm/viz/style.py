@@ -120,7 +120,7 @@ def num(x: float, digits: int = 3) -> str:
 
 def effect_label(effect: Effect) -> str:
     """``"joint_clearance@O2 (clearance_mm = 0.1 mm)"``: an effect with its value and unit."""
-    return f"{effect.key} ({effect.param} = {num(effect.value, 4)} {effect.kind.unit})"
+    return f"{effect.label} ({effect.param} = {num(effect.value, 4)} {effect.kind.unit})"
 
 
 def main_channel(meas: Measurements, before: FitResult | None = None) -> str:

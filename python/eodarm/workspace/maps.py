@@ -125,6 +125,12 @@ def payload_capacity(
     if not (math.isfinite(probe_kg) and probe_kg > 0):
         raise EodarmError(f"probe_kg must be finite and > 0, got {probe_kg!r}")
     effs = list(as_effects(effects))
+    for e in effs:
+        if e.name == "actuator_play" and e.unloaded != "centred":
+            # The stroke formula below is the centred play's; never treat this one so.
+            raise EodarmError(
+                f"effect {e.label}: the capacity map models play centred when unloaded only"
+            )
     kw = {**as_sweep_kwargs(grid), **sweep_kw}
     ds = sweep(arm, mass_kg=[0.0, probe_kg], effects=effs, self_weight=self_weight, **kw)
     n = arm.n

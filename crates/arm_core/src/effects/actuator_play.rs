@@ -1,7 +1,10 @@
-//! `actuator_play@Mi`: axial free play, centred when unloaded. Loaded, the pin-to-pin length
-//! changes by `−play·sign(F_i)` (the loaded force); bounded by the play whatever the load.
+//! `actuator_play@Mi`: axial free play of actuator i. Loaded, the pin-to-pin length changes by
+//! `−play·sign(F_i)` (the loaded force) when the play is centred in the unloaded state, or by
+//! `−play·(sign(F_i) − sign(F0_i))` when the unloaded force F0_i (self-weight) had already
+//! taken it up ([`Unloaded`]). Either way bounded by the play (twice it, taken up) whatever
+//! the load.
 
-use super::{check_param, check_place, sign0, Deformation, EffectContext, Mechanism};
+use super::{check_param, check_place, sign0, Deformation, EffectContext, Mechanism, Unloaded};
 use crate::arm::Arm;
 use crate::error::Result;
 
@@ -12,6 +15,8 @@ pub struct ActuatorPlay {
     pub actuator: usize,
     /// Half-range of the free axial motion (mm), ≥ 0.
     pub play: f64,
+    /// Where the play sits in the unloaded state.
+    pub unloaded: Unloaded,
 }
 
 impl Mechanism for ActuatorPlay {
@@ -24,6 +29,12 @@ impl Mechanism for ActuatorPlay {
     }
     fn apply(&self, ctx: &EffectContext<'_>, def: &mut Deformation) {
         let i = self.actuator;
-        def.extra_length[i] -= self.play * sign0(ctx.loaded.f[i]);
+        match self.unloaded {
+            Unloaded::Centred => def.extra_length[i] -= self.play * sign0(ctx.loaded.f[i]),
+            Unloaded::TakenUp => {
+                let turned = sign0(ctx.loaded.f[i]) - sign0(ctx.unloaded.f[i]);
+                def.extra_length[i] -= self.play * turned;
+            }
+        }
     }
 }

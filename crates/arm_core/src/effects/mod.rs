@@ -8,6 +8,7 @@
 mod actuator_compliance;
 mod actuator_play;
 mod base_compliance;
+mod extra;
 mod joint_clearance;
 mod link_bending;
 mod mount_compliance;
@@ -15,6 +16,7 @@ mod mount_compliance;
 pub use actuator_compliance::ActuatorCompliance;
 pub use actuator_play::ActuatorPlay;
 pub use base_compliance::BaseCompliance;
+pub use extra::ExtraDeformations;
 pub use joint_clearance::JointClearance;
 pub use link_bending::LinkBending;
 pub use mount_compliance::MountCompliance;
@@ -34,6 +36,8 @@ pub struct EffectContext<'a> {
     pub frames: &'a Frames,
     /// Actuator directions and moment arms.
     pub lines: &'a ActuatorLines,
+    /// Forces in the unloaded state (self-weight, if any; zero without).
+    pub unloaded: &'a Forces,
     /// Forces in the loaded state (self-weight, if any, plus payload).
     pub loaded: &'a Forces,
     /// Change of forces from the unloaded to the loaded state.
@@ -60,6 +64,9 @@ pub struct PinShift {
 pub struct Deformation {
     /// Compliance of each actuator body (mm/N); the `dlK_mm` sensor sees `−ΔF·this`.
     pub body_compliance: Vec<f64>,
+    /// Further pin-to-pin length change of each actuator that its sensor sees (mm), on top of
+    /// the body's `−ΔF·body_compliance`.
+    pub seen_length: Vec<f64>,
     /// Further pin-to-pin length change of each actuator, unseen by its sensor (mm).
     pub extra_length: Vec<f64>,
     /// Offset of link i's joint from its bore in body i−1, global frame (mm).
@@ -68,6 +75,9 @@ pub struct Deformation {
     pub pin_shift: Vec<PinShift>,
     /// Counter-clockwise tilt of the chassis about the pivot (rad).
     pub base_tilt: f64,
+    /// Further displacement of the measurement point, global frame (mm), added after the pose
+    /// is closed (it moves no link).
+    pub measure_shift: V2,
 }
 
 impl Deformation {
@@ -76,10 +86,12 @@ impl Deformation {
         let n = arm.n();
         let mut d = Self {
             body_compliance: vec![0.0; n],
+            seen_length: vec![0.0; n],
             extra_length: vec![0.0; n],
             joint_offset: vec![V2::zeros(); n],
             pin_shift: vec![PinShift::default(); n],
             base_tilt: 0.0,
+            measure_shift: V2::zeros(),
         };
         d.reset(arm);
         d
@@ -90,10 +102,35 @@ impl Deformation {
         for (c, a) in self.body_compliance.iter_mut().zip(&arm.actuators) {
             *c = 1.0 / a.stiffness;
         }
+        self.seen_length.fill(0.0);
         self.extra_length.fill(0.0);
         self.joint_offset.fill(V2::zeros());
         self.pin_shift.fill(PinShift::default());
         self.base_tilt = 0.0;
+        self.measure_shift = V2::zeros();
+    }
+}
+
+/// What the unloaded state did to a gap (actuator play, joint clearance): CONTRACT §4 and
+/// docs/model.md §4.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub enum Unloaded {
+    /// The gap is centred in the unloaded state: loaded, the whole offset appears along the
+    /// loaded force (even at zero payload when the weights load the joint).
+    #[default]
+    Centred,
+    /// The unloaded forces (self-weight) already closed the gap: loaded, only the change of
+    /// the offset shows, loaded offset minus unloaded offset (zero at zero payload).
+    TakenUp,
+}
+
+impl Unloaded {
+    /// The suffix of an effect's label in messages: `""` or `" (taken up)"`.
+    pub fn suffix(self) -> &'static str {
+        match self {
+            Self::Centred => "",
+            Self::TakenUp => " (taken up)",
+        }
     }
 }
 
@@ -109,6 +146,11 @@ pub trait Mechanism {
     /// Adds this effect's cause to `def`.
     fn apply(&self, ctx: &EffectContext<'_>, def: &mut Deformation);
 }
+
+/// Code of `actuator_play` with [`Unloaded::TakenUp`] (2 is the centred one).
+pub const CODE_PLAY_TAKEN_UP: i64 = 6;
+/// Code of `joint_clearance` with [`Unloaded::TakenUp`] (3 is the centred one).
+pub const CODE_CLEARANCE_TAKEN_UP: i64 = 7;
 
 /// Every effect of the catalogue.
 #[derive(Debug, Clone, PartialEq)]
@@ -128,7 +170,8 @@ pub enum Effect {
 }
 
 impl Effect {
-    /// Builds an effect from the binding's code (the order of the catalogue), 0-based place
+    /// Builds an effect from the binding's code (the order of the catalogue; 6 and 7 are
+    /// `actuator_play` and `joint_clearance` with [`Unloaded::TakenUp`]), 0-based place
     /// index and parameter value.
     ///
     /// # Errors
@@ -143,13 +186,15 @@ impl Effect {
                 actuator: index,
                 stiffness: value,
             }),
-            2 => Self::ActuatorPlay(ActuatorPlay {
+            2 | CODE_PLAY_TAKEN_UP => Self::ActuatorPlay(ActuatorPlay {
                 actuator: index,
                 play: value,
+                unloaded: Self::unloaded_of(code),
             }),
-            3 => Self::JointClearance(JointClearance {
+            3 | CODE_CLEARANCE_TAKEN_UP => Self::JointClearance(JointClearance {
                 joint: index,
                 clearance: value,
+                unloaded: Self::unloaded_of(code),
             }),
             4 => Self::LinkBending(LinkBending {
                 link: index,
@@ -163,6 +208,24 @@ impl Effect {
                 })
             }
         })
+    }
+
+    /// The gap mode a code stands for (only 6 and 7 are taken up).
+    fn unloaded_of(code: i64) -> Unloaded {
+        if matches!(code, CODE_PLAY_TAKEN_UP | CODE_CLEARANCE_TAKEN_UP) {
+            Unloaded::TakenUp
+        } else {
+            Unloaded::Centred
+        }
+    }
+
+    /// The gap mode of a play or clearance; `None` for the other effects.
+    pub fn unloaded(&self) -> Option<Unloaded> {
+        match self {
+            Self::ActuatorPlay(e) => Some(e.unloaded),
+            Self::JointClearance(e) => Some(e.unloaded),
+            _ => None,
+        }
     }
 
     fn inner(&self) -> &dyn Mechanism {

@@ -5,7 +5,7 @@
 //! analytic core applies the same effects as *causes*; here they are stiffnesses and gaps.
 
 use crate::arm::Arm;
-use crate::effects::{Effect, EffectSet};
+use crate::effects::{Effect, EffectSet, Mechanism, Unloaded};
 use crate::error::{ArmError, Result};
 
 /// Penalty factor of a rigid actuator (body and mount both infinitely stiff, e.g. a fit at
@@ -71,6 +71,14 @@ impl FemSpec {
             base_stiffness: None,
         };
         for e in effects.effects() {
+            if e.unloaded() == Some(Unloaded::TakenUp) {
+                return Err(ArmError::InvalidEffect {
+                    effect: format!("{}{}", e.label(), Unloaded::TakenUp.suffix()),
+                    reason: "the FE model has only gaps centred when unloaded; solve a gap \
+                             taken up by the unloaded forces with the analytic model"
+                        .into(),
+                });
+            }
             match e {
                 Effect::ActuatorCompliance(x) => spec.body_stiffness[x.actuator] = x.stiffness,
                 Effect::MountCompliance(x) => spec.mount_stiffness[x.actuator] = x.stiffness,

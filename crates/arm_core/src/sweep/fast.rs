@@ -1,5 +1,6 @@
 //! The block kernel of the sweep: the baseline model and the effects that only change
-//! actuator lengths (`actuator_compliance`, `mount_compliance`, `actuator_play`), for
+//! actuator lengths (`actuator_compliance`, `mount_compliance`, `actuator_play` centred or
+//! taken up when unloaded), for
 //! [`L`] poses at once in structure-of-arrays form so that LLVM vectorises the lane loops.
 //!
 //! It computes what [`crate::Workspace::solve`] computes (docs/model.md §2–§5), rearranged:
@@ -30,7 +31,7 @@
 
 use super::trig::{asin_small, sincos_deg, ASIN_SERIES_MAX};
 use crate::arm::Arm;
-use crate::effects::{Effect, EffectSet, FORCE_ZERO_N};
+use crate::effects::{Effect, EffectSet, Unloaded, FORCE_ZERO_N};
 use crate::statics::SINGULAR_TOL;
 
 /// Poses per block (lanes): two AVX-512 vectors, so that two independent chains overlap.
@@ -65,8 +66,13 @@ pub struct FastArm<const N: usize> {
     /// Body plus mount compliance: the pin-to-pin length per unit force change (mm/N).
     len_c: [f64; N],
     play: [f64; N],
+    /// The part of `play` taken up by the unloaded forces: its length change is
+    /// `−p·(sign F − sign F_w)` instead of `−p·sign F`.
+    play_up: [f64; N],
     /// Some actuator has play (the cell loop then needs the sign of the loaded force).
     any_play: bool,
+    /// Some play is taken up (the cell loop then needs the sign of the unloaded force too).
+    any_up: bool,
     /// Stroke limits (mm), ±∞ when absent.
     lo: [f64; N],
     hi: [f64; N],
@@ -103,7 +109,9 @@ impl<const N: usize> FastArm<N> {
             mount_c: z,
             len_c: z,
             play: z,
+            play_up: z,
             any_play: false,
+            any_up: false,
             lo: z,
             hi: z,
         };
@@ -136,7 +144,12 @@ impl<const N: usize> FastArm<N> {
             match e {
                 Effect::ActuatorCompliance(x) => k.body_c[x.actuator] = 1.0 / x.stiffness,
                 Effect::MountCompliance(x) => k.mount_c[x.actuator] += 1.0 / x.stiffness,
-                Effect::ActuatorPlay(x) => k.play[x.actuator] += x.play,
+                Effect::ActuatorPlay(x) => {
+                    k.play[x.actuator] += x.play;
+                    if x.unloaded == Unloaded::TakenUp {
+                        k.play_up[x.actuator] += x.play;
+                    }
+                }
                 _ => return None,
             }
         }
@@ -144,6 +157,7 @@ impl<const N: usize> FastArm<N> {
             k.len_c[i] = k.body_c[i] + k.mount_c[i];
         }
         k.any_play = k.play.iter().any(|&p| p != 0.0);
+        k.any_up = k.play_up.iter().any(|&p| p != 0.0);
         Some(k)
     }
 }
@@ -405,19 +419,39 @@ impl<const N: usize> FastArm<N> {
         }
     }
 
-    /// [`Self::cells`] for either play setting.
+    /// [`Self::cells`] for every play setting.
     #[inline(always)]
     fn cells_any(&self, pb: &PoseBlock<N>, m: f64, cb: &mut CellBlock<N>) {
-        if self.any_play {
-            self.cells_impl::<true>(pb, m, cb);
-        } else {
-            self.cells_impl::<false>(pb, m, cb);
+        match (self.any_play, self.any_up) {
+            (_, true) => self.cells_impl::<true, true>(pb, m, cb),
+            (true, false) => self.cells_impl::<true, false>(pb, m, cb),
+            (false, false) => self.cells_impl::<false, false>(pb, m, cb),
         }
     }
 
-    /// [`Self::cells`], without the play terms when `PLAY` is false.
+    /// The pin-to-pin length change of actuator `i` under the force change `du` (loaded
+    /// force `f`, unloaded `fw`): compliance and play (`UP`: some play is taken up).
     #[inline(always)]
-    fn cells_impl<const PLAY: bool>(&self, pb: &PoseBlock<N>, m: f64, cb: &mut CellBlock<N>) {
+    fn dlen<const PLAY: bool, const UP: bool>(&self, i: usize, du: f64, f: f64, fw: f64) -> f64 {
+        let elastic = -du * self.len_c[i];
+        if UP {
+            elastic - self.play[i] * sign0(f) + self.play_up[i] * sign0(fw)
+        } else if PLAY {
+            elastic - self.play[i] * sign0(f)
+        } else {
+            elastic
+        }
+    }
+
+    /// [`Self::cells`], without the play terms when `PLAY` is false and without those of a
+    /// taken-up play when `UP` is false.
+    #[inline(always)]
+    fn cells_impl<const PLAY: bool, const UP: bool>(
+        &self,
+        pb: &PoseBlock<N>,
+        m: f64,
+        cb: &mut CellBlock<N>,
+    ) {
         let mut sr = [0.0; L]; // sin Δα_i
         let mut cm = [0.0; L]; // cos Δα_i − 1
         let mut dx = [0.0; L];
@@ -426,21 +460,13 @@ impl<const N: usize> FastArm<N> {
         let mut dth = [[0.0; L]; N];
         let mut far = false;
         for i in 0..N {
-            let (bc, lc, pl, hr) = (
-                self.body_c[i],
-                self.len_c[i],
-                self.play[i],
-                self.half_inv_rd[i],
-            );
+            let (bc, hr) = (self.body_c[i], self.half_inv_rd[i]);
             for k in 0..L {
                 let du = m * pb.fu[i][k];
-                let f = pb.fw[i][k] + du;
+                let fw = pb.fw[i][k];
+                let f = fw + du;
                 let body = -du * bc;
-                let dlen = if PLAY {
-                    -du * lc - pl * sign0(f)
-                } else {
-                    -du * lc
-                };
+                let dlen = self.dlen::<PLAY, UP>(i, du, f, fw);
                 let l = pb.len[i][k];
                 let dc = -dlen * (2.0 * l + dlen) * hr;
                 let (c, s, side) = (pb.c[i][k], pb.s[i][k], pb.side[i][k]);
@@ -585,11 +611,12 @@ impl<const N: usize> FastArm<N> {
         for i in 0..N {
             for k in 0..L {
                 let du = m * pb.fu[i][k];
-                let f = pb.fw[i][k] + du;
-                let dlen = if self.any_play {
-                    -du * self.len_c[i] - self.play[i] * sign0(f)
-                } else {
-                    -du * self.len_c[i]
+                let fw = pb.fw[i][k];
+                let f = fw + du;
+                let dlen = match (self.any_play, self.any_up) {
+                    (_, true) => self.dlen::<true, true>(i, du, f, fw),
+                    (true, false) => self.dlen::<true, false>(i, du, f, fw),
+                    (false, false) => self.dlen::<false, false>(i, du, f, fw),
                 };
                 let l = pb.len[i][k];
                 let dc = -dlen * (2.0 * l + dlen) * self.half_inv_rd[i];
