@@ -308,7 +308,8 @@ class Measurements:
 
     def to_dataframe(self) -> pd.DataFrame:
         """One row per state: ``config``, ``alpha1_deg``…, ``mass_kg``, each measured channel
-        followed by its ``sigma_`` column (the sigma used, defaults included), ``line``."""
+        followed by its ``sigma_`` column (the sigma used, defaults and pooled ones included),
+        ``line``."""
         import pandas as pd
 
         data: dict[str, Any] = {"config": self.config.astype(object)}
