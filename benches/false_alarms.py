@@ -3,14 +3,14 @@
 Usage:
     python benches/false_alarms.py [--sets 200]
     python benches/false_alarms.py --campaign [--sets 50] [--repeats 3] [--noise 2.5]
-                                   [--channels all]
+                                   [--channels all] [--configs 8]
 
 Default mode: for each of the three test arms (tests/arms.py), draws `--sets` data sets of 8
 random configurations x 3 payloads with no hidden effect and default noise, sigma given, and
 counts the verdicts that are not "adequate".
 
 `--campaign` (issue 11, "noise from repeats"): data sets as real campaigns make them: each
-state (8 random configurations x 3 payloads) measured `--repeats` times, NO sigma columns,
+state (`--configs` random configurations x 3 payloads) measured `--repeats` times, NO sigma columns,
 real noise `--noise` times the default levels. Each set is written to CSV and read back, so
 the reader pools sigma from the repeats (CONTRACT §3), and `eodarm.diagnose` (with its
 outlier pass, without the advice that does not change the verdict) decides. Arms: the bundled
@@ -135,9 +135,11 @@ def campaign() -> None:
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--noise", type=float, default=2.5)
     ap.add_argument("--channels", default="all")
+    ap.add_argument("--configs", type=int, default=8)
     args = ap.parse_args()
     print(
-        f"pure noise x{args.noise:g} the defaults, 8 configurations x {len(MASSES)} payloads "
+        f"pure noise x{args.noise:g} the defaults, {args.configs} configurations x "
+        f"{len(MASSES)} payloads "
         f"x {args.repeats} repeats, channels {args.channels}, no sigma columns, "
         f"{args.sets} sets per arm"
     )
@@ -146,11 +148,12 @@ def campaign() -> None:
     t0 = time.perf_counter()
     for a, (name, (arm, ranges)) in enumerate(campaign_arms().items()):
         count = dict.fromkeys(tally, 0)
+        why = {"chi2": 0, "candidate": 0}  # what made the plain pooled verdict "missing"
         sig_ratio = []
         for s in range(args.sets):
             # each arm its own noise draws (and poses)
             seed = 1000 * a + s
-            cfg = random_configs(arm, 8, np.random.default_rng(1000 + seed), ranges)
+            cfg = random_configs(arm, args.configs, np.random.default_rng(1000 + seed), ranges)
             made = synth(
                 arm,
                 cfg,
@@ -171,6 +174,8 @@ def campaign() -> None:
             }
             plain = diagnose(arm, meas, advise=False, outliers=False)
             adequate["pooled, no outlier pass"] = plain.verdict == "adequate"
+            if plain.verdict != "adequate":
+                why["chi2" if plain.p_baseline < 1e-3 else "candidate"] += 1
             adequate["F"] = f_verdict(plain, meas) == "adequate"
             for key, ok in adequate.items():
                 count[key] += ok
@@ -179,7 +184,8 @@ def campaign() -> None:
             f"{name}: adequate "
             + ", ".join(f"{key} {count[key]}/{args.sets}" for key in tally)
             + f"  (pooled sigma / true: mean {np.mean(sig_ratio):.3f}, "
-            f"sd {np.std(sig_ratio):.3f}; {dof:g} dof)"
+            f"sd {np.std(sig_ratio):.3f}; {dof:g} dof; plain 'missing' by chi2 p "
+            f"{why['chi2']}, by a candidate {why['candidate']})"
         )
         for key in tally:
             tally[key] += count[key]
