@@ -350,3 +350,27 @@ def measuring_at_load_point(arm: eodarm.Arm) -> eodarm.Arm:
     d = arm.to_dict()
     d["link"][-1].pop("measure", None)
     return eodarm.Arm.from_dict(d)
+
+
+# ---------------------------------------------------------------------------- repeats
+@st.composite
+def repeated_values(draw: Any) -> tuple[np.ndarray, np.ndarray]:
+    """Values of one channel over states measured 1–6 times: ``(values, state)``, both (N,).
+
+    Each state has its own level (up to ±1000, so that cancellation matters) and its repeats
+    scatter around it by up to ±1 (some states not at all: identical repeats); some cells are
+    ``NaN`` (not measured), and the rows of the states are shuffled together.
+    """
+    k = draw(st.integers(1, 12))
+    levels = draw(st.lists(_f(-1000.0, 1000.0), min_size=k, max_size=k))
+    vals: list[float] = []
+    state: list[int] = []
+    for g, level in enumerate(levels):
+        size = draw(st.integers(1, 6))
+        spread = draw(st.sampled_from([0.0, 1e-3, 1.0]))
+        for _ in range(size):
+            x = level + spread * draw(_f(-1.0, 1.0))
+            vals.append(math.nan if draw(st.integers(0, 9)) == 0 else x)
+            state.append(g)
+    order = draw(st.permutations(range(len(vals))))
+    return np.array(vals)[list(order)], np.array(state)[list(order)]

@@ -220,7 +220,9 @@ def test_cli_diagnose_json_is_exactly_the_contract(two_hidden_csv: str) -> None:
     out = run_cli("diagnose", two_hidden_csv, "--arm", str(ARMS_FILE), "--json")
     assert out.returncode == 0, out.stderr
     doc = json.loads(out.stdout)
-    assert set(doc) == {"model", "baseline", "verdict", "suggested", "ranking"}
+    # every key of the contract, plus "noise" (where each channel's sigma came from)
+    assert set(doc) == {"model", "baseline", "verdict", "suggested", "ranking", "noise"}
+    assert doc["noise"]["dy_mm"] == {"sigma": None, "source": "given", "dof": None}
     assert set(doc["baseline"]) == {"rms", "chi2_per_dof"}
     assert doc["verdict"] == "missing"
     assert set(doc["suggested"]) == {"joint_clearance@O2", "mount_compliance@M1"}

@@ -11,7 +11,7 @@ Command line (registered by :func:`add_parser`)::
     eodarm synth --arm ARM.toml [--configs K | --alpha A1,A2,A3 ...] [--masses 1.5,5,6.5]
                  [--hidden EFFECT@PLACE=VALUE ...] [--channels dx_mm,dy_mm,dalpha,dl | all]
                  [--noise 1.0] [--sigma CHANNEL=VALUE ...] [--seed 0] [--no-self-weight]
-                 [--no-sigma-columns] [-o OUT.csv]
+                 [--repeats 1] [--no-sigma-columns] [-o OUT.csv]
 """
 
 from __future__ import annotations
@@ -176,6 +176,7 @@ def synth(
     self_weight: bool = True,
     configs: Sequence[str] | None = None,
     sigma_columns: bool = True,
+    repeats: int = 1,
 ) -> Measurements:
     """Synthetic measurements: the model with ``hidden`` effects, plus Gaussian noise.
 
@@ -184,7 +185,7 @@ def synth(
     arm : the arm.
     alpha_deg : (K, n) unloaded absolute angles of K configurations, degrees.
     masses : (M,) payload masses, kg. Every configuration is measured with every payload:
-        N = K·M states, configuration-major (row ``i·M + j`` is configuration i, mass j).
+        K·M states, configuration-major (state ``i·M + j`` is configuration i, mass j).
     hidden : the effects present in the "real" arm (the truth is
         ``eodarm.solve(arm, alpha, mass, effects=hidden, self_weight=self_weight)``).
     channels : channels measured (:func:`~eodarm.data.measurements.expand_channels`: names,
@@ -199,8 +200,12 @@ def synth(
     self_weight : include link and actuator weights in both states.
     configs : K labels; default ``"c1"``, ``"c2"``, ….
     sigma_columns : whether :meth:`Measurements.to_csv` writes the ``sigma_`` columns. Without
-        them a reader falls back to the default levels (which differ from the true ones when
+        them a reader pools σ from the repeats (with ``repeats`` ≥ 2 and enough of them), or
+        else falls back to the default levels (which differ from the true ones when
         ``noise != 1``).
+    repeats : how many times each state is measured (≥ 1), each time with independent noise:
+        N = K·M·``repeats`` rows, the repeats of a state one after the other (row
+        ``(i·M + j)·repeats + r``). With 1, the same data as without the argument.
 
     Returns
     -------
@@ -233,6 +238,9 @@ def synth(
         raise EodarmError("synth: config labels must not be empty")
     if not (math.isfinite(noise) and noise > 0):
         raise EodarmError(f"synth: noise must be finite and > 0, got {noise!r}")
+    if isinstance(repeats, bool) or not isinstance(repeats, (int, np.integer)) or repeats < 1:
+        raise EodarmError(f"synth: repeats must be an integer >= 1, got {repeats!r}")
+    rep = int(repeats)
     chosen = expand_channels(channels, n)
     every = channel_names(n)
     sig = _sigmas(sigma or {}, every, noise)
@@ -243,6 +251,9 @@ def synth(
         solve(arm, rows_alpha, rows_mass, effects=as_effects(hidden), self_weight=self_weight),
         every,
     )
+    rows_alpha = np.repeat(rows_alpha, rep, axis=0)
+    rows_mass = np.repeat(rows_mass, rep)
+    truth = np.repeat(truth, rep, axis=0)
     gen = np.random.default_rng(seed)
     z = gen.standard_normal(truth.shape)  # drawn for every channel: selection-independent
     values = truth + z * sig
@@ -253,13 +264,13 @@ def synth(
     return Measurements(
         source="<synth>",
         n=n,
-        config=np.repeat(np.array(labels, dtype=str), mm),
+        config=np.repeat(np.array(labels, dtype=str), mm * rep),
         alpha_deg=rows_alpha,
         mass_kg=rows_mass,
         channels=tuple(every),
         values=values,
         sigma=sigma_arr,
-        line=np.arange(2, kc * mm + 2),
+        line=np.arange(2, kc * mm * rep + 2),
         sigma_default=np.zeros(truth.shape, dtype=bool),
         sigma_columns=sigma_columns,
     )

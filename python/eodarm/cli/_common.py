@@ -80,15 +80,65 @@ def _note(msg: str) -> None:
 
 
 def _read(path: str, arm: Arm) -> Measurements:
+    """Read the measurements and say on stderr where σ was not given: one line for the
+    channels whose σ was pooled from the repeats, one for those that use the defaults."""
     from eodarm.data.reader import read_measurements
 
     meas = read_measurements(path, arm.n)
-    if meas.defaulted:
-        from eodarm.data.measurements import default_sigma
-
-        parts = ", ".join(f"{ch} {default_sigma(ch):g}" for ch in meas.defaulted)
-        _note(f"no sigma given for {parts}: using the default noise levels (docs/diagnosis.md)")
+    for line in _noise_notes(meas):
+        _note(line)
     return meas
+
+
+def _unit(channel: str) -> str:
+    return "deg" if channel.endswith("_deg") else "mm"
+
+
+def _noise_notes(meas: Measurements) -> list[str]:
+    """The notes of :func:`_read`: at most one line per kind (pooled, default)."""
+    notes = []
+    pooled = [meas.noise[ch] for ch in meas.pooled]
+    if pooled:
+        pools: dict[tuple[int, int, int], list[str]] = {}
+        for r in pooled:
+            pools.setdefault((r.states, r.rows, r.repeat_dof), []).append(
+                f"{r.channel} {r.sigma:.2g} {_unit(r.channel)}"
+            )
+        sizes = {k: f"{k[0]} states, {k[1]} rows, {k[2]} dof" for k in pools}
+        if len(pools) == 1:
+            ((key, names),) = pools.items()
+            text = f"{', '.join(names)} pooled from the repeats ({sizes[key]}; docs/diagnosis.md)"
+        else:
+            groups = ", ".join(f"{', '.join(v)} ({sizes[k]})" for k, v in pools.items())
+            text = f"{groups} pooled from the repeats (docs/diagnosis.md)"
+        notes.append("noise of " + text)
+    if meas.defaulted:
+        why: dict[str, list[str]] = {}
+        for ch in meas.defaulted:
+            r = meas.noise[ch]
+            why.setdefault(r.reason, []).append(f"{ch} {r.sigma:g}")
+        if len(why) == 1:
+            ((reason, names),) = why.items()
+            parts = ", ".join(names)
+            tail = f", as {reason}" if reason else ""
+        else:
+            parts = "; ".join(
+                ", ".join(names) + (f" ({reason})" if reason else "")
+                for reason, names in why.items()
+            )
+            tail = ""
+        notes.append(
+            f"no sigma given for {parts}: using the default noise levels{tail} (docs/diagnosis.md)"
+        )
+    return notes
+
+
+def _noise_json(meas: Measurements) -> dict[str, dict[str, Any]]:
+    """The ``"noise"`` key of compare's and diagnose's JSON: per measured channel, its σ
+    (``null`` when each value has its own, given in the file), its source
+    (``"given"``/``"repeats"``/``"default"``) and the degrees of freedom of a pooled σ
+    (``null`` for an exact one)."""
+    return {ch: rec.to_json() for ch, rec in meas.noise.items()}
 
 
 def _model(specs: list[str] | None, allow_values: bool) -> list[Effect | Slot]:

@@ -18,6 +18,7 @@ from eodarm.cli._common import (
     _load_arm,
     _model,
     _model_kw,
+    _noise_json,
     _note,
     _plots,
     _print_table,
@@ -88,6 +89,7 @@ def run(args: argparse.Namespace) -> int:
         "by_payload": _by(res, "mass"),
         "worst": _worst(res),
         "outliers": outliers,
+        "noise": _noise_json(meas),
     }
     if res.slots:
         doc["estimate"] = res.summary()["effects"]

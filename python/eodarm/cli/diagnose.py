@@ -19,6 +19,7 @@ from eodarm.cli._common import (
     _load_arm,
     _model,
     _model_kw,
+    _noise_json,
     _plots,
     _print_table,
     _read,
@@ -45,7 +46,8 @@ def run(args: argparse.Namespace) -> int:
         fem_options=mk["fem_options"],
     )
     if args.json:
-        print(json.dumps(d.to_json()))
+        # the contract's keys, and where each channel's σ came from
+        print(json.dumps({**d.to_json(), "noise": _noise_json(meas)}))
     else:
         _print_diagnosis(d, arm, meas)
     best = d.suggested_fit or d.baseline

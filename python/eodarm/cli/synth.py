@@ -69,12 +69,21 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         metavar="CHANNEL=VALUE",
         help="noise standard deviation of a channel or family, mm or deg (repeatable)",
     )
+    p.add_argument(
+        "--repeats",
+        type=int,
+        default=1,
+        metavar="K",
+        help="measure each state (configuration × payload) K times, each with its own noise "
+        "(default 1); without sigma columns, readers pool the noise from the repeats",
+    )
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     p.add_argument("--no-self-weight", action="store_true", help="drop link/actuator weights")
     p.add_argument(
         "--no-sigma-columns",
         action="store_true",
-        help="do not write sigma_ columns (readers then use the default noise levels)",
+        help="do not write sigma_ columns (readers then pool the noise from the repeats, or "
+        "else use the default noise levels)",
     )
     p.add_argument("-o", "--output", metavar="OUT.csv", help="output file (default: stdout)")
     p.set_defaults(func=run)
@@ -98,6 +107,8 @@ def run(args: argparse.Namespace) -> int:
     if not masses:
         raise EodarmError("--masses: give at least one payload mass")
     hidden = [_hidden_effect(s) for s in args.hidden or []]
+    if args.repeats < 1:
+        raise EodarmError(f"--repeats: need at least 1 measurement per state, got {args.repeats}")
     sigma: dict[str, float] = {}
     for spec in args.sigma or []:
         key, _, value = spec.partition("=")
@@ -126,6 +137,7 @@ def run(args: argparse.Namespace) -> int:
         seed=args.seed,
         self_weight=not args.no_self_weight,
         sigma_columns=not args.no_sigma_columns,
+        repeats=args.repeats,
     )
     if args.output:
         meas.to_csv(args.output)
@@ -135,9 +147,16 @@ def run(args: argparse.Namespace) -> int:
         sys.stdout.flush()
         where = "stdout"
     model = ", ".join(f"{e.key}={e.value:g}" for e in hidden) or "none"
+    if args.repeats == 1:
+        what = f"{meas.n_rows} states ({alpha.shape[0]} configs × {len(masses)} payloads"
+    else:
+        what = (
+            f"{meas.n_rows} rows ({alpha.shape[0]} configs × {len(masses)} payloads × "
+            f"{args.repeats} repeats"
+        )
     print(
-        f"eodarm: wrote {meas.n_rows} states ({alpha.shape[0]} configs × {len(masses)} "
-        f"payloads, {len(meas.measured_channels)} channels; hidden: {model}) to {where}",
+        f"eodarm: wrote {what}, {len(meas.measured_channels)} channels; hidden: {model}) "
+        f"to {where}",
         file=sys.stderr,
     )
     return 0

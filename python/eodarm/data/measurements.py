@@ -9,12 +9,22 @@ Channels of an n-link arm, in this fixed order (:func:`channel_names`)::
 
     dx_mm, dy_mm, dalpha1_deg … dalphaN_deg, dl1_mm … dlN_mm
 
-Default noise levels
---------------------
-Where a file gives no ``sigma_<channel>`` column, or leaves a sigma cell empty next to a
-measured value, the value gets the default standard deviation of its channel family
-(:data:`DEFAULT_SIGMA`), and the channel is recorded in :attr:`Measurements.defaulted` so
-that the tools can say so:
+Noise: given, pooled from repeats, or default
+---------------------------------------------
+A value whose ``sigma_<channel>`` cell is filled keeps that σ. The values of a channel that
+have none (the file has no ``sigma_`` column for the channel, or leaves the cell empty) share
+one σ for the channel (:mod:`eodarm.data.noise`):
+
+* where states were measured more than once (rows with the same config label, unloaded
+  angles and mass), the **pooled standard deviation of the repeats** of those values, if it
+  has at least 5 degrees of freedom and is not 0. The repeated rows stay separate
+  observations; nothing is averaged or dropped;
+* otherwise the **default standard deviation** of the channel family (:data:`DEFAULT_SIGMA`),
+  and the channel is recorded in :attr:`Measurements.defaulted` so that the tools can say so.
+
+:attr:`Measurements.noise` records, per measured channel, which it was (and the pool's
+states, rows and degrees of freedom); :attr:`Measurements.sigma_dof` gives the degrees of
+freedom of each channel's σ. The default levels:
 
 * ``dx_mm``, ``dy_mm``: **0.02 mm**. The displacement of the measure point is read by a laser
   (triangulation) displacement sensor; industrial ones repeat to about 0.01–0.02 mm.
@@ -48,6 +58,7 @@ import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
+from types import MappingProxyType
 from typing import TYPE_CHECKING, Any, TextIO
 
 import numpy as np
@@ -63,6 +74,7 @@ from eodarm.data.channels import (
     default_sigma,
     expand_channels,
 )
+from eodarm.data.noise import ChannelNoise, assign_sigma, check_noise, state_groups
 from eodarm.errors import EodarmError
 
 if TYPE_CHECKING:
@@ -123,6 +135,13 @@ class Measurements:
     sigma_default : (N, C) bool, ``True`` where a measured value's sigma is the default of
         its channel (:func:`default_sigma`) because the source gave none.
     sigma_columns : whether :meth:`to_csv` writes ``sigma_`` columns.
+    sigma_pooled : (N, C) bool, ``True`` where a measured value's sigma is its channel's
+        pooled standard deviation of the repeats because the source gave none.
+    noise : measured channel → :class:`~eodarm.data.noise.ChannelNoise`, where that
+        channel's sigma came from (``"given"``, ``"repeats"`` with the pool's states, rows and
+        degrees of freedom, or ``"default"`` with the reason). Read-only mapping. A
+        :meth:`subset` keeps the records (and sigmas) estimated on the whole data: the noise
+        is a property of the instrument, not of the rows selected.
     """
 
     source: str
@@ -137,6 +156,9 @@ class Measurements:
     # None means "no default sigmas"; __post_init__ replaces it by the (N, C) array
     sigma_default: npt.NDArray[np.bool_] = field(default=None)  # type: ignore[arg-type]
     sigma_columns: bool = True
+    # None means "none pooled" / "derive from the flags"; __post_init__ fills them in
+    sigma_pooled: npt.NDArray[np.bool_] = field(default=None)  # type: ignore[arg-type]
+    noise: Mapping[str, ChannelNoise] = field(default=None)  # type: ignore[arg-type]
 
     def __post_init__(self) -> None:
         n = int(self.n)
@@ -152,10 +174,11 @@ class Measurements:
             values = np.array(self.values, dtype=float).reshape(rows, c)
             sigma = np.array(self.sigma, dtype=float).reshape(rows, c)
             line = np.array(self.line, dtype=np.int64).reshape(rows)
-            dflt = (
+            dflt, pooled = (
                 np.zeros((rows, c), dtype=bool)
-                if self.sigma_default is None
-                else np.array(self.sigma_default, dtype=bool).reshape(rows, c)
+                if flags is None
+                else np.array(flags, dtype=bool).reshape(rows, c)
+                for flags in (self.sigma_default, self.sigma_pooled)
             )
         except (TypeError, ValueError) as exc:
             raise EodarmError(
@@ -163,6 +186,9 @@ class Measurements:
             ) from None
         measured = ~np.isnan(values)
         dflt &= measured
+        pooled &= measured
+        if (dflt & pooled).any():
+            raise EodarmError(f"{self.source}: a sigma cannot be both default and pooled")
         if not (np.isfinite(alpha).all() and np.isfinite(mass).all() and (mass >= 0).all()):
             raise EodarmError(f"{self.source}: angles and masses must be finite, masses >= 0")
         if np.isinf(values).any():
@@ -179,9 +205,12 @@ class Measurements:
             ("sigma", sigma),
             ("line", line),
             ("sigma_default", dflt),
+            ("sigma_pooled", pooled),
         ):
             arr.setflags(write=False)
             object.__setattr__(self, name, arr)
+        noise = check_noise(channels, measured, dflt, pooled, self.noise, self.source)
+        object.__setattr__(self, "noise", MappingProxyType(noise))
         object.__setattr__(self, "n", n)
         object.__setattr__(self, "channels", channels)
         object.__setattr__(self, "sigma_columns", bool(self.sigma_columns))
@@ -217,6 +246,23 @@ class Measurements:
         """Channels where at least one measured value got its default sigma."""
         return tuple(self.channels[j] for j in np.flatnonzero(self.sigma_default.any(axis=0)))
 
+    @property
+    def pooled(self) -> tuple[str, ...]:
+        """Channels whose values without a given sigma got the sigma pooled from the repeats."""
+        return tuple(self.channels[j] for j in np.flatnonzero(self.sigma_pooled.any(axis=0)))
+
+    @property
+    def sigma_dof(self) -> dict[str, float]:
+        """Every channel → the degrees of freedom ν of its sigma estimate.
+
+        ν = Σ_g (n_g − 1) for a channel whose sigma was pooled from the repeats (the pooled
+        variance s² is then distributed as σ²·χ²_ν/ν for normal noise); ``math.inf`` for a
+        sigma given in the source or a default level (taken as exact), and for a channel not
+        measured. Values of a pooled channel whose sigma was given in the source (a partly
+        filled ``sigma_`` column) are exact: :attr:`sigma_pooled` tells them apart.
+        """
+        return {ch: self.noise[ch].dof if ch in self.noise else math.inf for ch in self.channels}
+
     def index(self, channel: str) -> int:
         """Column of ``channel`` in :attr:`values` and :attr:`sigma`."""
         try:
@@ -228,7 +274,11 @@ class Measurements:
 
     # ------------------------------------------------------------------ derived sets
     def subset(self, rows: npt.ArrayLike) -> Measurements:
-        """The states selected by a boolean mask (N,) or by integer indices (in that order)."""
+        """The states selected by a boolean mask (N,) or by integer indices (in that order).
+
+        The sigmas and :attr:`noise` records are those of the whole data: a sigma pooled from
+        the repeats stays the estimate made on every repeat, not re-estimated on the subset.
+        """
         sel = np.asarray(rows)
         if sel.dtype == bool:
             if sel.shape != (self.n_rows,):
@@ -253,11 +303,13 @@ class Measurements:
             sigma=self.sigma[idx],
             line=self.line[idx],
             sigma_default=self.sigma_default[idx],
+            sigma_pooled=self.sigma_pooled[idx],
         )
 
     def to_dataframe(self) -> pd.DataFrame:
         """One row per state: ``config``, ``alpha1_deg``…, ``mass_kg``, each measured channel
-        followed by its ``sigma_`` column (the sigma used, defaults included), ``line``."""
+        followed by its ``sigma_`` column (the sigma used, defaults and pooled ones included),
+        ``line``."""
         import pandas as pd
 
         data: dict[str, Any] = {"config": self.config.astype(object)}
@@ -277,13 +329,16 @@ class Measurements:
         Columns: ``config``, ``alpha1_deg``…, ``mass_kg``, the measured channels, then the
         ``sigma_`` columns (unless ``sigma_columns`` — default :attr:`sigma_columns` — is
         false). A cell is empty where a value was not measured, and a sigma cell is empty where
-        the sigma was the default, so that :func:`read_measurements` gives back the same
-        values, sigmas and defaults. Numbers are written with ``repr`` (exact round trip).
+        the sigma was not given (a default, or pooled from the repeats): reading the file back
+        (:func:`read_measurements`) derives them again from the same rows and gives back the
+        same values, sigmas, defaults and pooled estimates. (The file of a :meth:`subset` is
+        re-estimated from the repeats it holds.) Numbers are written with ``repr`` (exact
+        round trip).
         """
         with_sigma = self.sigma_columns if sigma_columns is None else bool(sigma_columns)
         chans = self.measured_channels
         cols = [self.index(c) for c in chans]
-        given = self.measured & ~self.sigma_default
+        given = self.measured & ~self.sigma_default & ~self.sigma_pooled
         sig_cols = [j for j in cols if with_sigma and given[:, j].any()]
         header = ["config", *(f"alpha{i + 1}_deg" for i in range(self.n)), "mass_kg"]
         header += list(chans) + ["sigma_" + self.channels[j] for j in sig_cols]
@@ -331,7 +386,8 @@ class Measurements:
         mass_kg : scalar or (N,) payload masses, kg.
         values : channel name → (N,) measured values (mm or degrees); ``NaN`` = not measured.
         sigma : channel name → (N,) or scalar standard deviation; missing channels or ``NaN``
-            next to a measured value get the default (recorded in :attr:`defaulted`).
+            next to a measured value get the sigma pooled from the repeats, or else the
+            default (recorded in :attr:`noise` and :attr:`defaulted`), as in a file.
         source : name used in error messages.
 
         Raises
@@ -451,7 +507,7 @@ def build(
     mass = np.zeros(rows)
     values = np.full((rows, len(channels)), np.nan)
     sigma = np.full((rows, len(channels)), np.nan)
-    dflt = np.zeros((rows, len(channels)), dtype=bool)
+    given = np.zeros((rows, len(channels)), dtype=bool)
     line = np.zeros(rows, dtype=np.int64)
     bad: list[str] = []
     for r, (ln, cells) in enumerate(body):
@@ -499,17 +555,19 @@ def build(
             if v is None:
                 continue
             values[r, c] = v
-            if s is None:
-                sigma[r, c] = default_sigma(ch)
-                dflt[r, c] = True
-            else:
+            if s is not None:
                 sigma[r, c] = s
+                given[r, c] = True
         if errs:
             bad.append(f"line {ln}: " + ", ".join(errs))
     if bad:
         listed = "; ".join(bad[:MAX_LISTED])
         more = f"; …and {len(bad) - MAX_LISTED} more" if len(bad) > MAX_LISTED else ""
         raise MeasurementFileError(f"{source}: {len(bad)} bad row(s): {listed}{more}")
+    # the values without a given sigma: pooled from the repeats, or the default level
+    sigma, dflt, pooled, noise = assign_sigma(
+        channels, values, sigma, given, state_groups(config, alpha, mass)
+    )
     return Measurements(
         source=source,
         n=n,
@@ -521,6 +579,8 @@ def build(
         sigma=sigma,
         line=line,
         sigma_default=dflt,
+        sigma_pooled=pooled,
+        noise=noise,
     )
 
 
