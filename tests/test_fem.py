@@ -116,9 +116,12 @@ def test_random_arms_agree_with_the_analytic_model_at_small_load(case, self_weig
     an = eodarm.solve_payload(
         arm, alpha, payload, _same_physics(arm, effects), self_weight=self_weight
     )
-    # The same statics; the FE forces come from displacements, with their round-off.
+    # The same statics; the FE forces come from displacements (k·Δu), with their round-off:
+    # the random arms mix near-rigid parts (1e18) with springs, and a force recovered from the
+    # difference of two pin displacements keeps ~eps·κ of it. Seen: 1.8e-6 of the largest
+    # force on a pose whose forces are 5 mN; 1e-5 of it still catches any wrong statics.
     fmax = float(np.abs(an["force_n"]).max())
-    np.testing.assert_allclose(fe["force_n"], an["force_n"], rtol=1e-6, atol=1e-7 * fmax + 1e-12)
+    np.testing.assert_allclose(fe["force_n"], an["force_n"], rtol=1e-6, atol=1e-5 * fmax + 1e-12)
     # The exact pose subtracts coordinates of ~100 mm: below 1e-7 mm of deflection its
     # round-off (~1e-14 mm) is what differs.
     if np.abs(np.column_stack([an["dx_mm"], an["dy_mm"]])).max() > 1e-7:

@@ -123,3 +123,51 @@ def test_a_wrong_fit_table_is_refused(arm: eodarm.Arm, fit: str, key: str) -> No
     text = arm.with_effects([MOUNT]).to_toml() + "\n[fit]\n" + fit + "\n"
     with pytest.raises(ArmFileError, match=rf"key '{key}"):
         eodarm.Arm.from_dict(tomllib.loads(text), source="fitted.toml")
+
+
+POSES = np.array([[90.0, 10.0, 0.0], [70.0, 20.0, -5.0], [100.0, 0.0, 5.0]])
+
+
+@pytest.mark.parametrize("backend", ["rust", "numpy"])
+def test_every_solver_includes_the_files_effects(arm: eodarm.Arm, backend: str) -> None:
+    fitted = arm.with_effects([MOUNT, CLEAR])
+    got = eodarm.solve(fitted, POSES, 5.0, backend=backend)
+    want = eodarm.solve(arm, POSES, 5.0, [MOUNT, CLEAR], backend=backend)
+    for key in ("dx_mm", "dy_mm", "dalpha_deg", "dl_mm", "force_n"):
+        np.testing.assert_array_equal(got[key], want[key], err_msg=key)
+    # effects= come on top; the same effect@place replaces the file's value
+    softer = MOUNT.with_value(400.0)
+    over = eodarm.solve(fitted, POSES, 5.0, [softer], backend=backend)
+    ref = eodarm.solve(arm, POSES, 5.0, [CLEAR, softer], backend=backend)
+    np.testing.assert_allclose(over["dy_mm"], ref["dy_mm"], rtol=0, atol=1e-12)
+    assert not np.allclose(over["dy_mm"], got["dy_mm"])
+
+
+def test_a_sweep_includes_the_files_effects(arm: eodarm.Arm) -> None:
+    grid = {"alpha1": [80.0, 90.0], "alpha2": [10.0], "alpha3": [0.0, 5.0]}
+    got = eodarm.sweep(arm.with_effects([MOUNT]), alpha_deg=grid, mass_kg=[5.0], progress=False)
+    want = eodarm.sweep(arm, alpha_deg=grid, mass_kg=[5.0], effects=[MOUNT], progress=False)
+    np.testing.assert_allclose(got["dy_mm"].values, want["dy_mm"].values, rtol=0, atol=1e-12)
+
+
+def test_fit_and_compare_hold_the_files_effects_and_refit_them_when_asked(
+    arm: eodarm.Arm,
+) -> None:
+    from eodarm.analysis.fit import compare, fit
+    from eodarm.analysis.synth import random_configs, synth
+
+    alpha = random_configs(arm, 12, np.random.default_rng(5))
+    meas = synth(arm, alpha, [1.5, 5.0, 6.5], hidden=[MOUNT, CLEAR], seed=5)
+    # the file carries the clearance: fitting only the mount then explains the data
+    with_clear = arm.with_effects([CLEAR])
+    res = fit(with_clear, meas, ["mount_compliance@M2"])
+    assert res.chi2_per_dof < 2.0
+    assert abs(res.estimate(0) - 1512.0) < 3 * res.stderr(0)
+    # compare of the file's full model is as good, with nothing fitted
+    full = arm.with_effects([MOUNT, CLEAR])
+    assert compare(full, meas).chi2_per_dof < 2.0
+    assert compare(arm, meas).chi2_per_dof > 10.0
+    # --add of an effect the file has refits it, starting from the file's value
+    wrong = arm.with_effects([CLEAR.with_value(0.4), MOUNT])
+    again = fit(wrong, meas, ["joint_clearance@O3"])
+    assert abs(again.estimate(0) - 0.15) < 3 * again.stderr(0)

@@ -101,6 +101,9 @@ class Problem:
         self.obs = meas.values[use]
         self.sig = meas.sigma[use]
         self.n_values = int(use.sum())
+        #: The arm file's own effects (CONTRACT §7), held at their values in every evaluation
+        #: unless the same effect@place is in the model being evaluated (then it is refitted).
+        self.fixed = [(Slot.of(e), theta_from_param(e.name, e.value)) for e in arm.effects]
 
     # --------------------------------------------------------------- evaluation
     def evaluate(
@@ -112,10 +115,16 @@ class Problem:
     ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
         """Channels (N, C) of the model with θ values, and ∂y/∂θ (N, C, P) for ``probes``.
 
-        With ``nan_on_failure`` a pose the model cannot solve is NaN instead of an error.
+        With ``nan_on_failure`` a pose the model cannot solve is NaN instead of an error. The
+        arm's own effects (:attr:`fixed`) are included where the model and the probes do not
+        name the same effect@place.
         """
         from eodarm.model import native as _core
         from eodarm.model.solver import _core_arm
+
+        if self.fixed:
+            named = {s.key for s, _ in model} | {s.key for s in probes}
+            model = [*(f for f in self.fixed if f[0].key not in named), *model]
 
         n = self.arm.n
         alpha, payload = self.alpha, self.payload
@@ -310,9 +319,12 @@ def fit(
         raise EodarmError(f"an effect is given twice: {keys}")
     for s in slots:
         s.index(arm.n)
+    in_file = {s.key: th for s, th in prob.fixed}
     theta = np.array(
         [
-            theta_from_param(e.name, e.value) if isinstance(e, Effect) else prob.neutral(s)
+            theta_from_param(e.name, e.value)
+            if isinstance(e, Effect)
+            else in_file.get(s.key, prob.neutral(s))  # a file's effect starts at its value
             for s, e in zip(slots, given, strict=True)
         ],
         dtype=float,

@@ -23,6 +23,7 @@ __all__ = [
     "effect_from_table",
     "param_from_theta",
     "theta_from_param",
+    "with_arm_effects",
 ]
 
 #: Where a gap (``actuator_play``, ``joint_clearance``) sits in the unloaded state:
@@ -296,6 +297,14 @@ def effect_arrays(effects: Iterable[Effect], n: int) -> tuple[np.ndarray, np.nda
     places = np.array([e.index(n) for e in effs], dtype=np.int64)
     values = np.array([e.value for e in effs], dtype=float)
     return codes, places, values
+
+
+def with_arm_effects(arm_effects: Sequence[Effect], effects: Any) -> list[Effect]:
+    """The model of a solve: an arm file's effects, then ``effects`` on top of them (the same
+    effect@place given again replaces the file's, CONTRACT §7)."""
+    given = as_effects(effects)
+    keys = {e.key for e in given if isinstance(e, Effect)}
+    return [e for e in arm_effects if e.key not in keys] + given
 
 
 def as_effects(effects: Any) -> list[Effect]:

@@ -24,7 +24,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from eodarm.errors import EffectError, InputError
 from eodarm.model.arm import Arm
-from eodarm.model.effects import Effect, as_effects, effect_arrays
+from eodarm.model.effects import Effect, effect_arrays, with_arm_effects
 
 __all__ = [
     "angles_from_lengths",
@@ -366,7 +366,7 @@ def statics(
 # ---------------------------------------------------------------------------- effects
 def _effect_params(arm: Arm, effects: Any) -> dict[str, Any]:
     """Per-place parameters of the effects (validated), defaults meaning "absent"."""
-    effs: list[Effect] = as_effects(effects)
+    effs: list[Effect] = with_arm_effects(arm.effects, effects)
     effect_arrays(effs, arm.n)  # refuses non-Effects, places beyond n and duplicates
     n = arm.n
     p: dict[str, Any] = {

@@ -17,7 +17,7 @@ import numpy.typing as npt
 
 from eodarm.errors import InputError
 from eodarm.model.arm import Arm, check_arm
-from eodarm.model.effects import Effect, as_effects, effect_arrays
+from eodarm.model.effects import Effect, effect_arrays, with_arm_effects
 
 __all__ = [
     "angles_from_lengths",
@@ -123,7 +123,7 @@ def solve_payload(
         raise InputError(
             f"payload_n: expected {alpha.shape[0]} rows like alpha_deg, got {payload.shape[0]}"
         )
-    effs = as_effects(effects)
+    effs = with_arm_effects(arm.effects, effects)
     codes, places, values = effect_arrays(effs, arm.n)
     fem.check_model(model)
     extras = _extras(extra, alpha.shape[0], arm.n)

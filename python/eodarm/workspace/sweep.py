@@ -42,8 +42,8 @@ import numpy as np
 import numpy.typing as npt
 
 from eodarm.errors import InputError
-from eodarm.model.arm import Arm
-from eodarm.model.effects import Effect, as_effects, effect_arrays
+from eodarm.model.arm import Arm, check_arm
+from eodarm.model.effects import Effect, effect_arrays, with_arm_effects
 from eodarm.model.solver import _core_arm, forward, stroke_violations
 from eodarm.workspace.fallback import REDUCE_OPS, kernel, placeholder, singular
 from eodarm.workspace.grid import Grid, coord_attrs, make_grid, masses_axis
@@ -285,11 +285,10 @@ def sweep(
     """
     import xarray as xr
 
-    if not isinstance(arm, Arm):
-        raise InputError(f"sweep: arm must be an eodarm.Arm, got {type(arm).__name__}")
+    check_arm(arm, "sweep")
     grid = make_grid(arm, alpha_deg, lengths, effector, alpha_ref_deg, elbow)
     mass = masses_axis(mass_kg)
-    effs = tuple(as_effects(effects))
+    effs = tuple(with_arm_effects(arm.effects, effects))
     effect_arrays(effs, arm.n)  # validates places and duplicates now
     op, rdims, block = _plan(grid, reduce)
     if isinstance(chunk_size, bool) or not isinstance(chunk_size, (int, np.integer)):
