@@ -379,7 +379,8 @@ def main() -> None:
     d3 = eodarm.diagnose(arm, meas, model=BODIES + MOUNTS)
     gaps = [c for c in d3.ranking if c.slot.name in ("joint_clearance", "actuator_play")]
     gap_txt = ", ".join(
-        f"{c.slot.key} {c.fit.estimate(c.fit.slots.index(c.slot)):.2g} mm (Δχ² {max(c.delta_chi2, 0.0):.1f})"
+        f"{c.slot.key} {c.fit.estimate(c.fit.slots.index(c.slot)):.2g} mm "
+        f"(Δχ² {max(c.delta_chi2, 0.0):.1f})"
         for c in gaps[:3]
     )
     from scipy.stats import chi2 as chi2_dist
@@ -400,9 +401,7 @@ def main() -> None:
         f"{d3.ranking[0].slot.key}, lowers χ² by {d3.ranking[0].delta_chi2:.1f}, short of "
         f"the {lrt:.1f} that the diagnosis requires of a real effect (the 0.1 % likelihood-"
         f"ratio threshold, Bonferroni-corrected for {len(d3.ranking)} candidates; "
-        "docs/diagnosis.md). "
-        + _third_round(d3)
-        + " The gap candidates fit to zero: "
+        "docs/diagnosis.md). " + _third_round(d3) + " The gap candidates fit to zero: "
         f"{gap_txt}. The data "
         "contain no sign of a gap as the contract models it (centred unloaded, closed under "
         "any load, so it adds sag already at the lightest payload): a straight line through "

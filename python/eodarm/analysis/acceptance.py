@@ -139,11 +139,7 @@ class Acceptance:
     @property
     def improves(self) -> bool:
         """(b), (c) and a lower BIC: a step toward an explanation, though not one."""
-        return (
-            self.away_from_bounds
-            and self.predicts is True
-            and self.bic < bic(self.baseline)
-        )
+        return self.away_from_bounds and self.predicts is True and self.bic < bic(self.baseline)
 
     @property
     def keys(self) -> list[str]:

@@ -279,7 +279,7 @@ def fit(
     self_weight: bool = True,
     exclude: npt.NDArray[np.bool_] | None = None,
     problem: Problem | None = None,
-    start: Sequence[float] | None = None,
+    start: Sequence[float] | npt.NDArray[np.float64] | None = None,
     max_iter: int = 30,
     model: str = "analytic",
     fem_options: Mapping[str, Any] | None = None,
@@ -515,7 +515,7 @@ def cross_validate(
     model: str = "analytic",
     fem_options: Mapping[str, Any] | None = None,
     exclude: npt.NDArray[np.bool_] | None = None,
-    start: Sequence[float] | None = None,
+    start: Sequence[float] | npt.NDArray[np.float64] | None = None,
 ) -> dict[str, Any]:
     """Leave one configuration out: fit without it, predict it.
 

@@ -123,8 +123,7 @@ def investigate(
             label = "+ " + " + ".join(s.key for s in d.suggested)
         elif acc is None or not d.best_effort:
             stopped = (
-                "no effect of the catalogue explains these data, and no set of them "
-                "lowers the BIC"
+                "no effect of the catalogue explains these data, and no set of them lowers the BIC"
             )
             break
         elif not acc.improves:

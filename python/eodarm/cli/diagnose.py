@@ -20,8 +20,8 @@ from eodarm.cli._common import (
     _load_arm,
     _model,
     _model_kw,
-    _plots,
     _note,
+    _plots,
     _print_table,
     _read,
     _rms_line,
@@ -158,8 +158,7 @@ def _print_unexplained(d: Any) -> None:
         _print_fit(best)
         if d.best_effort_cv is not None:
             _say(
-                "held-out RMS (leave one configuration out) "
-                + _rms_line(d.best_effort_cv["rms"]),
+                "held-out RMS (leave one configuration out) " + _rms_line(d.best_effort_cv["rms"]),
                 "    ",
             )
         if d.acceptance is not None:
@@ -168,8 +167,7 @@ def _print_unexplained(d: Any) -> None:
         _say("best effort (lowest BIC): the model as it is; no set of candidates lowers the BIC")
     pat = residual_pattern(best)
     cells = [
-        f"{c['channel']} in {c['config']} at {c['mass_kg']:g} kg ({c['z']:+.1f}σ, "
-        f"line {c['line']})"
+        f"{c['channel']} in {c['config']} at {c['mass_kg']:g} kg ({c['z']:+.1f}σ, line {c['line']})"
         for c in pat.largest[:3]
     ]
     _say(
@@ -199,8 +197,12 @@ def _print_pattern(pat: Any, width: int = 100) -> None:
     keep = sorted(np.argsort(-np.nan_to_num(pat.rms_z))[:fits].tolist())
     print("\nwhat is left, mean (measured − model)/σ by configuration and by payload:")
     head = ["", *(names[j] for j in keep)]
-    rows = [[c[:label_w], *(_z(pat.by_config[i, j]) for j in keep)] for i, c in enumerate(pat.configs)]
-    rows += [[f"{m:g} kg", *(_z(pat.by_payload[p, j]) for j in keep)] for p, m in enumerate(pat.payloads)]
+    rows = [
+        [c[:label_w], *(_z(pat.by_config[i, j]) for j in keep)] for i, c in enumerate(pat.configs)
+    ]
+    rows += [
+        [f"{m:g} kg", *(_z(pat.by_payload[p, j]) for j in keep)] for p, m in enumerate(pat.payloads)
+    ]
     rows.append(["RMS", *(f"{pat.rms_z[j]:.3g}" for j in keep)])
     widths = [label_w] + [col_w] * len(keep)
     print("  ".join(h.rjust(w) for h, w in zip(head, widths, strict=True)))

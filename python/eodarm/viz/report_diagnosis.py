@@ -80,8 +80,7 @@ def _story(d: Diagnosis, main: str, unit: str) -> str:
         lead = (
             "The baseline does not explain the data."
             if d.p_baseline < P_PASS
-            else "The baseline's χ² is within the noise, but a candidate improves it "
-            "significantly."
+            else "The baseline's χ² is within the noise, but a candidate improves it significantly."
         )
         return (
             f"{lead} The smallest set of effects that explains the data (searched over "
