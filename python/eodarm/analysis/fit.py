@@ -555,8 +555,9 @@ def cross_validate(
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore", FitWarning)
                 res = fit(arm, meas, slots, problem=train, start=start)
+            # the fit's prediction covers every row, the held-out ones included
             rows = np.flatnonzero(held)
-            y, _ = full.evaluate(list(zip(slots, res.theta, strict=True)), rows=rows)
+            y = res.prediction[rows]
             resid[rows] = np.where(full.use[rows], meas.values[rows] - y, np.nan)
         per[label] = _rms(resid, full.use, meas.channels, held)
     return {"rms": _rms(resid, full.use, meas.channels), "per_config": per, "residual": resid}
