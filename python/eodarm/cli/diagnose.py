@@ -84,7 +84,7 @@ def _print_diagnosis(d: Any, arm: Arm, meas: Measurements) -> None:
         if d.suggested_fit is not None:
             _print_fit(d.suggested_fit)
         if d.acceptance is not None:
-            print("    accepted: " + "; ".join(d.acceptance.reasons()))
+            _say("accepted: " + "; ".join(d.acceptance.reasons()), "    ")
     else:
         _print_unexplained(d)
     print("\nranking (each candidate added alone, parameter fitted):")
