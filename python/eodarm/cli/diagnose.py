@@ -146,7 +146,7 @@ def _print_unexplained(d: Any) -> None:
     _say(
         f"none of the {d.sets_searched} sets of up to three candidate effects fits the data "
         "within their noise with every parameter away from its bounds and predicts held-out "
-        "configurations no worse (or the stated sigma are too small)",
+        "configurations no worse (or the stated σ are too small)",
         "    ",
     )
     best = d.best_fit
