@@ -308,3 +308,40 @@ def test_synth_with_one_repeat_is_unchanged(arm: eodarm.Arm) -> None:
     np.testing.assert_array_equal(three.alpha_deg, np.repeat(a.alpha_deg, 3, axis=0))
     with pytest.raises(eodarm.EodarmError, match="repeats"):
         synth(arm, alpha, [1.5], repeats=0)
+
+
+def test_the_lack_of_fit_test_does_not_count_the_repeats_twice() -> None:
+    """With σ pooled from the repeats in the fit, their whitened scatter about the state means
+    is exactly ν (s was made from it); the verdict tests only the misfit of the means, so a
+    misfit that F(dof, ν) on χ²/dof would overlook is seen."""
+    from eodarm.analysis.consistency import chi2_p_value, effective_nu, fit_p_value, within_states
+    from eodarm.analysis.fit import compare
+
+    arm = example_arm()
+    alpha = random_configs(arm, 8, np.random.default_rng(11))
+    clear = eodarm.Effect("joint_clearance", "O3", clearance_mm=0.02)
+    meas = synth(
+        arm,
+        alpha,
+        [1.5, 5.0, 6.5],
+        hidden=[clear],
+        channels="dy_mm",
+        noise=2.5,
+        seed=11,
+        repeats=4,
+        sigma_columns=False,
+    )
+    text = io.StringIO()
+    meas.to_csv(text)
+    text.seek(0)
+    meas = read_measurements(text, arm.n)
+    assert meas.pooled == ("dy_mm",)
+    base = compare(arm, meas)
+    w, nu_w = within_states(base)
+    assert nu_w == meas.sigma_dof["dy_mm"]
+    assert w == pytest.approx(nu_w, rel=1e-9)
+    nu = effective_nu(meas, base.problem.use)
+    lack = fit_p_value(base)
+    naive = chi2_p_value(base.chi2, base.dof, nu)
+    assert lack < naive  # the means' misfit is diluted by ν_W repeats in the naive test
+    assert fit_p_value(compare(arm, meas, [clear])) > 1e-3  # the right model passes

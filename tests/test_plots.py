@@ -24,12 +24,15 @@ import eodarm
 from eodarm.analysis.diagnose import Diagnosis, diagnose
 from eodarm.analysis.fit import compare
 from eodarm.analysis.ladder import build_ladder
+from eodarm.analysis.residuals import residual_pattern
 from eodarm.analysis.synth import random_configs, synth
 from eodarm.data.datasets import example_arm
 from eodarm.data.measurements import Measurements
 from eodarm.errors import EodarmError
 from eodarm.viz import plots, style
 from eodarm.viz.report import write_report
+from eodarm.viz.residual_map import residual_map
+from outside import with_stick_slip
 
 HIDDEN = eodarm.Effect("joint_clearance", "O2", clearance_mm=0.12)
 MASSES = (1.5, 5.0, 6.5)
@@ -264,6 +267,7 @@ def all_figures(
         "ladder": plots.ladder(steps, path=at("ladder")),
         "share": plots.deflection_share(arm, meas, f1.effects, path=at("share")),
         "pose": plots.arm_pose(arm, meas.alpha_deg[0], out=out, path=at("pose")),
+        "left": residual_map(f0, path=at("left")),
     }
 
 
@@ -357,6 +361,76 @@ def test_the_report_of_an_adequate_model_says_so(arm: eodarm.Arm, tmp_path: Path
     assert 'class="verdict adequate"' in text
     assert "nothing is missing" in text
     assert all(f"<td>{c.slot.key}</td>" in text for c in d.ranking)
+
+
+@pytest.fixture(scope="module")
+def unexplained(arm: eodarm.Arm) -> tuple[Measurements, Diagnosis]:
+    """Stick-slip friction in actuator 2: no effect of the catalogue explains it."""
+    poses = random_configs(arm, 5, np.random.default_rng(3))
+    m = with_stick_slip(arm, synth(arm, poses, MASSES, seed=4), 1, 150.0)
+    return m, diagnose(arm, m)
+
+
+def test_the_report_of_unexplained_data_says_so_and_shows_what_is_left(
+    arm: eodarm.Arm, unexplained: tuple[Measurements, Diagnosis], tmp_path: Path
+) -> None:
+    m, d = unexplained
+    assert d.verdict == "unexplained" and not d.suggested and d.best_effort
+    steps = build_ladder(arm, m, d, cv=False)
+    text = write_report(tmp_path / "r.html", arm, m, d, steps=steps, cv=True).read_text(
+        encoding="utf-8"
+    )
+    assert 'class="verdict unexplained"' in text
+    said = re.sub(r"<[^>]+>", "", text)
+    assert "No effect of the catalogue explains these data." in said
+    assert (
+        "no effect of the catalogue explains these data; the largest remaining residuals are"
+        in (said.lower())
+    )
+    best = ", ".join(s.key for s in d.best_effort)
+    assert f"prefers {best}" in said and "it does not explain the data" in said
+    # the rule's judgement of every set it looked at, with the reasons
+    assert "The sets judged, in search order" in said
+    assert said.count("refused") + said.count("improves") >= len(d.examined)
+    # what is left: a table per channel and the heat map, after the residuals section
+    left = text.split("<h2>6b. What no effect of the catalogue explains</h2>", 1)[1]
+    left = left.split("<h2>", 1)[0]
+    assert left.count('src="data:image/png;base64,') == 1
+    for ch in m.measured_channels:
+        assert f"<td>{ch}</td>" in left
+    # every ranked candidate is still there
+    assert all(f"<td>{c.slot.key}</td>" in text for c in d.ranking)
+
+
+def test_residual_map_shows_the_mean_residual_per_configuration_and_payload(
+    arm: eodarm.Arm, unexplained: tuple[Measurements, Diagnosis]
+) -> None:
+    m, d = unexplained
+    fit = d.best_fit
+    pat = residual_pattern(fit)
+    fig = residual_map(fit)
+    images = [im for ax in fig.axes for im in ax.get_images()]
+    # one heat map per measured channel, rows = configurations, columns = payloads
+    assert [im.get_gid() for im in images] == list(m.measured_channels) == list(pat.channels)
+    z = fit.z
+    for j, im in enumerate(images):
+        grid = np.ma.filled(im.get_array(), np.nan)
+        assert grid.shape == (len(m.configs), len(MASSES))
+        c = m.index(pat.channels[j])
+        for i, label in enumerate(m.configs):
+            for p, mass in enumerate(MASSES):
+                rows = (m.config == label) & (m.mass_kg == mass) & fit.problem.use[:, c]
+                assert grid[i, p] == pytest.approx(float(np.mean(z[rows, c])), rel=1e-12)
+    first = images[0].axes
+    assert [t.get_text() for t in first.get_yticklabels()] == list(m.configs)
+    bottom = images[-1].axes
+    assert [t.get_text() for t in bottom.get_xticklabels()] == [f"{x:g}" for x in MASSES]
+    labels = [ax.get_ylabel() for ax in fig.axes]
+    assert "mean (measured − model)/σ" in labels  # the shared colour bar says what colour is
+    # a cell nobody measured is left empty, not drawn as zero
+    gone = m.subset(~((m.config == m.configs[0]) & (m.mass_kg == MASSES[0])))
+    grid = residual_map(compare(arm, gone)).axes[0].get_images()[0].get_array()
+    assert grid.mask[0, 0] and not grid.mask[1:, :].any()
 
 
 # ---------------------------------------------------------------------------- report, FE model

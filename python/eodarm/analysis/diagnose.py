@@ -11,8 +11,11 @@ The procedure (docs/diagnosis.md explains it with the statistics):
 4. Verdict: the baseline is *adequate* when its χ² is consistent with the noise
    (p ≥ 0.001) and no candidate improves it significantly (likelihood-ratio Δχ² beyond the
    0.1 % quantile of χ²₁, Bonferroni-corrected for the number of candidates, and BIC).
-   Otherwise *missing*, and ``suggested`` is the smallest set whose fit is consistent with
-   the noise, or, if none is, the set with the lowest BIC.
+   Otherwise sets are judged smallest first, better χ² first within a size, by the one
+   rule of :func:`eodarm.analysis.acceptance.accept`; the first accepted set is
+   ``suggested`` (verdict *missing*). If none is and the baseline's χ² is not consistent
+   with the noise, the verdict is *unexplained*, and ``best_effort`` is the set (or the
+   baseline) with the lowest BIC.
 5. Two candidates are *confused* when either can reproduce the other's fitted contribution
    to within the noise (residual χ² < 3.84, the 95 % point of χ²₁) on the given channels and
    poses, while that contribution itself is detectable (χ² > 3.84).
@@ -32,13 +35,15 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from eodarm.analysis.acceptance import MIN_CV_CONFIGS, Acceptance, accept, bic, held_out
+from eodarm.analysis.consistency import P_PASS, effective_nu, fit_p_value, lr_threshold
 from eodarm.analysis.fit import FitResult, FitWarning, Problem, fit, outlier_table, peel_outliers
 from eodarm.data.measurements import Measurements, default_sigma
 from eodarm.errors import EodarmError
 from eodarm.model.arm import Arm
 from eodarm.model.effects import CATALOGUE, Slot, candidate_places
 
-__all__ = ["Candidate", "Diagnosis", "all_slots", "diagnose"]
+__all__ = ["P_PASS", "VERDICTS", "Candidate", "Diagnosis", "all_slots", "diagnose"]
 
 # When the data cannot tell two candidates apart (equal χ² to 1e-9), prefer the one that does
 # not overrule the arm file: an unknown mount or joint over a changed actuator body stiffness.
@@ -50,7 +55,8 @@ TIE_ORDER = (
     "base_compliance",
     "actuator_compliance",
 )
-P_PASS = 1e-3  # χ² test: a model "explains the data within noise" when p ≥ this
+#: The verdicts of CONTRACT §6.
+VERDICTS = ("adequate", "missing", "unexplained")
 CONFUSION_CHI2 = 3.841458820694124  # 95 % point of χ² with 1 dof
 OUTLIER_Z = 4.0
 
@@ -84,7 +90,15 @@ class Candidate:
 
 @dataclass
 class Diagnosis:
-    """Result of :func:`diagnose`; ``to_json()`` is the CLI's JSON (CONTRACT §6)."""
+    """Result of :func:`diagnose`; ``to_json()`` is the CLI's JSON (CONTRACT §6).
+
+    ``verdict`` is one of :data:`VERDICTS`. With *missing*, ``suggested`` is the first set
+    the rule accepted and ``acceptance`` its judgement. With *unexplained*, ``best_effort``
+    is the set the BIC prefers (empty when it prefers the baseline), ``best_effort_fit`` its
+    fit, ``best_effort_cv`` its leave-one-configuration-out cross-validation (≥ 3
+    configurations) and ``acceptance`` its judgement by the same rule, every criterion
+    evaluated. ``examined`` lists the judgement of every set looked at, in search order.
+    """
 
     model: list[Slot]
     baseline: FitResult
@@ -96,16 +110,26 @@ class Diagnosis:
     advice: list[dict[str, Any]]
     p_baseline: float
     sets_searched: int
+    best_effort: list[Slot] = field(default_factory=list)
+    best_effort_fit: FitResult | None = None
+    best_effort_cv: Mapping[str, Any] | None = None
+    acceptance: Acceptance | None = None
+    examined: list[Acceptance] = field(default_factory=list)
 
     @property
     def suggested_explains(self) -> bool:
-        """Whether the suggested set explains the data within their noise (χ² p ≥ 0.001);
-        otherwise it is the set the information criterion (BIC) prefers."""
-        f = self.suggested_fit
-        return f is not None and _chi2_sf(f.chi2, f.dof) >= P_PASS
+        """Whether a set is suggested, i.e. accepted by the rule (it explains the data within
+        their noise, away from its bounds, and predicts held-out configurations no worse)."""
+        return bool(self.suggested) and self.acceptance is not None and self.acceptance.accepted
+
+    @property
+    def best_fit(self) -> FitResult:
+        """The fit the diagnosis ends with: the suggested set's, the best effort's, or the
+        baseline."""
+        return self.suggested_fit or self.best_effort_fit or self.baseline
 
     def to_json(self) -> dict[str, Any]:
-        return {
+        out: dict[str, Any] = {
             "model": [s.key for s in self.model],
             "baseline": {
                 "rms": self.baseline.rms(),
@@ -113,20 +137,18 @@ class Diagnosis:
             },
             "verdict": self.verdict,
             "suggested": [s.key for s in self.suggested],
-            "ranking": [c.to_json() for c in self.ranking],
         }
-
-
-def _chi2_sf(x: float, dof: int) -> float:
-    from scipy.stats import chi2
-
-    return float(chi2.sf(x, dof))
-
-
-def _chi2_isf(p: float, dof: int) -> float:
-    from scipy.stats import chi2
-
-    return float(chi2.isf(p, dof))
+        if self.verdict == "unexplained":
+            be = self.best_effort_fit or self.baseline
+            best: dict[str, Any] = {
+                "set": [s.key for s in self.best_effort],
+                "chi2_per_dof": be.chi2_per_dof,
+            }
+            if self.best_effort_cv is not None:
+                best["cv"] = {"rms": dict(self.best_effort_cv["rms"])}
+            out["best_effort"] = best
+        out["ranking"] = [c.to_json() for c in self.ranking]
+        return out
 
 
 def _bounded_qp_batch(
@@ -218,9 +240,32 @@ def diagnose(
                 kw,
             )
         first.outliers = found
+        if first.verdict == "unexplained":
+            _judge_best_effort(first)
         if advise and first.ranking:
             first.advice = _advice(arm, meas, first, self_weight, kw)
     return first
+
+
+def _judge_best_effort(d: Diagnosis) -> None:
+    """The best effort's cross-validation and its judgement, every criterion evaluated.
+
+    Done once, after the outliers are settled: it refits the model per configuration.
+    """
+    if len(d.baseline.problem.meas.configs) < MIN_CV_CONFIGS:
+        if d.best_effort and d.best_effort_fit is not None:
+            d.acceptance = accept(d.baseline, d.best_effort_fit)
+        return
+    base_cv = next((a.baseline_cv for a in d.examined if a.baseline_cv is not None), None)
+    if not d.best_effort or d.best_effort_fit is None:
+        d.best_effort_cv = base_cv if base_cv is not None else held_out(d.baseline)
+        return
+    keys = [s.key for s in d.best_effort]
+    done = next((a for a in d.examined if a.keys == keys and a.cv is not None), None)
+    d.acceptance = done or accept(
+        d.baseline, d.best_effort_fit, baseline_cv=base_cv, always_cross_validate=True
+    )
+    d.best_effort_cv = d.acceptance.cv
 
 
 def _without_outliers(
@@ -244,13 +289,13 @@ def _without_outliers(
         lambda m: _diagnose_pass(
             arm, meas, model_slots, self_weight, max_set, candidates, refine_per_size, m, kw
         ),
-        lambda d: d.suggested_fit or d.baseline,
+        lambda d: d.best_fit,
         OUTLIER_Z,
         0.02,
     )
     if not mask.any():
         return first, []
-    return current, outlier_table(current.suggested_fit or current.baseline, mask)
+    return current, outlier_table(current.best_fit, mask)
 
 
 def _diagnose_pass(
@@ -323,59 +368,69 @@ def _diagnose_pass(
 
     # Verdict.
     n_val = prob.n_values
-    p_base = _chi2_sf(base.chi2, base.dof)
-    lrt = _chi2_isf(1e-3 / max(k, 1), 1)
+    p_base = fit_p_value(base)
+    lrt = lr_threshold(1e-3 / max(k, 1), effective_nu(prob.meas, prob.use))
 
     # Confusions, on the linearised columns with the model's columns projected out.
     _confusions(ranking, cands, an[:, :m], an[:, m:], norms[m:], prob, max(lrt, math.log(n_val)))
     best1 = ranking[0] if ranking else None
     significant = best1 is not None and best1.delta_chi2 > max(lrt, math.log(n_val))
-    verdict = "missing" if (p_base < P_PASS or significant) else "adequate"
+    explained = p_base >= P_PASS
 
-    suggested: list[Slot] = []
-    suggested_fit: FitResult | None = None
+    # Sets, smallest first and better χ² first within a size, judged by the one rule.
+    accepted: Acceptance | None = None
+    examined: list[Acceptance] = []
+    tried: list[FitResult] = []
     searched = k
-    if verdict == "missing":
-        tried: list[FitResult] = []
+    if not explained or significant:
+        base_cv: Mapping[str, Any] | None = None
         for size in range(1, min(max_set, k) + 1):
             sets = list(itertools.combinations(range(k), size))
             searched += len(sets) if size > 1 else 0
             d, chis = solve_sets(sets) if size > 1 else (d1, chi1)
             order = np.argsort(chis)[:refine_per_size]
-            fits = [refine(sets[i], d[i]) for i in order]
-            # a set whose extra member does nothing is not a set of this size
-            fits = [f for f in fits if not any(f.at_bound[m:])] or fits[:1]
-            bestf = _best_set(fits, m)
-            tried.append(bestf)
-            if _chi2_sf(bestf.chi2, bestf.dof) >= P_PASS and not any(bestf.at_bound[m:]):
-                suggested_fit = bestf
+            fits = _by_chi2([refine(sets[i], d[i]) for i in order], m)
+            tried += fits
+            for f in fits:
+                acc = accept(base, f, baseline_cv=base_cv)
+                examined.append(acc)
+                if acc.baseline_cv is not None:
+                    base_cv = acc.baseline_cv
+                if acc.accepted:
+                    accepted = acc
+                    break
+            if accepted is not None:
                 break
-        if suggested_fit is None and tried:
-            bic = [f.chi2 + f.n_params * math.log(n_val) for f in tried]
-            base_bic = base.chi2 + base.n_params * math.log(n_val)
-            i = int(np.argmin(bic))
-            if bic[i] < base_bic:
-                suggested_fit = tried[i]
-        if suggested_fit is not None:
-            suggested = suggested_fit.slots[m:]
+    if accepted is not None:
+        verdict = "missing"
+    else:
+        verdict = "adequate" if explained else "unexplained"
+    best_effort: FitResult | None = None
+    if verdict == "unexplained":
+        best_effort = min([base, *tried], key=bic)
     return Diagnosis(
         model=model_slots,
         baseline=base,
         verdict=verdict,
-        suggested=suggested,
-        suggested_fit=suggested_fit,
+        suggested=accepted.fit.slots[m:] if accepted else [],
+        suggested_fit=accepted.fit if accepted else None,
         ranking=ranking,
         outliers=[],
         advice=[],
         p_baseline=p_base,
         sets_searched=searched,
+        best_effort=best_effort.slots[m:] if best_effort is not None else [],
+        best_effort_fit=best_effort,
+        acceptance=accepted,
+        examined=examined,
     )
 
 
-def _best_set(fits: list[FitResult], m: int) -> FitResult:
-    """Least χ²; sets equal in χ² (to 1e-9) are broken by TIE_ORDER of their members."""
+def _by_chi2(fits: list[FitResult], m: int) -> list[FitResult]:
+    """Fits of sets of one size, least χ² first; χ² equal to 1e-9 of the largest are ties,
+    broken by TIE_ORDER of their members (the arm file's own stiffness last)."""
     quantum = 1e-9 * max([abs(f.chi2) for f in fits] + [1e-300])
-    return min(
+    return sorted(
         fits,
         key=lambda f: (
             round(f.chi2 / quantum),

@@ -287,7 +287,7 @@ def fit(
     self_weight: bool = True,
     exclude: npt.NDArray[np.bool_] | None = None,
     problem: Problem | None = None,
-    start: Sequence[float] | None = None,
+    start: Sequence[float] | npt.NDArray[np.float64] | None = None,
     max_iter: int = 30,
     model: str = "analytic",
     fem_options: Mapping[str, Any] | None = None,
@@ -453,9 +453,10 @@ def peel_outliers(
     ``first`` is the work on all cells, ``refit(mask)`` redoes it without the masked cells and
     ``best_of`` gives the fit whose residuals judge the cells. At most ``share`` of the values
     (at least one) are left out, and only if the best fit is then consistent with the noise
-    (χ² p ≥ 0.001); otherwise ``first`` stands and the mask is all False.
+    (p ≥ 0.001 by :func:`eodarm.analysis.consistency.fit_p_value`); otherwise ``first``
+    stands and the mask is all False.
     """
-    from scipy.stats import chi2 as chi2_dist
+    from eodarm.analysis.consistency import P_PASS, fit_p_value
 
     base = best_of(first)
     mask = np.zeros(base.problem.meas.values.shape, dtype=bool)
@@ -471,7 +472,7 @@ def peel_outliers(
         mask[worst] = True
         current = refit(mask.copy())
     best = best_of(current)
-    if mask.any() and chi2_dist.sf(best.chi2, best.dof) >= 1e-3:
+    if mask.any() and fit_p_value(best) >= P_PASS:
         return current, mask
     return first, np.zeros_like(mask)
 
@@ -524,10 +525,17 @@ def cross_validate(
     by: str = "config",
     model: str = "analytic",
     fem_options: Mapping[str, Any] | None = None,
+    exclude: npt.NDArray[np.bool_] | None = None,
+    start: Sequence[float] | npt.NDArray[np.float64] | None = None,
 ) -> dict[str, Any]:
     """Leave one configuration out: fit without it, predict it.
 
-    Returns ``{"rms": {channel: rms over every held-out cell}, "per_config": {label: rms}}``.
+    ``exclude`` is an (N, C) mask of cells left out everywhere (outliers): they are neither
+    fitted nor predicted. ``start`` is a starting θ for every fold (e.g. the fit on all the
+    data, which makes each fold converge in a step or two).
+
+    Returns ``{"rms": {channel: rms over every held-out cell}, "per_config": {label: rms},
+    "residual": (N, C) held-out residuals (NaN where not used)}``.
     """
     if by != "config":
         raise EodarmError(f"--cv {by}: only 'config' is supported")
@@ -536,23 +544,31 @@ def cross_validate(
         raise EodarmError("cross-validation needs at least two configurations")
     slots = [Slot.of(e) for e in effects]
     kw: dict[str, Any] = {"model": model, "fem_options": fem_options}
-    full = Problem(arm, meas, self_weight=self_weight, **kw)
+    full = Problem(arm, meas, self_weight=self_weight, exclude=exclude, **kw)
     resid = np.full_like(meas.values, np.nan)
     per: dict[str, dict[str, float]] = {}
+    labels = np.asarray(meas.config)
+    if not slots:
+        # Nothing is fitted: every configuration is predicted by the same model.
+        y, _ = full.evaluate([])
+        resid = np.where(full.use, meas.values - y, np.nan)
     for label in configs:
-        held = np.asarray(meas.config) == label
-        train = Problem(
-            arm,
-            meas,
-            self_weight=self_weight,
-            exclude=np.broadcast_to(held[:, None], meas.values.shape),
-            **kw,
-        )
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", FitWarning)
-            res = fit(arm, meas, slots, problem=train)
-        rows = np.flatnonzero(held)
-        y, _ = full.evaluate(list(zip(slots, res.theta, strict=True)), rows=rows)
-        resid[rows] = meas.values[rows] - y
+        held = labels == label
+        if slots:
+            gone = np.broadcast_to(held[:, None], meas.values.shape)
+            train = Problem(
+                arm,
+                meas,
+                self_weight=self_weight,
+                exclude=gone if exclude is None else gone | exclude,
+                **kw,
+            )
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", FitWarning)
+                res = fit(arm, meas, slots, problem=train, start=start)
+            # the fit's prediction covers every row, the held-out ones included
+            rows = np.flatnonzero(held)
+            y = res.prediction[rows]
+            resid[rows] = np.where(full.use[rows], meas.values[rows] - y, np.nan)
         per[label] = _rms(resid, full.use, meas.channels, held)
     return {"rms": _rms(resid, full.use, meas.channels), "per_config": per, "residual": resid}

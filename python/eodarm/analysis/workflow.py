@@ -5,20 +5,26 @@ at once (the seed arm: three actuator bodies far stiffer than modelled, *and* co
 their three mounts), and the sensible procedure is the engineer's: add the suggested set,
 refit, and ask again. :func:`investigate` does that for a few rounds and keeps the ladder of
 models with their in-sample and cross-validated errors.
+
+Every decision is the one rule of :func:`eodarm.analysis.acceptance.accept`, as the
+diagnosis made it: a round whose verdict is *missing* adds its suggested set; a round whose
+verdict is *unexplained* adds its best effort only when the rule finds that it *improves*
+the model (away from its bounds, held-out configurations predicted no worse, lower BIC),
+and otherwise the investigation stops and says why.
 """
 
 from __future__ import annotations
 
 import math
-import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
+from eodarm.analysis.acceptance import Acceptance, held_out
 from eodarm.analysis.diagnose import Diagnosis, diagnose
-from eodarm.analysis.fit import FitResult, FitWarning, cross_validate, fit
+from eodarm.analysis.fit import FitResult
 from eodarm.data.measurements import Measurements
 from eodarm.model.arm import Arm
 from eodarm.model.effects import Slot
@@ -44,10 +50,6 @@ class Investigation:
         return self.steps[-1]["fit"]
 
 
-def _bic(res: FitResult) -> float:
-    return res.chi2 + res.n_params * math.log(max(res.problem.n_values, 2))
-
-
 def investigate(
     arm: Arm,
     meas: Measurements,
@@ -60,45 +62,45 @@ def investigate(
 ) -> Investigation:
     """Diagnose; while something is missing, add the suggested set and diagnose again.
 
-    Stops when the verdict is *adequate*, when nothing is suggested, when the suggested set
-    does not lower the BIC (χ² + k ln N), when it makes the held-out configurations worse
-    (cross-validated χ², with ``cv``), or after ``max_rounds``. Every step of the ladder is
-    refitted on all its effects jointly, with leave-one-configuration-out cross-validation
-    when ``cv`` and there are two or more configurations.
+    A round with the verdict *missing* adds its suggested set. A round with the verdict
+    *unexplained* adds its best effort (the set the BIC prefers) only if the rule of
+    :func:`~eodarm.analysis.acceptance.accept` finds that it improves the model: every
+    parameter away from its bounds, held-out configurations (≥ 3) predicted no worse, and a
+    lower BIC. The investigation stops when the verdict is *adequate*, when an unexplained
+    round has nothing that improves the model (the reason is in ``stopped``), or after
+    ``max_rounds``. Each step of the ladder is the round's own joint fit of all its effects,
+    with its leave-one-configuration-out cross-validation when ``cv`` and there are two or
+    more configurations.
 
     ``solver_model`` (``"analytic"`` or ``"fem"``) and ``fem_options`` choose the model that
     predicts the channels in every diagnosis, fit and cross-validation, as in
     :func:`eodarm.diagnose` (``model`` is the list of effects already in the model).
     """
-    kw: dict[str, Any] = {"model": solver_model, "fem_options": fem_options}
     current = [Slot.of(s) for s in model]
     do_cv = cv and len(meas.configs) >= 2
     rounds: list[Diagnosis] = []
     steps: list[dict[str, Any]] = []
 
-    def step(label: str, slots: list[Slot]) -> dict[str, Any]:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", FitWarning)
-            res = fit(arm, meas, slots, self_weight=self_weight, **kw)
-            cvr = cross_validate(arm, meas, slots, self_weight=self_weight, **kw) if do_cv else None
+    def step(label: str, res: FitResult, cvr: Mapping[str, Any] | None) -> dict[str, Any]:
+        if do_cv and cvr is None:
+            cvr = held_out(res)
         cv_chi2 = math.nan
         if cvr is not None:
-            z = cvr["residual"] / meas.sigma
-            cv_chi2 = float(np.nansum(z[res.problem.use] ** 2))
+            use = res.problem.use
+            z = cvr["residual"][use] / meas.sigma[use]
+            cv_chi2 = float(np.nansum(z**2))
         return {
             "label": label,
-            "effects": [s.key for s in slots],
+            "effects": [s.key for s in res.slots],
             "rms": res.rms(),
-            "cv_rms": cvr["rms"] if cvr else None,
-            "cv": cvr,
+            "cv_rms": dict(cvr["rms"]) if cvr else None,
+            "cv": cvr if do_cv else None,
             "cv_chi2": cv_chi2,
             "chi2_per_dof": res.chi2_per_dof,
             "fit": res,
             "warnings": list(res.warnings),
         }
 
-    base_label = "baseline" if not current else "model: " + ", ".join(s.key for s in current)
-    steps.append(step(base_label, current))
     stopped = f"the limit of {max_rounds} rounds was reached"
     for _ in range(max_rounds):
         d = diagnose(
@@ -110,23 +112,56 @@ def investigate(
             fem_options=fem_options,
         )
         rounds.append(d)
+        if not steps:
+            label = "baseline" if not current else "model: " + ", ".join(s.key for s in current)
+            steps.append(step(label, d.baseline, _baseline_cv(d)))
         if d.verdict == "adequate":
             stopped = "the model explains the data within their noise"
             break
-        if not d.suggested:
-            stopped = "no set of effects improves the model enough"
-            break
-        nxt = current + list(d.suggested)
-        candidate = step("+ " + " + ".join(s.key for s in d.suggested), nxt)
-        if _bic(candidate["fit"]) >= _bic(steps[-1]["fit"]):
-            stopped = "the suggested set does not lower the BIC"
-            break
-        if do_cv and not candidate["cv_chi2"] < steps[-1]["cv_chi2"]:
+        acc = d.acceptance
+        if d.verdict == "missing" and acc is not None:
+            label = "+ " + " + ".join(s.key for s in d.suggested)
+        elif acc is None or not d.best_effort:
             stopped = (
-                f"adding {', '.join(s.key for s in d.suggested)} would predict held-out "
-                "configurations worse (cross-validated χ² rises)"
+                "no effect of the catalogue explains these data, and no set of them lowers the BIC"
             )
             break
-        steps.append(candidate)
-        current = nxt
+        elif not acc.improves:
+            stopped = _why_not(acc)
+            break
+        else:
+            label = "+ " + " + ".join(s.key for s in d.best_effort) + " (best effort)"
+        steps.append(step(label, acc.fit, acc.cv))
+        current = list(acc.fit.slots)
     return Investigation(rounds, steps, stopped)
+
+
+def _baseline_cv(d: Diagnosis) -> Mapping[str, Any] | None:
+    """The baseline's cross-validation, where the diagnosis already made it."""
+    for a in d.examined:
+        if a.baseline_cv is not None:
+            return a.baseline_cv
+    if d.acceptance is not None and d.acceptance.baseline_cv is not None:
+        return d.acceptance.baseline_cv
+    if d.verdict == "unexplained" and not d.best_effort:
+        return d.best_effort_cv
+    return None
+
+
+def _why_not(acc: Acceptance) -> str:
+    """Why an unexplained round's best effort is not added, in a sentence."""
+    keys = ", ".join(acc.keys)
+    why = []
+    if acc.stuck:
+        why.append(f"{', '.join(acc.stuck)} sit at a bound")
+    if acc.predicts is False and acc.cv is not None and acc.baseline_cv is not None:
+        why.append(
+            "it would predict held-out configurations worse (held-out RMS/σ "
+            f"{acc.cv['z_rms']:.3g} against {acc.baseline_cv['z_rms']:.3g} without it)"
+        )
+    if not why:
+        why.append("it does not lower the BIC")
+    return (
+        f"no effect of the catalogue explains these data, and the best effort, {keys}, "
+        "does not improve the model: " + "; ".join(why)
+    )

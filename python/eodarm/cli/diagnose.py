@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import textwrap
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -20,6 +21,7 @@ from eodarm.cli._common import (
     _model,
     _model_kw,
     _noise_json,
+    _note,
     _plots,
     _print_table,
     _read,
@@ -50,8 +52,16 @@ def run(args: argparse.Namespace) -> int:
         print(json.dumps({**d.to_json(), "noise": _noise_json(meas)}))
     else:
         _print_diagnosis(d, arm, meas)
-    best = d.suggested_fit or d.baseline
+    best = d.best_fit
     _plots(args.plot, meas, d.baseline, best, list(best.effects), arm, sw, None, mk)
+    if args.plot and d.verdict == "unexplained":
+        from pathlib import Path
+
+        from eodarm.viz.residual_map import residual_map
+
+        path = Path(args.plot) / "residual_pattern.png"
+        residual_map(best, path=path)
+        _note(f"wrote {path}")
     return 0
 
 
@@ -68,16 +78,17 @@ def _print_diagnosis(d: Any, arm: Arm, meas: Measurements) -> None:
     print(f"verdict: {d.verdict.upper()}", end="")
     if d.verdict == "adequate":
         print(" — the model explains the data within their noise; nothing is missing")
-    else:
+    elif d.verdict == "missing":
         print(
-            f" — suggested: {' + '.join(s.key for s in d.suggested) or '(none)'}"
+            f" — suggested: {' + '.join(s.key for s in d.suggested)}"
             f"  ({d.sets_searched} candidate sets searched)"
         )
-    if d.suggested_fit is not None:
-        f = d.suggested_fit
-        for i, s in enumerate(f.slots):
-            print(f"    {s.key:28s} {s.kind.param} = {_fmt(f.estimate(i))} ± {_fmt(f.stderr(i))}")
-        print(f"    chi2/dof {f.chi2_per_dof:.4g}   RMS {_rms_line(f.rms())}")
+        if d.suggested_fit is not None:
+            _print_fit(d.suggested_fit)
+        if d.acceptance is not None:
+            _say("accepted: " + "; ".join(d.acceptance.reasons()), "    ")
+    else:
+        _print_unexplained(d)
     print("\nranking (each candidate added alone, parameter fitted):")
     chans = list(d.baseline.rms())
     rows = []
@@ -117,6 +128,93 @@ def _print_diagnosis(d: Any, arm: Arm, meas: Measurements) -> None:
             "\noutliers (> 4σ after the best fit, left out): "
             + "; ".join(f"line {r['line']} {r['channel']} z={r['z']:+.1f}" for r in d.outliers)
         )
+
+
+def _print_fit(f: Any) -> None:
+    for i, s in enumerate(f.slots):
+        print(f"    {s.key:28s} {s.kind.param} = {_fmt(f.estimate(i))} ± {_fmt(f.stderr(i))}")
+    print(f"    chi2/dof {f.chi2_per_dof:.4g}   RMS {_rms_line(f.rms())}")
+
+
+def _say(text: str, indent: str = "", width: int = 100) -> None:
+    print(textwrap.fill(text, width, initial_indent=indent, subsequent_indent=indent + "  "))
+
+
+def _print_unexplained(d: Any) -> None:
+    """The verdict 'unexplained' in words, the best effort, and the pattern that is left."""
+    from eodarm.analysis.residuals import residual_pattern
+
+    print(" — what is missing is not in the catalogue")
+    _say(
+        f"none of the {d.sets_searched} sets of up to three candidate effects fits the data "
+        "within their noise with every parameter away from its bounds and predicts held-out "
+        "configurations no worse (or the stated σ are too small)",
+        "    ",
+    )
+    best = d.best_fit
+    if d.best_effort:
+        _say(
+            "best effort (lowest BIC; it does not explain the data): "
+            + " + ".join(s.key for s in d.best_effort)
+        )
+        _print_fit(best)
+        if d.best_effort_cv is not None:
+            _say(
+                "held-out RMS (leave one configuration out) " + _rms_line(d.best_effort_cv["rms"]),
+                "    ",
+            )
+        if d.acceptance is not None:
+            _say("; ".join(d.acceptance.reasons()), "    ")
+    else:
+        _say("best effort (lowest BIC): the model as it is; no set of candidates lowers the BIC")
+    pat = residual_pattern(best)
+    cells = [
+        f"{c['channel']} in {c['config']} at {c['mass_kg']:g} kg ({c['z']:+.1f}σ, line {c['line']})"
+        for c in pat.largest[:3]
+    ]
+    _say(
+        "no effect of the catalogue explains these data; the largest remaining residuals are "
+        + "; ".join(cells)
+    )
+    _print_pattern(pat)
+
+
+def _z(v: float) -> str:
+    if not np.isfinite(v):
+        return "."
+    if abs(v) < 9.95:
+        return f"{v:+.1f}"
+    if abs(v) < 999.5:
+        return f"{v:+.0f}"
+    return f"{v:+.0e}"
+
+
+def _print_pattern(pat: Any, width: int = 100) -> None:
+    """Mean residual/sigma by configuration and by payload, one column per channel, within
+    ``width`` columns (the channels carrying the least misfit are dropped first)."""
+    names = [ch.removesuffix("_mm").removesuffix("_deg") for ch in pat.channels]
+    label_w = 12
+    col_w = max([7, *(len(n) + 1 for n in names)])
+    fits = max(1, (width - label_w - 2) // (col_w + 2))
+    keep = sorted(np.argsort(-np.nan_to_num(pat.rms_z))[:fits].tolist())
+    print("\nwhat is left, mean (measured − model)/σ by configuration and by payload:")
+    head = ["", *(names[j] for j in keep)]
+    rows = [
+        [c[:label_w], *(_z(pat.by_config[i, j]) for j in keep)] for i, c in enumerate(pat.configs)
+    ]
+    rows += [
+        [f"{m:g} kg", *(_z(pat.by_payload[p, j]) for j in keep)] for p, m in enumerate(pat.payloads)
+    ]
+    rows.append(["RMS", *(f"{pat.rms_z[j]:.3g}" for j in keep)])
+    widths = [label_w] + [col_w] * len(keep)
+    print("  ".join(h.rjust(w) for h, w in zip(head, widths, strict=True)))
+    for k, r in enumerate(rows):
+        if k in (0, len(pat.configs)):
+            print("  ".join(("-" * w) for w in widths))
+        print("  ".join(c.rjust(w) for c, w in zip(r, widths, strict=True)))
+    if len(keep) < len(names):
+        gone = [names[j] for j in range(len(names)) if j not in keep]
+        print(f"(not shown, smaller residuals: {', '.join(gone)})")
 
 
 def add_parser(sub: Any) -> argparse.ArgumentParser:

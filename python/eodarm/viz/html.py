@@ -39,6 +39,7 @@ figcaption { font-size: .85em; color: #555; }
            font-size: 1.15em; }
 .missing { background: #d62728; color: white; }
 .adequate { background: #2ca02c; color: white; }
+.unexplained { background: #9467bd; color: white; }
 .note { color: #555; font-size: .9em; }
 .warn { color: #8c3b00; }
 code { background: #f4f4f4; padding: 0 .2em; }

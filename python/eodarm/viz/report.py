@@ -5,11 +5,14 @@ CSS, no JavaScript, no external resource) that goes from the data to the conclus
 
 1. the data: source, rows, configurations, payloads, measured channels, defaulted σ;
 2. the baseline model against the measurements (RMS per channel, χ²/dof);
-3. the diagnosis: verdict, suggested set, ranking of every candidate, outliers, advice on the
-   next measurement when candidates cannot be told apart;
-4. the fitted suggested model (estimates ± standard errors, cross-validation);
-5. the error ladder (:func:`build_ladder`), residuals against payload before/after, and each
-   effect's share of the sag.
+3. the diagnosis: verdict, suggested set, the sets the acceptance rule judged and why,
+   ranking of every candidate, outliers, advice on the next measurement when candidates cannot
+   be told apart (:mod:`eodarm.viz.report_diagnosis`);
+4. the fitted suggested model (estimates ± standard errors, cross-validation), or the best
+   effort when nothing explains the data;
+5. the error ladder (:func:`build_ladder`), residuals against payload before/after, what no
+   effect of the catalogue explains (when the verdict is ``unexplained``), and each effect's
+   share of the sag.
 
 Every number comes from one model, the one the diagnosis was made with: the analytic model, or
 with ``diagnose(..., solver_model="fem")`` the finite-element model (``docs/fem.md``); the
@@ -34,31 +37,23 @@ from typing import Any
 import numpy as np
 
 from eodarm._version import __version__
-from eodarm.analysis.diagnose import CONFUSION_CHI2, Candidate, Diagnosis
+from eodarm.analysis.diagnose import Diagnosis
 from eodarm.analysis.fit import FitResult, FitWarning, cross_validate
 from eodarm.analysis.ladder import build_ladder, check_same_model, model_name, solver_keywords
 from eodarm.data.measurements import Measurements, default_sigma
 from eodarm.errors import EodarmError
 from eodarm.model.arm import Arm
 from eodarm.viz import html as page
+from eodarm.viz.report_diagnosis import (
+    diagnosis_section,
+    left_section,
+    rounds_section,
+    verdict_line,
+)
 
 __all__ = ["build_ladder", "write_report"]
 
 PathLike = str | os.PathLike[str]
-
-
-def _param(param: str, unit: str, value: float, name: str = "") -> str:
-    if not math.isfinite(value):
-        # θ = 0: for an actuator body that is a rigid body, for anything else no effect.
-        what = "rigid body" if name == "actuator_compliance" else "rigid: absent"
-        return f"{param} = ∞ ({what})"
-    return f"{param} = {page.num(value)} {unit}"
-
-
-def _estimate(cand: Candidate) -> str:
-    i = cand.fit.slots.index(cand.slot)
-    kind = cand.slot.kind
-    return _param(kind.param, kind.unit, cand.fit.estimate(i), cand.slot.name)
 
 
 def _nice_scale(max_dalpha_deg: float, target_deg: float = 8.0) -> float:
@@ -84,6 +79,15 @@ def _sigma_typ(meas: Measurements, channel: str) -> float:
     c = meas.index(channel)
     s = meas.sigma[meas.measured[:, c], c]
     return float(np.median(s)) if s.size else math.nan
+
+
+def _ends_with(d: Diagnosis) -> FitResult | None:
+    """The model a lone diagnosis ends with: the suggested set, or the best effort."""
+    if d.suggested_fit is not None:
+        return d.suggested_fit
+    if d.verdict == "unexplained" and d.best_effort:
+        return d.best_effort_fit
+    return None
 
 
 def _model_keys(fit_result: FitResult) -> str:
@@ -145,7 +149,7 @@ def write_report(
         if step.get("fit") is not None:
             check_same_model(step["fit"], kw, f"step {i} of the ladder")
     base = diagnosis.baseline
-    best = final_fit if final_fit is not None else diagnosis.suggested_fit
+    best = final_fit if final_fit is not None else _ends_with(diagnosis)
     final = best if best is not None else base
     self_weight = base.problem.self_weight
     main = plots.main_channel(meas, base)
@@ -166,26 +170,25 @@ def write_report(
         f"<title>{page.esc(doc_title)}</title>",
         f"<style>{page.CSS}</style></head><body>",
         f"<h1>{page.esc(doc_title)}</h1>",
-        f'<p>Verdict: <span class="verdict {page.esc(diagnosis.verdict)}">'
-        f"{page.esc(diagnosis.verdict)}</span> &nbsp; "
-        + (
-            "suggested: <b>" + page.esc(", ".join(s.key for s in diagnosis.suggested)) + "</b>"
-            if diagnosis.suggested
-            else "nothing to add"
-        )
-        + "</p>",
+        verdict_line(diagnosis),
     ]
     if intro_html:
         parts.append(intro_html)
     parts += _data_section(arm, meas, self_weight, kw)
     parts += _baseline_section(meas, diagnosis, main, kw)
-    parts += _diagnosis_section(meas, diagnosis, main, unit)
+    parts += diagnosis_section(meas, diagnosis, main, unit)
     if rounds and len(rounds) > 1:
-        parts += _rounds_section(rounds, main)
+        parts += rounds_section(rounds, main)
     parts += _fitted_section(meas, diagnosis, cv, final_fit)
     if steps:
         parts += _ladder_section(steps, main, unit)
     parts += _residual_section(meas, base, final, main)
+    last = rounds[-1] if rounds else diagnosis
+    if last.verdict == "unexplained":
+        what = "the model the report ends with" if final_fit is not None else "the best effort"
+        if final is base:
+            what = "the baseline"
+        parts += left_section(meas, final, f"{what} ({_model_keys(final)})")
     parts += _share_section(arm, meas, final, self_weight, kw)
     for heading, body in extra_sections or ():
         parts += [f"<h2>{page.esc(heading)}</h2>", body]
@@ -265,7 +268,8 @@ def _baseline_section(
 ) -> list[str]:
     from eodarm.viz import plots
 
-    base, best = d.baseline, d.suggested_fit
+    base, best = d.baseline, _ends_with(d)
+    name = "suggested" if d.suggested_fit is not None else "best effort"
     model = ", ".join(s.key for s in d.model)
     what = (
         f"Baseline: the arm file's model with {page.esc(model)} fitted."
@@ -277,7 +281,7 @@ def _baseline_section(
     rb, ra = base.rms(), best.rms() if best is not None else {}
     head = ["channel", "typical σ", "RMS baseline", "RMS/σ"]
     if best is not None:
-        head += ["RMS suggested", "RMS/σ"]
+        head += [f"RMS {name}", "RMS/σ"]
     rows = []
     for ch in meas.measured_channels:
         s = _sigma_typ(meas, ch)
@@ -299,14 +303,14 @@ def _baseline_section(
         ["p-value of the baseline χ²", _p_value(d.p_baseline)],
     ]
     if best is not None:
-        chi.append(["χ²/dof suggested model", page.Num(best.chi2_per_dof)])
+        chi.append([f"χ²/dof {name} model", page.Num(best.chi2_per_dof)])
     tables = (
         f'<div class="row"><div>{page.table(head, rows)}</div>'
         f"<div>{page.table([], chi)}</div></div>"
     )
     fits = {"baseline": base}
     if best is not None:
-        fits["suggested"] = best
+        fits[name] = best
     fig = plots.measured_vs_model(meas, fits)
     img = page.img(
         fig,
@@ -317,128 +321,22 @@ def _baseline_section(
     return ["<h2>2. Baseline against the measurements</h2>", f"<p>{what}</p>", tables, img]
 
 
-def _diagnosis_section(meas: Measurements, d: Diagnosis, main: str, unit: str) -> list[str]:
-    sugg = {s.key for s in d.suggested}
-    if d.verdict == "adequate":
-        story = (
-            "The baseline explains the data within their noise and no candidate improves it "
-            "significantly: nothing is missing."
-        )
-    elif d.suggested and d.suggested_explains:
-        story = (
-            "The baseline does not explain the data. The smallest set of effects that does "
-            f"(searched over {d.sets_searched} sets, not just the top of the ranking) is "
-            f"<b>{page.esc(', '.join(sorted(sugg, key=[s.key for s in d.suggested].index)))}</b>."
-        )
-    elif d.suggested:
-        story = (
-            "The baseline does not explain the data, and no set of up to three effects explains "
-            f"it within the noise (searched over {d.sets_searched} sets). Of those sets, the "
-            "information criterion (BIC: χ² + k ln N) prefers "
-            f"<b>{page.esc(', '.join(sorted(sugg, key=[s.key for s in d.suggested].index)))}</b>; "
-            "more is missing than one round can add (see the further rounds below)."
-        )
-    else:
-        story = "The baseline does not explain the data, and no set of candidates does better."
-    rows, hl = [], []
-    for i, c in enumerate(d.ranking, start=1):
-        rows.append(
-            [
-                page.Num(i, 3),
-                c.slot.key,
-                _estimate(c),
-                page.Num(c.delta_chi2, 4),
-                page.Num(c.fit.chi2_per_dof, 4),
-                page.Num(c.fit.rms().get(main, math.nan), 3, f" {unit}"),
-                ", ".join(c.confused_with) or "–",
-            ]
-        )
-        hl.append(c.slot.key in sugg)
-    ranking = page.table(
-        [
-            "#",
-            "effect@place",
-            "estimate",
-            "Δχ²",
-            "χ²/dof",
-            f"RMS {main}",
-            "confused with",
-        ],
-        rows,
-        hl,
-    )
-    out = [
-        "<h2>3. Diagnosis: which effect is missing?</h2>",
-        f'<p>Verdict: <span class="verdict {page.esc(d.verdict)}">{page.esc(d.verdict)}</span></p>',
-        f"<p>{story}</p>",
-        "<h3>Every candidate added alone, its parameter fitted (best first)</h3>",
-        '<p class="note">Highlighted: the suggested set. RMS of the main channel '
-        f"{page.esc(main)}; "
-        "Δχ² is the improvement over the baseline. “Confused with” lists the candidates the "
-        "data cannot tell apart from this one.</p>",
-        ranking,
-    ]
-    if d.outliers:
-        orows = [
-            [
-                page.Num(o["line"], 6),
-                o["config"],
-                page.Num(o["mass_kg"], 4),
-                o["channel"],
-                page.Num(o["measured"], 4),
-                page.Num(o["model"], 4),
-                page.Num(o["z"], 3),
-            ]
-            for o in d.outliers
-        ]
-        out += [
-            "<h3>Outliers (left out of the fits)</h3>",
-            page.table(
-                ["line", "config", "mass [kg]", "channel", "measured", "model", "z [σ]"], orows
-            ),
-        ]
-    if d.advice:
-        items = []
-        for a in d.advice:
-            pair = " and ".join(a["pair"])
-            bits = []
-            if a.get("channel"):
-                ch = a["channel"]
-                bits.append(
-                    f"measure <code>{page.esc(ch['channel'])}</code> (the two would differ by "
-                    f"χ² = {page.esc(page.num(ch['chi2_separation'], 3))} on the present poses)"
-                )
-            pose = a.get("pose")
-            if pose and pose["chi2_separation"] > CONFUSION_CHI2:
-                ang = ", ".join(f"{v:.1f}" for v in pose["alpha_deg"])
-                bits.append(
-                    f"add the pose α = ({page.esc(ang)})° at "
-                    f"{page.esc(page.num(pose['mass_kg']))} kg (χ² separation "
-                    f"{page.esc(page.num(pose['chi2_separation'], 3))} on the channels "
-                    "measured now)"
-                )
-            todo = "; or ".join(bits) if bits else "no measurement found that separates them"
-            if pose and pose["chi2_separation"] <= CONFUSION_CHI2:
-                todo += (
-                    " (no pose separates them with the channels measured now: they act alike "
-                    "in every pose)"
-                )
-            items.append(f"<li>To tell <b>{page.esc(pair)}</b> apart: {todo}.</li>")
-        out += ["<h3>Next measurement</h3>", "<ul>" + "".join(items) + "</ul>"]
-    return out
-
-
 def _fitted_section(
     meas: Measurements,
     d: Diagnosis,
     cv: Mapping[str, Any] | None,
     final: FitResult | None = None,
 ) -> list[str]:
-    best = final if final is not None else d.suggested_fit
+    best = final if final is not None else _ends_with(d)
     out = ["<h2>4. The fitted model</h2>"]
     if best is None:
         out.append("<p>No effect is suggested; the baseline stands as it is.</p>")
         return out
+    if final is None and d.suggested_fit is None:
+        out.append(
+            "<p>No set explains the data: this is the best effort, the set the information "
+            "criterion (BIC) prefers. It does not explain the data within their noise.</p>"
+        )
     rows = []
     for i, s in enumerate(best.slots):
         kind = s.kind
@@ -501,32 +399,6 @@ def _fitted_section(
             '<p class="warn">' + "<br>".join(page.esc(w) for w in best.warnings) + "</p>",
         )
     return out
-
-
-def _rounds_section(rounds: Sequence[Diagnosis], main: str) -> list[str]:
-    rows = []
-    for i, d in enumerate(rounds):
-        top = ", ".join(c.slot.key for c in d.ranking[:3])
-        rows.append(
-            [
-                str(i + 1),
-                ", ".join(s.key for s in d.model) or "baseline",
-                page.Num(d.baseline.chi2_per_dof),
-                page.Num(d.baseline.rms().get(main, math.nan), 4),
-                d.verdict,
-                ", ".join(s.key for s in d.suggested) or "—",
-                top,
-            ]
-        )
-    return [
-        "<h2>3b. Further rounds</h2>",
-        "<p>One diagnosis searches sets of up to three effects. Each further round adds the "
-        "suggested set to the model, refits, and diagnoses again.</p>",
-        page.table(
-            ["round", "model", "χ²/dof", f"RMS {main}", "verdict", "suggested", "best alone"],
-            rows,
-        ),
-    ]
 
 
 def _ladder_section(steps: Sequence[Mapping[str, Any]], main: str, unit: str) -> list[str]:
