@@ -49,6 +49,7 @@ __all__ = [
     "Problem",
     "compare",
     "cross_validate",
+    "determining_channel",
     "fit",
     "outlier_table",
 ]
@@ -198,6 +199,9 @@ class FitResult:
     iterations: int
     warnings: list[str] = field(default_factory=list)
     fixed: list[Effect] = field(default_factory=list)  # effects held at given values
+    #: Covariance of θ (P, P); a parameter at a bound has its half-normal variance and no
+    #: correlation (the data push it against the bound, not along the others).
+    theta_cov: npt.NDArray[np.float64] | None = None
 
     @property
     def effects(self) -> list[Effect]:
@@ -245,6 +249,99 @@ class FitResult:
             return math.inf if t <= 0 else e / (t * t)
         return e
 
+    def covariance(self) -> npt.NDArray[np.float64]:
+        """Covariance (P, P) of the physical parameters in their reported units (delta method
+        through θ: a stiffness k = 1/θ has ∂k/∂θ = −1/θ²; an infinite stiffness, θ = 0, has
+        infinite variance)."""
+        k = len(self.slots)
+        cov = self.theta_cov if self.theta_cov is not None else np.diag(self.theta_stderr**2)
+        d = np.empty(k)
+        for i, s in enumerate(self.slots):
+            t = float(self.theta[i])
+            if s.kind.compliance_like:
+                d[i] = -math.inf if t <= 0 else -1.0 / (t * t)
+            else:
+                d[i] = 1.0
+        with np.errstate(invalid="ignore"):
+            out = cov * np.outer(d, d)
+        out[~np.isfinite(d), :] = np.nan
+        out[:, ~np.isfinite(d)] = np.nan
+        for j in np.flatnonzero(~np.isfinite(d)).tolist():
+            out[j, j] = math.inf
+        return out
+
+    def correlation(self) -> npt.NDArray[np.float64]:
+        """Correlation matrix (P, P) of the physical parameters (NaN where undefined)."""
+        cov = self.theta_cov if self.theta_cov is not None else np.diag(self.theta_stderr**2)
+        sd = np.sqrt(np.clip(np.diag(cov), 0, None))
+        with np.errstate(invalid="ignore", divide="ignore"):
+            corr = cov / np.outer(sd, sd)
+        sign = np.array([-1.0 if s.kind.compliance_like else 1.0 for s in self.slots])
+        corr = corr * np.outer(sign, sign)
+        np.fill_diagonal(corr, np.where(sd > 0, 1.0, np.nan))
+        return corr
+
+    def undetermined(
+        self, max_relative: float = 1.0, max_correlation: float = 0.95
+    ) -> list[tuple[int, str]]:
+        """Parameters the data do not determine: relative standard error above
+        ``max_relative`` (100 %), or correlation with another parameter beyond
+        ``max_correlation`` in magnitude. Returns (index, reason) pairs."""
+        out: list[tuple[int, str]] = []
+        corr = self.correlation()
+        for i in range(len(self.slots)):
+            est, err = self.estimate(i), self.stderr(i)
+            if self.at_bound[i]:
+                continue  # reported as at its bound
+            if not math.isfinite(err) or (est != 0 and err / abs(est) > max_relative):
+                rel = "∞" if not math.isfinite(err) or est == 0 else f"{100 * err / abs(est):.0f} %"
+                out.append((i, f"relative standard error {rel}"))
+                continue
+            others = [
+                (abs(float(corr[i, j])), j)
+                for j in range(len(self.slots))
+                if j != i and math.isfinite(corr[i, j])
+            ]
+            if others:
+                c, j = max(others)
+                if c > max_correlation:
+                    out.append((i, f"correlation {corr[i, j]:+.3f} with {self.slots[j].spec}"))
+        return out
+
+    def fitted_arm(self, data: str = "", data_sha256: str = "") -> Arm:
+        """The arm with the fitted effects in it (CONTRACT §7): the problem's arm, its same
+        effect@place replaced, each fitted value with its standard error, and a ``[fit]``
+        table with the covariance of the parameters that have one (a parameter at its bound,
+        or an infinite stiffness, is written without covariance), the data's name and hash,
+        χ²/dof and the date. Solving the returned arm gives exactly this fit's model."""
+        import datetime
+
+        from eodarm.model.arm import FitRecord
+
+        effects, errs, keep = [], [], []
+        for i, s in enumerate(self.slots):
+            value = self.estimate(i)
+            if not math.isfinite(value) or (value == 0 and not s.kind.allow_zero):
+                continue  # an absent effect (rigid, θ = 0) is not written
+            effects.append(s.effect(value))
+            err = self.stderr(i)
+            errs.append(err if math.isfinite(err) else None)
+            if not self.at_bound[i] and math.isfinite(err):
+                keep.append(i)
+        cov = self.covariance()[np.ix_(keep, keep)]
+        record = FitRecord(
+            parameters=tuple(f"{self.slots[i].key}:{self.slots[i].kind.param}" for i in keep),
+            covariance=tuple(tuple(float(x) for x in row) for row in (cov + cov.T) / 2),
+            data=data,
+            data_sha256=data_sha256,
+            chi2_per_dof=float(self.chi2_per_dof),
+            n_values=int(self.problem.n_values),
+            date=datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
+        )
+        arm = self.problem.arm
+        fixed = [e for e in self.fixed if e.key not in {s.key for s in self.slots}]
+        return arm.with_effects([*fixed, *effects], [*([None] * len(fixed)), *errs], fit=record)
+
     def summary(self) -> dict[str, Any]:
         """Contract-shaped summary: effects with estimate and stderr, rms and χ²/dof."""
         return {
@@ -260,6 +357,33 @@ class FitResult:
             "rms": self.rms(),
             "chi2_per_dof": self.chi2_per_dof,
         }
+
+    def covariance_json(self) -> dict[str, Any]:
+        """``parameters`` (``effect@place:parameter``, the matrices' order), ``covariance``
+        (units² of the reported parameters) and ``correlation``; JSON null where undefined."""
+        cov, corr = self.covariance(), self.correlation()
+        return {
+            "parameters": [f"{s.key}:{s.kind.param}" for s in self.slots],
+            "covariance": [[_json_num(float(x)) for x in row] for row in cov],
+            "correlation": [[_json_num(float(x)) for x in row] for row in corr],
+        }
+
+
+def determining_channel(slot: Slot, measured: Sequence[str]) -> str:
+    """The measurement that would pin down a slot's parameter, in words: its own channel if
+    the data lack it, else more poses that load it differently."""
+    i = slot.index(10**6) + 1  # 1-based place number (the arm's size does not matter here)
+    own = {
+        "actuator_compliance": f"dl{i}_mm",  # the body's own length sensor
+        "mount_compliance": f"dl{i}_mm",  # separates the mount from the body in series
+        "actuator_play": f"dl{i}_mm",
+        "joint_clearance": f"dalpha{i}_deg",
+        "link_bending": f"dalpha{i}_deg",
+        "base_compliance": "dalpha1_deg",
+    }.get(slot.name)
+    if own is not None and own not in measured:
+        return f"measure {own}"
+    return "add poses and payloads that load it differently (docs/diagnosis.md, advice)"
 
 
 def _json_num(x: float) -> float | None:
@@ -366,6 +490,7 @@ def fit(
             break
     # Covariance of θ from the whitened Jacobian at the solution.
     stderr = np.full(len(slots), np.nan)
+    theta_cov = np.zeros((len(slots), len(slots)))
     at_bound = [bool(theta[i] <= lo[i] + 1e-15 or theta[i] >= hi[i]) for i in range(len(slots))]
     notes: list[str] = []
     if slots:
@@ -382,16 +507,18 @@ def fit(
             an = af / norms
             cov_n = np.linalg.pinv(an.T @ an) * scale
             stderr[free] = np.sqrt(np.clip(np.diag(cov_n), 0, None)) / norms
+            theta_cov[np.ix_(free, free)] = cov_n / np.outer(norms, norms)
         for i, s in enumerate(slots):
             if at_bound[i]:
                 # Half-normal bound: how far θ could go before χ² rises by 1.
                 col = a[:, i]
                 stderr[i] = math.sqrt(scale) / max(float(np.linalg.norm(col)), 1e-300)
+                theta_cov[i, i] = stderr[i] ** 2
                 where = "its upper bound" if theta[i] >= hi[i] else "its lower bound (absent)"
                 notes.append(f"{s.key}: parameter stuck at {where}; the data do not want it")
         for msg in notes:
             warnings.warn(msg, FitWarning, stacklevel=2)
-    return FitResult(prob, slots, theta, stderr, at_bound, y, chi2, it, notes)
+    return FitResult(prob, slots, theta, stderr, at_bound, y, chi2, it, notes, theta_cov=theta_cov)
 
 
 class FitWarning(UserWarning):

@@ -8,7 +8,6 @@ from typing import Any
 
 from eodarm.cli._common import (
     _describe_data,
-    _fmt,
     _load_arm,
     _model,
     _model_kw,
@@ -51,16 +50,42 @@ def run(args: argparse.Namespace) -> int:
     }
     if cv is not None:
         doc["cv"] = {"rms": cv["rms"]}
+    doc |= res.covariance_json()
+    undetermined = res.undetermined()
+    doc["undetermined"] = [
+        {"parameter": f"{res.slots[i].key}:{res.slots[i].kind.param}", "why": why}
+        for i, why in undetermined
+    ]
+    if args.output:
+        _write_fitted(res, args.output, args.measurements)
     if args.json:
-        print(json.dumps(doc))
+        print(json.dumps(doc, allow_nan=False))
     else:
+        from eodarm.analysis.fit import determining_channel
+        from eodarm.viz.format import interval95, parameter_name, value_error
+
         print(f"fit {meas.source} with arm '{arm.name}'")
         print(_describe_data(meas))
         rows = []
+        flags = dict(undetermined)
         for i, s in enumerate(res.slots):
-            flag = "  (at bound)" if res.at_bound[i] else ""
-            rows.append([s.key, s.kind.param, _fmt(res.estimate(i)), _fmt(res.stderr(i)) + flag])
-        _print_table(["effect", "parameter", "estimate", "stderr"], rows)
+            est, err, unit = res.estimate(i), res.stderr(i), s.kind.unit
+            note = "at its bound" if res.at_bound[i] else ("NOT DETERMINED" if i in flags else "")
+            rows.append(
+                [
+                    f"{parameter_name(s.name, s.at)} ({s.spec})",
+                    value_error(est, err, unit),
+                    interval95(est, err) if not res.at_bound[i] else "—",
+                    note,
+                ]
+            )
+        _print_table(["parameter", "estimate ± standard error", "95 % interval", ""], rows)
+        for i, why in undetermined:
+            s = res.slots[i]
+            print(
+                f"  {s.spec} is not determined ({why}): fix or drop it, or "
+                f"{determining_channel(s, meas.measured_channels)}"
+            )
         print(f"\nbefore  chi2/dof {before.chi2_per_dof:10.4g}   RMS {_rms_line(before.rms())}")
         print(f"after   chi2/dof {res.chi2_per_dof:10.4g}   RMS {_rms_line(res.rms())}")
         if cv is not None and cv0 is not None:
@@ -91,6 +116,21 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
+def _write_fitted(res: Any, path: str, data: str) -> None:
+    """The fitted arm file: written whole to a sibling, then renamed into place."""
+    import hashlib
+    import os
+    from pathlib import Path
+
+    digest = hashlib.sha256(Path(data).read_bytes()).hexdigest()
+    text = res.fitted_arm(data=Path(data).name, data_sha256=digest).to_toml()
+    out = Path(path)
+    tmp = out.with_name(f".{out.name}.part")
+    tmp.write_text(text, encoding="utf-8")
+    os.replace(tmp, out)
+    _note(f"wrote the fitted arm to {out}")
+
+
 def add_parser(sub: Any) -> argparse.ArgumentParser:
     """Register ``eodarm fit`` on the sub-parser collection."""
     c = data_command(
@@ -106,5 +146,11 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
         help="an effect to fit (repeat); =START gives a starting value",
     )
     c.add_argument("--cv", choices=("config",), help="leave-one-configuration-out cross-validation")
+    c.add_argument(
+        "-o",
+        "--output",
+        metavar="FITTED.toml",
+        help="write the arm with the fitted effects, their errors and covariance (CONTRACT §7)",
+    )
     c.set_defaults(func=run)
     return c

@@ -20,6 +20,7 @@ from eodarm.cli._common import (
 )
 from eodarm.errors import EodarmError
 from eodarm.model.arm import Arm
+from eodarm.model.effects import with_arm_effects
 from eodarm.model.solver import solve
 
 _SOLVE_KEYS = (
@@ -74,6 +75,7 @@ def run(args: argparse.Namespace) -> int:
         effects,
         backend=args.backend,
         self_weight=not args.no_self_weight,
+        uncertainty=args.uncertainty,
         **_model_kw(args),
     )
     dofs = int(out["n_dof"]) if args.model == "fem" else 0
@@ -85,7 +87,7 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         doc = {
             "arm": arm.name,
-            "model": [e.key for e in effects],
+            "model": [e.spec for e in with_arm_effects(arm.effects, effects)],
             "solver_model": args.model,
             "self_weight": not args.no_self_weight,
             "poses": [
@@ -110,6 +112,8 @@ def run(args: argparse.Namespace) -> int:
     head = ["alpha_deg", "mass_kg", "dx_mm", "dy_mm"]
     head += [f"F{i + 1}_N" for i in range(n)] + [f"da{i + 1}_deg" for i in range(n)]
     head += [f"dl{i + 1}_mm" for i in range(n)]
+    if args.uncertainty:
+        head += ["sigma_dx_mm", "sigma_dy_mm"]
     print("  ".join(f"{h:>12}" for h in head))
     for i in range(len(rows)):
         cells = [
@@ -121,6 +125,8 @@ def run(args: argparse.Namespace) -> int:
         cells += [f"{f:.1f}" for f in out["force_n"][i]]
         cells += [f"{d:.5f}" for d in out["dalpha_deg"][i]]
         cells += [f"{d:.5f}" for d in out["dl_mm"][i]]
+        if args.uncertainty:
+            cells += [f"{out['sigma_dx_mm'][i]:.2g}", f"{out['sigma_dy_mm'][i]:.2g}"]
         print("  ".join(f"{c:>12}" for c in cells))
     return 0
 
@@ -160,6 +166,12 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
         "pin forces as PNG figures into DIR",
     )
     s.add_argument("--no-self-weight", action="store_true", help="drop link/actuator weights")
+    s.add_argument(
+        "--uncertainty",
+        action="store_true",
+        help="standard deviations of dx, dy and the angle changes from the arm file's fitted "
+        "covariance (an arm written by 'eodarm fit -o')",
+    )
     s.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     s.add_argument("--compact", action="store_true", help="with --json: no indentation")
     s.set_defaults(func=run)

@@ -43,6 +43,7 @@ def solve(
     model: str = "analytic",
     fem_options: Mapping[str, Any] | None = None,
     extra: Mapping[str, npt.ArrayLike | None] | None = None,
+    uncertainty: bool = False,
 ) -> Arrays:
     """Loaded minus unloaded state of N poses under a payload mass at the load point.
 
@@ -65,6 +66,10 @@ def solve(
         ``extra_joint_mm`` (N, n, 2) offset of link i's pin centre at O_i, ``extra_tilt_rad``
         (N,) chassis tilt about the base pivot, ``extra_measure_mm`` (N, 2) displacement of
         the measure point. Analytic model only.
+    uncertainty : also return ``sigma_dx_mm``, ``sigma_dy_mm`` (N,) and ``sigma_dalpha_deg``
+        (N, n), the standard deviations of those outputs from the covariance of the arm's
+        fitted parameters (an arm file written by ``eodarm fit -o``; linear propagation
+        through the compiled core's sensitivities, :mod:`eodarm.model.uncertainty`).
 
     Returns
     -------
@@ -96,7 +101,7 @@ def solve(
     payload = np.zeros((alpha.shape[0], 2))
     payload[:, 1] = -mass * arm.g
     return solve_payload(
-        arm, alpha, payload, effects, backend, self_weight, model, fem_options, extra
+        arm, alpha, payload, effects, backend, self_weight, model, fem_options, extra, uncertainty
     )
 
 
@@ -110,6 +115,7 @@ def solve_payload(
     model: str = "analytic",
     fem_options: Mapping[str, Any] | None = None,
     extra: Mapping[str, npt.ArrayLike | None] | None = None,
+    uncertainty: bool = False,
 ) -> Arrays:
     """Like :func:`solve`, with any payload force vector (N, 2) in N at the load point."""
     check_arm(arm, "solve_payload")
@@ -130,16 +136,20 @@ def solve_payload(
     if extras and model == "fem":
         raise InputError("extra deformations are for model='analytic'")
     if model == "fem":
+        if uncertainty:
+            raise InputError("uncertainty is propagated with model='analytic'")
         _check_backend(backend)
         if backend != "rust":
             raise InputError("model='fem' runs in the compiled core: use backend='rust'")
         return fem.fem_solve_payload(arm, alpha, payload, effs, self_weight, fem_options)
     if fem_options is not None:
         raise InputError("fem_options is for model='fem'")
+    if uncertainty and extras:
+        raise InputError("uncertainty is propagated for the catalogue's effects only")
     if backend == "rust":
         from eodarm.model import native as _core
 
-        return _core.solve(
+        out = _core.solve(
             _core_arm(arm),
             alpha,
             payload,
@@ -153,10 +163,18 @@ def solve_payload(
             extra_tilt_rad=extras.get("extra_tilt_rad"),
             extra_measure_mm=extras.get("extra_measure_mm"),
         )
-    _check_backend(backend)
-    from eodarm.model import reference
+    else:
+        _check_backend(backend)
+        from eodarm.model import reference
 
-    return reference.solve_payload(arm, alpha, payload, effs, self_weight=self_weight, extra=extras)
+        out = reference.solve_payload(
+            arm, alpha, payload, effs, self_weight=self_weight, extra=extras
+        )
+    if uncertainty:
+        from eodarm.model.uncertainty import prediction_sigma
+
+        out.update(prediction_sigma(arm, alpha, payload, effs, self_weight))
+    return out
 
 
 def statics(
