@@ -104,3 +104,37 @@ def test_hostile_api_arguments_get_eodarm_errors(call: object, error: type) -> N
 
 def _arm() -> eodarm.Arm:
     return eodarm.Arm.from_toml(EXAMPLE)
+
+
+def _campaign(tmp_path: Path) -> tuple[Path, str]:
+    import numpy as np
+
+    from eodarm.analysis.synth import random_configs, synth
+
+    arm = _arm()
+    meas = synth(arm, random_configs(arm, 4, np.random.default_rng(1)), [1.5, 6.5], seed=1)
+    path = tmp_path / "m.csv"
+    meas.to_csv(path)
+    return path, path.read_text()
+
+
+@pytest.mark.parametrize("command", ["compare", "diagnose"])
+@pytest.mark.parametrize(
+    ("column", "value", "says"),
+    [
+        ("dy_mm", "1e200", "beyond"),
+        ("sigma_dy_mm", "1e-300", "not a measurement's noise"),
+        ("dy_mm", '"1\n2"', "not a number"),
+        ("mass_kg", "1e300", "beyond"),
+    ],
+)
+def test_absurd_measurements_are_refused_at_read_time(
+    tmp_path: Path, command: str, column: str, value: str, says: str
+) -> None:
+    path, text = _campaign(tmp_path)
+    head, first, *rest = text.splitlines()
+    cells = first.split(",")
+    cells[head.split(",").index(column)] = value
+    path.write_text("\n".join([head, ",".join(cells), *rest]) + "\n")
+    line = one_error_line(cli(command, str(path), "--arm", str(EXAMPLE), "--json"))
+    assert "line 2" in line and says in line

@@ -97,7 +97,7 @@ def run(args: argparse.Namespace) -> int:
         _write_residuals(args.residuals, res, flagged)
         _note(f"wrote every row's residuals to {args.residuals}")
     if args.json:
-        print(json.dumps(doc))
+        print(json.dumps(doc, allow_nan=False))
     else:
         print(
             f"compare {meas.source} with arm '{arm.name}', model: baseline"

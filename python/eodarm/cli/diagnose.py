@@ -49,7 +49,7 @@ def run(args: argparse.Namespace) -> int:
     )
     if args.json:
         # the contract's keys, and where each channel's σ came from
-        print(json.dumps({**d.to_json(), "noise": _noise_json(meas)}))
+        print(json.dumps({**d.to_json(), "noise": _noise_json(meas)}, allow_nan=False))
     else:
         _print_diagnosis(d, arm, meas)
     best = d.best_fit

@@ -99,7 +99,7 @@ def run(args: argparse.Namespace) -> int:
                 for i in range(len(rows))
             ],
         }
-        json.dump(doc, sys.stdout, indent=None if args.compact else 1)
+        json.dump(doc, sys.stdout, indent=None if args.compact else 1, allow_nan=False)
         sys.stdout.write("\n")
         return 0
     n = arm.n

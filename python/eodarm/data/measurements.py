@@ -93,6 +93,17 @@ __all__ = [
     "expand_channels",
 ]
 
+#: The physical range of a measurement file's numbers (docs/diagnosis.md, "Measurement
+#: files"): beyond it a number is a typo or a unit mistake, and the small-deflection model
+#: it is compared with would not hold. Angles in degrees, lengths in mm, masses in kg.
+MAX_ANGLE_DEG = 1e4
+MAX_MASS_KG = 1e6
+MAX_DISPLACEMENT_MM = 1e5  # dx, dy, dl: 100 m
+MAX_DALPHA_DEG = 360.0
+#: A σ below this fraction of the channel's default level is not a measurement's: it would
+#: make one value outweigh the rest by more than 10¹².
+MIN_SIGMA_FRACTION = 1e-6
+
 #: Most bad rows listed in one error message; the rest are counted.
 MAX_LISTED = 10
 
@@ -526,6 +537,8 @@ def build(
                 errs.append(f"{name} {why}")
             elif x is None:
                 errs.append(f"{name} is empty (unknown config angle)")
+            elif abs(x) > MAX_ANGLE_DEG:
+                errs.append(f"{name} {x:.6g} is beyond ±{MAX_ANGLE_DEG:g}°")
             else:
                 alpha[r, i] = x
         x, why = _number(cells[seen["mass_kg"]])
@@ -535,13 +548,19 @@ def build(
             errs.append("mass_kg is empty")
         elif x < 0:
             errs.append(f"mass_kg '{_show(cells[seen['mass_kg']])}' is negative")
+        elif x > MAX_MASS_KG:
+            errs.append(f"mass_kg {x:.6g} is beyond {MAX_MASS_KG:g} kg")
         else:
             mass[r] = x
         for c, jv, js in present:
             ch = channels[c]
             v, why = _number(cells[jv])
+            limit = MAX_DALPHA_DEG if ch.startswith("dalpha") else MAX_DISPLACEMENT_MM
             if why:
                 errs.append(f"{ch} {why}")
+                v = None
+            elif v is not None and abs(v) > limit:
+                errs.append(f"{ch} {v:.6g} is beyond ±{limit:g}")
                 v = None
             s: float | None = None
             if js is not None:
@@ -551,6 +570,15 @@ def build(
                     s = None
                 elif s is not None and s <= 0:
                     errs.append(f"sigma_{ch} '{_show(cells[js])}' must be > 0")
+                    s = None
+                elif s is not None and s < MIN_SIGMA_FRACTION * default_sigma(ch):
+                    errs.append(
+                        f"sigma_{ch} {s:.3g} is below {MIN_SIGMA_FRACTION:g} of its default "
+                        f"{default_sigma(ch):g}: not a measurement's noise"
+                    )
+                    s = None
+                elif s is not None and s > limit:
+                    errs.append(f"sigma_{ch} {s:.6g} is beyond {limit:g}")
                     s = None
             if v is None:
                 continue
@@ -590,8 +618,12 @@ def _label(cell: Cell) -> str:
     return cell if isinstance(cell, str) else repr(cell)
 
 
-def _show(cell: Cell) -> str:
-    return repr(cell) if isinstance(cell, float) else str(cell).strip()
+def _show(cell: Cell, limit: int = 40) -> str:
+    """A cell as an error message shows it: one line (control characters and newlines of a
+    quoted cell escaped), at most ``limit`` characters."""
+    text = repr(cell) if isinstance(cell, float) else str(cell).strip()
+    text = text.encode("unicode_escape").decode("ascii") if not text.isprintable() else text
+    return text if len(text) <= limit else text[: limit - 1] + "…"
 
 
 def _number(cell: Cell) -> tuple[float | None, str]:
@@ -610,8 +642,8 @@ def _number(cell: Cell) -> tuple[float | None, str]:
     if _NUMBER.match(text):
         x = float(text)
         if math.isinf(x):
-            return None, f"'{text}' is not finite"
+            return None, f"'{_show(text)}' is not finite"
         return x, ""
     if text.lower() in _NONFINITE:
         return None, f"'{text}' is not finite"
-    return None, f"'{text}' is not a number"
+    return None, f"'{_show(text)}' is not a number"

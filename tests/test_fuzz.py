@@ -1,0 +1,193 @@
+"""Fuzzing the readers and the command line (issue 15): mutated arm files and measurement
+files through ``eodarm compare`` and ``eodarm diagnose``.
+
+The invariant, whatever the input: exit 0 with strict JSON on stdout (no NaN or Infinity)
+and only notes on stderr, or exit 2 with exactly one line on stderr — never a traceback, an
+uncaught exception or a panic of the core. The commands run in-process (through
+``eodarm.cli.main``), so a crash is this test's own exception.
+
+A fast profile runs with the suite (a few hundred cases); ``pytest -m fuzz`` runs the long one
+(``FUZZ_CASES``, default 5000, split between the two commands), recorded in
+docs/benchmarks.md.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import json
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from eodarm.analysis.synth import random_configs, synth
+from eodarm.cli import main
+from eodarm.data.datasets import example_arm
+
+ARM_TEXT = example_arm().to_toml()
+
+
+def _meas_text() -> str:
+    arm = example_arm()
+    alpha = random_configs(arm, 4, np.random.default_rng(0))
+    meas = synth(arm, alpha, [1.5, 6.5], seed=0, repeats=2)
+    buf = io.StringIO()
+    meas.to_csv(buf)
+    return buf.getvalue()
+
+
+MEAS_TEXT = _meas_text()
+
+#: Replacements for a number: what hostile or careless files hold.
+WEIRD = [
+    "1" + "0" * 309,
+    "-1" + "0" * 400,
+    "1e309",
+    "-1e309",
+    "1e200",
+    "1e-300",
+    "5e-324",
+    "-0",
+    "0",
+    "nan",
+    "NaN",
+    "inf",
+    "-Infinity",
+    "",
+    " ",
+    "abc",
+    "1,5",
+    "0x10",
+    "1_000",
+    "²",
+    "٣",
+    '"1"',
+    "[1, 2]",
+    "true",
+    "\t",
+    "1e",
+    "--1",
+    "999999999999999999999",
+    "3.0\n4.0",
+    '"a\nb"',
+]
+
+
+@st.composite
+def mutated(draw: st.DrawFn, text: str) -> str:
+    """``text`` with a few mutations: tokens replaced, lines dropped, duplicated, cut, shuffled,
+    bytes inserted, a BOM, deep nesting."""
+    lines = text.splitlines()
+    for _ in range(draw(st.integers(1, 4))):
+        kind = draw(
+            st.sampled_from(
+                ["token", "token", "token", "drop", "dup", "cut", "swap", "bytes", "bom", "nest"]
+            )
+        )
+        if not lines:
+            break
+        i = draw(st.integers(0, len(lines) - 1))
+        if kind == "token":
+            parts = lines[i].replace(",", " , ").replace("=", " = ").split(" ")
+            nums = [k for k, p in enumerate(parts) if p.strip(" []") not in ("", ",", "=")]
+            if nums:
+                k = draw(st.sampled_from(nums))
+                parts[k] = draw(st.sampled_from(WEIRD))
+                lines[i] = " ".join(parts).replace(" , ", ",").replace(" = ", " = ")
+        elif kind == "drop":
+            del lines[i]
+        elif kind == "dup":
+            lines.insert(i, lines[i])
+        elif kind == "cut":
+            lines[i] = lines[i][: draw(st.integers(0, max(len(lines[i]) - 1, 0)))]
+        elif kind == "swap":
+            j = draw(st.integers(0, len(lines) - 1))
+            lines[i], lines[j] = lines[j], lines[i]
+        elif kind == "bytes":
+            junk = draw(st.text(min_size=1, max_size=8))
+            lines[i] = lines[i][:3] + junk + lines[i][3:]
+        elif kind == "bom":
+            lines[0] = "\ufeff" + lines[0]
+        elif kind == "nest":
+            depth = draw(st.sampled_from([3, 50, 5000]))
+            lines.insert(i, "x = " + "[" * depth + "]" * depth)
+    return "\n".join(lines) + draw(st.sampled_from(["\n", ""]))
+
+
+def _run(args: list[str]) -> tuple[int, str, str]:
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        code = main(args)
+    return code, out.getvalue(), err.getvalue()
+
+
+def _strict(text: str) -> object:
+    def refuse(token: str) -> None:
+        raise AssertionError(f"JSON with {token}")
+
+    return json.loads(text, parse_constant=refuse)
+
+
+def check_invariant(tmp: Path, command: str, arm_text: str, meas_text: str) -> None:
+    arm, meas = tmp / "arm.toml", tmp / "meas.csv"
+    arm.write_bytes(arm_text.encode("utf-8", "surrogatepass"))
+    meas.write_bytes(meas_text.encode("utf-8", "surrogatepass"))
+    extra = ["--max-set", "1"] if command == "diagnose" else []
+    code, out, err = _run([command, str(meas), "--arm", str(arm), "--json", *extra])
+    lines = err.splitlines()
+    if code == 0:
+        assert isinstance(_strict(out), dict)
+        assert all(line.startswith("eodarm: ") for line in lines), err
+        assert "Traceback" not in err
+    else:
+        assert code == 2, (code, err)
+        assert len(lines) == 1 and lines[0].startswith("eodarm: error: "), err
+        assert out == "", out
+
+
+FAST = settings(
+    max_examples=120,
+    deadline=None,
+    suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow],
+    derandomize=True,
+)
+LONG = settings(
+    max_examples=int(os.environ.get("FUZZ_CASES", "5000")) // 2,
+    deadline=None,
+    suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow],
+)
+inputs = st.one_of(
+    st.tuples(mutated(ARM_TEXT), st.just(MEAS_TEXT)),
+    st.tuples(st.just(ARM_TEXT), mutated(MEAS_TEXT)),
+    st.tuples(mutated(ARM_TEXT), mutated(MEAS_TEXT)),
+)
+
+
+@FAST
+@given(case=inputs)
+def test_compare_on_mutated_files_keeps_the_invariant(tmp_path: Path, case: tuple) -> None:
+    check_invariant(tmp_path, "compare", *case)
+
+
+@settings(FAST, max_examples=40)
+@given(case=inputs)
+def test_diagnose_on_mutated_files_keeps_the_invariant(tmp_path: Path, case: tuple) -> None:
+    check_invariant(tmp_path, "diagnose", *case)
+
+
+@pytest.mark.fuzz
+@LONG
+@given(case=inputs)
+def test_long_fuzz_compare(tmp_path: Path, case: tuple) -> None:
+    check_invariant(tmp_path, "compare", *case)
+
+
+@pytest.mark.fuzz
+@LONG
+@given(case=inputs)
+def test_long_fuzz_diagnose(tmp_path: Path, case: tuple) -> None:
+    check_invariant(tmp_path, "diagnose", *case)
