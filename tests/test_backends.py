@@ -32,6 +32,7 @@ SOLVE_KEYS = {
     "dalpha_deg",
     "dl_mm",
     "dlength_mm",
+    "status",
     "length_mm",
 }
 FORWARD_KEYS = {"O", "A", "B", "C", "measure", "length_mm"}

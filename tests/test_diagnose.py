@@ -255,7 +255,9 @@ def test_cli_fit_json_with_cv(two_hidden_csv: str) -> None:
     )
     assert out.returncode == 0, out.stderr
     doc = json.loads(out.stdout)
-    assert set(doc) == {"effects", "before", "after", "cv"}
+    # the contract's keys, then the covariance of the fitted parameters (issue 12/13)
+    extra = {"parameters", "covariance", "correlation", "undetermined"}
+    assert set(doc) == {"effects", "before", "after", "cv"} | extra
     est = {e["effect"] + "@" + e["at"]: e for e in doc["effects"]}
     assert est["joint_clearance@O2"]["estimate"]["clearance_mm"] == pytest.approx(0.15, rel=0.05)
     assert est["mount_compliance@M1"]["estimate"]["stiffness_n_per_mm"] == pytest.approx(

@@ -248,7 +248,8 @@ def test_cli_says_where_sigma_came_from_in_one_line_per_kind(
     contract = {
         "compare": {"model", "rms", "chi2_per_dof"},
         "diagnose": {"model", "baseline", "verdict", "suggested", "ranking"},
-        "fit": {"effects", "before", "after"},
+        "fit": {"effects", "before", "after", "parameters", "covariance", "correlation"}
+        | {"undetermined"},
     }[command]
     assert contract <= set(doc)
     if command == "fit":

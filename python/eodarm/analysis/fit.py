@@ -369,6 +369,35 @@ class FitResult:
         }
 
 
+def check_validity(result: FitResult) -> None:
+    """Refuse a fit whose parameters put measured states outside the model's validity
+    (:mod:`eodarm.model.validity`): one line naming the reasons and the parameters.
+
+    Raises
+    ------
+    EodarmError
+        When any measured state of the fitted model is not ``ok``.
+    """
+    from eodarm.model.solver import solve
+    from eodarm.model.validity import status_counts
+
+    prob = result.problem
+    if prob.model != "analytic" or not result.slots:
+        return
+    effects = [*result.fixed, *result.effects]
+    out = solve(prob.arm, prob.alpha, prob.meas.mass_kg, effects, self_weight=prob.self_weight)
+    counts = status_counts(out["status"])
+    bad = {k: v for k, v in counts.items() if k != "ok"}
+    if bad:
+        params = ", ".join(f"{e.spec} = {e.value:.4g}" for e in result.effects)
+        raise EodarmError(
+            f"the fitted {params} put {sum(bad.values())} of {prob.meas.n_rows} measured "
+            f"states outside the model's validity ("
+            + ", ".join(f"{k} {v}" for k, v in bad.items())
+            + "; docs/model.md, Validity): the data do not support this model"
+        )
+
+
 def determining_channel(slot: Slot, measured: Sequence[str]) -> str:
     """The measurement that would pin down a slot's parameter, in words: its own channel if
     the data lack it, else more poses that load it differently."""

@@ -24,7 +24,14 @@ from eodarm.errors import EodarmError
 def run(args: argparse.Namespace) -> int:
     import warnings
 
-    from eodarm.analysis.fit import FitWarning, compare, cross_validate, outlier_table, robust_fit
+    from eodarm.analysis.fit import (
+        FitWarning,
+        check_validity,
+        compare,
+        cross_validate,
+        outlier_table,
+        robust_fit,
+    )
 
     arm = _load_arm(args.arm)
     meas = _read(args.measurements, arm)
@@ -36,6 +43,7 @@ def run(args: argparse.Namespace) -> int:
         warnings.simplefilter("always", FitWarning)
         mk = _model_kw(args)
         res, flagged = robust_fit(arm, meas, model, self_weight=sw, **mk)
+        check_validity(res)
         outliers = outlier_table(res, flagged)
         cv = cross_validate(arm, meas, res.slots, self_weight=sw, **mk) if args.cv else None
         cv0 = cross_validate(arm, meas, [], self_weight=sw, **mk) if args.cv else None

@@ -33,6 +33,7 @@ _SOLVE_KEYS = (
     "dl_mm",
     "dlength_mm",
     "length_mm",
+    "status",
 )
 
 
@@ -84,6 +85,15 @@ def run(args: argparse.Namespace) -> int:
     if args.model == "fem":
         # The plotting extras (shape, moments) stay in the Python API; print the channels.
         out = {k: out[k] for k in (*_SOLVE_KEYS, "pin_force_n")}
+    from eodarm.model.validity import STATUS, status_counts
+
+    counts = status_counts(out["status"])
+    if set(counts) - {"ok"}:
+        _note(
+            "outside the model's validity (docs/model.md, Validity): "
+            + ", ".join(f"{k} {v}" for k, v in counts.items() if k != "ok")
+            + f" of {len(out['status'])} poses"
+        )
     if args.json:
         doc = {
             "arm": arm.name,
@@ -114,6 +124,7 @@ def run(args: argparse.Namespace) -> int:
     head += [f"dl{i + 1}_mm" for i in range(n)]
     if args.uncertainty:
         head += ["sigma_dx_mm", "sigma_dy_mm"]
+    head += ["status"]
     print("  ".join(f"{h:>12}" for h in head))
     for i in range(len(rows)):
         cells = [
@@ -127,6 +138,7 @@ def run(args: argparse.Namespace) -> int:
         cells += [f"{d:.5f}" for d in out["dl_mm"][i]]
         if args.uncertainty:
             cells += [f"{out['sigma_dx_mm'][i]:.2g}", f"{out['sigma_dy_mm'][i]:.2g}"]
+        cells += [STATUS[int(out["status"][i])]]
         print("  ".join(f"{c:>12}" for c in cells))
     return 0
 

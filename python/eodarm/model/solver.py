@@ -18,6 +18,7 @@ import numpy.typing as npt
 from eodarm.errors import InputError
 from eodarm.model.arm import Arm, check_arm
 from eodarm.model.effects import Effect, effect_arrays, with_arm_effects
+from eodarm.model.validity import status
 
 __all__ = [
     "angles_from_lengths",
@@ -78,8 +79,10 @@ def solve(
     ``dforce_n`` (N, n) force change; ``dx_mm``, ``dy_mm`` (N,) measure-point displacement;
     ``dalpha_deg`` (N, n) change of absolute link angles; ``dl_mm`` (N, n) actuator body length
     change as its sensor sees it; ``dlength_mm`` (N, n) pin-to-pin change; ``length_mm`` (N, n)
-    unloaded pin-to-pin length. With ``model="fem"`` also ``pin_force_n`` (N, 2n, 2), the
-    loaded forces on the links at their joints O_i then at their actuator pins A_i;
+    unloaded pin-to-pin length; ``status`` (N,) uint8, where the small-deflection model can be
+    trusted (0 ok; :data:`eodarm.model.validity.STATUS` names the others). With
+    ``model="fem"`` also ``pin_force_n`` (N, 2n, 2), the loaded forces on the links at their
+    joints O_i then at their actuator pins A_i;
     ``moment_nmm``, ``dmoment_nmm`` (N, n, K) loaded bending moment along each link and its
     change, at the local abscissae ``moment_x_mm`` (n, K); ``node_xy``, ``node_disp``
     (N, nodes, 2) undeformed nodes and their displacement, drawn by ``segments`` (S, 2) of
@@ -141,7 +144,9 @@ def solve_payload(
         _check_backend(backend)
         if backend != "rust":
             raise InputError("model='fem' runs in the compiled core: use backend='rust'")
-        return fem.fem_solve_payload(arm, alpha, payload, effs, self_weight, fem_options)
+        fe = fem.fem_solve_payload(arm, alpha, payload, effs, self_weight, fem_options)
+        fe["status"] = status(arm, alpha, payload, fe)
+        return fe
     if fem_options is not None:
         raise InputError("fem_options is for model='fem'")
     if uncertainty and extras:
@@ -170,6 +175,7 @@ def solve_payload(
         out = reference.solve_payload(
             arm, alpha, payload, effs, self_weight=self_weight, extra=extras
         )
+    out["status"] = status(arm, alpha, payload, out)
     if uncertainty:
         from eodarm.model.uncertainty import prediction_sigma
 

@@ -1,0 +1,114 @@
+"""Where the model can be trusted: a status per pose (docs/model.md §7, "Validity").
+
+The model takes its forces from the undeformed geometry and closes the loaded pose exactly:
+a small-deflection model. Its answers are sound only where the deflection is small, the
+actuators are not close to passing through their joints, the loaded pose stays on the branch
+of the unloaded one, the actuators work within their stroke and forces. Every solve returns
+a ``status`` per pose (uint8 codes, :data:`STATUS`):
+
+=====  ==================  ===============================================================
+code   name                meaning (thresholds below)
+=====  ==================  ===============================================================
+0      ok                  inside every limit
+1      out_of_stroke       an unloaded pin-to-pin length outside [min_length_mm, max_length_mm]
+2      near_singular       an actuator's moment arm about its joint below 5 % of the pin's
+                           distance from the joint (forces amplified more than 20×)
+3      branch_flip         a loaded actuator triangle turned over (the exact closure left
+                           the branch of the unloaded pose)
+4      over_force          a loaded |force| above the actuator's ``max_force_n``
+5      large_deflection    a link turned by more than 10°, the measure point moved by more
+                           than 5 % of the arm's length (Σ|next_i|), or rose by more than
+                           0.1 % of it under a downward payload (negative work: not an
+                           elastic answer)
+=====  ==================  ===============================================================
+
+When several apply, the first in this order is reported.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from eodarm.model.arm import Arm
+
+__all__ = [
+    "MAX_DALPHA_DEG",
+    "MAX_DEFLECTION_OF_REACH",
+    "MAX_RISE_OF_REACH",
+    "MIN_MOMENT_ARM",
+    "STATUS",
+    "status",
+    "status_counts",
+]
+
+#: The status names, by code.
+STATUS = (
+    "ok",
+    "out_of_stroke",
+    "near_singular",
+    "branch_flip",
+    "over_force",
+    "large_deflection",
+)
+#: Moment arm of an actuator about its joint, as a fraction of |A_i − O_i|, below which the
+#: pose is near singular.
+MIN_MOMENT_ARM = 0.05
+#: Largest change of a link's angle (degrees) the small-deflection model is trusted for.
+MAX_DALPHA_DEG = 10.0
+#: Largest displacement of the measure point, as a fraction of the arm's length Σ|next_i|.
+MAX_DEFLECTION_OF_REACH = 0.05
+#: Largest rise of the measure point under a downward payload, as a fraction of that length.
+MAX_RISE_OF_REACH = 1e-3
+
+
+def _cross(a: npt.NDArray[np.float64], b: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
+    return a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
+
+
+def status(
+    arm: Arm,
+    alpha_deg: npt.NDArray[np.float64],
+    payload_n: npt.NDArray[np.float64],
+    out: Mapping[str, Any],
+) -> npt.NDArray[np.uint8]:
+    """The status code (N,) of each solved pose (see the module docstring)."""
+    from eodarm.model.solver import forward, stroke_violations
+
+    geo = forward(arm, alpha_deg)
+    n = arm.n
+    code = np.zeros(alpha_deg.shape[0], dtype=np.uint8)
+
+    def mark(bad: npt.NDArray[np.bool_], c: int) -> None:
+        code[(code == 0) & bad] = c
+
+    mark(stroke_violations(arm, geo["length_mm"]).any(axis=1), 1)
+    o, a, b = geo["O"][:, :n], geo["A"], geo["B"]
+    line = a - b
+    arm_len = np.linalg.norm(a - o, axis=2)
+    h = np.abs(_cross(line, o - b)) / np.maximum(np.linalg.norm(line, axis=2), 1e-300)
+    mark((h < MIN_MOMENT_ARM * arm_len).any(axis=1), 2)
+    dalpha = np.asarray(out["dalpha_deg"], dtype=float)
+    loaded = forward(arm, alpha_deg + dalpha) if np.isfinite(dalpha).all() else geo
+    turn0 = np.sign(_cross(a - b, o - b))
+    turn1 = np.sign(_cross(loaded["A"] - loaded["B"], loaded["O"][:, :n] - loaded["B"]))
+    mark((turn0 * turn1 < 0).any(axis=1), 3)
+    fmax = np.array([x.max_force_n or math.inf for x in arm.actuators])
+    mark((np.abs(np.asarray(out["force_n"], dtype=float)) > fmax).any(axis=1), 4)
+    reach = max(sum(math.hypot(*lk.next) for lk in arm.links), 1e-9)
+    dx, dy = np.asarray(out["dx_mm"], dtype=float), np.asarray(out["dy_mm"], dtype=float)
+    moved = np.hypot(dx, dy)
+    rise = (dy > MAX_RISE_OF_REACH * reach) & (np.asarray(payload_n)[:, 1] < 0)
+    big = (np.abs(dalpha) > MAX_DALPHA_DEG).any(axis=1) | (moved > MAX_DEFLECTION_OF_REACH * reach)
+    mark(big | rise, 5)
+    return code
+
+
+def status_counts(codes: npt.ArrayLike) -> dict[str, int]:
+    """How many poses have each status (only those that occur)."""
+    c = np.bincount(np.asarray(codes, dtype=np.int64).ravel(), minlength=len(STATUS))
+    return {STATUS[i]: int(k) for i, k in enumerate(c) if k}
