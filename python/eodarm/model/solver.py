@@ -17,7 +17,7 @@ import numpy.typing as npt
 
 from eodarm.errors import InputError
 from eodarm.model.arm import Arm, check_arm
-from eodarm.model.effects import Effect, as_effects, effect_arrays
+from eodarm.model.effects import Effect, as_effects, effect_arrays, split_effects
 
 __all__ = [
     "angles_from_lengths",
@@ -51,7 +51,9 @@ def solve(
     arm : the arm.
     alpha_deg : (N, n) unloaded absolute link angles, degrees (a single pose (n,) is N = 1).
     mass_kg : payload mass, kg; scalar or (N,). Its weight ``m·g`` acts downward.
-    effects : effects added to the baseline model (CONTRACT §4).
+    effects : effects added to the baseline model (CONTRACT §4), built-in or user-written
+        (:func:`eodarm.custom_effect`; their functions are called once each, on the statics of
+        the N poses, and what they return is added to ``extra``).
     backend : ``"rust"`` (compiled core) or ``"numpy"`` (independent reference).
     self_weight : include link and actuator weights in both states.
     model : ``"analytic"`` (closed forms, exact pose) or ``"fem"``: the frame finite-element
@@ -64,7 +66,7 @@ def solve(
         actuator's sensor sees, ``extra_unseen_mm`` (N, n) one it does not see,
         ``extra_joint_mm`` (N, n, 2) offset of link i's pin centre at O_i, ``extra_tilt_rad``
         (N,) chassis tilt about the base pivot, ``extra_measure_mm`` (N, 2) displacement of
-        the measure point. Analytic model only.
+        the measure point. Analytic model only (so are user-written effects).
 
     Returns
     -------
@@ -125,10 +127,16 @@ def solve_payload(
         )
     effs = as_effects(effects)
     codes, places, values = effect_arrays(effs, arm.n)
+    builtin, custom_effs = split_effects(effs)
     fem.check_model(model)
     extras = _extras(extra, alpha.shape[0], arm.n)
     if extras and model == "fem":
         raise InputError("extra deformations are for model='analytic'")
+    if custom_effs and model == "fem":
+        raise InputError(
+            f"custom effect {custom_effs[0].key}: the finite-element model cannot include "
+            "user-written effects; use model='analytic'"
+        )
     if model == "fem":
         _check_backend(backend)
         if backend != "rust":
@@ -139,6 +147,12 @@ def solve_payload(
     if backend == "rust":
         from eodarm.model import native as _core
 
+        if custom_effs:
+            from eodarm.model import custom
+
+            st = _core.statics(_core_arm(arm), alpha, payload, self_weight)
+            state = custom.EffectState.from_statics(arm, alpha, payload, st, self_weight)
+            extras = custom.add_extras(extras, custom.extras_of(custom_effs, state))
         return _core.solve(
             _core_arm(arm),
             alpha,
@@ -156,6 +170,7 @@ def solve_payload(
     _check_backend(backend)
     from eodarm.model import reference
 
+    # The reference computes the user effects' statics itself (independently of the core).
     return reference.solve_payload(arm, alpha, payload, effs, self_weight=self_weight, extra=extras)
 
 
