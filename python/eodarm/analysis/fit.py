@@ -19,6 +19,10 @@ bounded linear least-squares problem. Residuals are whitened by the measurement 
 
 With ``model="fem"`` the channels come from the finite-element model (:mod:`eodarm.model.fem`) and
 the sensitivities from forward differences of it, one more FE solve per parameter.
+
+A user-written effect (CONTRACT §8) is fitted through its parameter itself, within its
+``[lower, upper]``, starting from its ``start``; models that hold one are evaluated by
+:mod:`eodarm.analysis.sensitivity` (forward differences, the statics computed once).
 """
 
 from __future__ import annotations
@@ -36,7 +40,6 @@ from eodarm.data.measurements import Measurements
 from eodarm.errors import EodarmError
 from eodarm.model.arm import Arm
 from eodarm.model.effects import (
-    THETA_MAX,
     Effect,
     Slot,
     param_from_theta,
@@ -101,6 +104,7 @@ class Problem:
         self.obs = meas.values[use]
         self.sig = meas.sigma[use]
         self.n_values = int(use.sum())
+        self._custom: Any = None  # the evaluator of user-written effects, made on first use
 
     # --------------------------------------------------------------- evaluation
     def evaluate(
@@ -113,6 +117,8 @@ class Problem:
         """Channels (N, C) of the model with θ values, and ∂y/∂θ (N, C, P) for ``probes``.
 
         With ``nan_on_failure`` a pose the model cannot solve is NaN instead of an error.
+        A model or probes with user-written effects go through
+        :class:`~eodarm.analysis.sensitivity.CustomEvaluator` (forward differences).
         """
         from eodarm.model import native as _core
         from eodarm.model.solver import _core_arm
@@ -122,6 +128,24 @@ class Problem:
         if rows is not None:
             alpha = np.ascontiguousarray(alpha[rows])
             payload = np.ascontiguousarray(payload[rows])
+        user = [s for s, _ in model if s.kind.custom] + [s for s in probes if s.kind.custom]
+        if user and self.model == "fem":
+            raise EodarmError(
+                f"custom effect {user[0].key}: the finite-element model cannot include "
+                "user-written effects; use the analytic model"
+            )
+        if user:
+            from eodarm.analysis.sensitivity import CustomEvaluator
+
+            if self._custom is None:
+                self._custom = CustomEvaluator(self.arm, self.alpha, self.payload, self.self_weight)
+            return self._custom.evaluate(  # type: ignore[no-any-return]
+                model,
+                probes,
+                rows,
+                nan_on_failure,
+                lambda m, p: self.evaluate(m, p, rows, nan_on_failure),
+            )
         if self.model == "fem":
             from eodarm.model import fem
 
@@ -159,13 +183,24 @@ class Problem:
             from eodarm.model import fem
 
             return fem.neutral(self.arm, slot)
+        kind = slot.kind
+        if kind.custom:
+            return float(getattr(kind, "neutral", 0.0))
         if slot.name == "actuator_compliance":
             return 1.0 / self.arm.actuators[slot.index(self.arm.n)].stiffness_n_per_mm
         return 0.0
 
+    def start(self, slot: Slot) -> float:
+        """θ where a fit of a slot without a given value starts: the effect absent, or a
+        user-written effect's ``start``."""
+        kind = slot.kind
+        if kind.custom and self.model != "fem":
+            return float(getattr(kind, "start", 0.0))
+        return self.neutral(slot)
+
     @staticmethod
     def bounds(slot: Slot) -> tuple[float, float]:
-        return 0.0, THETA_MAX.get(slot.name, math.inf)
+        return slot.kind.theta_bounds
 
     def whiten(self, y: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
         """Whitened residual (obs − y)/σ over the used cells."""
@@ -196,7 +231,7 @@ class FitResult:
         out = []
         for s, t in zip(self.slots, self.theta, strict=True):
             value = param_from_theta(s.name, float(t))
-            if math.isfinite(value) and (value > 0 or s.kind.allow_zero):
+            if s.kind.value_error(value) is None:
                 out.append(s.effect(value))
         return out
 
@@ -312,7 +347,7 @@ def fit(
         s.index(arm.n)
     theta = np.array(
         [
-            theta_from_param(e.name, e.value) if isinstance(e, Effect) else prob.neutral(s)
+            theta_from_param(e.name, e.value) if isinstance(e, Effect) else prob.start(s)
             for s, e in zip(slots, given, strict=True)
         ],
         dtype=float,

@@ -70,13 +70,13 @@ def _print_diagnosis(d: Any, arm: Arm, meas: Measurements) -> None:
         print(" — the model explains the data within their noise; nothing is missing")
     else:
         print(
-            f" — suggested: {' + '.join(s.key for s in d.suggested) or '(none)'}"
+            f" — suggested: {' + '.join(s.label for s in d.suggested) or '(none)'}"
             f"  ({d.sets_searched} candidate sets searched)"
         )
     if d.suggested_fit is not None:
         f = d.suggested_fit
         for i, s in enumerate(f.slots):
-            print(f"    {s.key:28s} {s.kind.param} = {_fmt(f.estimate(i))} ± {_fmt(f.stderr(i))}")
+            print(f"    {s.label:28s} {s.kind.param} = {_fmt(f.estimate(i))} ± {_fmt(f.stderr(i))}")
         print(f"    chi2/dof {f.chi2_per_dof:.4g}   RMS {_rms_line(f.rms())}")
     print("\nranking (each candidate added alone, parameter fitted):")
     chans = list(d.baseline.rms())
@@ -87,7 +87,7 @@ def _print_diagnosis(d: Any, arm: Arm, meas: Measurements) -> None:
         rows.append(
             [
                 str(i + 1),
-                c.slot.key,
+                c.slot.label,
                 f"{c.slot.kind.param}={_fmt(c.fit.estimate(j))}",
                 f"{c.fit.chi2_per_dof:.4g}",
                 *(_fmt(rms.get(ch, np.nan)) for ch in chans),

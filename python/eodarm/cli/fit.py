@@ -59,7 +59,7 @@ def run(args: argparse.Namespace) -> int:
         rows = []
         for i, s in enumerate(res.slots):
             flag = "  (at bound)" if res.at_bound[i] else ""
-            rows.append([s.key, s.kind.param, _fmt(res.estimate(i)), _fmt(res.stderr(i)) + flag])
+            rows.append([s.label, s.kind.param, _fmt(res.estimate(i)), _fmt(res.stderr(i)) + flag])
         _print_table(["effect", "parameter", "estimate", "stderr"], rows)
         print(f"\nbefore  chi2/dof {before.chi2_per_dof:10.4g}   RMS {_rms_line(before.rms())}")
         print(f"after   chi2/dof {res.chi2_per_dof:10.4g}   RMS {_rms_line(res.rms())}")

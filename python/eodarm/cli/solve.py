@@ -13,6 +13,7 @@ import numpy as np
 from eodarm.cli._common import (
     _floats,
     _load_arm,
+    _effects_args,
     _model_args,
     _model_kw,
     _note,
@@ -153,6 +154,7 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     )
     s.add_argument("--backend", choices=("rust", "numpy"), default="rust")
     _model_args(s)
+    _effects_args(s)
     s.add_argument(
         "--plot",
         metavar="DIR",
