@@ -421,9 +421,7 @@ def _best_set(fits: list[FitResult], m: int) -> FitResult:
 def _rank(ranking: list[Candidate]) -> None:
     """Best (least χ²) first; χ² equal to 1e-9 of the largest are ties, broken by TIE_ORDER."""
     quantum = 1e-9 * max([abs(c.fit.chi2) for c in ranking] + [1e-300])
-    ranking.sort(
-        key=lambda c: (round(c.fit.chi2 / quantum), _tie_rank(c.slot), c.slot.at)
-    )
+    ranking.sort(key=lambda c: (round(c.fit.chi2 / quantum), _tie_rank(c.slot), c.slot.at))
 
 
 def _confusions(

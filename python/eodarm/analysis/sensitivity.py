@@ -90,9 +90,7 @@ class CustomEvaluator:
     self_weight : as the Problem.
     """
 
-    def __init__(
-        self, arm: Arm, alpha: FloatArray, payload: FloatArray, self_weight: bool
-    ) -> None:
+    def __init__(self, arm: Arm, alpha: FloatArray, payload: FloatArray, self_weight: bool) -> None:
         self.arm = arm
         self.alpha = alpha
         self.payload = payload

@@ -7,9 +7,9 @@ from pathlib import Path
 from typing import Any
 
 from eodarm.cli._common import (
+    _effects_args,
     _load_arm,
     _model,
-    _effects_args,
     _model_args,
     _model_kw,
     _note,

@@ -11,9 +11,9 @@ from typing import Any
 import numpy as np
 
 from eodarm.cli._common import (
+    _effects_args,
     _floats,
     _load_arm,
-    _effects_args,
     _model_args,
     _model_kw,
     _note,

@@ -10,10 +10,10 @@ from typing import Any
 import numpy as np
 
 from eodarm.analysis.synth import random_configs, synth
+from eodarm.cli._common import _effects_args, _valued_effect
 from eodarm.data.datasets import example_arm
 from eodarm.errors import EodarmError
 from eodarm.model.arm import Arm
-from eodarm.cli._common import _effects_args, _valued_effect
 from eodarm.model.effects import Effect
 
 

@@ -275,7 +275,7 @@ def load_entry_points() -> list[str]:
     for ep in entry_points(group=ENTRY_POINT_GROUP):
         try:
             ep.load()
-        except Exception as exc:  # noqa: BLE001 - a broken plugin must not stop the others
+        except Exception as exc:  # a broken plugin must not stop the others
             warnings.warn(
                 f"entry point {ep.name} = {ep.value!r} of {ENTRY_POINT_GROUP} was not loaded: "
                 f"{type(exc).__name__}: {' '.join(str(exc).split())}",
@@ -417,9 +417,9 @@ def _frozen(x: npt.ArrayLike) -> FloatArray:
 
 
 # ---------------------------------------------------------------------------- calling
-def deformation(kind: CustomKind, at: str, i: int, value: float, state: EffectState) -> dict[
-    str, FloatArray
-]:
+def deformation(
+    kind: CustomKind, at: str, i: int, value: float, state: EffectState
+) -> dict[str, FloatArray]:
     """Call a user function once for N states and check what it returns.
 
     Returns the deformations it gave, by key of :data:`DEFORMATION_KEYS`, as float arrays of
@@ -475,14 +475,12 @@ def deformation(kind: CustomKind, at: str, i: int, value: float, state: EffectSt
     return got
 
 
-def place_extras(got: Mapping[str, FloatArray], i: int, rows: int, n: int) -> dict[
-    str, FloatArray
-]:
+def place_extras(got: Mapping[str, FloatArray], i: int, rows: int, n: int) -> dict[str, FloatArray]:
     """One effect's deformations at place i as whole-arm extra deformations (the solver's
     ``extra=`` keys, docs/model.md §4)."""
     out: dict[str, FloatArray] = {}
     for key, a in got.items():
-        extra, per = DEFORMATION_KEYS[key]
+        extra = DEFORMATION_KEYS[key][0]
         if extra in ("extra_seen_mm", "extra_unseen_mm"):
             full = np.zeros((rows, n))
             full[:, i] = a

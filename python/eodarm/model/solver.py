@@ -127,7 +127,7 @@ def solve_payload(
         )
     effs = as_effects(effects)
     codes, places, values = effect_arrays(effs, arm.n)
-    builtin, custom_effs = split_effects(effs)
+    custom_effs = split_effects(effs)[1]
     fem.check_model(model)
     extras = _extras(extra, alpha.shape[0], arm.n)
     if extras and model == "fem":
