@@ -635,6 +635,18 @@ def test_cli_fit_with_effects_and_the_arm_file_carrying_it(
     assert out.returncode == 2 and "effect[1].effect" in out.stderr
 
 
+def test_cli_report_with_effects(friction_csv: Path, tmp_path: Path) -> None:
+    """The investigation's rounds find the friction and the report names it."""
+    out_html = tmp_path / "report.html"
+    out = run_cli(
+        "report", str(friction_csv), "--arm", str(EXAMPLE_TOML), "--effects", str(FRICTION_PY),
+        "-o", str(out_html),
+    )  # fmt: skip
+    assert out.returncode == 0, out.stderr
+    assert "+ actuator_friction@M2" in out.stdout
+    assert "actuator_friction@M2" in out_html.read_text()
+
+
 def test_cli_solve_and_sweep_with_effects(tmp_path: Path) -> None:
     args = ["--effects", str(FRICTION_PY), "--add", "actuator_friction@M2=30"]
     out = run_cli("solve", *args, "--alpha", "90,10,0", "--mass", "5", "--json")

@@ -358,6 +358,9 @@ def effect_arrays(effects: Iterable[Effect], n: int) -> tuple[np.ndarray, np.nda
 def split_effects(effects: Iterable[Effect]) -> tuple[list[Effect], list[Effect]]:
     """(catalogue effects, user-written effects), each in the given order."""
     effs = list(effects)
+    for e in effs:
+        if not isinstance(e, Effect):
+            raise EffectError(f"effects must be eodarm.Effect values, got {e!r}")
     return [e for e in effs if not e.kind.custom], [e for e in effs if e.kind.custom]
 
 

@@ -590,8 +590,9 @@ def solve_payload(
     alpha_d = _as_poses(alpha_deg, n, "alpha_deg")
     n_rows = alpha_d.shape[0]
     payload = _as_payload(payload_n, n_rows)
-    builtin, custom_effs = split_effects(as_effects(effects))
-    effect_arrays([*builtin, *custom_effs], n)  # places and duplicates over all of them
+    effs = as_effects(effects)
+    effect_arrays(effs, n)  # types, places and duplicates over all of them
+    builtin, custom_effs = split_effects(effs)
     par = _effect_params(arm, builtin)
     ext = _extras(extra, n_rows, n)
     alpha = np.radians(alpha_d)
