@@ -71,6 +71,12 @@ def clearance_up_like(state: eodarm.EffectState, i: int, c: float) -> dict[str, 
     }
 
 
+def mount_compliance_like(state: eodarm.EffectState, i: int, c: float) -> dict[str, Any]:
+    """``mount_compliance`` through its compliance c = 1/k (absent at 0, as a diagnosis
+    wants a candidate's neutral value)."""
+    return {"actuator_unseen_mm": -(state.force_n[:, i] - state.force0_n[:, i]) * c}
+
+
 def friction(state: eodarm.EffectState, i: int, friction_n: float) -> dict[str, Any]:
     """The deadband of examples/friction.py (CONTRACT §8's example)."""
     df = state.force_n[:, i] - state.force0_n[:, i]
@@ -90,6 +96,10 @@ EFFECTS: dict[str, tuple[dict[str, Any], Callable[..., dict[str, Any]]]] = {
     "clearance_up_like": (
         {"places": "O", "parameter": "clearance_mm", "upper": 5.0, "start": 0.05},
         clearance_up_like,
+    ),
+    "mount_compliance_like": (
+        {"places": "M", "parameter": "compliance_mm_per_n", "start": 1e-4},
+        mount_compliance_like,
     ),
     "actuator_friction": (
         {"places": "M", "parameter": "friction_n", "start": 10.0, "unit": "N"},
@@ -336,6 +346,25 @@ def test_hidden_friction_is_found_by_diagnose(arm_name: str, at: str) -> None:
         assert 0.7 < top.fit.chi2_per_dof < 1.4
         assert top.fit.estimate(0) == pytest.approx(30.0, abs=4 * top.fit.stderr(0))
         assert d.baseline.chi2_per_dof > 3.0
+
+
+def test_a_user_copy_of_a_builtin_effect_ties_with_it_and_is_confused_with_it() -> None:
+    """The data cannot tell a user effect from the catalogue effect it copies: equal χ², each
+    in the other's ``confused_with``, and the tie goes to the catalogue's."""
+    arm = example_arm()
+    cfg = random_configs(arm, 12, np.random.default_rng(7))
+    hidden = [eodarm.Effect("mount_compliance", "M2", stiffness_n_per_mm=2000.0)]
+    meas = synth(arm, cfg, MASSES, hidden, seed=3)
+    with registered("mount_compliance_like"):
+        d = eodarm.diagnose(arm, meas, advise=False)
+        first, second = d.ranking[0], d.ranking[1]
+        assert first.slot.key == "mount_compliance@M2"
+        assert second.slot.key == "mount_compliance_like@M2"
+        assert second.fit.chi2 == pytest.approx(first.fit.chi2, rel=1e-6)
+        assert 1.0 / second.fit.estimate(0) == pytest.approx(first.fit.estimate(0), rel=1e-4)
+        assert "mount_compliance_like@M2" in first.confused_with
+        assert "mount_compliance@M2" in second.confused_with
+        assert [s.key for s in d.suggested] == ["mount_compliance@M2"]
 
 
 def test_unregistered_friction_is_not_explained_by_the_catalogue() -> None:
