@@ -84,3 +84,49 @@ def two_link_arm() -> eodarm.Arm:
 
 
 ARMS = {"example": example_arm, "seed-like": seed_like_arm, "two-link": two_link_arm}
+
+
+def four_link_arm() -> eodarm.Arm:
+    """A 4-link arm (not in ARMS: the catalogue's diagnosis tests run on the three above)."""
+    return eodarm.Arm.from_dict(
+        {
+            "name": "four-link",
+            "base": {"O1": [0.0, 0.0], "B0": [200.0, -60.0]},
+            "link": [
+                {
+                    "next": [450.0, 0.0],
+                    "A": [100.0, 50.0],
+                    "B": [-50.0, -40.0],
+                    "C": [200.0, 0.0],
+                    "mass_kg": 4.0,
+                },
+                {
+                    "next": [380.0, 0.0],
+                    "A": [90.0, -50.0],
+                    "B": [-100.0, 10.0],
+                    "C": [170.0, 0.0],
+                    "mass_kg": 3.0,
+                },
+                {
+                    "next": [300.0, 0.0],
+                    "A": [70.0, -40.0],
+                    "B": [-80.0, 10.0],
+                    "C": [150.0, 0.0],
+                    "mass_kg": 2.0,
+                },
+                {
+                    "next": [250.0, 0.0],
+                    "A": [50.0, -35.0],
+                    "C": [120.0, -2.0],
+                    "mass_kg": 1.2,
+                },
+            ],
+            "actuator": [
+                {"stiffness_n_per_mm": 5000.0, "mass_kg": 1.5},
+                {"stiffness_n_per_mm": 4000.0, "mass_kg": 1.2},
+                {"stiffness_n_per_mm": 3000.0, "mass_kg": 1.0},
+                {"stiffness_n_per_mm": 2000.0, "mass_kg": 0.8},
+            ],
+        },
+        source="four-link",
+    )

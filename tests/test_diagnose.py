@@ -46,7 +46,12 @@ def configs(arm: eodarm.Arm, k: int = 12, seed: int = 7) -> np.ndarray:
     return random_configs(arm, k, np.random.default_rng(seed))
 
 
-CASES = [(name, s.key) for name, mk in ARMS.items() for s in all_slots(mk().n)]
+# the catalogue's effects as the contract states them (gaps centred when unloaded)
+CASES = [
+    (name, s.key)
+    for name, mk in ARMS.items()
+    for s in all_slots(mk().n, taken_up=False, custom=False)
+]
 
 
 @pytest.mark.parametrize(("arm_name", "key"), CASES)
@@ -85,7 +90,8 @@ def test_model_with_the_effect_already_in_is_adequate() -> None:
     assert d.verdict == "adequate"
     assert d.baseline.estimate(0) == pytest.approx(0.15, rel=0.05)
     assert "joint_clearance@O2" not in {c.slot.key for c in d.ranking}
-    assert len(d.ranking) == len(all_slots(3)) - 1
+    # every candidate but the model's own clearance, centred or taken up
+    assert len(d.ranking) == len(all_slots(3)) - 2
 
 
 def test_two_hidden_effects_found_together_although_a_third_is_best_alone() -> None:
@@ -232,9 +238,13 @@ def test_cli_diagnose_json_is_exactly_the_contract(two_hidden_csv: str) -> None:
     assert set(doc["baseline"]) == {"rms", "chi2_per_dof"}
     assert doc["verdict"] == "missing"
     assert set(doc["suggested"]) == {"joint_clearance@O2", "mount_compliance@M1"}
-    assert len(doc["ranking"]) == 16
+    # 16 effects × places, and the 6 gaps (play, clearance) taken up when unloaded
+    assert len(doc["ranking"]) == 22
     for entry in doc["ranking"]:
-        assert set(entry) == {"effect", "at", "estimate", "rms", "chi2_per_dof", "confused_with"}
+        keys = {"effect", "at", "estimate", "rms", "chi2_per_dof", "confused_with"}
+        if entry.get("unloaded") == "taken_up":
+            keys.add("unloaded")
+        assert set(entry) == keys
     chi = [e["chi2_per_dof"] for e in doc["ranking"]]
     assert chi == sorted(chi)
 

@@ -24,6 +24,8 @@ _PUBLIC = {
     "CATALOGUE": "eodarm.model.effects",
     "Effect": "eodarm.model.effects",
     "Slot": "eodarm.model.effects",
+    "EffectState": "eodarm.model.custom",
+    "custom_effect": "eodarm.model.custom",
     "Actuator": "eodarm.model.arm",
     "Arm": "eodarm.model.arm",
     "Link": "eodarm.model.arm",
@@ -52,6 +54,7 @@ __all__ = [
     "Diagnosis",
     "Effect",
     "EffectError",
+    "EffectState",
     "EodarmError",
     "FitResult",
     "InputError",
@@ -61,6 +64,7 @@ __all__ = [
     "__version__",
     "angles_from_lengths",
     "cross_validate",
+    "custom_effect",
     "diagnose",
     "fit",
     "forward",
@@ -92,6 +96,7 @@ if TYPE_CHECKING:
     from eodarm.data.measurements import Measurements
     from eodarm.data.reader import read_measurements
     from eodarm.model.arm import Actuator, Arm, Link
+    from eodarm.model.custom import EffectState, custom_effect
     from eodarm.model.effects import CATALOGUE, Effect, Slot
     from eodarm.model.solver import (
         angles_from_lengths,

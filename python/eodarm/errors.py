@@ -6,7 +6,14 @@ that names the file and key, the row, or the pose at fault.
 
 from __future__ import annotations
 
-__all__ = ["ArgumentTypeError", "ArmFileError", "EffectError", "EodarmError", "InputError"]
+__all__ = [
+    "ArgumentTypeError",
+    "ArmFileError",
+    "CustomEffectError",
+    "EffectError",
+    "EodarmError",
+    "InputError",
+]
 
 
 class EodarmError(ValueError):
@@ -27,6 +34,12 @@ class EffectError(EodarmError):
     def __init__(self, message: str, key: str | None = None) -> None:
         super().__init__(message)
         self.key = key
+
+
+class CustomEffectError(EffectError):
+    """A user-written effect (CONTRACT §8) failed: its function raised or returned something
+    eodarm cannot use, or a file of effects did not load. The message is one line naming
+    ``effect@place`` and the key (or the file); the original exception, if any, is chained."""
 
 
 class InputError(EodarmError):

@@ -41,7 +41,7 @@ from eodarm.analysis.fit import FitResult, FitWarning, Problem, fit, outlier_tab
 from eodarm.data.measurements import Measurements, default_sigma
 from eodarm.errors import EodarmError
 from eodarm.model.arm import Arm
-from eodarm.model.effects import CATALOGUE, Slot, candidate_places
+from eodarm.model.effects import CATALOGUE, Slot, candidate_places, known_effects
 
 __all__ = ["P_PASS", "VERDICTS", "Candidate", "Diagnosis", "all_slots", "diagnose"]
 
@@ -61,9 +61,36 @@ CONFUSION_CHI2 = 3.841458820694124  # 95 % point of χ² with 1 dof
 OUTLIER_Z = 4.0
 
 
-def all_slots(n: int) -> list[Slot]:
-    """Every effect × place of the catalogue on an n-link arm (5n + 1 of them)."""
-    return [Slot(name, at) for name in CATALOGUE for at in candidate_places(name, n)]
+def all_slots(n: int, taken_up: bool = True, custom: bool = True) -> list[Slot]:
+    """Every candidate effect × place on an n-link arm: the catalogue's 5n + 1, with
+    ``taken_up`` the gaps taken up when unloaded too (play and clearance, 2n more), and with
+    ``custom`` every registered user-written effect at every place of its kind."""
+    names = known_effects() if custom else list(CATALOGUE)
+    out = []
+    for name in names:
+        for at in candidate_places(name, n):
+            out.append(Slot(name, at))
+            if taken_up and name in CATALOGUE and CATALOGUE[name].taken_up_code is not None:
+                out.append(Slot(name, at, "taken_up"))
+    return out
+
+
+def _tie_rank(slot: Slot) -> tuple[int, int]:
+    """TIE_ORDER's rank of a slot; user-written effects after the catalogue's, a gap taken
+    up after the same gap centred."""
+    name = slot.name
+    rank = TIE_ORDER.index(name) if name in TIE_ORDER else len(TIE_ORDER)
+    return rank, int(slot.unloaded != "centred")
+
+
+def _combinations(cands: Sequence[Slot], size: int) -> list[tuple[int, ...]]:
+    """Sets of ``size`` candidates, never two of one effect@place (a gap centred and the same
+    gap taken up)."""
+    return [
+        st
+        for st in itertools.combinations(range(len(cands)), size)
+        if len({cands[c].key for c in st}) == size
+    ]
 
 
 @dataclass
@@ -78,7 +105,7 @@ class Candidate:
     def to_json(self) -> dict[str, Any]:
         i = self.fit.slots.index(self.slot)
         value = self.fit.estimate(i)
-        return {
+        out = {
             "effect": self.slot.name,
             "at": self.slot.at,
             "estimate": {self.slot.kind.param: value if math.isfinite(value) else None},
@@ -86,6 +113,9 @@ class Candidate:
             "chi2_per_dof": self.fit.chi2_per_dof,
             "confused_with": list(self.confused_with),
         }
+        if self.slot.unloaded != "centred":
+            out["unloaded"] = self.slot.unloaded  # a gap taken up when unloaded
+        return out
 
 
 @dataclass
@@ -130,18 +160,18 @@ class Diagnosis:
 
     def to_json(self) -> dict[str, Any]:
         out: dict[str, Any] = {
-            "model": [s.key for s in self.model],
+            "model": [s.spec for s in self.model],
             "baseline": {
                 "rms": self.baseline.rms(),
                 "chi2_per_dof": self.baseline.chi2_per_dof,
             },
             "verdict": self.verdict,
-            "suggested": [s.key for s in self.suggested],
+            "suggested": [s.spec for s in self.suggested],
         }
         if self.verdict == "unexplained":
             be = self.best_effort_fit or self.baseline
             best: dict[str, Any] = {
-                "set": [s.key for s in self.best_effort],
+                "set": [s.spec for s in self.best_effort],
                 "chi2_per_dof": be.chi2_per_dof,
             }
             if self.best_effort_cv is not None:
@@ -315,7 +345,11 @@ def _diagnose_pass(
     base = fit(arm, meas, model_slots, problem=prob)
     taken = {s.key for s in model_slots}
     if candidates is None:
-        cands = [s for s in all_slots(arm.n) if s.key not in taken]
+        # the FE model has neither taken-up gaps nor user effects; without self-weight a
+        # taken-up gap is the centred one
+        analytic = kw.get("model", "analytic") == "analytic"
+        every = all_slots(arm.n, taken_up=analytic and self_weight, custom=analytic)
+        cands = [s for s in every if s.key not in taken]
     else:
         cands = [Slot.of(s) for s in candidates if Slot.of(s).key not in taken]
     m, k = len(model_slots), len(cands)
@@ -385,7 +419,7 @@ def _diagnose_pass(
     if not explained or significant:
         base_cv: Mapping[str, Any] | None = None
         for size in range(1, min(max_set, k) + 1):
-            sets = list(itertools.combinations(range(k), size))
+            sets = _combinations(cands, size)
             searched += len(sets) if size > 1 else 0
             d, chis = solve_sets(sets) if size > 1 else (d1, chi1)
             order = np.argsort(chis)[:refine_per_size]
@@ -434,7 +468,7 @@ def _by_chi2(fits: list[FitResult], m: int) -> list[FitResult]:
         fits,
         key=lambda f: (
             round(f.chi2 / quantum),
-            sorted(TIE_ORDER.index(s.name) for s in f.slots[m:]),
+            sorted(_tie_rank(s) for s in f.slots[m:]),
         ),
     )
 
@@ -442,9 +476,7 @@ def _by_chi2(fits: list[FitResult], m: int) -> list[FitResult]:
 def _rank(ranking: list[Candidate]) -> None:
     """Best (least χ²) first; χ² equal to 1e-9 of the largest are ties, broken by TIE_ORDER."""
     quantum = 1e-9 * max([abs(c.fit.chi2) for c in ranking] + [1e-300])
-    ranking.sort(
-        key=lambda c: (round(c.fit.chi2 / quantum), TIE_ORDER.index(c.slot.name), c.slot.at)
-    )
+    ranking.sort(key=lambda c: (round(c.fit.chi2 / quantum), _tie_rank(c.slot), c.slot.at))
 
 
 def _confusions(
@@ -465,21 +497,21 @@ def _confusions(
     if am.shape[1]:
         q, _ = np.linalg.qr(am)
         ac = ac - q @ (q.T @ ac)
-    index = {s.key: j for j, s in enumerate(cands)}
+    index = {s.spec: j for j, s in enumerate(cands)}
     contrib = np.zeros_like(ac)
     for cand in ranking:
-        j = index[cand.slot.key]
+        j = index[cand.slot.spec]
         t = cand.fit.theta[-1]
         contrib[:, j] = ac[:, j] * (t - prob.neutral(cand.slot)) * cnorm[j]
     for cand in ranking:
-        j = index[cand.slot.key]
+        j = index[cand.slot.spec]
         v = contrib[:, j]
         vv = float(v @ v)
         if vv <= detectable:
             continue
         out = []
         for other in ranking:
-            i = index[other.slot.key]
+            i = index[other.slot.spec]
             if i == j:
                 continue
             col = ac[:, i]
@@ -491,7 +523,7 @@ def _confusions(
             resid = v - coef * col
             left = float(resid @ resid)
             if left < CONFUSION_CHI2 and left < 0.1 * vv:
-                out.append(other.slot.key)
+                out.append(other.slot.spec)
         cand.confused_with = out
 
 
@@ -519,7 +551,7 @@ def _advice(
     mass = float(np.max(meas.mass_kg))
     sig = np.array([default_sigma(ch) for ch in meas.channels])
     for other_key in top.confused_with[:3]:
-        other = next(c for c in diag.ranking if c.slot.key == other_key)
+        other = next(c for c in diag.ranking if c.slot.spec == other_key)
         # B refitted alone to the data already; compare the two fitted models.
         ya, _ = prob.evaluate([*model, (top.slot, float(top.fit.theta[-1]))], rows=rows_all)
         yb, _ = prob.evaluate([*model, (other.slot, float(other.fit.theta[-1]))], rows=rows_all)
@@ -547,7 +579,7 @@ def _advice(
                 "mass_kg": mass,
                 "chi2_separation": float(score[i]),
             }
-        out.append({"pair": [top.slot.key, other.slot.key], "channel": channel, "pose": pose})
+        out.append({"pair": [top.slot.spec, other.slot.spec], "channel": channel, "pose": pose})
     return out
 
 

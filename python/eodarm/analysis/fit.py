@@ -19,6 +19,10 @@ bounded linear least-squares problem. Residuals are whitened by the measurement 
 
 With ``model="fem"`` the channels come from the finite-element model (:mod:`eodarm.model.fem`) and
 the sensitivities from forward differences of it, one more FE solve per parameter.
+
+A user-written effect (CONTRACT §8) is fitted through its parameter itself, within its
+``[lower, upper]``, starting from its ``start``; models that hold one are evaluated by
+:mod:`eodarm.analysis.sensitivity` (forward differences, the statics computed once).
 """
 
 from __future__ import annotations
@@ -36,7 +40,6 @@ from eodarm.data.measurements import Measurements
 from eodarm.errors import EodarmError
 from eodarm.model.arm import Arm
 from eodarm.model.effects import (
-    THETA_MAX,
     Effect,
     Slot,
     param_from_theta,
@@ -105,6 +108,7 @@ class Problem:
         #: The arm file's own effects (CONTRACT §7), held at their values in every evaluation
         #: unless the same effect@place is in the model being evaluated (then it is refitted).
         self.fixed = [(Slot.of(e), theta_from_param(e.name, e.value)) for e in arm.effects]
+        self._custom: Any = None  # the evaluator of user-written effects, made on first use
 
     # --------------------------------------------------------------- evaluation
     def evaluate(
@@ -119,6 +123,8 @@ class Problem:
         With ``nan_on_failure`` a pose the model cannot solve is NaN instead of an error. The
         arm's own effects (:attr:`fixed`) are included where the model and the probes do not
         name the same effect@place.
+        A model or probes with user-written effects go through
+        :class:`~eodarm.analysis.sensitivity.CustomEvaluator` (forward differences).
         """
         from eodarm.model import native as _core
         from eodarm.model.solver import _core_arm
@@ -132,6 +138,24 @@ class Problem:
         if rows is not None:
             alpha = np.ascontiguousarray(alpha[rows])
             payload = np.ascontiguousarray(payload[rows])
+        user = [s for s, _ in model if s.kind.custom] + [s for s in probes if s.kind.custom]
+        if user and self.model == "fem":
+            raise EodarmError(
+                f"custom effect {user[0].key}: the finite-element model cannot include "
+                "user-written effects; use the analytic model"
+            )
+        if user:
+            from eodarm.analysis.sensitivity import CustomEvaluator
+
+            if self._custom is None:
+                self._custom = CustomEvaluator(self.arm, self.alpha, self.payload, self.self_weight)
+            return self._custom.evaluate(  # type: ignore[no-any-return]
+                model,
+                probes,
+                rows,
+                nan_on_failure,
+                lambda m, p: self.evaluate(m, p, rows, nan_on_failure),
+            )
         if self.model == "fem":
             from eodarm.model import fem
 
@@ -169,13 +193,24 @@ class Problem:
             from eodarm.model import fem
 
             return fem.neutral(self.arm, slot)
+        kind = slot.kind
+        if kind.custom:
+            return float(getattr(kind, "neutral", 0.0))
         if slot.name == "actuator_compliance":
             return 1.0 / self.arm.actuators[slot.index(self.arm.n)].stiffness_n_per_mm
         return 0.0
 
+    def start(self, slot: Slot) -> float:
+        """θ where a fit of a slot without a given value starts: the effect absent, or a
+        user-written effect's ``start``."""
+        kind = slot.kind
+        if kind.custom and self.model != "fem":
+            return float(getattr(kind, "start", 0.0))
+        return self.neutral(slot)
+
     @staticmethod
     def bounds(slot: Slot) -> tuple[float, float]:
-        return 0.0, THETA_MAX.get(slot.name, math.inf)
+        return slot.kind.theta_bounds
 
     def whiten(self, y: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
         """Whitened residual (obs − y)/σ over the used cells."""
@@ -209,7 +244,7 @@ class FitResult:
         out = []
         for s, t in zip(self.slots, self.theta, strict=True):
             value = param_from_theta(s.name, float(t))
-            if math.isfinite(value) and (value > 0 or s.kind.allow_zero):
+            if s.kind.value_error(value) is None:
                 out.append(s.effect(value))
         return out
 
@@ -477,7 +512,7 @@ def fit(
         [
             theta_from_param(e.name, e.value)
             if isinstance(e, Effect)
-            else in_file.get(s.key, prob.neutral(s))  # a file's effect starts at its value
+            else in_file.get(s.key, prob.start(s))  # a file's effect starts at its value
             for s, e in zip(slots, given, strict=True)
         ],
         dtype=float,
@@ -542,7 +577,8 @@ def fit(
                 # Half-normal bound: how far θ could go before χ² rises by 1.
                 col = a[:, i]
                 stderr[i] = math.sqrt(scale) / max(float(np.linalg.norm(col)), 1e-300)
-                theta_cov[i, i] = stderr[i] ** 2
+                # (a column of zeros: the data do not see it at all, an infinite variance)
+                theta_cov[i, i] = stderr[i] ** 2 if stderr[i] < 1e150 else math.inf
                 where = "its upper bound" if theta[i] >= hi[i] else "its lower bound (absent)"
                 notes.append(f"{s.key}: parameter stuck at {where}; the data do not want it")
         for msg in notes:

@@ -186,8 +186,9 @@ def synth(
     alpha_deg : (K, n) unloaded absolute angles of K configurations, degrees.
     masses : (M,) payload masses, kg. Every configuration is measured with every payload:
         K·M states, configuration-major (state ``i·M + j`` is configuration i, mass j).
-    hidden : the effects present in the "real" arm (the truth is
-        ``eodarm.solve(arm, alpha, mass, effects=hidden, self_weight=self_weight)``).
+    hidden : the effects present in the "real" arm, from the catalogue or user-written
+        (registered with :func:`eodarm.custom_effect`); the truth is
+        ``eodarm.solve(arm, alpha, mass, effects=hidden, self_weight=self_weight)``.
     channels : channels measured (:func:`~eodarm.data.measurements.expand_channels`: names,
         families ``dalpha``/``dl``, or ``"all"``); default all. The others are ``NaN``.
     sigma : standard deviation per channel (mm or degrees); a key may also be a family

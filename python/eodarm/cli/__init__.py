@@ -9,12 +9,14 @@ from __future__ import annotations
 
 import argparse
 import sys
+import traceback
 import warnings
 from collections.abc import Sequence
 from typing import NoReturn
 
 from eodarm._version import __version__
 from eodarm.cli import compare, datasets, diagnose, fit, report, solve, sweep, synth
+from eodarm.cli._common import load_effects
 from eodarm.errors import EodarmError
 
 __all__ = ["COMMANDS", "main"]
@@ -37,6 +39,11 @@ def _parser() -> argparse.ArgumentParser:
         "the statics, compliance and backlash of planar arms driven by linear actuators.",
     )
     p.add_argument("--version", action="version", version=f"eodarm {__version__}")
+    p.add_argument(
+        "--debug",
+        action="store_true",
+        help="on an error, show its traceback instead of the one-line reason",
+    )
     sub = p.add_subparsers(dest="command", metavar="COMMAND")
     for command in COMMANDS:
         command.add_parser(sub)
@@ -58,15 +65,16 @@ def main(argv: Sequence[str] | None = None) -> int:
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         try:
+            load_effects(args)  # --effects FILE.py and installed packages' effects
             code = int(args.func(args))
         except (EodarmError, ValueError) as exc:  # ValueError: e.g. eodarm._core.CoreError
-            _error(exc)
+            _error(exc, args.debug)
             return 2
         except BrokenPipeError:  # e.g. `eodarm diagnose ... | head`
             sys.stderr.close()
             return 0
         except OSError as exc:
-            _error(exc)
+            _error(exc, args.debug)
             return 2
         except KeyboardInterrupt:
             print("eodarm: interrupted", file=sys.stderr)
@@ -75,8 +83,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     return code
 
 
-def _error(exc: BaseException) -> None:
-    """The one line of a failed command (a message is never more than one line)."""
+def _error(exc: BaseException, debug: bool = False) -> None:
+    """The one line of a failed command (a message is never more than one line); with
+    ``--debug`` the traceback instead (with the exception it came from, e.g. in a
+    user-written effect)."""
+    if debug:
+        traceback.print_exception(exc, file=sys.stderr)
+        return
     text = " ".join(str(exc).split()) or type(exc).__name__
     print(f"eodarm: error: {text}", file=sys.stderr)
 

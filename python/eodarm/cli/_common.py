@@ -14,7 +14,7 @@ import numpy as np
 from eodarm.data.datasets import example_arm
 from eodarm.errors import EodarmError
 from eodarm.model.arm import Arm
-from eodarm.model.effects import CATALOGUE, Effect
+from eodarm.model.effects import Effect, kind_of
 
 if TYPE_CHECKING:
     from eodarm.analysis.fit import FitResult
@@ -26,19 +26,51 @@ def _load_arm(path: str | None) -> Arm:
     return example_arm() if path is None else Arm.from_toml(path)
 
 
-def _valued_effect(spec: str) -> Effect:
-    """``effect@place=value`` → Effect."""
+def _valued_effect(spec: str, flag: str = "--add") -> Effect:
+    """``effect@place=value`` → Effect (a catalogue effect or a registered user-written one)."""
     head, sep, value = spec.partition("=")
-    name = head.partition("@")[0]
-    if not sep or name not in CATALOGUE:
+    name = head.partition("@")[0].strip()
+    if not sep:
         raise EodarmError(
-            f"--add '{spec}': expected EFFECT@PLACE=VALUE, e.g. joint_clearance@O3=0.15"
+            f"{flag} '{spec}': expected EFFECT@PLACE=VALUE, e.g. joint_clearance@O3=0.15"
+        )
+    kind = kind_of(name)
+    if kind is None:
+        from eodarm.model.effects import known_effects
+
+        raise EodarmError(
+            f"{flag} '{spec}': unknown effect '{name}'; known: {', '.join(known_effects())} "
+            "(user-written effects come with --effects FILE.py)"
         )
     try:
         x = float(value)
     except ValueError:
-        raise EodarmError(f"--add '{spec}': '{value}' is not a number") from None
-    return Effect.parse(head, **{CATALOGUE[name].param: x})
+        raise EodarmError(f"{flag} '{spec}': '{value}' is not a number") from None
+    return Effect.parse(head.strip(), **{kind.param: x})
+
+
+def _effects_args(p: argparse.ArgumentParser) -> None:
+    """``--effects FILE.py``: user-written effects (CONTRACT §8), loaded before any effect is
+    parsed."""
+    p.add_argument(
+        "--effects",
+        action="append",
+        metavar="FILE.py",
+        help="a Python file that registers user-written effects with eodarm.custom_effect "
+        "(repeatable; docs/custom-effects.md)",
+    )
+
+
+def load_effects(args: argparse.Namespace) -> None:
+    """Register the installed packages' effects (entry-point group ``eodarm.effects``) and
+    run the ``--effects`` files of a command that takes effects."""
+    if not hasattr(args, "effects"):
+        return
+    from eodarm.model import custom
+
+    custom.load_entry_points()
+    for path in args.effects or []:
+        custom.load_file(path)
 
 
 def _floats(text: str, what: str) -> list[float]:
@@ -235,4 +267,5 @@ def data_command(sub: Any, name: str, helptext: str, desc: str) -> argparse.Argu
         help="the measured arm carried no self-weight in the model",
     )
     _model_args(c)
+    _effects_args(c)
     return c

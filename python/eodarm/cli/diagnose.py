@@ -80,7 +80,7 @@ def _print_diagnosis(d: Any, arm: Arm, meas: Measurements) -> None:
         print(" — the model explains the data within their noise; nothing is missing")
     elif d.verdict == "missing":
         print(
-            f" — suggested: {' + '.join(s.key for s in d.suggested)}"
+            f" — suggested: {' + '.join(s.label for s in d.suggested)}"
             f"  ({d.sets_searched} candidate sets searched)"
         )
         if d.suggested_fit is not None:
@@ -98,7 +98,7 @@ def _print_diagnosis(d: Any, arm: Arm, meas: Measurements) -> None:
         rows.append(
             [
                 str(i + 1),
-                c.slot.key,
+                c.slot.label,
                 f"{c.slot.kind.param}={_fmt(c.fit.estimate(j))}",
                 f"{c.fit.chi2_per_dof:.4g}",
                 *(_fmt(rms.get(ch, np.nan)) for ch in chans),

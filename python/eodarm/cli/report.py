@@ -7,6 +7,7 @@ from pathlib import Path
 from typing import Any
 
 from eodarm.cli._common import (
+    _effects_args,
     _load_arm,
     _model,
     _model_args,
@@ -130,5 +131,6 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     r.add_argument("--title", help="the report's title")
     r.add_argument("--no-self-weight", action="store_true")
     _model_args(r)
+    _effects_args(r)
     r.set_defaults(func=run)
     return r

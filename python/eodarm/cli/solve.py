@@ -11,6 +11,7 @@ from typing import Any
 import numpy as np
 
 from eodarm.cli._common import (
+    _effects_args,
     _floats,
     _load_arm,
     _model_args,
@@ -171,6 +172,7 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     )
     s.add_argument("--backend", choices=("rust", "numpy"), default="rust")
     _model_args(s)
+    _effects_args(s)
     s.add_argument(
         "--plot",
         metavar="DIR",

@@ -19,6 +19,7 @@ from eodarm.workspace.sweep import CHUNK_SIZE, REDUCE_OPS, sweep
 if TYPE_CHECKING:
     import xarray as xr
 from eodarm.cli._common import (
+    _effects_args,
     _note,
     _valued_effect,
 )
@@ -162,6 +163,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         help="Dask scheduler address (tcp://host:8786) to run the chunks on (eodarm[dask])",
     )
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    _effects_args(p)
     p.set_defaults(func=run)
     return p
 

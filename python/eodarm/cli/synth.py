@@ -10,10 +10,11 @@ from typing import Any
 import numpy as np
 
 from eodarm.analysis.synth import random_configs, synth
+from eodarm.cli._common import _effects_args, _valued_effect
 from eodarm.data.datasets import example_arm
 from eodarm.errors import EodarmError
 from eodarm.model.arm import Arm
-from eodarm.model.effects import CATALOGUE, Effect
+from eodarm.model.effects import Effect
 
 
 # ---------------------------------------------------------------------------- CLI
@@ -86,6 +87,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         "else use the default noise levels)",
     )
     p.add_argument("-o", "--output", metavar="OUT.csv", help="output file (default: stdout)")
+    _effects_args(p)
     p.set_defaults(func=run)
     return p
 
@@ -180,16 +182,6 @@ def _angles(text: str, n: int) -> list[float]:
 
 
 def _hidden_effect(spec: str) -> Effect:
-    """``EFFECT@PLACE=VALUE`` → Effect."""
-    head, sep, value = spec.partition("=")
-    name = head.partition("@")[0].strip()
-    if not sep or name not in CATALOGUE:
-        raise EodarmError(
-            f"--hidden '{spec}': expected EFFECT@PLACE=VALUE with EFFECT one of "
-            f"{', '.join(CATALOGUE)}, e.g. joint_clearance@O3=0.15"
-        )
-    try:
-        x = float(value)
-    except ValueError:
-        raise EodarmError(f"--hidden '{spec}': '{value}' is not a number") from None
-    return Effect.parse(head.strip(), **{CATALOGUE[name].param: x})
+    """``EFFECT@PLACE=VALUE`` → Effect (a catalogue effect or a registered user-written one,
+    e.g. from ``--effects FILE.py``)."""
+    return _valued_effect(spec, "--hidden")

@@ -22,7 +22,10 @@ __all__ = [
     "candidate_places",
     "effect_arrays",
     "effect_from_table",
+    "kind_of",
+    "known_effects",
     "param_from_theta",
+    "split_effects",
     "theta_from_param",
     "with_arm_effects",
 ]
@@ -51,6 +54,23 @@ class EffectKind:
     #: The compiled core's code of this effect taken up when unloaded (gaps only).
     taken_up_code: int | None = None
 
+    @property
+    def custom(self) -> bool:
+        """Whether this is a user-written effect (:mod:`eodarm.model.custom`), computed in
+        Python and given to the core as extra deformations."""
+        return False
+
+    @property
+    def theta_bounds(self) -> tuple[float, float]:
+        """The bounds of the fitted parameter θ (docs/diagnosis.md)."""
+        return 0.0, THETA_MAX.get(self.name, math.inf)
+
+    def value_error(self, value: float) -> str | None:
+        """Why ``value`` is not a valid parameter of this effect (None when it is)."""
+        if not math.isfinite(value) or value < 0 or (value == 0 and not self.allow_zero):
+            return f"must be finite and {'>= 0' if self.allow_zero else '> 0'}"
+        return None
+
 
 CATALOGUE: dict[str, EffectKind] = {
     k.name: k
@@ -65,6 +85,35 @@ CATALOGUE: dict[str, EffectKind] = {
 }
 
 
+def kind_of(name: str) -> EffectKind | None:
+    """The catalogue's entry ``name``, or the user-written effect registered under it
+    (:func:`eodarm.custom_effect`), or None."""
+    kind = CATALOGUE.get(name)
+    if kind is None and isinstance(name, str):
+        from eodarm.model import custom
+
+        kind = custom.lookup(name)
+    return kind
+
+
+def known_effects() -> list[str]:
+    """Every effect name: the catalogue's, then the registered user-written ones."""
+    from eodarm.model import custom
+
+    return [*CATALOGUE, *custom.registered()]
+
+
+def _unknown(name: object) -> str:
+    return f"unknown effect '{name}'; known: {', '.join(known_effects())}"
+
+
+def _kind(name: str) -> EffectKind:
+    kind = kind_of(name)
+    if kind is None:
+        raise EffectError(_unknown(name))
+    return kind
+
+
 @dataclass(frozen=True, init=False)
 class Effect:
     """One physical effect at one place: ``Effect("joint_clearance", "O3", clearance_mm=0.15)``.
@@ -72,7 +121,8 @@ class Effect:
     Parameters
     ----------
     name : one of :data:`CATALOGUE` (``actuator_compliance``, ``mount_compliance``,
-        ``actuator_play``, ``joint_clearance``, ``link_bending``, ``base_compliance``).
+        ``actuator_play``, ``joint_clearance``, ``link_bending``, ``base_compliance``) or a
+        user-written effect registered with :func:`eodarm.custom_effect`.
     at : the place: ``M1``…``Mn`` (actuators), ``O1``…``On`` (joints), ``L1``…``Ln`` (links)
         or ``base``.
     unloaded : keyword, for ``actuator_play`` and ``joint_clearance`` only: ``"centred"``
@@ -91,9 +141,7 @@ class Effect:
 
     def __init__(self, name: str, at: str, **params: float | str) -> None:
         unloaded = params.pop("unloaded", "centred")
-        kind = CATALOGUE.get(name)
-        if kind is None:
-            raise EffectError(f"unknown effect '{name}'; known: {', '.join(CATALOGUE)}")
+        kind = _kind(name)
         _place_index(kind, at)  # validates the place's form
         if unloaded not in UNLOADED:
             raise EffectError(
@@ -117,11 +165,9 @@ class Effect:
             raise EffectError(
                 f"effect {name}@{at}: {kind.param} must be a finite number, got {got}"
             ) from None
-        if not math.isfinite(value) or value < 0 or (value == 0 and not kind.allow_zero):
-            bound = ">= 0" if kind.allow_zero else "> 0"
-            raise EffectError(
-                f"effect {name}@{at}: {kind.param} must be finite and {bound}, got {raw!r}"
-            )
+        why = kind.value_error(value)
+        if why is not None:
+            raise EffectError(f"effect {name}@{at}: {kind.param} {why}, got {raw!r}")
         object.__setattr__(self, "name", name)
         object.__setattr__(self, "at", at)
         object.__setattr__(self, "value", value)
@@ -138,7 +184,7 @@ class Effect:
 
     @property
     def kind(self) -> EffectKind:
-        return CATALOGUE[self.name]
+        return _kind(self.name)
 
     @property
     def param(self) -> str:
@@ -162,8 +208,16 @@ class Effect:
 
     @property
     def code(self) -> int:
-        """The compiled core's code of this effect (its mode included)."""
+        """The compiled core's code of this effect (its mode included).
+
+        Raises
+        ------
+        EffectError
+            For a user-written effect: the core gets it as extra deformations.
+        """
         kind = self.kind
+        if kind.custom:
+            raise EffectError(f"effect {self.key} is user-written: it has no code in the core")
         if self.unloaded == "taken_up" and kind.taken_up_code is not None:
             return kind.taken_up_code
         return kind.code
@@ -218,14 +272,14 @@ def effect_from_table(table: Any) -> Effect:
         Naming the offending key (its ``key`` attribute) and what is wrong with it.
     """
     name = table.get("effect")
-    if not isinstance(name, str) or name not in CATALOGUE:
+    kind = kind_of(name) if isinstance(name, str) else None
+    if kind is None:
         raise EffectError(
-            f"unknown effect {name!r}; known: {', '.join(CATALOGUE)}"
+            _unknown(name)
             if isinstance(name, str)
             else 'missing or not a string: the effect\'s name, e.g. "mount_compliance"',
             key="effect",
         )
-    kind = CATALOGUE[name]
     at = table.get("at")
     if not isinstance(at, str):
         raise EffectError('missing or not a string: the effect\'s place, e.g. "M2"', key="at")
@@ -268,7 +322,7 @@ def _place_index(kind: EffectKind, at: str) -> int:
 
 def candidate_places(name: str, n: int) -> list[str]:
     """Every place an effect can sit on an arm of ``n`` links."""
-    kind = CATALOGUE[name]
+    kind = _kind(name)
     if kind.place_letter == "":
         return ["base"]
     return [f"{kind.place_letter}{i + 1}" for i in range(n)]
@@ -278,7 +332,9 @@ def effect_arrays(effects: Iterable[Effect], n: int) -> tuple[np.ndarray, np.nda
     """Effects as (codes, 0-based place indices, values) for the compiled core.
 
     The code is the catalogue's, or for a gap taken up when unloaded its ``taken_up_code``
-    (6 ``actuator_play``, 7 ``joint_clearance``).
+    (6 ``actuator_play``, 7 ``joint_clearance``). Every effect is checked, but user-written
+    ones (:mod:`eodarm.model.custom`) are not in the arrays: they reach the core as extra
+    deformations (:func:`split_effects`), and every caller must pass them on so.
 
     Raises
     ------
@@ -294,9 +350,10 @@ def effect_arrays(effects: Iterable[Effect], n: int) -> tuple[np.ndarray, np.nda
         if e.key in seen:
             raise EffectError(f"effect {e.key} is given twice")
         seen.add(e.key)
-    codes = np.array([e.code for e in effs], dtype=np.int64)
-    places = np.array([e.index(n) for e in effs], dtype=np.int64)
-    values = np.array([e.value for e in effs], dtype=float)
+    builtin = [e for e in effs if not e.kind.custom]
+    codes = np.array([e.code for e in builtin], dtype=np.int64)
+    places = np.array([e.index(n) for e in builtin], dtype=np.int64)
+    values = np.array([e.value for e in builtin], dtype=float)
     return codes, places, values
 
 
@@ -306,6 +363,15 @@ def with_arm_effects(arm_effects: Sequence[Effect], effects: Any) -> list[Effect
     given = as_effects(effects)
     keys = {e.key for e in given if isinstance(e, Effect)}
     return [e for e in arm_effects if e.key not in keys] + given
+
+
+def split_effects(effects: Iterable[Effect]) -> tuple[list[Effect], list[Effect]]:
+    """(catalogue effects, user-written effects), each in the given order."""
+    effs = list(effects)
+    for e in effs:
+        if not isinstance(e, Effect):
+            raise EffectError(f"effects must be eodarm.Effect values, got {e!r}")
+    return [e for e in effs if not e.kind.custom], [e for e in effs if e.kind.custom]
 
 
 def as_effects(effects: Any) -> list[Effect]:
@@ -340,14 +406,15 @@ class Slot:
             name, at, unloaded = _split_spec(spec)
         except EffectError as exc:
             raise EodarmError(str(exc)) from None
-        if name not in CATALOGUE:
+        kind = kind_of(name)
+        if kind is None:
             raise EodarmError(
                 f"'{spec}' is not of the form EFFECT@PLACE with EFFECT one of "
-                f"{', '.join(CATALOGUE)}"
+                f"{', '.join(known_effects())}"
             )
-        kind = CATALOGUE[name]
-        Effect(name, at, unloaded=unloaded, **{kind.param: 1.0})  # validates place and mode
-        return cls(name, at, unloaded)
+        slot = cls(name, at, unloaded)
+        slot.example  # noqa: B018 - validates place and mode
+        return slot
 
     @classmethod
     def of(cls, effect: Effect | Slot | str) -> Slot:
@@ -359,11 +426,18 @@ class Slot:
 
     @property
     def kind(self) -> EffectKind:
-        return CATALOGUE[self.name]
+        return _kind(self.name)
 
     @property
     def key(self) -> str:
         return f"{self.name}@{self.at}"
+
+    @property
+    def example(self) -> Effect:
+        """This slot with a valid value (checks the place and the mode)."""
+        kind = self.kind
+        value = float(getattr(kind, "start", 1.0)) if kind.custom else 1.0
+        return self.effect(value)
 
     @property
     def spec(self) -> str:
@@ -378,35 +452,37 @@ class Slot:
     @property
     def code(self) -> int:
         """The compiled core's code of this slot (its mode included)."""
-        return self.effect(1.0).code
+        return self.example.code
 
     def effect(self, value: float) -> Effect:
         """This slot with a value."""
         return Effect(self.name, self.at, unloaded=self.unloaded, **{self.kind.param: value})
 
     def index(self, n: int) -> int:
-        return _slot_index(self.name, self.at, n)
+        return _slot_index(self, self.kind.place_letter, n)
 
     def __str__(self) -> str:
         return self.spec
 
 
 @functools.lru_cache(maxsize=4096)
-def _slot_index(name: str, at: str, n: int) -> int:
+def _slot_index(slot: Slot, place_letter: str, n: int) -> int:
     # Every evaluation of a fit asks this of every slot; building an Effect each time to
-    # validate the place showed in the profile of a diagnosis (~10 % of it).
-    return Effect(name, at, **{CATALOGUE[name].param: 1.0}).index(n)
+    # validate the place showed in the profile of a diagnosis (~10 % of it). The place
+    # letter is part of the key: a user effect registered again may sit elsewhere.
+    return slot.example.index(n)
 
 
 def theta_from_param(name: str, value: float) -> float:
-    """θ of a physical parameter value (``inf`` stiffness → 0)."""
-    if CATALOGUE[name].compliance_like:
+    """θ of a physical parameter value (``inf`` stiffness → 0); a user-written effect's θ is
+    its parameter."""
+    if _kind(name).compliance_like:
         return 0.0 if math.isinf(value) else 1.0 / value
     return float(value)
 
 
 def param_from_theta(name: str, theta: float) -> float:
     """Physical parameter of a θ (θ = 0 of a compliance → ``inf``)."""
-    if CATALOGUE[name].compliance_like:
+    if _kind(name).compliance_like:
         return math.inf if theta <= 0 else 1.0 / theta
     return float(theta)

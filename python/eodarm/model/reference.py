@@ -24,7 +24,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from eodarm.errors import EffectError, InputError
 from eodarm.model.arm import Arm
-from eodarm.model.effects import Effect, effect_arrays, with_arm_effects
+from eodarm.model.effects import Effect, as_effects, effect_arrays, split_effects, with_arm_effects
 
 __all__ = [
     "angles_from_lengths",
@@ -590,11 +590,28 @@ def solve_payload(
     alpha_d = _as_poses(alpha_deg, n, "alpha_deg")
     n_rows = alpha_d.shape[0]
     payload = _as_payload(payload_n, n_rows)
-    par = _effect_params(arm, effects)
+    effs = as_effects(effects)
+    effect_arrays(effs, n)  # types, places and duplicates over all of them
+    builtin, custom_effs = split_effects(effs)
+    par = _effect_params(arm, builtin)
     ext = _extras(extra, n_rows, n)
     alpha = np.radians(alpha_d)
     geo = _forward(arr, alpha)
     st = _statics(arr, geo, payload, bool(self_weight))
+    if custom_effs:
+        # User-written effects (CONTRACT §8): their functions read this reference's own
+        # statics of both states, and what they return adds to the extra deformations.
+        from eodarm.model import custom
+
+        statics_out = {
+            "force_n": st["force_n"],
+            "force0_n": st["force_unloaded_n"],
+            "reaction_n": st["reaction_n"],
+            "reaction0_n": st["reaction_unloaded_n"],
+            "length_mm": geo["length_mm"],
+        }
+        state = custom.EffectState.from_statics(arm, alpha_d, payload, statics_out, self_weight)
+        ext = custom.add_extras(ext, custom.extras_of(custom_effs, state))
     e = st["e"]
     df, dr = st["dforce_n"], st["dreaction_n"]
 

@@ -17,7 +17,7 @@ import numpy.typing as npt
 
 from eodarm.errors import InputError
 from eodarm.model.arm import Arm, check_arm
-from eodarm.model.effects import Effect, effect_arrays, with_arm_effects
+from eodarm.model.effects import Effect, effect_arrays, split_effects, with_arm_effects
 from eodarm.model.validity import status
 
 __all__ = [
@@ -31,7 +31,7 @@ __all__ = [
 ]
 
 Backend = Literal["rust", "numpy"]
-Arrays = dict[str, npt.NDArray[np.float64]]
+Arrays = dict[str, npt.NDArray[Any]]
 
 
 def solve(
@@ -53,7 +53,9 @@ def solve(
     arm : the arm.
     alpha_deg : (N, n) unloaded absolute link angles, degrees (a single pose (n,) is N = 1).
     mass_kg : payload mass, kg; scalar or (N,). Its weight ``m·g`` acts downward.
-    effects : effects added to the baseline model (CONTRACT §4).
+    effects : effects added to the baseline model (CONTRACT §4), built-in or user-written
+        (:func:`eodarm.custom_effect`; their functions are called once each, on the statics of
+        the N poses, and what they return is added to ``extra``).
     backend : ``"rust"`` (compiled core) or ``"numpy"`` (independent reference).
     self_weight : include link and actuator weights in both states.
     model : ``"analytic"`` (closed forms, exact pose) or ``"fem"``: the frame finite-element
@@ -66,7 +68,7 @@ def solve(
         actuator's sensor sees, ``extra_unseen_mm`` (N, n) one it does not see,
         ``extra_joint_mm`` (N, n, 2) offset of link i's pin centre at O_i, ``extra_tilt_rad``
         (N,) chassis tilt about the base pivot, ``extra_measure_mm`` (N, 2) displacement of
-        the measure point. Analytic model only.
+        the measure point. Analytic model only (so are user-written effects).
     uncertainty : also return ``sigma_dx_mm``, ``sigma_dy_mm`` (N,) and ``sigma_dalpha_deg``
         (N, n), the standard deviations of those outputs from the covariance of the arm's
         fitted parameters (an arm file written by ``eodarm fit -o``; linear propagation
@@ -134,10 +136,16 @@ def solve_payload(
         )
     effs = with_arm_effects(arm.effects, effects)
     codes, places, values = effect_arrays(effs, arm.n)
+    custom_effs = split_effects(effs)[1]
     fem.check_model(model)
     extras = _extras(extra, alpha.shape[0], arm.n)
     if extras and model == "fem":
         raise InputError("extra deformations are for model='analytic'")
+    if custom_effs and model == "fem":
+        raise InputError(
+            f"custom effect {custom_effs[0].key}: the finite-element model cannot include "
+            "user-written effects; use model='analytic'"
+        )
     if model == "fem":
         if uncertainty:
             raise InputError("uncertainty is propagated with model='analytic'")
@@ -149,12 +157,18 @@ def solve_payload(
         return fe
     if fem_options is not None:
         raise InputError("fem_options is for model='fem'")
-    if uncertainty and extras:
+    if uncertainty and (extras or custom_effs):
         raise InputError("uncertainty is propagated for the catalogue's effects only")
     if backend == "rust":
         from eodarm.model import native as _core
 
-        out = _core.solve(
+        if custom_effs:
+            from eodarm.model import custom
+
+            st = _core.statics(_core_arm(arm), alpha, payload, self_weight)
+            state = custom.EffectState.from_statics(arm, alpha, payload, st, self_weight)
+            extras = custom.add_extras(extras, custom.extras_of(custom_effs, state))
+        out: Arrays = _core.solve(
             _core_arm(arm),
             alpha,
             payload,
@@ -172,8 +186,10 @@ def solve_payload(
         _check_backend(backend)
         from eodarm.model import reference
 
-        out = reference.solve_payload(
-            arm, alpha, payload, effs, self_weight=self_weight, extra=extras
+        out = dict(
+            reference.solve_payload(
+                arm, alpha, payload, effs, self_weight=self_weight, extra=extras
+            )
         )
     out["status"] = status(arm, alpha, payload, out)
     if uncertainty:

@@ -83,7 +83,7 @@ def status(
     n = arm.n
     code = np.zeros(alpha_deg.shape[0], dtype=np.uint8)
 
-    def mark(bad: npt.NDArray[np.bool_], c: int) -> None:
+    def mark(bad: Any, c: int) -> None:
         code[(code == 0) & bad] = c
 
     mark(stroke_violations(arm, geo["length_mm"]).any(axis=1), 1)

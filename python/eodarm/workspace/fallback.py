@@ -16,11 +16,11 @@ import numpy.typing as npt
 
 from eodarm.errors import EodarmError, InputError
 from eodarm.model.arm import Arm
-from eodarm.model.effects import Effect
+from eodarm.model.effects import Effect, split_effects
 from eodarm.model.solver import _core_arm, forward, stroke_violations
 
 if TYPE_CHECKING:
-    pass
+    from eodarm.model.custom import EffectState
 
 __all__ = ["REDUCE_OPS", "kernel", "placeholder", "singular", "sweep_fallback"]
 
@@ -51,6 +51,9 @@ def sweep_fallback(
 
     With ``model="fem"`` the cells are solved by the finite-element model instead
     (:func:`eodarm.model.fem.fem_solve_payload`, ``effects`` given as Effect values).
+    User-written effects (CONTRACT §8) among ``effects`` are computed here, once per place
+    for the whole chunk, on the statics of its solvable cells, and given to the core as extra
+    deformations (``codes``/``places``/``values`` hold the catalogue's effects only).
 
     Kept as the definition the fast core is tested against, and the kernel of FE sweeps.
     ``threads`` is ignored here (``_core.solve`` uses rayon's global pool).
@@ -103,15 +106,19 @@ def sweep_fallback(
             nan_on_failure=True,
         )
     else:
+        cell_alpha = np.repeat(alpha, m, axis=0)
+        users = split_effects(effects)[1]
+        extras = _user_extras(arm, cell_alpha, payload, users, self_weight) if users else {}
         out = _core.solve(
             core,
-            np.repeat(alpha, m, axis=0),
+            cell_alpha,
             payload,
             codes,
             places,
             values,
             self_weight,
             nan_on_failure=True,
+            **extras,
         )
     ok = np.isfinite(out["dy_mm"])
     cells: dict[str, npt.NDArray[Any]] = {
@@ -138,6 +145,44 @@ def sweep_fallback(
     res["effector_x_mm"] = np.ascontiguousarray(geo["O"][:, n, 0])
     res["effector_y_mm"] = np.ascontiguousarray(geo["O"][:, n, 1])
     return res
+
+
+def _user_extras(
+    arm: Arm,
+    alpha: FloatArray,
+    payload: FloatArray,
+    effects: Sequence[Effect],
+    self_weight: bool,
+) -> dict[str, FloatArray]:
+    """The extra deformations of user-written effects for every cell (zero where the pose is
+    singular: the core marks those cells not ok anyway)."""
+    from eodarm.model import custom
+
+    good = np.flatnonzero(~singular(forward(arm, alpha), arm.n))
+    state = _state(arm, alpha[good], payload[good], self_weight)
+    part = custom.extras_of(effects, state)
+    rows, n = alpha.shape[0], arm.n
+    full = {
+        "extra_seen_mm": np.zeros((rows, n)),
+        "extra_unseen_mm": np.zeros((rows, n)),
+        "extra_joint_mm": np.zeros((rows, n, 2)),
+        "extra_tilt_rad": np.zeros(rows),
+        "extra_measure_mm": np.zeros((rows, 2)),
+    }
+    for key, a in part.items():
+        full[key][good] = a
+    return {k: v for k, v in full.items() if k in part}
+
+
+def _state(arm: Arm, alpha: FloatArray, payload: FloatArray, self_weight: bool) -> EffectState:
+    from eodarm.model import custom
+    from eodarm.model import native as _core
+
+    core = _core_arm(arm)
+    a, p = np.ascontiguousarray(alpha), np.ascontiguousarray(payload)
+    return custom.EffectState.from_statics(
+        arm, a, p, _core.statics(core, a, p, self_weight), self_weight
+    )
 
 
 def reduce_rows(x: npt.NDArray[Any], op: str, group: int) -> npt.NDArray[Any]:
@@ -194,10 +239,11 @@ def kernel(
     effects: Sequence[Effect] = (),
 ) -> dict[str, npt.NDArray[Any]]:
     """One chunk through the compiled core, or through :func:`sweep_fallback` for the
-    finite-element model."""
+    finite-element model and for user-written effects (the core's kernel cannot call
+    Python)."""
     from eodarm.model import native as _core
 
-    if model == "fem":
+    if model == "fem" or split_effects(effects)[1]:
         return sweep_fallback(
             arm,
             alpha,

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 import tomllib
+import warnings
 from collections.abc import Iterable, Mapping
 from typing import TYPE_CHECKING, Any
 
@@ -97,6 +98,8 @@ def payload_capacity(
     stroke limit is reached at the smallest m ≥ 0 where it leaves
     [``min_length_mm``, ``max_length_mm``] (play jumps where F_i changes sign). The capacity is
     the smallest of these over every actuator and limit, capped at ``max_payload_kg``.
+    User-written effects (CONTRACT §8) do not change the forces; their length changes are not
+    in the stroke limit (a warning says so).
 
     Poses that are not reachable unloaded (out of stroke, singular) have NaN. Whether the
     loaded pose still closes at the capacity is not checked (it does, unless the capacity is
@@ -131,6 +134,14 @@ def payload_capacity(
             raise EodarmError(
                 f"effect {e.label}: the capacity map models play centred when unloaded only"
             )
+    users = [e.key for e in effs if e.kind.custom]
+    if users:
+        warnings.warn(
+            f"the capacity map's stroke limits leave out the length changes of the "
+            f"user-written effects {', '.join(users)} (their forces are in)",
+            UserWarning,
+            stacklevel=2,
+        )
     kw = {**as_sweep_kwargs(grid), **sweep_kw}
     ds = sweep(arm, mass_kg=[0.0, probe_kg], effects=effs, self_weight=self_weight, **kw)
     n = arm.n

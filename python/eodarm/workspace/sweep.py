@@ -43,7 +43,7 @@ import numpy.typing as npt
 
 from eodarm.errors import InputError
 from eodarm.model.arm import Arm, check_arm
-from eodarm.model.effects import Effect, effect_arrays, with_arm_effects
+from eodarm.model.effects import Effect, effect_arrays, split_effects, with_arm_effects
 from eodarm.model.solver import _core_arm, forward, stroke_violations
 from eodarm.workspace.fallback import REDUCE_OPS, kernel, placeholder, singular
 from eodarm.workspace.grid import Grid, coord_attrs, make_grid, masses_axis
@@ -237,7 +237,9 @@ def sweep(
         link's absolute angle), through :func:`eodarm.inverse_kinematics` with ``elbow``
         (3-link arms). Targets out of reach are not ok and not reachable.
     mass_kg : payload masses, kg (1-D); each pose is solved under each.
-    effects : effects added to the baseline model (CONTRACT §4).
+    effects : effects added to the baseline model (CONTRACT §4), built-in or user-written
+        (CONTRACT §8; these take the chunked path, each function called once per chunk, and
+        a Dask worker must have them registered too, e.g. through the entry-point group).
     self_weight : include link and actuator weights in both states.
     reduce : ``{"op": "max"|"min"|"argmax"|"argmin", "dims": [...]}``: reduce the per-cell
         outputs over the innermost dims (``["mass_kg"]``, or ``["alpha3", "mass_kg"]`` …),
@@ -290,6 +292,12 @@ def sweep(
     mass = masses_axis(mass_kg)
     effs = tuple(with_arm_effects(arm.effects, effects))
     effect_arrays(effs, arm.n)  # validates places and duplicates now
+    users = split_effects(effs)[1]
+    if users and model == "fem":
+        raise InputError(
+            f"sweep: custom effect {users[0].key}: the finite-element model cannot include "
+            "user-written effects; use model='analytic'"
+        )
     op, rdims, block = _plan(grid, reduce)
     if isinstance(chunk_size, bool) or not isinstance(chunk_size, (int, np.integer)):
         raise InputError(f"sweep: chunk_size must be an integer, got {chunk_size!r}")
@@ -347,8 +355,9 @@ def sweep(
         for key, arr in result.items():
             arr[a:b] = res[key]
 
-    if scheduler is None and model == "analytic" and grid.kind == "alpha":
+    if scheduler is None and model == "analytic" and grid.kind == "alpha" and not users:
         # One call: the core walks the grid itself, in parallel, straight into `result`.
+        # (User-written effects take the chunked path: the core's kernel cannot call Python.)
         _sweep_grid(job, result, None if chunk_size == CHUNK_SIZE else step, progress)
     else:
         bar = _progress_bar(len(spans), progress)
