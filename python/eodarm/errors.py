@@ -6,7 +6,15 @@ that names the file and key, the row, or the pose at fault.
 
 from __future__ import annotations
 
-__all__ = ["ArgumentTypeError", "ArmFileError", "EffectError", "EodarmError", "InputError"]
+__all__ = [
+    "ArgumentTypeError",
+    "ArmFileError",
+    "ClusterError",
+    "EffectError",
+    "EodarmError",
+    "InputError",
+    "SweepTooLargeError",
+]
 
 
 class EodarmError(ValueError):
@@ -36,3 +44,13 @@ class InputError(EodarmError):
 class ArgumentTypeError(TypeError):
     """An API function was given an argument of the wrong type (a path where an
     :class:`~eodarm.Arm` belongs, say); the message says what to pass instead."""
+
+
+class SweepTooLargeError(InputError):
+    """A sweep's output would not fit in memory (or on disk); refused before it starts,
+    with the estimate in the message."""
+
+
+class ClusterError(EodarmError):
+    """A Dask cluster could not finish a sweep: it lost all its workers (or its scheduler),
+    or a chunk's workers kept dying."""
