@@ -591,6 +591,37 @@ def _sweep_grid(
             bar.close()
 
 
+def _solve_span(setup: _Setup, start: int, stop: int) -> dict[str, npt.NDArray[Any]]:
+    """Flat poses [start, stop) solved here: an angle grid of the analytic model by the core's
+    grid walker (its poses are never built in Python), any other by :func:`_chunk`."""
+    job = setup.job
+    if job.model != "analytic" or job.grid.kind != "alpha":
+        return _chunk(job, start, stop)
+    from eodarm.model import native as _core
+
+    rows = (stop - start) // job.block
+    out = _allocate({k: (rows, *s[1:]) for k, s in setup.shapes.items()}, setup.dtypes)
+    codes, places, values = effect_arrays(job.effects, job.arm.n)
+    m = job.mass.shape[0]
+    axes = [np.ascontiguousarray(c, dtype=float) for c in job.grid.coords]
+    _core.sweep(
+        _core_arm(job.arm),
+        None,
+        job.mass,
+        codes,
+        places,
+        values,
+        job.self_weight,
+        job.op,
+        m * job.block if job.op else 1,
+        job.threads,
+        grid=(axes, list(job.grid.columns), start, stop - start),
+        out=out,
+        mask_unreachable=job.mask_unreachable,
+    )
+    return out
+
+
 def _run(
     job: _Job, spans: Iterable[tuple[int, int]], scheduler: Any
 ) -> Iterator[tuple[tuple[int, int], dict[str, npt.NDArray[Any]]]]:
