@@ -344,11 +344,11 @@ def _interrupted(exc: store.SweepInterrupted) -> str:
     out = exc.out
     if exc.phase == "done":
         return f"interrupted: {out} was written completely"
-    before = "the previous result is untouched" if exc.previous else "nothing else was written"
     if exc.phase == "sweeping":
         return (
             f"interrupted while sweeping into {out}: {exc.done} of {exc.total} chunks are "
-            f"kept in {exc.partial} (--resume continues); {before}"
+            f"kept in {exc.partial} (--resume continues)"
+            + ("; the previous result is untouched" if exc.previous else "")
         )
     if exc.phase == "writing":
         return f"interrupted while writing {out}: " + (

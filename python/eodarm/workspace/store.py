@@ -5,11 +5,13 @@ chunk that an interrupted run can resume.
   ``.OUT.partial-<pid>``, and renames it into place only when it is complete; a previous
   result at ``OUT`` stays whole until then, and nothing partial is ever left under ``OUT``.
 * :func:`sweep_to_netcdf` checks memory and disk up front, sweeps, and saves.
-* :func:`sweep_to_zarr` solves the grid chunk by chunk into ``.OUT.partial`` (a Zarr store
-  whose chunks are exactly the sweep's chunks), records each chunk once its data is written,
-  and renames the store into place at the end. Its memory is one chunk's; an interrupted run
-  keeps the partial store, and ``resume=True`` continues it from its recorded chunks, after
-  checking that the arm, grid, payloads, effects and options are the same.
+* :func:`sweep_to_zarr` solves the grid chunk by chunk into the directory ``.OUT.partial``
+  (the Zarr store ``.OUT.partial/OUT``, whose chunks are exactly the sweep's chunks, beside
+  the record of its inputs and of its completed chunks), records each chunk once its data is
+  written, and renames the store into place at the end. Its memory is one chunk's; an
+  interrupted run keeps the partial store, and ``resume=True`` continues it from its
+  recorded chunks, after checking that the arm, grid, payloads, effects and options are the
+  same.
 
 The rules are in ``docs/sweeps.md`` ("Writes that never lose a result").
 """
@@ -60,7 +62,7 @@ __all__ = [
     "sweep_to_zarr",
 ]
 
-#: The record of a partial Zarr sweep (inputs' fingerprint, chunk layout), inside the store.
+#: The record of a partial Zarr sweep (inputs' fingerprint, chunk layout), beside its store.
 RECORD = "eodarm-sweep.json"
 #: The chunks written so far, one index a line, appended after each chunk's data.
 DONE = "eodarm-done.txt"
@@ -77,7 +79,8 @@ class SweepInterrupted(KeyboardInterrupt):
     phase : ``"solving"``, ``"writing"`` (a whole Dataset) or ``"sweeping"`` (chunk by chunk
         into Zarr); ``"done"`` when the result was already complete and in place.
     previous : ``out`` held a result before (it is untouched unless ``phase == "done"``).
-    partial : the partial Zarr store kept for ``resume`` (None when nothing was kept).
+    partial : the directory of the partial Zarr sweep kept for ``resume`` (None when
+        nothing was kept).
     done, total : chunks written and chunks in all (Zarr).
     """
 
@@ -113,8 +116,9 @@ def output_kind(path: str | os.PathLike[str]) -> str:
 
 
 def partial_path(out: str | os.PathLike[str]) -> Path:
-    """Where a resumable Zarr sweep of ``out`` is written: the hidden sibling
-    ``.OUT.partial``."""
+    """Where a resumable Zarr sweep of ``out`` is written: the hidden sibling directory
+    ``.OUT.partial``, which holds the store (``.OUT.partial/OUT``, readable as it grows) and
+    the record of its inputs and completed chunks."""
     p = Path(out)
     return p.with_name(f".{p.name}.partial")
 
@@ -126,17 +130,22 @@ def deferred_sigint() -> Iterator[None]:
     For the steps that must not be cut in half: a chunk's data and its record, the rename of
     a result into place.
     """
-    if threading.current_thread() is not threading.main_thread():
-        yield
+    if threading.current_thread() is not threading.main_thread() or _deferring:
+        yield  # elsewhere, or within a block that already holds it
         return
     got: list[int] = []
     old = signal.signal(signal.SIGINT, lambda signum, frame: got.append(signum))
+    _deferring.append(True)
     try:
         yield
     finally:
+        _deferring.pop()
         signal.signal(signal.SIGINT, old if old is not None else signal.default_int_handler)
     if got:
         raise KeyboardInterrupt
+
+
+_deferring: list[bool] = []  # non-empty while the main thread holds Ctrl-C
 
 
 def _remove(path: Path) -> None:
@@ -451,7 +460,7 @@ def sweep_to_zarr(
     ``xarray.open_zarr(path, consolidated=False)``, equals that Dataset. Chunks of
     ``chunk_size`` poses (rounded to whole rows of the grid's dims and to whole reduction
     groups) are solved here (an angle grid by the core's own grid walker) or on ``scheduler``
-    and written into ``.OUT.partial``, each recorded once its data is in; memory is a few
+    and written into ``.OUT.partial/OUT``, each recorded once its data is in; memory is a few
     chunks'. The complete store is renamed to ``path``; a previous ``path`` stays whole until
     then. Needs the zarr and dask packages.
 
@@ -513,10 +522,12 @@ def sweep_to_zarr(
         chunks, done = _read_record(part, want, chunks)
     left = chunks.count - len(done)
     limits.check_disk(setup.cells, setup.nbytes * left // chunks.count, out.parent)
+    zstore = part / out.name
     if not part.exists():
         with deferred_sigint():  # the template and its record, or nothing
             try:
-                _template(setup, chunks, part)
+                part.mkdir()
+                _template(setup, chunks, zstore)
                 record = {"fingerprint": want, "split": chunks.split, "rows": chunks.rows}
                 record["chunks"] = chunks.count
                 (part / RECORD).write_text(json.dumps(record, indent=1), encoding="utf-8")
@@ -524,7 +535,7 @@ def sweep_to_zarr(
                 _remove(part)
                 raise
 
-    group = zarr.open_group(str(part), mode="r+")
+    group = zarr.open_group(str(zstore), mode="r+")
     layout = _layout(setup)
     targets: dict[str, Any] = {key: group[key] for key in layout}
     bar = _progress_bar(chunks.count, progress)
@@ -540,7 +551,7 @@ def sweep_to_zarr(
                         targets[key][(*region, Ellipsis)] = data.reshape(rshape + data.shape[1:])
                     log.write(f"{i}\n")
                     log.flush()
-                written += 1
+                    written += 1
                 if bar is not None:
                     bar.update(1)
     except KeyboardInterrupt:
@@ -555,9 +566,8 @@ def sweep_to_zarr(
             bar.close()
     try:
         with deferred_sigint():
-            (part / RECORD).unlink()
-            (part / DONE).unlink(missing_ok=True)
-            replace(part, out)
+            replace(zstore, out)
+            _remove(part)  # the record
     except KeyboardInterrupt:  # held until the result was in place
         raise SweepInterrupted(out, "done", previous) from None
     return out

@@ -31,11 +31,13 @@ Command line (registered by :func:`add_parser`)::
 
 from __future__ import annotations
 
+import asyncio
 import itertools
 import math
 import sys
 import uuid
 from collections.abc import Iterable, Iterator, Mapping
+from concurrent.futures import CancelledError
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -688,6 +690,8 @@ def _run_client(
                 done = finished.done
             except TimeoutError:
                 done = set()
+            except (CancelledError, asyncio.CancelledError) as exc:
+                raise _lost(exc, returned) from None
             if not done:
                 workers = _cluster_threads(client, count_workers=True)
                 had_workers |= workers > 0
@@ -705,26 +709,36 @@ def _run_client(
             had_workers, none_since = True, None
             for fut in done:
                 span = pending.pop(fut)
-                if fut.status == "cancelled":
-                    raise ClusterError(
-                        f"the Dask cluster lost all its workers: the chunk of poses "
-                        f"{span[0]}:{span[1]} was cancelled ({_cancel_reason(fut)}; "
-                        f"{returned} chunks came back)"
-                    )
                 if fut.status == "error":
-                    exc = fut.exception()
-                    if isinstance(exc, KilledWorker):
+                    failure = fut.exception()
+                    if isinstance(failure, KilledWorker):
                         raise ClusterError(
                             f"the Dask cluster's workers kept dying on the chunk of poses "
-                            f"{span[0]}:{span[1]}: {' '.join(str(exc).split())}"
+                            f"{span[0]}:{span[1]}: {' '.join(str(failure).split())}"
                         ) from None
-                res = fut.result()  # an error of the chunk itself is raised here, as it is
+                try:  # an error of the chunk itself is raised here, as it is
+                    res = fut.result()
+                except (CancelledError, asyncio.CancelledError) as exc:
+                    raise _lost(exc, returned) from None
                 fut.release()
                 returned += 1
                 yield span, res
     finally:
         if pending:
             client.cancel(list(pending))
+
+
+def _lost(exc: BaseException, returned: int) -> ClusterError:
+    """The error of chunks cancelled under a sweep: the scheduler lost them, or the job every
+    chunk needs, with the workers that held it (or the client lost the scheduler)."""
+    groups = getattr(exc, "error_groups", None)  # FuturesCancelledError: several futures
+    reasons = [str(g.reason) for g in groups] if groups else [str(getattr(exc, "reason", ""))]
+    reason = ", ".join(dict.fromkeys(r for r in reasons if r)) or "reason unknown"
+    return ClusterError(
+        f"the Dask cluster lost all its workers: the sweep's chunks were cancelled (reason: "
+        f"{reason}); "
+        f"{returned} chunks had come back"
+    )
 
 
 def _cluster_threads(client: Any, count_workers: bool = False) -> int:
@@ -734,14 +748,6 @@ def _cluster_threads(client: Any, count_workers: bool = False) -> int:
     except Exception:  # a lost scheduler: no workers either
         return 0
     return len(nthreads) if count_workers else int(sum(nthreads.values()))
-
-
-def _cancel_reason(fut: Any) -> str:
-    try:
-        fut.result(timeout=0)
-    except BaseException as exc:  # FutureCancelledError names the reason
-        return str(getattr(exc, "reason", "") or "reason unknown")
-    return "reason unknown"  # pragma: no cover - a cancelled future has no result
 
 
 def _progress_bar(
