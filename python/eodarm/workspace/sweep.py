@@ -284,6 +284,12 @@ def sweep(
         (:class:`~eodarm.errors.InputError`) with one line naming the problem: no or several
         grids, an unknown or missing grid name, an empty or non-finite grid, a bad mass,
         an unknown reduce dimension or one that is not innermost.
+        :class:`~eodarm.errors.SweepTooLargeError` (one of them), before anything is built,
+        when the output would not fit in the memory available (docs/sweeps.md, "Size
+        checks").
+    ClusterError
+        (an :class:`~eodarm.errors.EodarmError`) when a Dask cluster lost all its workers or
+        its scheduler, or a chunk's workers kept dying.
     KeyboardInterrupt
         On Ctrl-C, between chunks; nothing is returned.
     """
