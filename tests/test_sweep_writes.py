@@ -32,6 +32,7 @@ from eodarm.errors import ClusterError, SweepTooLargeError
 sweep_mod = importlib.import_module("eodarm.workspace.sweep")
 store = importlib.import_module("eodarm.workspace.store")
 limits = importlib.import_module("eodarm.workspace.limits")
+cluster_mod = importlib.import_module("eodarm.workspace.cluster")
 
 E = eodarm.Effect
 GRID = {
@@ -411,8 +412,8 @@ def _losing_chunk(job: Any, start: int, stop: int) -> Any:
 def losing(monkeypatch: pytest.MonkeyPatch) -> Any:
     distributed = pytest.importorskip("distributed")
     monkeypatch.setattr(sweep_mod, "_chunk", _losing_chunk)
-    monkeypatch.setattr(sweep_mod, "NO_WORKERS_GRACE_S", 0.0)
-    monkeypatch.setattr(sweep_mod, "CLUSTER_POLL_S", 0.05)
+    monkeypatch.setattr(cluster_mod, "NO_WORKERS_GRACE_S", 0.0)
+    monkeypatch.setattr(cluster_mod, "CLUSTER_POLL_S", 0.05)
     _LOSS.clear()
     _LOSS["n"] = 0
     with distributed.LocalCluster(

@@ -161,7 +161,7 @@ def replace(new: Path, out: Path) -> None:
     with deferred_sigint():
         old = None
         if out.exists() or out.is_symlink():
-            if not out.is_dir():
+            if not out.is_dir() and not new.is_dir():
                 os.replace(new, out)  # a file over a file: one atomic rename
                 return
             old = out.with_name(f".{out.name}.old-{os.getpid()}")
@@ -526,7 +526,7 @@ def sweep_to_zarr(
     if not part.exists():
         with deferred_sigint():  # the template and its record, or nothing
             try:
-                part.mkdir()
+                part.mkdir(parents=True)
                 _template(setup, chunks, zstore)
                 record = {"fingerprint": want, "split": chunks.split, "rows": chunks.rows}
                 record["chunks"] = chunks.count
