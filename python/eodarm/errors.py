@@ -9,10 +9,12 @@ from __future__ import annotations
 __all__ = [
     "ArgumentTypeError",
     "ArmFileError",
+    "ClusterError",
     "CustomEffectError",
     "EffectError",
     "EodarmError",
     "InputError",
+    "SweepTooLargeError",
 ]
 
 
@@ -49,3 +51,13 @@ class InputError(EodarmError):
 class ArgumentTypeError(TypeError):
     """An API function was given an argument of the wrong type (a path where an
     :class:`~eodarm.Arm` belongs, say); the message says what to pass instead."""
+
+
+class SweepTooLargeError(InputError):
+    """A sweep's output would not fit in memory (or on disk); refused before it starts,
+    with the estimate in the message."""
+
+
+class ClusterError(EodarmError):
+    """A Dask cluster could not finish a sweep: it lost all its workers (or its scheduler),
+    or a chunk's workers kept dying."""

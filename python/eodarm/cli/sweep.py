@@ -6,7 +6,6 @@ import argparse
 import math
 import re
 import time
-from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -14,6 +13,7 @@ import numpy.typing as npt
 
 from eodarm.errors import EodarmError
 from eodarm.model.arm import Arm
+from eodarm.workspace import store
 from eodarm.workspace.sweep import CHUNK_SIZE, REDUCE_OPS, sweep
 
 if TYPE_CHECKING:
@@ -119,7 +119,19 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         help="treat out-of-stroke poses as not solved (NaN, skipped by --reduce)",
     )
     p.add_argument("--no-self-weight", action="store_true", help="drop link/actuator weights")
-    p.add_argument("-o", "--output", metavar="OUT.nc|OUT.zarr", help="write the Dataset")
+    p.add_argument(
+        "-o",
+        "--output",
+        metavar="OUT.nc|OUT.zarr",
+        help="write the Dataset (to a temporary sibling renamed into place when complete; "
+        "Zarr chunk by chunk)",
+    )
+    p.add_argument(
+        "--resume",
+        action="store_true",
+        help="continue an interrupted sweep into OUT.zarr from its completed chunks "
+        "(same arm, grid, payloads, effects and options)",
+    )
     p.add_argument("--plot", metavar="DIR", help="write the four maps as PNGs into DIR")
     p.add_argument(
         "--plot-prefix",
@@ -219,29 +231,21 @@ def _cli_reduce(text: str | None) -> dict[str, Any] | None:
     return {"op": op, "dims": [d.strip() for d in dims.split(",") if d.strip()]}
 
 
-def _write(ds: xr.Dataset, path: str) -> None:
-    p = Path(path)
-    if p.suffix == ".zarr":
-        try:
-            import zarr  # noqa: F401
-        except ImportError:
-            raise EodarmError("writing Zarr needs the zarr package: pip install zarr") from None
-        ds.to_zarr(p, mode="w", consolidated=False)
-    elif p.suffix in (".nc", ".nc4", ".netcdf"):
-        ds.to_netcdf(p, engine="scipy")
-    else:
-        raise EodarmError(f"-o '{path}': the file must end in .nc (NetCDF) or .zarr (Zarr)")
-
-
 def run(args: argparse.Namespace) -> int:
     """Run ``eodarm sweep``: sweep, write the Dataset and the maps, summarise on stdout.
 
-    Returns 0, or 130 when interrupted with Ctrl-C.
+    ``-o OUT.nc`` is solved in memory and written to a temporary sibling renamed into place;
+    ``-o OUT.zarr`` is written chunk by chunk into ``.OUT.zarr.partial`` and renamed into
+    place when complete (``--resume`` continues an interrupted one). A previous ``OUT`` stays
+    whole until the new one replaces it.
+
+    Returns 0, or 130 when interrupted with Ctrl-C (one line on stderr says what is on disk).
 
     Raises
     ------
     EodarmError
-        With a one-line reason (the main CLI prints it and exits with status 2).
+        With a one-line reason (the main CLI prints it and exits with status 2): bad input,
+        a sweep too large for memory or disk, a lost Dask cluster.
     """
     if args.arm is None:
         from eodarm.data import datasets
@@ -254,6 +258,10 @@ def run(args: argparse.Namespace) -> int:
     mass = parse_range(args.mass, "--mass")
     effects = [_valued_effect(s) for s in args.add or []]
     reduce = _cli_reduce(args.reduce)
+    out = args.output
+    kind = store.output_kind(out) if out else None
+    if args.resume and kind != "zarr":
+        raise EodarmError("--resume continues an interrupted Zarr sweep: give -o OUT.zarr")
     scheduler: Any = None
     client = None
     if args.scheduler:
@@ -263,59 +271,99 @@ def run(args: argparse.Namespace) -> int:
             raise EodarmError("--scheduler needs Dask: pip install 'eodarm[dask]'") from None
         client = Client(args.scheduler)
         scheduler = client
-    import xarray  # noqa: F401  (imported here so that the time below is the sweep's)
+    import xarray  # imported here so that the time below is the sweep's
 
+    kwargs: dict[str, Any] = dict(
+        **grid,
+        mass_kg=mass,
+        effects=effects,
+        self_weight=not args.no_self_weight,
+        reduce=reduce,
+        chunk_size=args.chunk_size,
+        progress=False if args.no_progress else None,
+        scheduler=scheduler,
+        model=args.model,
+        threads=args.threads,
+        mask_unreachable=args.mask_unreachable,
+    )
     t0 = time.perf_counter()
     try:
-        ds = sweep(
-            arm,
-            **grid,
-            mass_kg=mass,
-            effects=effects,
-            self_weight=not args.no_self_weight,
-            reduce=reduce,
-            chunk_size=args.chunk_size,
-            progress=False if args.no_progress else None,
-            scheduler=scheduler,
-            model=args.model,
-            threads=args.threads,
-            mask_unreachable=args.mask_unreachable,
-        )
-    except KeyboardInterrupt:
-        _note("interrupted: nothing written")
+        try:
+            if kind == "zarr":
+                if args.resume and not store.partial_path(out).exists():
+                    _note(f"--resume: no interrupted sweep of {out} to resume; starting it")
+                store.sweep_to_zarr(out, arm, **kwargs, resume=args.resume)
+                ds = xarray.open_zarr(out, consolidated=False)
+            elif kind == "netcdf":
+                ds = store.sweep_to_netcdf(out, arm, **kwargs)
+            else:
+                ds = sweep(arm, **kwargs)
+        finally:
+            if client is not None:
+                client.close()
+    except store.SweepInterrupted as exc:
+        _note(_interrupted(exc))
         return 130
-    finally:
-        if client is not None:
-            client.close()
+    except KeyboardInterrupt:
+        _note("interrupted while solving: nothing written")
+        return 130
     dt = time.perf_counter() - t0
     size = math.prod(len(v) for v in next(v for v in grid.values() if isinstance(v, dict)).values())
     _note(
         f"swept {size:,} poses × {len(mass)} payloads in {dt:.2f} s "
         f"({size * len(mass) / max(dt, 1e-9):,.0f} cells/s, {args.model} model)"
+        + (f"; wrote {out}" if out else "")
     )
     _summary(ds)
-    if args.output:
-        _write(ds, args.output)
-        _note(f"wrote {args.output}")
     if args.plot:
         from eodarm.viz import maps
 
         plot_mass = args.plot_mass if args.plot_mass is not None else float(np.max(mass))
-        written = maps.render_all(
-            arm,
-            grid,
-            effects,
-            plot_mass,
-            args.plot,
-            self_weight=not args.no_self_weight,
-            assumed_max_force_n=args.max_force,
-            max_payload_kg=args.max_payload,
-            ds=ds if reduce is None and plot_mass in mass else None,
-            note=_note,
-            prefix=args.plot_prefix,
-        )
+        try:
+            written = maps.render_all(
+                arm,
+                grid,
+                effects,
+                plot_mass,
+                args.plot,
+                self_weight=not args.no_self_weight,
+                assumed_max_force_n=args.max_force,
+                max_payload_kg=args.max_payload,
+                ds=ds if reduce is None and plot_mass in mass else None,
+                note=_note,
+                prefix=args.plot_prefix,
+            )
+        except KeyboardInterrupt:
+            done = f": {out} is complete, the maps are not" if out else ""
+            _note(f"interrupted while plotting into {args.plot}{done}")
+            return 130
         _note("wrote " + ", ".join(str(w) for w in written))
     return 0
+
+
+def _interrupted(exc: store.SweepInterrupted) -> str:
+    """The one line of an interrupted sweep: what is on disk now."""
+    out = exc.out
+    if exc.phase == "done":
+        return f"interrupted: {out} was written completely"
+    if exc.phase == "sweeping":
+        return (
+            f"interrupted while sweeping into {out}: {exc.done} of {exc.total} chunks are "
+            f"kept in {exc.partial} (--resume continues)"
+            + ("; the previous result is untouched" if exc.previous else "")
+        )
+    if exc.phase == "writing":
+        return f"interrupted while writing {out}: " + (
+            "the previous result is untouched" if exc.previous else "nothing written"
+        )
+    return "interrupted while solving: nothing written" + (
+        f"; the previous {out} is untouched" if exc.previous else ""
+    )
+
+
+#: Above this many values the summary gives dy's range without its quantiles (a Zarr sweep
+#: may be larger than memory).
+SUMMARY_QUANTILES_MAX = 10**8
 
 
 def _summary(ds: xr.Dataset) -> None:
@@ -327,8 +375,15 @@ def _summary(ds: xr.Dataset) -> None:
     ok = float(ds["ok"].mean())
     print(f"reachable poses: {100 * reach:.1f} %   solved cells: {100 * ok:.1f} %")
     if ds.attrs["reduce"] == "none" or ds.attrs["reduce"].split()[0] in ("max", "min"):
-        dy = ds["dy_mm"].where(ds["reachable"]).values
-        dy = dy[np.isfinite(dy)]
+        dy_all = ds["dy_mm"].where(ds["reachable"])
+        if dy_all.size > SUMMARY_QUANTILES_MAX:
+            lo, hi = float(dy_all.min()), float(dy_all.max())
+            if math.isfinite(lo):
+                print(f"dy over reachable poses: {lo:.4g} … {hi:.4g} mm")
+            dy = np.empty(0)
+        else:
+            dy = dy_all.values
+            dy = dy[np.isfinite(dy)]
         if dy.size:
             q = np.quantile(dy, [0.02, 0.5, 0.98])
             print(

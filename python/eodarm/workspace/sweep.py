@@ -31,9 +31,9 @@ Command line (registered by :func:`add_parser`)::
 
 from __future__ import annotations
 
+import itertools
 import math
 import sys
-import uuid
 from collections.abc import Iterable, Iterator, Mapping
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
@@ -45,6 +45,7 @@ from eodarm.errors import InputError
 from eodarm.model.arm import Arm, check_arm
 from eodarm.model.effects import Effect, effect_arrays, split_effects, with_arm_effects
 from eodarm.model.solver import _core_arm, forward, stroke_violations
+from eodarm.workspace import cluster, limits
 from eodarm.workspace.fallback import REDUCE_OPS, kernel, placeholder, singular
 from eodarm.workspace.grid import Grid, coord_attrs, make_grid, masses_axis
 
@@ -282,11 +283,105 @@ def sweep(
         (:class:`~eodarm.errors.InputError`) with one line naming the problem: no or several
         grids, an unknown or missing grid name, an empty or non-finite grid, a bad mass,
         an unknown reduce dimension or one that is not innermost.
+        :class:`~eodarm.errors.SweepTooLargeError` (one of them), before anything is built,
+        when the output would not fit in the memory available (docs/sweeps.md, "Size
+        checks").
+    ClusterError
+        (an :class:`~eodarm.errors.EodarmError`) when a Dask cluster lost all its workers or
+        its scheduler, or a chunk's workers kept dying.
     KeyboardInterrupt
         On Ctrl-C, between chunks; nothing is returned.
     """
-    import xarray as xr
+    setup = _prepare(
+        arm,
+        alpha_deg=alpha_deg,
+        lengths=lengths,
+        effector=effector,
+        mass_kg=mass_kg,
+        effects=effects,
+        self_weight=self_weight,
+        reduce=reduce,
+        chunk_size=chunk_size,
+        threads=threads,
+        alpha_ref_deg=alpha_ref_deg,
+        elbow=elbow,
+        mask_unreachable=mask_unreachable,
+        model=model,
+        fem_options=fem_options,
+    )
+    limits.check_memory(setup.cells, setup.nbytes)
+    job, block, step = setup.job, setup.job.block, setup.step
+    result = _allocate(setup.shapes, setup.dtypes)
 
+    def place(span: tuple[int, int], res: Mapping[str, npt.NDArray[Any]]) -> None:
+        a, b = span[0] // block, span[1] // block
+        for key, arr in result.items():
+            arr[a:b] = res[key]
+
+    users = split_effects(job.effects)[1]
+    if scheduler is None and job.model == "analytic" and job.grid.kind == "alpha" and not users:
+        # One call: the core walks the grid itself, in parallel, straight into `result`.
+        # (User-written effects take the chunked path: the core's kernel cannot call Python.)
+        _sweep_grid(job, result, None if chunk_size == CHUNK_SIZE else step, progress)
+    else:
+        bar = _progress_bar(-(-setup.size // step), progress)
+        try:
+            for span, res in _run(job, _spans(setup.size, step), scheduler):
+                place(span, res)
+                if bar is not None:
+                    bar.update(1)
+        finally:
+            if bar is not None:
+                bar.close()
+    return _dataset(setup, result)
+
+
+# ---------------------------------------------------------------------------- the plan
+@dataclass(frozen=True)
+class _Setup:
+    """A checked sweep: its job, the reduced dims, the chunk step and the output's arrays."""
+
+    job: _Job
+    rdims: list[str]
+    step: int  # poses per chunk (a whole number of reduction groups)
+    shapes: dict[str, tuple[int, ...]]  # output arrays, flat over the poses (or groups)
+    dtypes: dict[str, Any]
+
+    @property
+    def size(self) -> int:
+        """Poses of the grid."""
+        return self.job.grid.size
+
+    @property
+    def cells(self) -> int:
+        """Poses × payloads."""
+        return self.job.grid.size * int(self.job.mass.shape[0])
+
+    @property
+    def nbytes(self) -> int:
+        """Bytes of the output arrays."""
+        return sum(math.prod(s) * np.dtype(self.dtypes[k]).itemsize for k, s in self.shapes.items())
+
+
+def _prepare(
+    arm: Arm,
+    *,
+    alpha_deg: Mapping[str, npt.ArrayLike] | None,
+    lengths: Mapping[str, npt.ArrayLike] | None,
+    effector: Mapping[str, npt.ArrayLike] | None,
+    mass_kg: npt.ArrayLike,
+    effects: Effect | Iterable[Effect] | None,
+    self_weight: bool,
+    reduce: Mapping[str, Any] | None,
+    chunk_size: int,
+    threads: int | None,
+    alpha_ref_deg: npt.ArrayLike | None,
+    elbow: int,
+    mask_unreachable: bool,
+    model: str,
+    fem_options: Mapping[str, Any] | None,
+) -> _Setup:
+    """Check a sweep's arguments and plan its output: nothing of the grid's size is built."""
     check_arm(arm, "sweep")
     grid = make_grid(arm, alpha_deg, lengths, effector, alpha_ref_deg, elbow)
     mass = masses_axis(mass_kg)
@@ -309,7 +404,6 @@ def sweep(
         raise InputError(f"sweep: threads must be an integer >= 1, got {threads!r}")
     n, m, size = arm.n, mass.shape[0], grid.size
     step = block * max(1, int(chunk_size) // block)
-    spans = [(s, min(s + step, size)) for s in range(0, size, step)]
     from eodarm.model.fem import check_model
 
     check_model(model)
@@ -348,46 +442,29 @@ def sweep(
         )
         for key in shapes
     }
-    result = _allocate(shapes, dtypes)
+    return _Setup(job, rdims, step, shapes, dtypes)
 
-    def place(span: tuple[int, int], res: Mapping[str, npt.NDArray[Any]]) -> None:
-        a, b = span[0] // block, span[1] // block
-        for key, arr in result.items():
-            arr[a:b] = res[key]
 
-    if scheduler is None and model == "analytic" and grid.kind == "alpha" and not users:
-        # One call: the core walks the grid itself, in parallel, straight into `result`.
-        # (User-written effects take the chunked path: the core's kernel cannot call Python.)
-        _sweep_grid(job, result, None if chunk_size == CHUNK_SIZE else step, progress)
-    else:
-        bar = _progress_bar(len(spans), progress)
-        try:
-            for span, res in _run(job, spans, scheduler):
-                place(span, res)
-                if bar is not None:
-                    bar.update(1)
-        finally:
-            if bar is not None:
-                bar.close()
+def _spans(size: int, step: int) -> Iterator[tuple[int, int]]:
+    """The chunks [start, stop) of ``size`` poses, one at a time (never a list of them)."""
+    for s in range(0, size, step):
+        yield s, min(s + step, size)
 
-    # --------------------------------------------------------------- the Dataset
+
+# ---------------------------------------------------------------------------- the Dataset
+def _layout(setup: _Setup) -> dict[str, tuple[list[str], list[int], dict[str, str]]]:
+    """Each output variable's dims, shape and attrs in the Dataset."""
+    job, rdims = setup.job, setup.rdims
+    grid, op, block, n, m = job.grid, job.op, job.block, job.arm.n, job.mass.shape[0]
+    arg = op in ("argmax", "argmin")
     kept = list(grid.names[: len(grid.names) - (len(rdims) - 1)] if op else grid.names)
     kept_shape = [grid.shape[grid.names.index(d)] for d in kept]
     cell_dims = kept if op else [*kept, "mass_kg"]
     cell_shape = kept_shape if op else [*kept_shape, m]
     pose_dims = kept if block > 1 else list(grid.names)
-    coords: dict[str, Any] = {
-        name: (name, c, coord_attrs(grid.kind, name))
-        for name, c in zip(grid.names, grid.coords, strict=True)
-        if name in kept
-    }
-    if not op:
-        coords["mass_kg"] = ("mass_kg", mass, {"units": "kg", "long_name": "payload mass"})
-    coords["actuator"] = ("actuator", np.arange(1, n + 1), {"long_name": "actuator number"})
-    coords["link"] = ("link", np.arange(1, n + 1), {"long_name": "link number"})
-    variables: dict[str, Any] = {}
     over = ", ".join(rdims)
-    for key, arr in result.items():
+    out = {}
+    for key in setup.shapes:
         inner = ["actuator"] if key in ("force_n", "dl_mm", "length_mm") else []
         inner = ["link"] if key in ("dalpha_deg", "alpha_deg") else inner
         if key in CELL_VARS:
@@ -409,16 +486,40 @@ def sweep(
                 vattrs["long_name"] = f"{op} over ({over}) of the {vattrs['long_name']}"
         if key == "reachable" and block > 1:
             vattrs["long_name"] = f"some pose over ({', '.join(rdims[:-1])}) is reachable"
-        variables[key] = (dims, arr.reshape(shape), vattrs)
+        out[key] = (dims, shape, vattrs)
+    return out
+
+
+def _dataset(setup: _Setup, result: Mapping[str, Any]) -> xr.Dataset:
+    """The Dataset of a sweep's output arrays (flat over the poses, or already in shape)."""
+    import xarray as xr
+
+    job, rdims = setup.job, setup.rdims
+    arm, grid, mass, effs, op, n = job.arm, job.grid, job.mass, job.effects, job.op, job.arm.n
+    kept = list(grid.names[: len(grid.names) - (len(rdims) - 1)] if op else grid.names)
+    coords: dict[str, Any] = {
+        name: (name, c, coord_attrs(grid.kind, name))
+        for name, c in zip(grid.names, grid.coords, strict=True)
+        if name in kept
+    }
+    if not op:
+        coords["mass_kg"] = ("mass_kg", mass, {"units": "kg", "long_name": "payload mass"})
+    coords["actuator"] = ("actuator", np.arange(1, n + 1), {"long_name": "actuator number"})
+    coords["link"] = ("link", np.arange(1, n + 1), {"long_name": "link number"})
+    variables: dict[str, Any] = {}
+    for key, (dims, shape, vattrs) in _layout(setup).items():
+        arr = result[key]
+        variables[key] = (dims, arr if arr.shape == tuple(shape) else arr.reshape(shape), vattrs)
     model = " + ".join(["baseline", *(f"{e.key}={e.value:g}" for e in effs)])
+    over = ", ".join(rdims)
     attrs: dict[str, Any] = {
         "title": f"eodarm sweep of arm '{arm.name}'",
         "arm": arm.name,
         "arm_toml": arm.to_toml(),
         "model": model,
         "effects": " ".join(e.key for e in effs),
-        "self_weight": int(bool(self_weight)),
-        "mask_unreachable": int(bool(mask_unreachable)),
+        "self_weight": int(bool(job.self_weight)),
+        "mask_unreachable": int(bool(job.mask_unreachable)),
         "grid": grid.kind,
         "g": arm.g,
         "reduce": f"{op} over {over}" if op else "none",
@@ -505,39 +606,56 @@ def _sweep_grid(
             bar.close()
 
 
+def _solve_span(setup: _Setup, start: int, stop: int) -> dict[str, npt.NDArray[Any]]:
+    """Flat poses [start, stop) solved here: an angle grid of the analytic model by the core's
+    grid walker (its poses are never built in Python), any other by :func:`_chunk`."""
+    job = setup.job
+    if job.model != "analytic" or job.grid.kind != "alpha":
+        return _chunk(job, start, stop)
+    from eodarm.model import native as _core
+
+    rows = (stop - start) // job.block
+    out = _allocate({k: (rows, *s[1:]) for k, s in setup.shapes.items()}, setup.dtypes)
+    codes, places, values = effect_arrays(job.effects, job.arm.n)
+    m = job.mass.shape[0]
+    axes = [np.ascontiguousarray(c, dtype=float) for c in job.grid.coords]
+    _core.sweep(
+        _core_arm(job.arm),
+        None,
+        job.mass,
+        codes,
+        places,
+        values,
+        job.self_weight,
+        job.op,
+        m * job.block if job.op else 1,
+        job.threads,
+        grid=(axes, list(job.grid.columns), start, stop - start),
+        out=out,
+        mask_unreachable=job.mask_unreachable,
+    )
+    return out
+
+
 def _run(
-    job: _Job, spans: list[tuple[int, int]], scheduler: Any
+    job: _Job, spans: Iterable[tuple[int, int]], scheduler: Any
 ) -> Iterator[tuple[tuple[int, int], dict[str, npt.NDArray[Any]]]]:
-    """Yield (span, chunk result) for every span, here or on a Dask scheduler."""
+    """Yield (span, chunk result) for every span, here or on a Dask scheduler.
+
+    ``spans`` is iterated lazily: a Dask client holds at most a window of chunks in flight.
+    """
     if scheduler is None:
         for span in spans:
             yield span, _chunk(job, *span)
         return
     if hasattr(scheduler, "submit") and hasattr(scheduler, "scatter"):  # distributed.Client
-        from distributed import as_completed
-
-        client = scheduler
-        [remote_job] = client.scatter([job], broadcast=True)
-        tag = uuid.uuid4().hex  # task keys unique to this sweep
-        futures = {
-            client.submit(_chunk, remote_job, a, b, pure=False, key=f"eodarm-sweep-{tag}-{a}"): (
-                a,
-                b,
-            )
-            for a, b in spans
-        }
-        try:
-            for fut, res in as_completed(list(futures), with_results=True):
-                yield futures[fut], res
-                fut.release()
-        finally:
-            client.cancel(list(futures))
+        yield from cluster.run_chunks(scheduler, _chunk, job, spans)
         return
     import dask
 
     wave = 64
-    for i in range(0, len(spans), wave):
-        part = spans[i : i + wave]
+    it = iter(spans)
+    while part := list(itertools.islice(it, wave)):
         tasks = [dask.delayed(_chunk, pure=False)(job, a, b) for a, b in part]
         results = dask.compute(*tasks, scheduler=scheduler)
         yield from zip(part, results, strict=True)
