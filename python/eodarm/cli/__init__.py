@@ -8,6 +8,7 @@ that parses command lines.
 from __future__ import annotations
 
 import argparse
+import importlib
 import sys
 import traceback
 import warnings
@@ -15,14 +16,13 @@ from collections.abc import Sequence
 from typing import NoReturn
 
 from eodarm._version import __version__
-from eodarm.cli import compare, datasets, diagnose, fit, report, solve, sweep, synth
-from eodarm.cli._common import load_effects
+from eodarm.cli._help import HELP
 from eodarm.errors import EodarmError
 
 __all__ = ["COMMANDS", "main"]
 
-#: The commands' modules, in the order of ``eodarm --help``; each has ``add_parser`` and ``run``.
-COMMANDS = (solve, compare, diagnose, fit, synth, sweep, report, datasets)
+#: The commands, in the order of ``eodarm --help``: each is the module of that name here.
+COMMANDS = tuple(HELP)
 
 
 class _Parser(argparse.ArgumentParser):
@@ -32,7 +32,10 @@ class _Parser(argparse.ArgumentParser):
         self.exit(2, f"{self.prog}: error: {message}\n")
 
 
-def _parser() -> argparse.ArgumentParser:
+def _parser(argv: Sequence[str]) -> argparse.ArgumentParser:
+    """The parser, with only the chosen command's module imported: the others are listed by
+    their help line, so that ``eodarm --help`` and each command start without importing the
+    rest (numpy, the compiled core, matplotlib, xarray)."""
     p = _Parser(
         prog="eodarm",
         description="Why does the arm not go where its model says? Solve, compare and diagnose "
@@ -45,8 +48,12 @@ def _parser() -> argparse.ArgumentParser:
         help="on an error, show its traceback instead of the one-line reason",
     )
     sub = p.add_subparsers(dest="command", metavar="COMMAND")
-    for command in COMMANDS:
-        command.add_parser(sub)
+    chosen = next((a for a in argv if not a.startswith("-")), None)
+    for name in COMMANDS:
+        if name == chosen:
+            importlib.import_module(f"eodarm.cli.{name}").add_parser(sub)
+        else:
+            sub.add_parser(name, help=HELP[name], add_help=False)
     return p
 
 
@@ -57,7 +64,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     after a success they are printed as notes on stderr, each once; after a failure only the
     one-line error is printed, so that bad input always gives exactly one line.
     """
-    parser = _parser()
+    argv = list(sys.argv[1:] if argv is None else argv)
+    parser = _parser(argv)
     args = parser.parse_args(argv)
     if args.command is None:
         parser.print_help(sys.stderr)
@@ -65,6 +73,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         try:
+            from eodarm.cli._common import load_effects
+
             load_effects(args)  # --effects FILE.py and installed packages' effects
             code = int(args.func(args))
         except (EodarmError, ValueError) as exc:  # ValueError: e.g. eodarm._core.CoreError

@@ -8,6 +8,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from eodarm.cli._help import HELP
 from eodarm.model.effects import Effect
 
 if TYPE_CHECKING:
@@ -177,7 +178,7 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     c = data_command(
         sub,
         "compare",
-        "model vs measurements: residuals, RMS, chi2, worst rows, outliers",
+        HELP["compare"],
         "Compare the model (baseline, plus --add effects) with the measurements.",
     )
     c.add_argument(

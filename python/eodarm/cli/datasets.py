@@ -8,6 +8,7 @@ from typing import Any
 from eodarm.cli._common import (
     _note,
 )
+from eodarm.cli._help import HELP
 from eodarm.errors import EodarmError
 
 
@@ -34,7 +35,7 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     """Register ``eodarm datasets`` on the sub-parser collection."""
     ds = sub.add_parser(
         "datasets",
-        help="bundled data sets: list, export",
+        help=HELP["datasets"],
         description="List the bundled data sets, or export one (arm files, measurements, "
         "the paper's tables and the provenance notes) into a directory.",
     )

@@ -9,6 +9,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from eodarm.cli._help import HELP
 from eodarm.model.arm import Arm
 from eodarm.model.effects import Effect
 
@@ -222,7 +223,7 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     c = data_command(
         sub,
         "diagnose",
-        "rank every candidate effect; find the missing set",
+        HELP["diagnose"],
         "Rank every candidate effect x place not in the model by how well it explains "
         "the measurements, and search sets of up to three for the smallest that does.",
     )

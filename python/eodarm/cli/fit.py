@@ -18,6 +18,7 @@ from eodarm.cli._common import (
     _rms_line,
     data_command,
 )
+from eodarm.cli._help import HELP
 from eodarm.errors import EodarmError
 
 
@@ -144,7 +145,7 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     c = data_command(
         sub,
         "fit",
-        "fit the parameters of the added effects",
+        HELP["fit"],
         "Least-squares fit of the --add effects' parameters, with bounds.",
     )
     c.add_argument(

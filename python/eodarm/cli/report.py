@@ -15,6 +15,7 @@ from eodarm.cli._common import (
     _note,
     _read,
 )
+from eodarm.cli._help import HELP
 from eodarm.model.effects import Effect
 
 
@@ -102,7 +103,7 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     """Register ``eodarm report`` on the sub-parser collection."""
     r = sub.add_parser(
         "report",
-        help="the whole story as one HTML report (default: the bundled seed data)",
+        help=HELP["report"],
         description="Compare, diagnose, add what is missing and diagnose again (a few "
         "rounds), then write one self-contained HTML report with the figures and the ladder "
         "of models. Without MEAS.csv, reports on the bundled seed2022 data set.",

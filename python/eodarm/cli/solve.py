@@ -19,6 +19,7 @@ from eodarm.cli._common import (
     _note,
     _valued_effect,
 )
+from eodarm.cli._help import HELP
 from eodarm.errors import EodarmError
 from eodarm.model.arm import Arm
 from eodarm.model.effects import with_arm_effects
@@ -148,7 +149,7 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     """Register ``eodarm solve`` on the sub-parser collection."""
     s = sub.add_parser(
         "solve",
-        help="loaded minus unloaded pose, actuator forces and deflections for given poses",
+        help=HELP["solve"],
         description="Solve the arm model for poses × payloads and print deflections and forces.",
     )
     s.add_argument("--arm", metavar="ARM.toml", help="arm file (default: the bundled example)")

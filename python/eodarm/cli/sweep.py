@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import numpy.typing as npt
 
+from eodarm.cli._help import HELP
 from eodarm.errors import EodarmError
 from eodarm.model.arm import Arm
 from eodarm.workspace import store
@@ -66,7 +67,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     """Register ``eodarm sweep`` on an argparse sub-parser collection."""
     p = subparsers.add_parser(
         "sweep",
-        help="solve a whole grid of poses × payloads; write NetCDF/Zarr and the four maps",
+        help=HELP["sweep"],
         description="Sweep a grid of joint angles (--alphaK), actuator lengths (--lK) or "
         "effector positions (--x --y --phi) under payloads (--mass), write the result as "
         "NetCDF (.nc) or Zarr (.zarr) and, with --plot, the four maps: sag, actuator forces, "

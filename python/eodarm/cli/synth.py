@@ -11,6 +11,7 @@ import numpy as np
 
 from eodarm.analysis.synth import random_configs, synth
 from eodarm.cli._common import _effects_args, _valued_effect
+from eodarm.cli._help import HELP
 from eodarm.data.datasets import example_arm
 from eodarm.errors import EodarmError
 from eodarm.model.arm import Arm
@@ -22,7 +23,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     """Register the ``synth`` subcommand on an argparse ``add_subparsers()`` object."""
     p: argparse.ArgumentParser = subparsers.add_parser(
         "synth",
-        help="write a synthetic measurement file (the model with hidden effects + noise)",
+        help=HELP["synth"],
         description="Virtual test bench: solve the arm with hidden effects for configurations "
         "× payloads, add Gaussian noise and write a measurement CSV (CONTRACT §3).",
     )

@@ -1,0 +1,16 @@
+"""The commands and their one-line help: what ``eodarm --help`` lists without importing them."""
+
+__all__ = ["HELP"]
+
+#: One line per command, in the order of ``eodarm --help``; each command is the module of that
+#: name in this package, with ``add_parser(sub)`` and ``run(args)``.
+HELP = {
+    "solve": "loaded minus unloaded pose, actuator forces and deflections for given poses",
+    "compare": "model vs measurements: residuals, RMS, chi2, worst rows, outliers",
+    "diagnose": "rank every candidate effect; find the missing set",
+    "fit": "fit the parameters of the added effects",
+    "synth": "write a synthetic measurement file (the model with hidden effects + noise)",
+    "sweep": "solve a whole grid of poses × payloads; write NetCDF/Zarr and the four maps",
+    "report": "the whole story as one HTML report (default: the bundled seed data)",
+    "datasets": "bundled data sets: list, export",
+}
