@@ -12,16 +12,19 @@
 //! r(α) = ( M′(α) − M⁰ ,  s·(α′_n(α) − α⁰_n) )      (the angle row only for n ≥ 3)
 //! ```
 //!
-//! with `s = |next_n|` (mm per rad: the angle row in the same unit as the others). Each step
-//! solves the linearised problem `min |α + Δ − α⁰|  s.t.  r + J·Δ = 0`:
+//! with `s = |next_n|` (mm per rad: the angle row in the same unit as the others).
 //!
-//! ```text
-//! Δ = −J⁺·r + (I − J⁺J)·(α⁰ − α),     J⁺ = Jᵀ(JJᵀ)⁻¹
-//! ```
+//! **Phase 1**, onto the conditions: Gauss–Newton from the nominal pose with the minimum-norm
+//! step `Δ = −J⁺·r`, `J⁺ = Jᵀ(JJᵀ)⁻¹`; for n ≤ 3 its fixed point is the (locally unique)
+//! solution. A 1-link arm has one unknown for two conditions: the step is the least-squares
+//! one, `Δ = −Jᵀr / JᵀJ`, and the answer the angle of the smallest miss.
 //!
-//! so for n > 3 the fixed point is the commanded pose nearest the nominal (the first-order
-//! condition α − α⁰ ∈ row space of J), and for n ≤ 3 the unique solution. A 1-link arm has
-//! one unknown for two conditions: the step is the least-squares one, `Δ = −Jᵀr / JᵀJ`.
+//! **Phase 2** (n > 3), the smallest change: the conditions leave an (n − 3)-dimensional set
+//! of solutions, and the one nearest α⁰ satisfies `α − α⁰ ∈ row space of J` (the first-order
+//! condition of `min |α − α⁰|` subject to `r = 0`). From a solution, step along the tangent
+//! space by `z = (I − J⁺J)(α⁰ − α)` (scaled by a secant estimate of the set's curvature), go
+//! back onto the conditions with phase 1, and keep the new point if it is nearer α⁰ (else
+//! halve the step); stop when `z` vanishes.
 //!
 //! Where the solution is unique (n = 2, 3) J only sets the speed, and the default
 //! ([`JacobianKind::Auto`]) is quasi-Newton ([`JacobianKind::Rigid`]): the rigid-kinematic
@@ -52,10 +55,11 @@ pub const MAX_STEP_RAD: f64 = 0.5;
 pub const KINEMATIC_SINGULAR: f64 = 1e-12;
 /// Step of the finite-difference Jacobian (rad).
 pub const FD_STEP_RAD: f64 = 1e-7;
-/// The null-space part of a step (n > 3) counts as converged below this fraction of the
-/// largest change of angle (plus `tol_mm` over the reach): the minimum-norm condition is only
-/// as exact as the Jacobian it uses.
-pub const NULL_REL: f64 = 1e-6;
+/// Relative precision of what only the Jacobian's accuracy bounds: for n > 3 the tangent
+/// step is negligible below this fraction of the largest change of angle (plus `tol_mm` over
+/// the reach); for n = 1 a step is negligible when it moves the point by less than `tol_mm`
+/// plus this fraction of the miss left.
+pub const NULL_REL: f64 = 1e-5;
 /// Halvings of a step that increases the residual before the pose is given up.
 pub const MAX_HALVINGS: u32 = 10;
 
@@ -95,8 +99,8 @@ pub struct CompensateOptions {
     pub jacobian: JacobianKind,
     /// Most Gauss–Newton steps per pose.
     pub max_iter: u32,
-    /// Convergence: the miss (mm; the angle condition scaled by `|next_n|`) below this, and
-    /// for n > 3 the null-space part of the step times the reach below it too.
+    /// Convergence: the miss (mm; the angle condition scaled by `|next_n|`) below this
+    /// (n = 2, 3, and every pose of phase 2 for n > 3); see [`NULL_REL`] for the rest.
     pub tol_mm: f64,
     /// An actuator whose moment arm about its joint is below this fraction of `|A_i − O_i|`
     /// (the sine of the angle at its pin) makes the pose near-singular.
@@ -229,6 +233,9 @@ pub struct Compensator {
     trial: Vec<f64>,
     step: Vec<f64>,
     nominal: Vec<f64>,
+    tangent: Vec<f64>,
+    prev_tangent: Vec<f64>,
+    best: Vec<f64>,
     jac: Vec<f64>,
     /// A length per rad for the null-space test: the arm's reach Σ|next_i| (mm).
     reach: f64,
@@ -244,6 +251,9 @@ impl Compensator {
             trial: vec![0.0; n],
             step: vec![0.0; n],
             nominal: vec![0.0; n],
+            tangent: vec![0.0; n],
+            prev_tangent: vec![0.0; n],
+            best: vec![0.0; n],
             jac: vec![0.0; 3 * n],
             reach: arm.links.iter().map(|l| l.next.norm()).sum(),
         }
@@ -266,8 +276,8 @@ impl Compensator {
     ///
     /// # Errors
     /// [`ArmError::Shape`] when `nominal` does not have `n` angles, [`ArmError::NonFinite`]
-    /// for a non-finite angle or payload (naming `row`). A pose the model cannot solve is
-    /// not an error but a status.
+    /// for a non-finite angle or payload (naming `row`), [`ArmError::InvalidOption`] for bad
+    /// options. A pose that cannot be compensated is not an error but a status.
     pub fn compensate(
         &mut self,
         arm: &Arm,
@@ -300,16 +310,25 @@ impl Compensator {
         }
         self.nominal.copy_from_slice(nominal);
         self.alpha.copy_from_slice(nominal);
-        let sopts = SolveOptions {
-            self_weight: opts.self_weight,
-            nan_on_failure: false,
-        };
         self.ws.frames.fill(arm, nominal);
-        let target = Target {
-            point: self.ws.frames.measure,
-            angle: nominal[n - 1],
-            m: if n >= 3 { 3 } else { 2 },
-            scale: arm.links[n - 1].next.norm(),
+        let p = Problem {
+            arm,
+            effects,
+            payload,
+            sopts: SolveOptions {
+                self_weight: opts.self_weight,
+                nan_on_failure: false,
+            },
+            row,
+            target: Target {
+                point: self.ws.frames.measure,
+                angle: nominal[n - 1],
+                m: if n >= 3 { 3 } else { 2 },
+                scale: arm.links[n - 1].next.norm(),
+            },
+            kind: opts.jacobian.resolve(n),
+            tol_mm: opts.tol_mm,
+            max_iter: opts.max_iter,
         };
         let mut result = PoseResult {
             status: CompensateStatus::NoConvergence,
@@ -319,109 +338,26 @@ impl Compensator {
             actuator: 0,
         };
         let mut r = [0.0; 3];
-        match self.evaluate(arm, effects, nominal, payload, sopts, row, &target, &mut r) {
-            Ok(()) => {}
-            Err(e) => return pose_failure(e, result),
+        if let Err(e) = self.evaluate_alpha(&p, &mut r) {
+            return pose_failure(e, result);
         }
-        note_residual(&mut result, &r, &target, &self.ws, n);
+        note_residual(&mut result, &r, &p.target, &self.ws, n);
         if let Some(act) = self.tiny_moment_arm(arm, opts.min_moment_ratio) {
             result.status = CompensateStatus::NearSingular;
             result.actuator = act;
             return Ok(result);
         }
-        let mut phi = norm2(&r);
-        let tol2 = opts.tol_mm * opts.tol_mm;
-        let kind = opts.jacobian.resolve(n);
-        let mut have_jacobian = false;
-        loop {
-            if kind == JacobianKind::FiniteDifference || !have_jacobian {
-                self.jacobian(arm, effects, payload, sopts, row, &target, &r, kind)?;
-                have_jacobian = true;
-            }
-            let null_part = match self.step(n, &target, &r) {
-                Some(p) => p,
-                None => {
-                    result.status = CompensateStatus::NearSingular;
-                    return Ok(result);
-                }
-            };
-            let converged = if n >= target.m {
-                // The null-space part can only be as exact as the Jacobian: relative to the
-                // change itself.
-                let change = max_abs_diff(&self.alpha, &self.nominal);
-                phi <= tol2 && null_part <= opts.tol_mm / self.reach + NULL_REL * change
-            } else {
-                // Least squares: the miss left is of the order of the deflection; a step
-                // below 10⁻⁶ of it changes the miss by far less than the tolerance.
-                max_abs(&self.step) * self.reach <= opts.tol_mm + NULL_REL * phi.sqrt()
-            };
-            if converged {
-                break;
-            }
-            if result.iterations >= opts.max_iter {
+        let mut outcome = self.onto_conditions(&p, &mut r, &mut result)?;
+        if outcome == Outcome::Converged && n > p.target.m {
+            outcome = self.nearest(&p, &mut r, &mut result)?;
+        }
+        match outcome {
+            Outcome::Converged => {}
+            Outcome::Stalled => return Ok(result),
+            Outcome::Singular => {
+                result.status = CompensateStatus::NearSingular;
                 return Ok(result);
             }
-            // Trust region, then halve until the miss does not grow.
-            let big = max_abs(&self.step);
-            let mut t = if big > MAX_STEP_RAD {
-                MAX_STEP_RAD / big
-            } else {
-                1.0
-            };
-            let mut accepted = false;
-            let mut r_trial = [0.0; 3];
-            for _ in 0..=MAX_HALVINGS {
-                for j in 0..n {
-                    self.trial[j] = self.alpha[j] + t * self.step[j];
-                }
-                let trial = std::mem::take(&mut self.trial);
-                let ev = self.evaluate(
-                    arm,
-                    effects,
-                    &trial,
-                    payload,
-                    sopts,
-                    row,
-                    &target,
-                    &mut r_trial,
-                );
-                self.trial = trial;
-                match ev {
-                    Ok(()) => {
-                        let phi_t = norm2(&r_trial);
-                        let better = if n >= target.m {
-                            phi_t <= phi || phi_t <= tol2
-                        } else {
-                            phi_t <= phi * (1.0 + 1e-12) + tol2
-                        };
-                        if better {
-                            accepted = true;
-                            break;
-                        }
-                    }
-                    Err(e) if e.is_pose_failure() => {}
-                    Err(e) => return Err(e),
-                }
-                t *= 0.5;
-            }
-            if !accepted {
-                // Re-evaluate the last accepted iterate so that the workspace matches it.
-                let alpha = std::mem::take(&mut self.alpha);
-                let ev = self.evaluate(arm, effects, &alpha, payload, sopts, row, &target, &mut r);
-                self.alpha = alpha;
-                if let Err(e) = ev {
-                    return pose_failure(e, result);
-                }
-                return Ok(result);
-            }
-            if kind == JacobianKind::Rigid {
-                self.broyden(n, target.m, t, &r, &r_trial);
-            }
-            self.alpha.copy_from_slice(&self.trial);
-            r = r_trial;
-            phi = norm2(&r);
-            result.iterations += 1;
-            note_residual(&mut result, &r, &target, &self.ws, n);
         }
         // The commanded pose's own geometry: moment arms and stroke.
         self.ws.frames.fill(arm, &self.alpha);
@@ -446,25 +382,217 @@ impl Compensator {
         Ok(result)
     }
 
-    /// Solves the model at `alpha` and writes the residual into `r`.
-    #[allow(clippy::too_many_arguments)]
-    fn evaluate(
+    /// Phase 1: Gauss–Newton from `self.alpha` (residual `r`, its solution in the workspace)
+    /// onto the conditions, with minimum-norm steps (least-squares ones for n = 1). On
+    /// return `self.alpha`, `r` and the workspace agree.
+    fn onto_conditions(
         &mut self,
-        arm: &Arm,
-        effects: &EffectSet,
-        alpha: &[f64],
-        payload: V2,
-        sopts: SolveOptions,
-        row: usize,
-        t: &Target,
+        p: &Problem<'_>,
         r: &mut [f64; 3],
-    ) -> Result<()> {
-        self.ws.solve(arm, effects, alpha, payload, sopts, row)?;
+        result: &mut PoseResult,
+    ) -> Result<Outcome> {
+        let n = p.arm.n();
+        let m = p.target.m;
+        let tol2 = p.tol_mm * p.tol_mm;
+        let mut phi = norm2(r);
+        let mut have_jacobian = false;
+        loop {
+            if p.kind == JacobianKind::FiniteDifference || !have_jacobian {
+                self.jacobian(p, r)?;
+                have_jacobian = true;
+            }
+            if !self.step(n, m, r) {
+                return Ok(Outcome::Singular);
+            }
+            let converged = if n >= m {
+                phi <= tol2
+            } else {
+                // Least squares: the miss left is of the order of the deflection; a step
+                // below 10⁻⁶ of it changes the miss by far less than the tolerance.
+                max_abs(&self.step) * self.reach <= p.tol_mm + NULL_REL * phi.sqrt()
+            };
+            if converged {
+                return Ok(Outcome::Converged);
+            }
+            if result.iterations >= p.max_iter {
+                return Ok(Outcome::Stalled);
+            }
+            // Trust region, then halve until the miss does not grow.
+            let big = max_abs(&self.step);
+            let mut t = if big > MAX_STEP_RAD {
+                MAX_STEP_RAD / big
+            } else {
+                1.0
+            };
+            let mut r_trial = [0.0; 3];
+            let mut accepted = false;
+            for _ in 0..=MAX_HALVINGS {
+                for j in 0..n {
+                    self.trial[j] = self.alpha[j] + t * self.step[j];
+                }
+                if let Some(phi_t) = self.try_trial(p, &mut r_trial)? {
+                    accepted = if n >= m {
+                        phi_t <= phi || phi_t <= tol2
+                    } else {
+                        phi_t <= phi * (1.0 + 1e-12) + tol2
+                    };
+                }
+                if accepted {
+                    break;
+                }
+                t *= 0.5;
+            }
+            if !accepted {
+                // No step helps (a gap changing side, an actuator near its dead point): back
+                // to the last iterate, so that the workspace matches it.
+                return match self.evaluate_alpha(p, r) {
+                    Ok(()) => Ok(Outcome::Stalled),
+                    Err(e) if e.is_pose_failure() => Ok(Outcome::Singular),
+                    Err(e) => Err(e),
+                };
+            }
+            if p.kind == JacobianKind::Rigid {
+                self.broyden(n, m, t, r, &r_trial);
+            }
+            self.alpha.copy_from_slice(&self.trial);
+            *r = r_trial;
+            phi = norm2(r);
+            result.iterations += 1;
+            note_residual(result, r, &p.target, &self.ws, n);
+        }
+    }
+
+    /// Phase 2 (n > m): along the solution set towards the nominal. From a pose that meets
+    /// the conditions, step along the tangent space by `z = (I − J⁺J)(α⁰ − α)` (exact
+    /// Jacobian), back onto the conditions (phase 1), and keep the result if the change
+    /// `|α − α⁰|` shrank (else halve the step); converged when `z` vanishes — `α − α⁰` in
+    /// the row space of J, the first-order condition of the smallest change — or when no
+    /// step shrinks the change any more.
+    fn nearest(
+        &mut self,
+        p: &Problem<'_>,
+        r: &mut [f64; 3],
+        result: &mut PoseResult,
+    ) -> Result<Outcome> {
+        let n = p.arm.n();
+        // Secant estimate of the solution set's curvature along the tangent: the step's scale.
+        let mut gain = 1.0;
+        let mut last_step: Option<f64> = None;
+        loop {
+            self.jacobian(p, r)?;
+            let Some(size) = self.tangent(n, p.target.m) else {
+                return Ok(Outcome::Singular);
+            };
+            if let Some(s_used) = last_step {
+                // Along the last direction u the tangent shrank from |z₀| to z·u over a move
+                // of s·|z₀|: curvature h = (|z₀| − z·u)/(s·|z₀|), 1 on a flat solution set.
+                let z0 = norm(&self.prev_tangent);
+                let along: f64 = self
+                    .tangent
+                    .iter()
+                    .zip(&self.prev_tangent)
+                    .map(|(a, b)| a * b)
+                    .sum::<f64>()
+                    / z0;
+                let h = (z0 - along) / (s_used * z0);
+                gain = if h.is_finite() && h > 0.0 {
+                    (1.0 / h).clamp(0.25, 4.0)
+                } else {
+                    1.0
+                };
+            }
+            let change = max_abs_diff(&self.alpha, &self.nominal);
+            // Only as exact as the Jacobian: relative to the change itself.
+            if size <= p.tol_mm / self.reach + NULL_REL * change {
+                return self.settle(p, r);
+            }
+            if result.iterations >= p.max_iter {
+                return Ok(Outcome::Stalled);
+            }
+            let d2 = dist2(&self.alpha, &self.nominal);
+            self.best.copy_from_slice(&self.alpha);
+            let r_best = *r;
+            let mut s = gain;
+            let mut accepted = false;
+            for _ in 0..=MAX_HALVINGS {
+                for j in 0..n {
+                    self.alpha[j] = self.best[j] + s * self.tangent[j];
+                }
+                let ev = self.evaluate_alpha(p, r);
+                if ev.is_ok()
+                    && self.onto_conditions(p, r, result)? == Outcome::Converged
+                    && dist2(&self.alpha, &self.nominal) < d2
+                {
+                    accepted = true;
+                    break;
+                }
+                if let Err(e) = ev {
+                    if !e.is_pose_failure() {
+                        return Err(e);
+                    }
+                }
+                if result.iterations >= p.max_iter {
+                    break;
+                }
+                s *= 0.5;
+            }
+            if !accepted {
+                self.alpha.copy_from_slice(&self.best);
+                *r = r_best;
+                if result.iterations >= p.max_iter {
+                    return Ok(Outcome::Stalled);
+                }
+                // No step along the solution set shrinks the change: the nearest pose to
+                // the precision the model allows.
+                return self.settle(p, r);
+            }
+            self.prev_tangent.copy_from_slice(&self.tangent);
+            last_step = Some(s);
+            result.iterations += 1;
+        }
+    }
+
+    /// Re-solves `self.alpha` so that the workspace matches it (after finite differences or
+    /// rejected trials), and calls it converged.
+    fn settle(&mut self, p: &Problem<'_>, r: &mut [f64; 3]) -> Result<Outcome> {
+        match self.evaluate_alpha(p, r) {
+            Ok(()) => Ok(Outcome::Converged),
+            Err(e) if e.is_pose_failure() => Ok(Outcome::Singular),
+            Err(e) => Err(e),
+        }
+    }
+
+    /// Solves the model at `self.trial` into `r`: `Some(|r|²)`, or `None` when the model
+    /// cannot solve that pose.
+    fn try_trial(&mut self, p: &Problem<'_>, r: &mut [f64; 3]) -> Result<Option<f64>> {
+        let trial = std::mem::take(&mut self.trial);
+        let ev = self.evaluate(p, &trial, r);
+        self.trial = trial;
+        match ev {
+            Ok(()) => Ok(Some(norm2(r))),
+            Err(e) if e.is_pose_failure() => Ok(None),
+            Err(e) => Err(e),
+        }
+    }
+
+    /// Solves the model at `self.alpha` into `r`.
+    fn evaluate_alpha(&mut self, p: &Problem<'_>, r: &mut [f64; 3]) -> Result<()> {
+        let alpha = std::mem::take(&mut self.alpha);
+        let ev = self.evaluate(p, &alpha, r);
+        self.alpha = alpha;
+        ev
+    }
+
+    /// Solves the model at `alpha` and writes the residual into `r`.
+    fn evaluate(&mut self, p: &Problem<'_>, alpha: &[f64], r: &mut [f64; 3]) -> Result<()> {
+        self.ws
+            .solve(p.arm, p.effects, alpha, p.payload, p.sopts, p.row)?;
+        let t = &p.target;
         let miss = self.ws.frames.measure + self.ws.dmeasure - t.point;
         r[0] = miss.x;
         r[1] = miss.y;
         r[2] = if t.m == 3 {
-            t.scale * wrap_pi(self.ws.new_alpha[arm.n() - 1] - t.angle)
+            t.scale * wrap_pi(self.ws.new_alpha[p.arm.n() - 1] - t.angle)
         } else {
             0.0
         };
@@ -478,35 +606,18 @@ impl Compensator {
             .map(|i| (i + 1) as u32)
     }
 
-    /// Fills `self.jac` (m × n, row-major) at the current iterate, whose model solution is in
-    /// the workspace and whose residual is `r`.
-    #[allow(clippy::too_many_arguments)]
-    fn jacobian(
-        &mut self,
-        arm: &Arm,
-        effects: &EffectSet,
-        payload: V2,
-        sopts: SolveOptions,
-        row: usize,
-        t: &Target,
-        r: &[f64; 3],
-        kind: JacobianKind,
-    ) -> Result<()> {
-        let n = arm.n();
-        match kind {
+    /// Fills `self.jac` (m × n, row-major) at `self.alpha`, whose model solution is in the
+    /// workspace and whose residual is `r` (finite differences leave the workspace at the
+    /// last perturbed pose).
+    fn jacobian(&mut self, p: &Problem<'_>, r: &[f64; 3]) -> Result<()> {
+        let n = p.arm.n();
+        match p.kind {
             JacobianKind::Auto | JacobianKind::Rigid => {
-                // M = O₁ + Σ_{i<n} R(α_i)·next_i + R(α_n)·m: ∂M/∂α_j = R(α_j + π/2)·v_j, at
-                // the loaded angles; the angle row is s·δ_jn.
                 for j in 0..n {
-                    let v = if j + 1 < n {
-                        arm.links[j].next
-                    } else {
-                        arm.measure
-                    };
-                    let (s, c) = self.ws.new_alpha[j].sin_cos();
-                    self.jac[j] = -(s * v.x + c * v.y);
-                    self.jac[n + j] = c * v.x - s * v.y;
-                    self.jac[2 * n + j] = if t.m == 3 && j + 1 == n { t.scale } else { 0.0 };
+                    let (c0, c1, c2) = rigid_column(p, j, self.ws.new_alpha[j]);
+                    self.jac[j] = c0;
+                    self.jac[n + j] = c1;
+                    self.jac[2 * n + j] = c2;
                 }
             }
             JacobianKind::FiniteDifference => {
@@ -514,29 +625,16 @@ impl Compensator {
                 for j in 0..n {
                     self.trial.copy_from_slice(&self.alpha);
                     self.trial[j] += FD_STEP_RAD;
-                    let trial = std::mem::take(&mut self.trial);
-                    let ev = self.evaluate(arm, effects, &trial, payload, sopts, row, t, &mut rj);
-                    self.trial = trial;
-                    match ev {
-                        Ok(()) => {
-                            for k in 0..3 {
-                                self.jac[k * n + j] = (rj[k] - r[k]) / FD_STEP_RAD;
-                            }
+                    if self.try_trial(p, &mut rj)?.is_some() {
+                        for k in 0..3 {
+                            self.jac[k * n + j] = (rj[k] - r[k]) / FD_STEP_RAD;
                         }
-                        // A step across the edge of the model: fall back to the rigid column.
-                        Err(e) if e.is_pose_failure() => {
-                            let v = if j + 1 < n {
-                                arm.links[j].next
-                            } else {
-                                arm.measure
-                            };
-                            let (s, c) = self.alpha[j].sin_cos();
-                            self.jac[j] = -(s * v.x + c * v.y);
-                            self.jac[n + j] = c * v.x - s * v.y;
-                            self.jac[2 * n + j] =
-                                if t.m == 3 && j + 1 == n { t.scale } else { 0.0 };
-                        }
-                        Err(e) => return Err(e),
+                    } else {
+                        // A step across the edge of the model: the rigid column instead.
+                        let (c0, c1, c2) = rigid_column(p, j, self.alpha[j]);
+                        self.jac[j] = c0;
+                        self.jac[n + j] = c1;
+                        self.jac[2 * n + j] = c2;
                     }
                 }
             }
@@ -560,10 +658,9 @@ impl Compensator {
         }
     }
 
-    /// The Gauss–Newton step into `self.step`; returns the size of its null-space part (rad),
-    /// or `None` at a kinematic singularity.
-    fn step(&mut self, n: usize, t: &Target, r: &[f64; 3]) -> Option<f64> {
-        let m = t.m;
+    /// The Gauss–Newton step `−J⁺·r` (minimum-norm; least squares for n < m) into
+    /// `self.step`; `false` at a kinematic singularity.
+    fn step(&mut self, n: usize, m: usize, r: &[f64; 3]) -> bool {
         let jac = &self.jac;
         if n < m {
             // n = 1: least squares, Δ = −Jᵀr / JᵀJ.
@@ -573,28 +670,26 @@ impl Compensator {
                 jtr += jac[k * n] * r[k];
             }
             if !(jtj > 0.0 && jtj.is_finite()) {
-                return None;
+                return false;
             }
             self.step[0] = -jtr / jtj;
-            return Some(0.0);
+            return true;
         }
-        let mut gram = [[0.0; 3]; 3];
-        for a in 0..m {
-            for b in 0..=a {
-                let s: f64 = (0..n).map(|j| jac[a * n + j] * jac[b * n + j]).sum();
-                gram[a][b] = s;
-                gram[b][a] = s;
-            }
-        }
-        let l = cholesky(&gram, m, KINEMATIC_SINGULAR)?;
+        let Some(l) = cholesky(&gram(jac, n, m), m, KINEMATIC_SINGULAR) else {
+            return false;
+        };
         let y = chol_solve(&l, m, r);
         for j in 0..n {
             self.step[j] = -(0..m).map(|k| jac[k * n + j] * y[k]).sum::<f64>();
         }
-        if n == m {
-            return Some(0.0);
-        }
-        // Null-space pull towards the nominal: (I − J⁺J)(α⁰ − α).
+        true
+    }
+
+    /// The tangent step `z = (I − J⁺J)(α⁰ − α)` into `self.tangent`; its largest entry
+    /// (rad), or `None` at a kinematic singularity.
+    fn tangent(&mut self, n: usize, m: usize) -> Option<f64> {
+        let jac = &self.jac;
+        let l = cholesky(&gram(jac, n, m), m, KINEMATIC_SINGULAR)?;
         let mut jz = [0.0; 3];
         for (k, v) in jz.iter_mut().enumerate().take(m) {
             *v = (0..n)
@@ -604,13 +699,80 @@ impl Compensator {
         let w = chol_solve(&l, m, &jz);
         let mut size = 0.0f64;
         for j in 0..n {
-            let p = (self.nominal[j] - self.alpha[j])
+            let z = (self.nominal[j] - self.alpha[j])
                 - (0..m).map(|k| jac[k * n + j] * w[k]).sum::<f64>();
-            self.step[j] += p;
-            size = size.max(p.abs());
+            self.tangent[j] = z;
+            size = size.max(z.abs());
         }
         Some(size)
     }
+}
+
+/// One pose's problem: what every step reads.
+#[derive(Debug, Clone, Copy)]
+struct Problem<'a> {
+    arm: &'a Arm,
+    effects: &'a EffectSet,
+    payload: V2,
+    sopts: SolveOptions,
+    row: usize,
+    target: Target,
+    /// Resolved: never [`JacobianKind::Auto`].
+    kind: JacobianKind,
+    tol_mm: f64,
+    max_iter: u32,
+}
+
+/// How a phase ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Outcome {
+    Converged,
+    /// Out of steps, or no step reduced the miss.
+    Stalled,
+    /// A kinematic singularity: the point cannot move in some direction.
+    Singular,
+}
+
+/// Column j of the rigid-kinematic Jacobian at angle `alpha_j`: with
+/// M = O₁ + Σ_{i<n} R(α_i)·next_i + R(α_n)·m, ∂M/∂α_j = R(α_j + π/2)·v_j; the angle row is
+/// s·δ_jn.
+fn rigid_column(p: &Problem<'_>, j: usize, alpha_j: f64) -> (f64, f64, f64) {
+    let n = p.arm.n();
+    let v = if j + 1 < n {
+        p.arm.links[j].next
+    } else {
+        p.arm.measure
+    };
+    let (s, c) = alpha_j.sin_cos();
+    let angle = if p.target.m == 3 && j + 1 == n {
+        p.target.scale
+    } else {
+        0.0
+    };
+    (-(s * v.x + c * v.y), c * v.x - s * v.y, angle)
+}
+
+/// `J·Jᵀ` of the m × n row-major `jac`, in the leading block of a 3 × 3.
+fn gram(jac: &[f64], n: usize, m: usize) -> [[f64; 3]; 3] {
+    let mut g = [[0.0; 3]; 3];
+    for a in 0..m {
+        for b in 0..=a {
+            let s: f64 = (0..n).map(|j| jac[a * n + j] * jac[b * n + j]).sum();
+            g[a][b] = s;
+            g[b][a] = s;
+        }
+    }
+    g
+}
+
+#[inline]
+fn norm(a: &[f64]) -> f64 {
+    a.iter().map(|x| x * x).sum::<f64>().sqrt()
+}
+
+#[inline]
+fn dist2(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum()
 }
 
 /// The status of a pose whose model fails (singular, zero length, a triangle that cannot

@@ -260,8 +260,11 @@ fn compensated_pose_lands_on_the_nominal_point_and_keeps_the_last_angle() {
                         assert!((last - a0[n - 1]).abs() < 1e-9, "{}", last - a0[n - 1]);
                     }
                     assert!(res.iterations >= 1);
-                    // Deflections of 10–35 mm here: far more than a real arm's.
-                    let most = if kind.resolve(n) == JacobianKind::Rigid {
+                    // Deflections of 10–35 mm here, far more than a real arm's; for n > 3 the
+                    // count includes the steps back onto the conditions after each tangent step.
+                    let most = if n > 3 {
+                        40
+                    } else if kind.resolve(n) == JacobianKind::Rigid {
                         12
                     } else {
                         6
