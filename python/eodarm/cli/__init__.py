@@ -14,13 +14,13 @@ from collections.abc import Sequence
 from typing import NoReturn
 
 from eodarm._version import __version__
-from eodarm.cli import compare, datasets, diagnose, fit, report, solve, sweep, synth
+from eodarm.cli import compare, compensate, datasets, diagnose, fit, report, solve, sweep, synth
 from eodarm.errors import EodarmError
 
 __all__ = ["COMMANDS", "main"]
 
 #: The commands' modules, in the order of ``eodarm --help``; each has ``add_parser`` and ``run``.
-COMMANDS = (solve, compare, diagnose, fit, synth, sweep, report, datasets)
+COMMANDS = (solve, compare, diagnose, fit, synth, sweep, report, datasets, compensate)
 
 
 class _Parser(argparse.ArgumentParser):
