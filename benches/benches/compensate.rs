@@ -1,7 +1,9 @@
 //! Criterion benchmarks of `arm_core::compensate_batch` (1e3, 1e4, 1e5 poses) on the example
-//! arm of `examples/example_arm.toml`: the baseline model and one effect of each kind, with
-//! the default Jacobian (quasi-Newton for this 3-link arm) and with finite differences. Run
-//! with `cargo bench -p arm_benches --bench compensate`; see `docs/benchmarks.md`.
+//! arm of `examples/example_arm.toml`: the baseline model and five effects (compliances,
+//! bending, base tilt, a clearance taken up), with the default Jacobian (quasi-Newton for this
+//! 3-link arm) and with finite differences; and, on one thread, 1000 poses through
+//! `Compensator::compensate` against 1000 model solves. Run with
+//! `cargo bench -p arm_benches --bench compensate`; see `docs/benchmarks.md`.
 
 use std::hint::black_box;
 use std::time::Duration;
@@ -11,7 +13,8 @@ use arm_core::effects::{
     ActuatorCompliance, BaseCompliance, JointClearance, LinkBending, MountCompliance, Unloaded,
 };
 use arm_core::{
-    Arm, BatchInput, CompensateBuffers, CompensateOptions, Effect, EffectSet, JacobianKind,
+    Arm, BatchInput, CompensateBuffers, CompensateOptions, Compensator, Effect, EffectSet,
+    JacobianKind, SolveOptions, Workspace, V2,
 };
 use criterion::{
     criterion_group, criterion_main, BenchmarkId, Criterion, SamplingMode, Throughput,
@@ -134,5 +137,49 @@ fn bench_batch(c: &mut Criterion) {
     }
 }
 
-criterion_group!(benches, bench_batch);
+/// One thread, pose after pose through `Compensator::compensate` (1000 poses per iteration):
+/// the per-pose cost without the batch's parallelism, next to one `Workspace::solve`.
+fn bench_one_thread(c: &mut Criterion) {
+    let arm = example_arm();
+    let eff = effects(&arm);
+    let (alpha, payload) = poses(1000, arm.g);
+    let rad: Vec<f64> = alpha.iter().map(|d| d.to_radians()).collect();
+    let mut group = c.benchmark_group("one_thread");
+    group
+        .sample_size(20)
+        .warm_up_time(Duration::from_millis(500))
+        .measurement_time(Duration::from_secs(3))
+        .throughput(Throughput::Elements(1000));
+    let opts = CompensateOptions::default();
+    let mut comp = Compensator::new(&arm);
+    group.bench_function("compensate_1000_poses", |b| {
+        b.iter(|| {
+            for k in 0..1000 {
+                let p = V2::new(payload[2 * k], payload[2 * k + 1]);
+                let r = comp.compensate(&arm, &eff, black_box(&rad[3 * k..3 * k + 3]), p, &opts, k);
+                black_box(r.is_ok());
+            }
+        });
+    });
+    let mut ws = Workspace::new(&arm);
+    group.bench_function("solve_1000_poses", |b| {
+        b.iter(|| {
+            for k in 0..1000 {
+                let p = V2::new(payload[2 * k], payload[2 * k + 1]);
+                let r = ws.solve(
+                    &arm,
+                    &eff,
+                    black_box(&rad[3 * k..3 * k + 3]),
+                    p,
+                    SolveOptions::default(),
+                    k,
+                );
+                black_box(r.is_ok());
+            }
+        });
+    });
+    group.finish();
+}
+
+criterion_group!(benches, bench_batch, bench_one_thread);
 criterion_main!(benches);
