@@ -1,5 +1,6 @@
 """Three different arms for the diagnosis tests: the contract's example arm, an arm with the
-seed paper's Table 1 geometry (B0 assumed), and a 2-link arm."""
+seed paper's Table 1 geometry (B0 assumed), and a 2-link arm; and a 4-link arm (not in
+``ARMS``) for what needs a joint more than the conditions, such as compensation."""
 
 from __future__ import annotations
 
@@ -80,6 +81,54 @@ def two_link_arm() -> eodarm.Arm:
             ],
         },
         source="two-link",
+    )
+
+
+def four_link_core_arm() -> eodarm.Arm:
+    """Four links: one more than a point and an angle need (the core's compensation tests use
+    the same; ``four_link_arm`` below is the diagnosis tests' 4-link arm)."""
+    return eodarm.Arm.from_dict(
+        {
+            "name": "four-link",
+            "base": {"O1": [0.0, 0.0], "B0": [220.0, -50.0], "pivot": [-200.0, -250.0]},
+            "link": [
+                {
+                    "next": [450.0, 0.0],
+                    "A": [100.0, 50.0],
+                    "B": [-50.0, -45.0],
+                    "C": [200.0, -3.0],
+                    "mass_kg": 4.0,
+                },
+                {
+                    "next": [350.0, 0.0],
+                    "A": [90.0, -50.0],
+                    "B": [-100.0, 10.0],
+                    "C": [160.0, -2.0],
+                    "mass_kg": 2.5,
+                },
+                {
+                    "next": [300.0, 0.0],
+                    "A": [70.0, -45.0],
+                    "B": [-80.0, 15.0],
+                    "C": [140.0, -2.0],
+                    "mass_kg": 1.8,
+                },
+                {
+                    "next": [250.0, 0.0],
+                    "A": [50.0, -35.0],
+                    "C": [120.0, -2.0],
+                    "measure": [220.0, -30.0],
+                    "mass_kg": 1.0,
+                },
+            ],
+            "actuator": [
+                {"stiffness_n_per_mm": 3000.0, "mass_kg": 1.5},
+                {"stiffness_n_per_mm": 2500.0, "mass_kg": 1.2},
+                {"stiffness_n_per_mm": 2000.0, "mass_kg": 0.9},
+                {"stiffness_n_per_mm": 1500.0, "mass_kg": 0.7},
+            ],
+        },
+        source="four-link",
     )
 
 

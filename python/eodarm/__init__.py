@@ -42,6 +42,7 @@ _PUBLIC = {
     "fit": "eodarm.analysis.fit",
     "Diagnosis": "eodarm.analysis.diagnose",
     "diagnose": "eodarm.analysis.diagnose",
+    "compensate": "eodarm.analysis.compensate",
     "sweep": "eodarm.workspace.sweep",
 }
 
@@ -63,6 +64,7 @@ __all__ = [
     "Slot",
     "__version__",
     "angles_from_lengths",
+    "compensate",
     "cross_validate",
     "custom_effect",
     "diagnose",
@@ -91,6 +93,7 @@ def __dir__() -> list[str]:
 
 
 if TYPE_CHECKING:
+    from eodarm.analysis.compensate import compensate
     from eodarm.analysis.diagnose import Diagnosis, diagnose
     from eodarm.analysis.fit import FitResult, cross_validate, fit
     from eodarm.data.measurements import Measurements

@@ -7,9 +7,11 @@ import numpy as np
 import numpy.typing as npt
 
 __all__ = [
+    "COMPENSATE_STATUSES",
     "CoreArm",
     "CoreError",
     "angles_from_lengths",
+    "compensate",
     "fem_solve",
     "forward",
     "inverse_kinematics",
@@ -18,6 +20,8 @@ __all__ = [
     "statics",
     "sweep",
 ]
+
+COMPENSATE_STATUSES: list[str]
 
 class CoreError(ValueError): ...
 
@@ -122,3 +126,17 @@ def jacobian(
     self_weight: bool,
     nan_on_failure: bool = False,
 ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...
+def compensate(
+    arm: CoreArm,
+    alpha_deg: npt.NDArray[np.float64],
+    payload_n: npt.NDArray[np.float64],
+    codes: npt.NDArray[np.int64],
+    places: npt.NDArray[np.int64],
+    values: npt.NDArray[np.float64],
+    self_weight: bool,
+    *,
+    jacobian: str = "auto",
+    max_iter: int = 50,
+    tol_mm: float = 1e-9,
+    min_moment_ratio: float = 0.01,
+) -> dict[str, npt.NDArray[Any]]: ...

@@ -13,6 +13,8 @@
 //! * [`solve`]: all of it for many poses at once, in parallel, with per-pose extra
 //!   deformations from user-written effects ([`solve_batch_extra`]);
 //! * [`mod@sweep`]: poses × payloads in bounded memory, with per-group reductions (fast kernel);
+//! * [`compensate`]: the angles to command so that the loaded measure point lands on the
+//!   nominal one (Gauss–Newton on the exact model, minimum change for n > 3);
 //! * [`sensitivity`]: predicted channels and their derivatives by effect parameter, for fits;
 //! * [`fem`]: the numerical model, a frame finite-element model of the same arm solved with
 //!   faer's sparse Cholesky, an independent check of all of the above;
@@ -23,6 +25,7 @@
 //! angles counter-clockwise. `docs/model.md` in the repository derives every equation.
 
 pub mod arm;
+pub mod compensate;
 pub mod effects;
 pub mod error;
 pub mod examples;
@@ -36,6 +39,10 @@ pub mod statics;
 pub mod sweep;
 
 pub use arm::{Actuator, Arm, Link};
+pub use compensate::{
+    compensate_batch, CompensateBuffers, CompensateOptions, CompensateOutput, CompensateStatus,
+    Compensator, JacobianKind,
+};
 pub use effects::ExtraDeformations;
 pub use effects::{Effect, EffectSet, Mechanism};
 pub use error::{ArmError, Result};

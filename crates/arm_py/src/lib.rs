@@ -4,6 +4,7 @@
 //! One module per thing exposed: [`convert`] (arrays, the arm, effects), [`errors`],
 //! [`solve`] (and `statics`), [`fem`], [`sweep`], [`kinematics`], [`jacobian`]; this file only registers them.
 
+mod compensate;
 mod convert;
 mod errors;
 mod fem;
@@ -27,5 +28,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(kinematics::py_angles_from_lengths, m)?)?;
     m.add_function(wrap_pyfunction!(kinematics::py_inverse_kinematics, m)?)?;
     m.add_function(wrap_pyfunction!(jacobian::jacobian, m)?)?;
+    m.add_function(wrap_pyfunction!(compensate::compensate, m)?)?;
+    m.add("COMPENSATE_STATUSES", compensate::status_names())?;
     Ok(())
 }

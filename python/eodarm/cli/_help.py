@@ -13,4 +13,5 @@ HELP = {
     "sweep": "solve a whole grid of poses × payloads; write NetCDF/Zarr and the four maps",
     "report": "the whole story as one HTML report (default: the bundled seed data)",
     "datasets": "bundled data sets: list, export",
+    "compensate": "the angles to command so that the payload does not move the measure point",
 }

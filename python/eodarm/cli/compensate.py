@@ -1,0 +1,246 @@
+"""``eodarm compensate``: the angles to command so that the payload does not move the point.
+
+    eodarm compensate --arm ARM.toml --alpha A1,A2,... [--alpha ...] --mass M [--json]
+    eodarm compensate --arm ARM.toml --poses POSES.csv [--mass M] [-o OUT.csv]
+
+A pose that cannot be compensated (out of stroke, near-singular, no convergence) fails the
+command with one line naming it (exit status 2), unless ``--partial`` asks for the others:
+then its angles are empty (``null`` in JSON) and a note on stderr names it.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import math
+import sys
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from eodarm.analysis.compensate import CompensationError, compensate
+from eodarm.cli._common import _floats, _load_arm, _note, _valued_effect
+from eodarm.cli._help import HELP
+from eodarm.errors import EodarmError
+from eodarm.model.arm import Arm
+from eodarm.model.effects import Effect, with_arm_effects
+
+
+def _nominal_poses(
+    args: argparse.Namespace, arm: Arm
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64], list[str] | None]:
+    """(alpha (N, n), mass (N,), config labels or None) from --alpha/--poses and --mass."""
+    n = arm.n
+    if args.alpha and args.poses:
+        raise EodarmError("give the nominal poses with --alpha or with --poses, not both")
+    mass_arg: float | None = None
+    if args.mass is not None:
+        masses = _floats(args.mass, "--mass")
+        if len(masses) != 1:
+            raise EodarmError(f"--mass '{args.mass}': expected one payload mass in kg")
+        mass_arg = masses[0]
+    config = None
+    if args.poses:
+        from eodarm.data.poses import read_poses
+
+        poses = read_poses(args.poses, n)
+        alpha = poses.alpha_deg
+        config = list(poses.config) if poses.config is not None else None
+        if poses.mass_kg is not None and mass_arg is not None:
+            raise EodarmError(f"{args.poses} has a mass_kg column: drop --mass")
+        if poses.mass_kg is not None:
+            return alpha, poses.mass_kg, config
+    elif args.alpha:
+        rows = []
+        for text in args.alpha:
+            a = _floats(text, "--alpha")
+            if len(a) != n:
+                raise EodarmError(
+                    f"--alpha '{text}': expected {n} angles (degrees) for the {n}-link arm "
+                    f"'{arm.name}'"
+                )
+            rows.append(a)
+        alpha = np.array(rows, dtype=float)
+    else:
+        raise EodarmError("give the nominal poses: --alpha A1,A2,... (repeatable) or --poses FILE")
+    if mass_arg is None:
+        raise EodarmError("give the payload: --mass M (kg)")
+    return alpha, np.full(alpha.shape[0], mass_arg), config
+
+
+def _json_list(a: npt.NDArray[Any]) -> Any:
+    """Nested lists with NaN as None (JSON has no NaN)."""
+    return [
+        _json_list(x) if isinstance(x, np.ndarray) else (None if math.isnan(x) else float(x))
+        for x in a
+    ]
+
+
+def _uncompensated_miss(
+    arm: Arm,
+    alpha: npt.NDArray[np.float64],
+    mass: npt.NDArray[np.float64],
+    effects: list[Effect],
+    self_weight: bool,
+) -> npt.NDArray[np.float64]:
+    """How far the loaded measure point of the nominal poses misses (mm; NaN where the model
+    cannot solve a pose): what compensation removes."""
+    from eodarm.model import native as _core
+    from eodarm.model.effects import effect_arrays
+    from eodarm.model.solver import _core_arm
+
+    codes, places, values = effect_arrays(with_arm_effects(arm.effects, effects), arm.n)
+    payload = np.zeros((alpha.shape[0], 2))
+    payload[:, 1] = -mass * arm.g
+    out = _core.solve(
+        _core_arm(arm),
+        np.ascontiguousarray(alpha),
+        payload,
+        codes,
+        places,
+        values,
+        self_weight,
+        True,
+    )
+    return np.asarray(np.hypot(out["dx_mm"], out["dy_mm"]))
+
+
+def _write_csv(
+    path: str,
+    arm: Arm,
+    alpha: npt.NDArray[np.float64],
+    mass: npt.NDArray[np.float64],
+    config: list[str] | None,
+    out: dict[str, npt.NDArray[Any]],
+) -> None:
+    n = arm.n
+    head = (["config"] if config is not None else []) + [
+        f"nominal_alpha{k + 1}_deg" for k in range(n)
+    ]
+    head += ["mass_kg"] + [f"alpha{k + 1}_deg" for k in range(n)]
+    head += [f"length{k + 1}_mm" for k in range(n)] + ["residual_mm", "status", "iterations"]
+
+    def cell(x: float) -> str:
+        return "" if math.isnan(x) else repr(float(x))
+
+    with open(path, "w", encoding="utf-8", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(head)
+        for i in range(alpha.shape[0]):
+            row = [config[i]] if config is not None else []
+            row += [repr(float(a)) for a in alpha[i]] + [repr(float(mass[i]))]
+            row += [cell(a) for a in out["alpha_deg"][i]]
+            row += [cell(x) for x in out["length_mm"][i]]
+            row += [cell(out["residual_mm"][i]), str(out["status"][i]), str(out["iterations"][i])]
+            w.writerow(row)
+
+
+def run(args: argparse.Namespace) -> int:
+    arm = _load_arm(args.arm)
+    effects = [_valued_effect(s) for s in args.add or []]
+    alpha, mass, config = _nominal_poses(args, arm)
+    self_weight = not args.no_self_weight
+    try:
+        out = compensate(
+            arm, alpha, mass, effects, self_weight=self_weight, strict=not args.partial
+        )
+    except CompensationError as exc:
+        hint = "; --partial keeps the others" if alpha.shape[0] > 1 else ""
+        raise EodarmError(f"{exc}{hint}") from None
+    if args.output:
+        _write_csv(args.output, arm, alpha, mass, config, out)
+        _note(f"wrote {args.output}")
+    if args.json:
+        doc = {
+            "alpha_deg": _json_list(out["alpha_deg"]),
+            "length_mm": _json_list(out["length_mm"]),
+            "residual_mm": _json_list(out["residual_mm"]),
+            "status": [str(s) for s in out["status"]],
+        }
+        json.dump(doc, sys.stdout)
+        sys.stdout.write("\n")
+        return 0
+    miss = _uncompensated_miss(arm, alpha, mass, effects, self_weight)
+    model = [
+        e.key + (" (arm file)" if e in arm.effects else "")
+        for e in with_arm_effects(arm.effects, effects)
+    ]
+    print(
+        f"arm {arm.name!r} ({arm.n} links), model: baseline"
+        + "".join(f" + {m}" for m in model)
+        + ("" if self_weight else ", self-weight off")
+    )
+    head = ["row", "mass_kg", "nominal_deg", "command_deg", "change_deg", "length_mm"]
+    head += ["miss_mm", "residual_mm", "status"]
+    rows = []
+    for i in range(alpha.shape[0]):
+        ok = out["status"][i] == "ok"
+        rows.append(
+            [
+                str(i),
+                f"{mass[i]:g}",
+                "/".join(f"{a:g}" for a in alpha[i]),
+                "/".join(f"{a:.5f}" for a in out["alpha_deg"][i]) if ok else "—",
+                "/".join(f"{d:+.5f}" for d in out["alpha_deg"][i] - alpha[i]) if ok else "—",
+                "/".join(f"{x:.3f}" for x in out["length_mm"][i]) if ok else "—",
+                "—" if math.isnan(miss[i]) else f"{miss[i]:.4f}",
+                "—" if math.isnan(out["residual_mm"][i]) else f"{out['residual_mm'][i]:.2e}",
+                str(out["status"][i]),
+            ]
+        )
+    widths = [max(len(h), *(len(r[k]) for r in rows)) for k, h in enumerate(head)]
+    print("  ".join(h.rjust(w) for h, w in zip(head, widths, strict=True)))
+    for r in rows:
+        print("  ".join(c.rjust(w) for c, w in zip(r, widths, strict=True)))
+    print(
+        "miss_mm: how far the payload moves the point without compensation; residual_mm: what "
+        "the model leaves with it"
+    )
+    return 0
+
+
+def add_parser(sub: Any) -> argparse.ArgumentParser:
+    """Register ``eodarm compensate`` on the sub-parser collection."""
+    c = sub.add_parser(
+        "compensate",
+        help=HELP["compensate"],
+        description="Compensate nominal poses for the payload: the unloaded angles to command "
+        "so that, under the payload, the model's measure point lands where the nominal pose "
+        "puts it (and, with 3 links or more, the last link keeps its angle). The arm file's "
+        "[[effect]] tables are part of the model (docs/compensation.md).",
+    )
+    c.add_argument("--arm", metavar="ARM.toml", help="arm file (default: the bundled example)")
+    c.add_argument(
+        "--alpha",
+        action="append",
+        metavar="A1,A2,...",
+        help="a nominal pose: unloaded absolute link angles in degrees (repeat for more)",
+    )
+    c.add_argument(
+        "--poses",
+        metavar="POSES.csv",
+        help="nominal poses from a CSV file: columns alpha1_deg…alphaN_deg, optional mass_kg "
+        "and config",
+    )
+    c.add_argument("--mass", metavar="M", help="payload mass in kg (every pose)")
+    c.add_argument(
+        "--add",
+        action="append",
+        metavar="EFFECT@PLACE=VALUE",
+        help="an effect on top of the arm file's, e.g. joint_clearance@O3=0.15",
+    )
+    c.add_argument("--no-self-weight", action="store_true", help="drop link/actuator weights")
+    c.add_argument("--json", action="store_true", help="print one JSON object on stdout")
+    c.add_argument(
+        "-o", "--output", metavar="OUT.csv", help="write the nominal and commanded poses as CSV"
+    )
+    c.add_argument(
+        "--partial",
+        action="store_true",
+        help="keep the poses that can be compensated when some cannot (their angles empty, "
+        "their status given) instead of failing",
+    )
+    c.set_defaults(func=run)
+    return c
