@@ -319,7 +319,9 @@ def section(arm: eodarm.Arm | None = None, meas: eodarm.Measurements | None = No
         f"effort by BIC is {be}, with parameters of millimetres that largely cancel each other "
         f"({be_vals} mm) and which predicts held-out sag "
         f"to {be_cv:.2f} mm, worse than without it; the acceptance rule refuses it. "
-        "The tool is right to say *unexplained*.\n"
+        "The tool is right to say *unexplained*. `eodarm report --effects examples/thresholds.py "
+        "--effects examples/friction.py` takes the same path (the bodies, then the mounts) and "
+        "stops there with the same best effort, which does not improve the model.\n"
     )
     w.append(
         "**Without the angle channels** (fitted to the sag and the motor sensors only, the "
