@@ -41,16 +41,24 @@ def models() -> list[tuple[str, list[str]]]:
     for k in (1, 2, 3):
         ms.append((f"+ actuator_play@M{k}:taken_up", [*BEST, f"actuator_play@M{k}:taken_up"]))
     ms.append(
-        ("+ actuator_play@M1–M3:taken_up", [*BEST, *(f"actuator_play@M{k}:taken_up" for k in (1, 2, 3))])
+        (
+            "+ actuator_play@M1–M3:taken_up",
+            [*BEST, *(f"actuator_play@M{k}:taken_up" for k in (1, 2, 3))],
+        )
     )
     for k in (1, 2, 3):
         ms.append((f"+ joint_clearance@O{k}:taken_up", [*BEST, f"joint_clearance@O{k}:taken_up"]))
     ms.append(
-        ("+ actuator_friction@M1–M3 (user)", [*BEST, *(f"actuator_friction@M{k}" for k in (1, 2, 3))])
+        (
+            "+ actuator_friction@M1–M3 (user)",
+            [*BEST, *(f"actuator_friction@M{k}" for k in (1, 2, 3))],
+        )
     )
     for k in (1, 2, 3):
         ms.append((f"+ mount_preload@M{k} (user)", [*BEST, f"mount_preload@M{k}"]))
-    ms.append(("+ mount_preload@M1–M3 (user)", [*BEST, *(f"mount_preload@M{k}" for k in (1, 2, 3))]))
+    ms.append(
+        ("+ mount_preload@M1–M3 (user)", [*BEST, *(f"mount_preload@M{k}" for k in (1, 2, 3))])
+    )
     for k in (1, 2, 3):
         ms.append((f"+ joint_preload@O{k} (user)", [*BEST, f"joint_preload@O{k}"]))
     return ms
@@ -149,7 +157,8 @@ def run(angles: bool = True) -> dict[str, Any]:
 
 def table(rows: list[dict[str, Any]]) -> str:
     out = [
-        "| model | fitted | sag RMS in-sample (mm) | sag RMS held out (mm) | χ²/dof | added effect(s), estimate ± stderr |",
+        "| model | fitted | sag RMS in-sample (mm) | sag RMS held out (mm) | χ²/dof "
+        "| added effect(s), estimate ± stderr |",
         "|---|---|---|---|---|---|",
     ]
     for r in rows:
@@ -239,7 +248,9 @@ def section(arm: eodarm.Arm | None = None, meas: eodarm.Measurements | None = No
     worse_line = [k for k in line["per_config"] if best["per_config"][k] >= line["per_config"][k]]
     bf = d.best_effort_fit
     be_vals = (
-        ", ".join(f"{s.key} {bf.estimate(i):.2g}" for i, s in enumerate(bf.slots) if s.key not in BEST)
+        ", ".join(
+            f"{s.key} {bf.estimate(i):.2g}" for i, s in enumerate(bf.slots) if s.key not in BEST
+        )
         if bf is not None
         else ""
     )
@@ -363,7 +374,7 @@ def section(arm: eodarm.Arm | None = None, meas: eodarm.Measurements | None = No
         "channels (the diagnosis: a dx channel would separate them); the threshold force F_T "
         "of examples/thresholds.py is not determined at all, because every force change of "
         "every state is far above it. Without the angles, mounts 2 and 3 are correlated "
-        f"beyond 0.95 and mount 1 runs to its bound. The one-slope line has no such problem, "
+        "beyond 0.95 and mount 1 runs to its bound. The one-slope line has no such problem, "
         "which is part of why it predicts as well as it does: on 15 states, one parameter is "
         "hard to beat.\n"
     )

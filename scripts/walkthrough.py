@@ -23,6 +23,19 @@ FIGS = DOCS / "figures"
 ARM = "examples/example_arm.toml"
 
 
+def _env() -> dict[str, str]:
+    """The commands run in a temporary directory: a relative PYTHONPATH (``PYTHONPATH=python``)
+    would no longer find this tree's package there, so every entry is made absolute."""
+    import os
+
+    env = dict(os.environ)
+    if env.get("PYTHONPATH"):
+        env["PYTHONPATH"] = os.pathsep.join(
+            str(Path(p).resolve()) for p in env["PYTHONPATH"].split(os.pathsep) if p
+        )
+    return env
+
+
 def run(cmd: str, cwd: Path) -> str:
     args = shlex.split(cmd)
     assert args[0] == "eodarm"
@@ -34,6 +47,7 @@ def run(cmd: str, cwd: Path) -> str:
             *args[1:],
         ],
         cwd=cwd,
+        env=_env(),
         capture_output=True,
         text=True,
         check=False,
@@ -58,9 +72,7 @@ def trim(text: str, width: int = 100, keep: int | None = None) -> str:
             out.append(line)
             block = []
             i += 1
-            while (
-                i < len(lines) and lines[i].strip() and not lines[i].startswith("[stderr]")
-            ):
+            while i < len(lines) and lines[i].strip() and not lines[i].startswith("[stderr]"):
                 block.append(line if len(line := lines[i]) <= width else line[: width - 2] + " …")
                 i += 1
             out += block[: keep + 1]
@@ -195,10 +207,7 @@ def stories(work: Path, w: Any) -> None:
     from eodarm.data.channels import default_sigma
 
     w("## 6. No σ in the file, but every state measured three times\n")
-    cmd = (
-        f"eodarm synth --arm {ARM} --repeats 3 --no-sigma-columns --noise 2.5 --seed 2 "
-        "-o rep.csv"
-    )
+    cmd = f"eodarm synth --arm {ARM} --repeats 3 --no-sigma-columns --noise 2.5 --seed 2 -o rep.csv"
     out = run(cmd, work)
     w(
         "A campaign that writes no σ but measures every state three times. The bench's noise "

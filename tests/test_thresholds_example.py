@@ -1,4 +1,5 @@
-"""examples/thresholds.py: the preload reliefs written for the seed data (docs/seed-reproduction.md §6)."""
+"""examples/thresholds.py: the preload reliefs written for the seed data
+(docs/seed-reproduction.md §6)."""
 
 from __future__ import annotations
 
