@@ -429,6 +429,12 @@ def main() -> None:
     w("![measured vs model](figures/seed-measured-vs-model.png)\n")
     w("![residual vs payload](figures/seed-residual-vs-payload.png)\n")
     w("![deflection share](figures/seed-deflection-share.png)\n")
+    import sys
+
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    import seed_investigation  # registers the user effects of examples/: run it last
+
+    w(seed_investigation.section(arm, meas))
     (args.out / "seed-reproduction.md").write_text("\n".join(doc) + "\n", encoding="utf-8")
     print(f"wrote {args.out / 'seed-reproduction.md'} and 4 figures in {figdir}")
 
