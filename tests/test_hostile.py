@@ -138,3 +138,22 @@ def test_absurd_measurements_are_refused_at_read_time(
     path.write_text("\n".join([head, ",".join(cells), *rest]) + "\n")
     line = one_error_line(cli(command, str(path), "--arm", str(EXAMPLE), "--json"))
     assert "line 2" in line and says in line
+
+
+def test_solve_of_more_poses_than_memory_holds_raises_memory_error() -> None:
+    """10⁸ poses under an address-space limit: refused before anything is allocated, as a
+    MemoryError (and an eodarm error: one line), never an abort of the interpreter."""
+    code = (
+        "import resource, numpy as np, eodarm\n"
+        "resource.setrlimit(resource.RLIMIT_AS, (3 * 2**30, resource.RLIM_INFINITY))\n"
+        f"arm = eodarm.Arm.from_toml({str(EXAMPLE)!r})\n"
+        "alpha = np.broadcast_to(np.array([90.0, 10.0, 0.0]), (10**8, 3))\n"
+        "try:\n"
+        "    eodarm.solve(arm, alpha, 1.0)\n"
+        "except MemoryError as exc:\n"
+        "    assert isinstance(exc, eodarm.EodarmError)\n"
+        "    print('MemoryError:', exc)\n"
+    )
+    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+    assert res.returncode == 0, res.stderr[-2000:]
+    assert res.stdout.startswith("MemoryError: solve of 100,000,000 poses would need"), res.stdout

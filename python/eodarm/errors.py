@@ -14,6 +14,7 @@ __all__ = [
     "EffectError",
     "EodarmError",
     "InputError",
+    "OutOfMemoryError",
     "SweepTooLargeError",
 ]
 
@@ -61,3 +62,8 @@ class SweepTooLargeError(InputError):
 class ClusterError(EodarmError):
     """A Dask cluster could not finish a sweep: it lost all its workers (or its scheduler),
     or a chunk's workers kept dying."""
+
+
+class OutOfMemoryError(EodarmError, MemoryError):
+    """An output would not fit in the memory available (a :class:`MemoryError` too): the
+    estimate was checked before anything was allocated."""

@@ -18,6 +18,7 @@ import numpy.typing as npt
 from eodarm.errors import InputError
 from eodarm.model.arm import Arm, check_arm
 from eodarm.model.effects import Effect, effect_arrays, split_effects, with_arm_effects
+from eodarm.model.resources import check_output_memory
 from eodarm.model.validity import status
 
 __all__ = [
@@ -98,6 +99,7 @@ def solve(
         value, a negative mass, a singular pose or a triangle that cannot close.
     """
     check_arm(arm, "solve")
+    _check_memory(alpha_deg, arm.n)
     alpha = _poses(alpha_deg, arm.n, "alpha_deg")
     mass = _per_row(mass_kg, alpha.shape[0], "mass_kg")
     bad = np.flatnonzero(mass < 0)
@@ -124,6 +126,7 @@ def solve_payload(
 ) -> Arrays:
     """Like :func:`solve`, with any payload force vector (N, 2) in N at the load point."""
     check_arm(arm, "solve_payload")
+    _check_memory(alpha_deg, arm.n)
     from eodarm.model import fem
 
     alpha = _poses(alpha_deg, arm.n, "alpha_deg")
@@ -331,6 +334,16 @@ def stroke_violations(arm: Arm, length_mm: npt.ArrayLike) -> npt.NDArray[np.int8
 
 
 # ---------------------------------------------------------------------------- helpers
+def _check_memory(alpha_deg: npt.ArrayLike, n: int) -> None:
+    """Refuse, before any array is converted or allocated, a solve whose output cannot fit:
+    6 (N, n) and one (N, n, 2) float arrays, dx, dy and the status, and as much again for
+    the input's copies and the checks on the way."""
+    shape = np.shape(alpha_deg) if isinstance(alpha_deg, np.ndarray) else ()
+    if len(shape) == 2:
+        rows = int(shape[0])
+        check_output_memory(2 * rows * (8 * (8 * n + 2) + 1), f"solve of {rows:,} poses")
+
+
 def _check_backend(backend: str) -> None:
     if backend not in ("rust", "numpy"):
         raise InputError(f"backend must be 'rust' or 'numpy', got {backend!r}")

@@ -13,60 +13,12 @@ import shutil
 from pathlib import Path
 
 from eodarm.errors import SweepTooLargeError
+from eodarm.model.resources import available_memory, sci
 
 __all__ = ["available_memory", "check_disk", "check_memory", "free_disk", "sci"]
 
 #: What a refused sweep can do instead (both the API's and the command line's names).
 _HINT = "reduce the grid, reduce it while it runs (reduce=, --reduce)"
-
-
-def sci(x: float) -> str:
-    """``1.5e17``: a count or a size in one short word."""
-    mantissa, exponent = f"{x:.1e}".split("e")
-    return f"{mantissa}e{int(exponent)}"
-
-
-def _meminfo_available() -> int | None:
-    try:
-        with open("/proc/meminfo", encoding="ascii") as f:
-            for line in f:
-                if line.startswith("MemAvailable:"):
-                    return int(line.split()[1]) * 1024
-    except (OSError, ValueError, IndexError):
-        pass
-    return None
-
-
-def _cgroup_available() -> int | None:
-    """Room left under a cgroup-v2 memory limit (containers), None without one."""
-    base = Path("/sys/fs/cgroup")
-    try:
-        limit = (base / "memory.max").read_text().strip()
-        if limit == "max":
-            return None
-        used = int((base / "memory.current").read_text().strip())
-        return max(int(limit) - used, 0)
-    except (OSError, ValueError):
-        return None
-
-
-def available_memory() -> int | None:
-    """Bytes of memory a sweep's output may take now, None if the system does not say.
-
-    ``MemAvailable`` of ``/proc/meminfo`` (Linux: free memory plus what the kernel can
-    reclaim), else the physical memory (``os.sysconf``: ``SC_PHYS_PAGES`` × ``SC_PAGE_SIZE``);
-    under a cgroup-v2 memory limit (a container), at most the room left under it.
-    """
-    avail = _meminfo_available()
-    if avail is None:
-        try:
-            avail = int(os.sysconf("SC_PHYS_PAGES")) * int(os.sysconf("SC_PAGE_SIZE"))
-        except (AttributeError, ValueError, OSError):
-            avail = None
-    cgroup = _cgroup_available()
-    if cgroup is not None:
-        avail = cgroup if avail is None else min(avail, cgroup)
-    return avail
 
 
 def free_disk(path: str | os.PathLike[str]) -> int | None:
