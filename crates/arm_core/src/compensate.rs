@@ -512,6 +512,7 @@ impl Compensator {
             let d2 = dist2(&self.alpha, &self.nominal);
             self.best.copy_from_slice(&self.alpha);
             let r_best = *r;
+            let residual_best = (result.residual_mm, result.residual_rad);
             let mut s = gain;
             let mut accepted = false;
             for _ in 0..=MAX_HALVINGS {
@@ -539,6 +540,7 @@ impl Compensator {
             if !accepted {
                 self.alpha.copy_from_slice(&self.best);
                 *r = r_best;
+                (result.residual_mm, result.residual_rad) = residual_best;
                 if result.iterations >= p.max_iter {
                     return Ok(Outcome::Stalled);
                 }
