@@ -250,6 +250,33 @@ def test_a_sweep_with_a_user_effect_equals_the_builtin_sweep() -> None:
                 np.testing.assert_allclose(b[key].values, a[key].values, atol=1e-8, err_msg=key)
 
 
+def test_a_zarr_sweep_with_a_user_effect_includes_it(tmp_path: Path) -> None:
+    """The chunk-by-chunk Zarr path routes user effects like the in-memory sweep (its core
+    grid walker would drop them): the same numbers as the built-in effect."""
+    pytest.importorskip("zarr")
+    import xarray as xr
+
+    from eodarm.workspace import store
+
+    arm = example_arm()
+    grid = {"alpha1": np.linspace(60.0, 120.0, 6), "alpha2": [0.0, 20.0], "alpha3": [0.0]}
+    builtin = eodarm.Effect("mount_compliance", "M2", stiffness_n_per_mm=800.0)
+    with registered("mount_like"):
+        user = eodarm.Effect("mount_like", "M2", stiffness_n_per_mm=800.0)
+        out = store.sweep_to_zarr(
+            tmp_path / "u.zarr",
+            arm,
+            alpha_deg=grid,
+            mass_kg=[3.0],
+            effects=[user],
+            progress=False,
+            chunk_size=4,
+        )
+        got = xr.open_zarr(out, consolidated=False).load()
+    want = eodarm.sweep(arm, alpha_deg=grid, mass_kg=[3.0], effects=[builtin], progress=False)
+    np.testing.assert_allclose(got["dy_mm"].values, want["dy_mm"].values, atol=1e-8)
+
+
 # ---------------------------------------------------------------------------- fit
 def test_fit_of_the_user_mount_agrees_with_the_builtin_fit() -> None:
     """Same optimum, same standard error: the forward-difference Jacobian of a user effect

@@ -318,10 +318,8 @@ def sweep(
         for key, arr in result.items():
             arr[a:b] = res[key]
 
-    users = split_effects(job.effects)[1]
-    if scheduler is None and job.model == "analytic" and job.grid.kind == "alpha" and not users:
+    if scheduler is None and _core_walks(job):
         # One call: the core walks the grid itself, in parallel, straight into `result`.
-        # (User-written effects take the chunked path: the core's kernel cannot call Python.)
         _sweep_grid(job, result, None if chunk_size == CHUNK_SIZE else step, progress)
     else:
         bar = _progress_bar(-(-setup.size // step), progress)
@@ -558,64 +556,26 @@ def _allocate(
     return {k: out[k] for k in shapes}
 
 
-def _sweep_grid(
+def _core_walks(job: _Job) -> bool:
+    """Whether the compiled core's grid walker can sweep this job: an angle grid of the
+    analytic model with the catalogue's effects only (user-written effects take the chunked
+    path, since the core's kernel cannot call Python)."""
+    return (
+        job.model == "analytic" and job.grid.kind == "alpha" and not split_effects(job.effects)[1]
+    )
+
+
+def _core_grid_sweep(
     job: _Job,
-    result: dict[str, npt.NDArray[Any]],
-    chunk_poses: int | None,
-    progress: bool | None,
+    start: int,
+    count: int,
+    out: dict[str, npt.NDArray[Any]],
+    progress: Any = None,
+    chunk_rows: int | None = None,
 ) -> None:
-    """Sweep a whole angle grid in one call of the compiled core, into ``result``.
-
-    The core makes each chunk's poses from the grid's axes, solves and (if asked) masks and
-    reduces them, and writes straight into the result arrays (a reduction's ``reachable`` as
-    "any pose of the group"); it checks for Ctrl-C and reports progress between chunks.
-    """
+    """Poses [start, start + count) of the job's angle grid, solved by the core into ``out``."""
     from eodarm.model import native as _core
 
-    arm, grid, m = job.arm, job.grid, job.mass.shape[0]
-    codes, places, values = effect_arrays(job.effects, arm.n)
-    axes = [np.ascontiguousarray(c, dtype=float) for c in grid.coords]
-    size = grid.size
-    bar = _progress_bar(size, progress, unit="pose", auto_at=PROGRESS_CHUNKS * CHUNK_SIZE)
-
-    def report(done: int) -> None:
-        bar.update(done - bar.n)
-
-    try:
-        _core.sweep(
-            _core_arm(arm),
-            None,
-            job.mass,
-            codes,
-            places,
-            values,
-            job.self_weight,
-            job.op,
-            m * job.block if job.op else 1,
-            job.threads,
-            grid=(axes, list(grid.columns), 0, size),
-            out=result,
-            mask_unreachable=job.mask_unreachable,
-            progress=report if bar is not None else None,
-            chunk_rows=None if chunk_poses is None else chunk_poses * m,
-        )
-        if bar is not None:
-            bar.update(size - bar.n)
-    finally:
-        if bar is not None:
-            bar.close()
-
-
-def _solve_span(setup: _Setup, start: int, stop: int) -> dict[str, npt.NDArray[Any]]:
-    """Flat poses [start, stop) solved here: an angle grid of the analytic model by the core's
-    grid walker (its poses are never built in Python), any other by :func:`_chunk`."""
-    job = setup.job
-    if job.model != "analytic" or job.grid.kind != "alpha":
-        return _chunk(job, start, stop)
-    from eodarm.model import native as _core
-
-    rows = (stop - start) // job.block
-    out = _allocate({k: (rows, *s[1:]) for k, s in setup.shapes.items()}, setup.dtypes)
     codes, places, values = effect_arrays(job.effects, job.arm.n)
     m = job.mass.shape[0]
     axes = [np.ascontiguousarray(c, dtype=float) for c in job.grid.coords]
@@ -630,10 +590,57 @@ def _solve_span(setup: _Setup, start: int, stop: int) -> dict[str, npt.NDArray[A
         job.op,
         m * job.block if job.op else 1,
         job.threads,
-        grid=(axes, list(job.grid.columns), start, stop - start),
+        grid=(axes, list(job.grid.columns), start, count),
         out=out,
         mask_unreachable=job.mask_unreachable,
+        progress=progress,
+        chunk_rows=chunk_rows,
     )
+
+
+def _sweep_grid(
+    job: _Job,
+    result: dict[str, npt.NDArray[Any]],
+    chunk_poses: int | None,
+    progress: bool | None,
+) -> None:
+    """Sweep a whole angle grid in one call of the compiled core, into ``result``.
+
+    The core makes each chunk's poses from the grid's axes, solves and (if asked) masks and
+    reduces them, and writes straight into the result arrays (a reduction's ``reachable`` as
+    "any pose of the group"); it checks for Ctrl-C and reports progress between chunks.
+    """
+    size = job.grid.size
+    bar = _progress_bar(size, progress, unit="pose", auto_at=PROGRESS_CHUNKS * CHUNK_SIZE)
+
+    def report(done: int) -> None:
+        bar.update(done - bar.n)
+
+    try:
+        _core_grid_sweep(
+            job,
+            0,
+            size,
+            result,
+            progress=report if bar is not None else None,
+            chunk_rows=None if chunk_poses is None else chunk_poses * job.mass.shape[0],
+        )
+        if bar is not None:
+            bar.update(size - bar.n)
+    finally:
+        if bar is not None:
+            bar.close()
+
+
+def _solve_span(setup: _Setup, start: int, stop: int) -> dict[str, npt.NDArray[Any]]:
+    """Flat poses [start, stop) solved here: by the core's grid walker where it can
+    (:func:`_core_walks`; its poses are never built in Python), else by :func:`_chunk`."""
+    job = setup.job
+    if not _core_walks(job):
+        return _chunk(job, start, stop)
+    rows = (stop - start) // job.block
+    out = _allocate({k: (rows, *s[1:]) for k, s in setup.shapes.items()}, setup.dtypes)
+    _core_grid_sweep(job, start, stop - start, out)
     return out
 
 
