@@ -18,6 +18,7 @@
 //! * [`sensitivity`]: predicted channels and their derivatives by effect parameter, for fits;
 //! * [`fem`]: the numerical model, a frame finite-element model of the same arm solved with
 //!   faer's sparse Cholesky, an independent check of all of the above;
+//! * [`validity`]: where the small-deflection model can be trusted, a [`Status`] per pose;
 //! * [`examples`]: the contract's example arm (`examples/example_arm.toml`), the shared fixture
 //!   of tests and benchmarks.
 //!
@@ -37,6 +38,7 @@ pub mod sensitivity;
 pub mod solve;
 pub mod statics;
 pub mod sweep;
+pub mod validity;
 
 pub use arm::{Actuator, Arm, Link};
 pub use compensate::{
@@ -52,3 +54,4 @@ pub use solve::{
 };
 pub use statics::{statics_batch, StaticsBuffers, StaticsOutput};
 pub use sweep::{sweep, CellFields, Cells, Reduce, ReduceOp, SweepOptions, SweepOut};
+pub use validity::Status;

@@ -1,0 +1,208 @@
+//! Where the small-deflection model can be trusted: a status per pose (docs/model.md §7).
+//!
+//! The model takes its forces from the undeformed geometry and closes the loaded pose
+//! exactly. Its answers are sound only where the deflection is small, the actuators are not
+//! close to passing through their joints, the loaded pose stays on the branch of the unloaded
+//! one and the actuators work within their stroke and forces. The checks are the same in
+//! every kernel (per-pose solve, sweep, numpy reference `eodarm.model.validity`); the kernels
+//! compute the quantities their own way and call [`classify`] to pick the reported reason.
+//!
+//! | code | name               | when                                                            |
+//! |------|--------------------|-----------------------------------------------------------------|
+//! | 0    | `ok`               | inside every limit                                              |
+//! | 1    | `out_of_stroke`    | an unloaded length outside `[min_length, max_length]`           |
+//! | 2    | `near_singular`    | an actuator's moment arm about its joint < [`MIN_MOMENT_ARM`]·\|A_i − O_i\| |
+//! | 3    | `branch_flip`      | a loaded actuator triangle turned over                          |
+//! | 4    | `over_force`       | a loaded \|force\| above `max_force`                            |
+//! | 5    | `large_deflection` | a link turned > [`MAX_DALPHA_DEG`], the measure point moved > [`MAX_DEFLECTION_OF_REACH`]·reach, or rose > [`MAX_RISE_OF_REACH`]·reach under a downward payload |
+//!
+//! When several apply, the first in this order is reported.
+
+use crate::arm::Arm;
+use crate::geometry::{cross, V2};
+
+/// Moment arm of an actuator about its joint, as a fraction of |A_i − O_i|, below which the
+/// pose is near singular (forces amplified more than 20×).
+pub const MIN_MOMENT_ARM: f64 = 0.05;
+/// Largest change of a link's angle (degrees) the small-deflection model is trusted for.
+pub const MAX_DALPHA_DEG: f64 = 10.0;
+/// Largest displacement of the measure point, as a fraction of the arm's reach Σ|next_i|.
+pub const MAX_DEFLECTION_OF_REACH: f64 = 0.05;
+/// Largest rise of the measure point under a downward payload, as a fraction of the reach.
+pub const MAX_RISE_OF_REACH: f64 = 1e-3;
+
+/// The status of one solved pose; the `u8` value is the code shared with Python.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[repr(u8)]
+pub enum Status {
+    /// Inside every limit.
+    Ok = 0,
+    /// An unloaded pin-to-pin length outside the actuator's stroke.
+    OutOfStroke = 1,
+    /// An actuator nearly passes through its joint.
+    NearSingular = 2,
+    /// The loaded actuator triangle turned over.
+    BranchFlip = 3,
+    /// A loaded actuator force above its `max_force`.
+    OverForce = 4,
+    /// Too large a deflection for the small-deflection model.
+    LargeDeflection = 5,
+}
+
+impl Status {
+    /// The names by code, as in Python's `eodarm.model.validity.STATUS`.
+    pub const NAMES: [&'static str; 6] = [
+        "ok",
+        "out_of_stroke",
+        "near_singular",
+        "branch_flip",
+        "over_force",
+        "large_deflection",
+    ];
+
+    /// The code written to status arrays.
+    pub fn code(self) -> u8 {
+        self as u8
+    }
+
+    /// The status name.
+    pub fn name(self) -> &'static str {
+        Self::NAMES[self as usize]
+    }
+}
+
+/// The findings of one pose's checks (each `true` means the limit is broken).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Checks {
+    /// Some unloaded length outside its stroke.
+    pub out_of_stroke: bool,
+    /// Some actuator's moment arm below [`MIN_MOMENT_ARM`] of its pin's distance.
+    pub near_singular: bool,
+    /// Some loaded triangle on the other side of its unloaded one.
+    pub branch_flip: bool,
+    /// Some loaded |force| above its actuator's `max_force`.
+    pub over_force: bool,
+    /// See [`large_deflection`].
+    pub large_deflection: bool,
+}
+
+/// The reported reason: the first broken limit in code order.
+pub fn classify(c: Checks) -> Status {
+    if c.out_of_stroke {
+        Status::OutOfStroke
+    } else if c.near_singular {
+        Status::NearSingular
+    } else if c.branch_flip {
+        Status::BranchFlip
+    } else if c.over_force {
+        Status::OverForce
+    } else if c.large_deflection {
+        Status::LargeDeflection
+    } else {
+        Status::Ok
+    }
+}
+
+/// The arm's reach Σ|next_i| (mm), floored at 1e-9, the length the deflection limits scale by.
+pub fn reach(arm: &Arm) -> f64 {
+    arm.links
+        .iter()
+        .map(|l| l.next.norm())
+        .sum::<f64>()
+        .max(1e-9)
+}
+
+/// The actuator from `b` to `a` is near singular about joint `o`: its line passes closer to
+/// `o` than [`MIN_MOMENT_ARM`]·|a − o|. (A zero-length actuator counts as singular.)
+pub fn near_singular(o: V2, a: V2, b: V2) -> bool {
+    let line = a - b;
+    let len = line.norm();
+    let h = cross(line, o - b).abs() / len.max(1e-300);
+    // `!(h >= t)`: a NaN moment arm is singular too.
+    !(h >= MIN_MOMENT_ARM * (a - o).norm())
+}
+
+/// The side of the actuator triangle (O_i, A_i, B_i): the sign of (A − B) × (O − B). A loaded
+/// triangle whose side differs from the unloaded one's has flipped branch.
+pub fn triangle_side(o: V2, a: V2, b: V2) -> f64 {
+    cross(a - b, o - b).signum()
+}
+
+/// Too large a deflection: some |Δα_i| above [`MAX_DALPHA_DEG`], |(dx, dy)| above
+/// [`MAX_DEFLECTION_OF_REACH`]·reach, or a rise `dy` above [`MAX_RISE_OF_REACH`]·reach when
+/// the payload pulls down (`payload_down`). NaN inputs count as too large.
+pub fn large_deflection(
+    max_abs_dalpha_deg: f64,
+    dx_mm: f64,
+    dy_mm: f64,
+    payload_down: bool,
+    reach_mm: f64,
+) -> bool {
+    let moved = dx_mm.hypot(dy_mm);
+    !(max_abs_dalpha_deg <= MAX_DALPHA_DEG)
+        || !(moved <= MAX_DEFLECTION_OF_REACH * reach_mm)
+        || (payload_down && dy_mm > MAX_RISE_OF_REACH * reach_mm)
+}
+
+/// Some |force_i| above its actuator's `max_force` (actuators without one never are).
+pub fn over_force(arm: &Arm, force_n: &[f64]) -> bool {
+    arm.actuators
+        .iter()
+        .zip(force_n)
+        .any(|(act, f)| act.max_force.is_some_and(|m| f.abs() > m))
+}
+
+/// Some unloaded length outside its actuator's `[min_length, max_length]`.
+pub fn out_of_stroke(arm: &Arm, length_mm: &[f64]) -> bool {
+    arm.actuators.iter().zip(length_mm).any(|(act, &l)| {
+        act.min_length.is_some_and(|lo| l < lo) || act.max_length.is_some_and(|hi| l > hi)
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn classify_reports_the_first_broken_limit() {
+        assert_eq!(classify(Checks::default()), Status::Ok);
+        let all = Checks {
+            out_of_stroke: true,
+            near_singular: true,
+            branch_flip: true,
+            over_force: true,
+            large_deflection: true,
+        };
+        assert_eq!(classify(all), Status::OutOfStroke);
+        let late = Checks {
+            over_force: true,
+            large_deflection: true,
+            ..Checks::default()
+        };
+        assert_eq!(classify(late), Status::OverForce);
+        assert_eq!(Status::LargeDeflection.name(), "large_deflection");
+        assert_eq!(Status::BranchFlip.code(), 3);
+    }
+
+    #[test]
+    fn a_line_through_the_joint_is_singular_and_a_perpendicular_one_is_not() {
+        let o = V2::new(0.0, 0.0);
+        let a = V2::new(100.0, 0.0);
+        assert!(near_singular(o, a, V2::new(300.0, 0.0)));
+        assert!(!near_singular(o, a, V2::new(100.0, -200.0)));
+        // 4 % of |a − o| is below the 5 % limit, 6 % above it
+        assert!(near_singular(o, a, V2::new(300.0, 8.0)));
+        assert!(!near_singular(o, a, V2::new(300.0, 12.0)));
+    }
+
+    #[test]
+    fn a_rise_under_a_downward_payload_is_not_elastic() {
+        let reach = 1000.0;
+        assert!(!large_deflection(1.0, 0.0, -20.0, true, reach));
+        assert!(large_deflection(1.0, 0.0, 2.0, true, reach));
+        assert!(!large_deflection(1.0, 0.0, 2.0, false, reach));
+        assert!(large_deflection(11.0, 0.0, -1.0, true, reach));
+        assert!(large_deflection(1.0, 0.0, -60.0, true, reach));
+        assert!(large_deflection(f64::NAN, 0.0, -1.0, true, reach));
+    }
+}
