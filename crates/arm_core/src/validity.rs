@@ -18,6 +18,9 @@
 //!
 //! When several apply, the first in this order is reported.
 
+// `!(x <= t)` is meant: NaN breaks the limit.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 use crate::arm::Arm;
 use crate::geometry::{cross, V2};
 
