@@ -33,7 +33,6 @@ from __future__ import annotations
 
 import itertools
 import math
-import sys
 from collections.abc import Iterable, Iterator, Mapping
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
@@ -671,21 +670,14 @@ def _run(
 def _progress_bar(
     total: int, progress: bool | None, unit: str = "chunk", auto_at: int = PROGRESS_CHUNKS
 ) -> Any:
-    """A tqdm bar on stderr over ``total`` units: shown at once when asked or when ``total``
-    exceeds ``auto_at``, after 2 s when ``progress`` is None, never when it is False."""
-    if progress is False or (progress is None and total <= 1):
+    """The sweep's bar (:func:`eodarm.progress.bar`): shown at once when asked, never when
+    ``progress`` is False; when None, on a terminal only, at once for more than ``auto_at``
+    units, else after 2 s."""
+    if progress is None and total <= 1:
         return None
-    try:
-        from tqdm import tqdm
-    except ImportError:  # pragma: no cover - tqdm is a dependency
-        return None
-    delay = 0.0 if progress or total > auto_at else 2.0
-    return tqdm(
-        total=total,
-        desc="eodarm sweep",
-        unit=unit,
-        unit_scale=unit == "pose",
-        file=sys.stderr,
-        delay=delay,
-        leave=False,
+    from eodarm.progress import bar
+
+    delay = 0.0 if total > auto_at else 2.0
+    return bar(
+        total, "eodarm sweep", progress=progress, unit=unit, unit_scale=unit == "pose", delay=delay
     )
