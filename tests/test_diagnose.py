@@ -9,6 +9,7 @@ import subprocess
 import sys
 import warnings
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -561,3 +562,33 @@ def test_sigma_from_few_repeats_is_not_called_a_missing_effect() -> None:
     assert d.verdict == "adequate" and d.suggested == []
     assert d.p_baseline == pytest.approx(fit_p_value(d.baseline))
     assert d.p_baseline > 1e-3
+
+
+def test_a_trial_step_the_model_cannot_solve_is_shortened_not_fatal(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """A Gauss–Newton trial step that leaves the model's domain (the core raises, e.g. a
+    triangle that cannot close) is halved like a step that raises χ²; the fit still reaches
+    the same minimum."""
+    from eodarm.analysis import fit as fit_mod
+    from eodarm.errors import EodarmError
+
+    arm = example_arm()
+    hidden = [eodarm.Effect("mount_compliance", "M2", stiffness_n_per_mm=5e4)]
+    meas = synth(arm, configs(arm), MASSES, hidden=hidden, seed=3)
+    want = fit(arm, meas, ["mount_compliance@M2"])
+
+    real = fit_mod.Problem.evaluate
+    calls = {"n": 0}
+
+    def first_trial_fails(self: Any, *args: Any, **kwargs: Any) -> Any:
+        calls["n"] += 1
+        if calls["n"] == 2:  # the first call is the start; the second the first full step
+            raise EodarmError("pose row 0: actuator 2 cannot close its triangle")
+        return real(self, *args, **kwargs)
+
+    monkeypatch.setattr(fit_mod.Problem, "evaluate", first_trial_fails)
+    got = fit(arm, meas, ["mount_compliance@M2"])
+    assert calls["n"] > 2
+    assert got.estimate(0) == pytest.approx(want.estimate(0), rel=1e-6)
+    assert got.chi2_per_dof == pytest.approx(want.chi2_per_dof, rel=1e-6)

@@ -541,7 +541,13 @@ def fit(
         accepted = False
         for _ in range(8):
             trial = np.clip(theta + lam * step, lo, hi)
-            y2, jac2, chi2b = at(trial)
+            try:
+                y2, jac2, chi2b = at(trial)
+            except EodarmError:
+                # The trial left the model's domain (a triangle that cannot close, a singular
+                # pose): too long a step, like one that raises χ²; the current θ was solvable.
+                lam *= 0.5
+                continue
             if chi2b <= chi2 * (1 + 1e-12) + 1e-12:
                 accepted = True
                 break
