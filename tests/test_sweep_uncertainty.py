@@ -180,3 +180,45 @@ def test_cells_that_cannot_be_compensated_are_named_by_status(fitted: eodarm.Arm
     miss = ds["compensated_miss_mm"].values.reshape(-1)
     assert np.isnan(miss[names != "ok"]).all() and np.isfinite(miss[names == "ok"]).all()
     assert "ok" in ds.attrs["compensation"]
+
+
+def test_the_uncertainty_maps_draw_a_fitted_sweep_and_refuse_a_plain_one(
+    fitted: eodarm.Arm, tmp_path: Path
+) -> None:
+    from eodarm.errors import EodarmError
+    from eodarm.viz import uncertainty_maps
+
+    kw = {"alpha_deg": GRID, "mass_kg": MASSES}
+    ds = eodarm.sweep(fitted, **kw, uncertainty=True, compensated_miss=True)
+    fig = uncertainty_maps.sag_uncertainty_map(ds, 6.5, path=tmp_path / "s.png")
+    assert (tmp_path / "s.png").stat().st_size > 10_000
+    titles = [ax.get_title() for ax in fig.axes]
+    assert any("2σ" in t for t in titles)
+    uncertainty_maps.compensated_miss_map(ds, 6.5, path=tmp_path / "c.png")
+    assert (tmp_path / "c.png").stat().st_size > 10_000
+    plain = eodarm.sweep(fitted, **kw)
+    with pytest.raises(EodarmError, match="uncertainty=True"):
+        uncertainty_maps.sag_uncertainty_map(plain)
+
+
+def test_the_command_line_writes_sigma_and_the_compensated_miss(
+    fitted: eodarm.Arm, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    import xarray as xr
+
+    from eodarm.cli import main
+
+    (tmp_path / "fitted.toml").write_text(fitted.to_toml())
+    args = ["sweep", "--arm", str(tmp_path / "fitted.toml"), "--alpha1", "70:110:3"]
+    args += ["--alpha2", "0,15", "--alpha3", "-10:10:3", "--mass", "1.5,6.5", "--no-progress"]
+    out = tmp_path / "s.nc"
+    assert main([*args, "--uncertainty", "--compensated-miss", "-o", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "2σ of dy" in text and "compensation of the cells: ok 36" in text
+    back = xr.load_dataset(out)
+    want = eodarm.sweep(fitted, alpha_deg=GRID, mass_kg=MASSES, compensated_miss=True)
+    np.testing.assert_array_equal(back["compensation_status"], want["compensation_status"])
+    assert "sigma_dalpha_deg" in back
+    # a Zarr sweep is written chunk by chunk: these outputs are refused in one line
+    assert main([*args, "--uncertainty", "-o", str(tmp_path / "s.zarr")]) == 2
+    assert "computed in memory" in capsys.readouterr().err

@@ -17,7 +17,7 @@ missing physics and the geometry's errors.
 from __future__ import annotations
 
 import warnings
-from collections.abc import Sequence
+from collections.abc import Hashable, Sequence
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -41,7 +41,7 @@ NOT_SOLVED = -1
 #: Coverage factor of the compensated miss.
 K_SIGMA = 2.0
 
-ATTRS = {
+ATTRS: dict[str, dict[str, Any]] = {
     "compensated_miss_mm": {
         "units": "mm",
         "long_name": "2 sqrt(sigma_dx^2 + sigma_dy^2) of the loaded measure point at the "
@@ -130,7 +130,7 @@ class Outputs:
         self.resid[a:b] = _nanmax(got["compensation_residual_mm"].reshape(-1, group))
 
     def into(
-        self, ds: xr.Dataset, dims: Sequence[str], shape: tuple[int, ...], rdims: list[str]
+        self, ds: xr.Dataset, dims: Sequence[Hashable], shape: tuple[int, ...], rdims: list[str]
     ) -> None:
         """Add the variables and the counts (``attrs["compensation"]``) to ``ds``."""
         over = f"largest over ({', '.join(rdims)}) of the " if rdims else ""

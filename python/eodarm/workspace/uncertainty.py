@@ -228,3 +228,23 @@ def _provenance(job: _Job) -> str:
     if rec.date:
         parts.append(rec.date)
     return "; ".join(parts)
+
+
+def summary_lines(ds: xr.Dataset) -> list[str]:
+    """A line or two for ``eodarm sweep``'s summary: the range of 2σ of dy, the compensated
+    miss and the cells per compensation status."""
+    lines = []
+    for key, what in (
+        ("sigma_dy_mm", "2σ of dy"),
+        ("compensated_miss_mm", "compensated miss (2σ)"),
+    ):
+        if key not in ds:
+            continue
+        v = np.asarray(ds[key].values, dtype=float)
+        v = (2.0 * v if key == "sigma_dy_mm" else v)[np.isfinite(v)]
+        if v.size:
+            med = float(np.median(v))
+            lines.append(f"{what}: {v.min():.3g} … {v.max():.3g} mm (median {med:.3g} mm)")
+    if "compensation" in ds.attrs:
+        lines.append(f"compensation of the cells: {ds.attrs['compensation']}")
+    return lines
