@@ -110,10 +110,10 @@ class _Model:
 
 def _pinv(jac: FloatArray) -> tuple[FloatArray, npt.NDArray[np.bool_]]:
     """Pseudo-inverses (k, n, p) and which Jacobians keep their rank."""
-    bad: npt.NDArray[np.bool_] = ~np.isfinite(jac).all(axis=(1, 2))
+    bad = np.logical_not(np.isfinite(jac).all(axis=(1, 2)))
     safe = np.where(bad[:, None, None], 0.0, jac)
     sv = np.linalg.svd(safe, compute_uv=False)
-    full = ~bad & (sv[:, -1] > RANK_RATIO * sv[:, 0])
+    full: npt.NDArray[np.bool_] = np.logical_and(~bad, sv[:, -1] > RANK_RATIO * sv[:, 0])
     return np.linalg.pinv(safe), full
 
 
