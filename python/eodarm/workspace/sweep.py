@@ -26,7 +26,7 @@ Command line (registered by :func:`add_parser`)::
 
     eodarm sweep [--arm ARM.toml] [--alpha1 LO:HI:N ...] [--mass 1.5,5,6.5]
                  [--add EFFECT@PLACE=VALUE ...] [--reduce max:mass_kg] [-o OUT.nc | OUT.zarr]
-                 [--plot DIR] [--threads K] [--no-progress]
+                 [--plot DIR] [--threads K] [--no-progress] [--uncertainty] [--compensated-miss]
 """
 
 from __future__ import annotations
