@@ -24,7 +24,7 @@ import numpy.typing as npt
 
 from eodarm.errors import EodarmError, InputError
 from eodarm.model.arm import Arm, check_arm
-from eodarm.model.effects import Effect, effect_arrays, with_arm_effects
+from eodarm.model.effects import Effect, effect_arrays, split_effects, with_arm_effects
 from eodarm.model.solver import _core_arm, _per_row, _poses
 
 __all__ = [
@@ -80,13 +80,18 @@ def compensate(
     alpha_deg : (N, n) nominal unloaded absolute angles, degrees: the poses a user would
         command without compensation (a single pose (n,) is N = 1).
     mass_kg : payload mass, kg; scalar or (N,).
-    effects : effects on top of the arm's (the same ``effect@place`` replaces the arm's).
+    effects : effects on top of the arm's (the same ``effect@place`` replaces the arm's),
+        built-in or user-written (:func:`eodarm.custom_effect`): with user-written effects
+        the core's compensation with the built-in ones is the start of a Gauss–Newton
+        iteration on the full model in Python (:mod:`eodarm.analysis.compensate_custom`;
+        a finite-difference Jacobian, one batched :func:`eodarm.solve` per step).
     self_weight : include link and actuator weights in both states (as :func:`eodarm.solve`).
     strict : raise :class:`CompensationError` when a pose cannot be compensated, instead of
         warning.
     jacobian : ``"auto"`` (default: quasi-Newton for 2 and 3 links, exact finite differences
         for 1 and more than 3), ``"rigid"`` (quasi-Newton; 2 or 3 links only) or
-        ``"finite_difference"``.
+        ``"finite_difference"`` (the core's; with user-written effects the Python iteration
+        always uses finite differences).
     max_iter : most Gauss–Newton steps per pose.
     tol_mm : the miss (mm; the last angle's scaled by the last link's length) at which a pose
         has converged.
@@ -130,7 +135,8 @@ def compensate(
         raise InputError(f"max_iter must be an integer >= 1, got {max_iter!r}")
     if not (np.isfinite(tol_mm) and tol_mm > 0):
         raise InputError(f"tol_mm must be finite and > 0, got {tol_mm!r}")
-    codes, places, values = effect_arrays(with_arm_effects(arm.effects, effects), arm.n)
+    effs = with_arm_effects(arm.effects, effects)
+    codes, places, values = effect_arrays(effs, arm.n)  # the catalogue's effects
     payload = np.zeros((alpha.shape[0], 2))
     payload[:, 1] = -mass * arm.g
 
@@ -157,6 +163,10 @@ def compensate(
         "iterations": raw["iterations"].astype(np.int64),
         "actuator": raw["actuator"].astype(np.int64),
     }
+    if split_effects(effs)[1]:  # user-written effects: finished in Python on the full model
+        from eodarm.analysis.compensate_custom import refine
+
+        out = refine(arm, alpha, mass, effs, bool(self_weight), out, int(max_iter), float(tol_mm))
     summary = failure_summary(out)
     if summary:
         if strict:

@@ -21,7 +21,7 @@ import numpy as np
 import numpy.typing as npt
 
 from eodarm.analysis.compensate import CompensationError, compensate
-from eodarm.cli._common import _floats, _load_arm, _note, _valued_effect
+from eodarm.cli._common import _effects_args, _floats, _load_arm, _note, _valued_effect
 from eodarm.cli._help import HELP
 from eodarm.errors import EodarmError
 from eodarm.model.arm import Arm
@@ -242,5 +242,6 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
         help="keep the poses that can be compensated when some cannot (their angles empty, "
         "their status given) instead of failing",
     )
+    _effects_args(c)
     c.set_defaults(func=run)
     return c

@@ -176,9 +176,27 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         help="Dask scheduler address (tcp://host:8786) to run the chunks on (eodarm[dask])",
     )
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    _uncertainty_args(p)
     _effects_args(p)
     p.set_defaults(func=run)
     return p
+
+
+def _uncertainty_args(p: argparse.ArgumentParser) -> None:
+    """--uncertainty and --compensated-miss (a fitted arm file: its [fit] covariance)."""
+    p.add_argument(
+        "--uncertainty",
+        action="store_true",
+        help="add sigma_dx_mm, sigma_dy_mm, sigma_dalpha_deg from the arm file's [fit] "
+        "covariance (an arm written by 'eodarm fit -o'); with --plot, sag_uncertainty.png",
+    )
+    p.add_argument(
+        "--compensated-miss",
+        action="store_true",
+        help="compensate every cell with the fitted model and add compensated_miss_mm "
+        "(2 sigma at the compensated pose), compensation_residual_mm, compensation_status; "
+        "with --plot, compensated_miss.png",
+    )
 
 
 def _cli_grid(args: argparse.Namespace, n: int) -> dict[str, Any]:
@@ -261,6 +279,10 @@ def run(args: argparse.Namespace) -> int:
     reduce = _cli_reduce(args.reduce)
     out = args.output
     kind = store.output_kind(out) if out else None
+    if kind == "zarr" and (args.uncertainty or args.compensated_miss):
+        raise EodarmError(
+            "--uncertainty and --compensated-miss are computed in memory: write -o OUT.nc"
+        )
     if args.resume and kind != "zarr":
         raise EodarmError("--resume continues an interrupted Zarr sweep: give -o OUT.zarr")
     scheduler: Any = None
@@ -287,6 +309,8 @@ def run(args: argparse.Namespace) -> int:
         threads=args.threads,
         mask_unreachable=args.mask_unreachable,
     )
+    if args.uncertainty or args.compensated_miss:
+        kwargs.update(uncertainty=args.uncertainty, compensated_miss=args.compensated_miss)
     t0 = time.perf_counter()
     try:
         try:
@@ -334,12 +358,42 @@ def run(args: argparse.Namespace) -> int:
                 note=_note,
                 prefix=args.plot_prefix,
             )
+            written += _uncertainty_maps(args, arm, grid, effects, plot_mass, mass, reduce, ds)
         except KeyboardInterrupt:
             done = f": {out} is complete, the maps are not" if out else ""
             _note(f"interrupted while plotting into {args.plot}{done}")
             return 130
         _note("wrote " + ", ".join(str(w) for w in written))
     return 0
+
+
+def _uncertainty_maps(
+    args: argparse.Namespace,
+    arm: Arm,
+    grid: dict[str, Any],
+    effects: list[Any],
+    plot_mass: float,
+    mass: FloatArray,
+    reduce: dict[str, Any] | None,
+    ds: xr.Dataset,
+) -> list[Any]:
+    """The maps of --uncertainty and --compensated-miss (none without them)."""
+    if not (args.uncertainty or args.compensated_miss):
+        return []
+    from eodarm.viz import uncertainty_maps
+
+    return uncertainty_maps.render(
+        arm,
+        grid,
+        effects,
+        plot_mass,
+        args.plot,
+        ds=ds if reduce is None and plot_mass in mass else None,
+        uncertainty=args.uncertainty,
+        compensated_miss=args.compensated_miss,
+        self_weight=not args.no_self_weight,
+        prefix=args.plot_prefix,
+    )
 
 
 def _interrupted(exc: store.SweepInterrupted) -> str:
@@ -396,3 +450,7 @@ def _summary(ds: xr.Dataset) -> None:
             fi = f.sel(actuator=i)
             if bool(np.isfinite(fi).any()):
                 print(f"|F{i}| up to {float(fi.max()):.4g} N")
+    from eodarm.workspace.uncertainty import summary_lines
+
+    for line in summary_lines(ds):
+        print(line)

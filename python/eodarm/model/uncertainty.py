@@ -23,7 +23,7 @@ from eodarm.errors import InputError
 from eodarm.model.arm import Arm
 from eodarm.model.effects import CATALOGUE, Effect, Slot, theta_from_param
 
-__all__ = ["SIGMA_KEYS", "prediction_sigma"]
+__all__ = ["SIGMA_KEYS", "prediction_sigma", "require_fit"]
 
 #: The outputs that get a standard deviation, and its key.
 SIGMA_KEYS = {"dx_mm": "sigma_dx_mm", "dy_mm": "sigma_dy_mm", "dalpha_deg": "sigma_dalpha_deg"}
@@ -49,15 +49,23 @@ def _parameters(arm: Arm) -> tuple[list[Slot], npt.NDArray[np.float64]]:
     return slots, rec.matrix() * np.outer(d, d)
 
 
+def require_fit(arm: Arm) -> None:
+    """Refuse (one line) an arm that carries no fitted covariance, before any work."""
+    _parameters(arm)
+
+
 def prediction_sigma(
     arm: Arm,
     alpha: npt.NDArray[np.float64],
     payload: npt.NDArray[np.float64],
     effects: list[Effect],
     self_weight: bool,
+    nan_on_failure: bool = False,
 ) -> dict[str, npt.NDArray[np.float64]]:
     """Standard deviations of ``dx_mm``, ``dy_mm`` (N,) and ``dalpha_deg`` (N, n) from the
     arm's fitted covariance, for the model ``effects`` (the arm's own, merged, included).
+    With ``nan_on_failure`` a row the core cannot solve gets NaN instead of an error (the
+    sweep's cells that are not ok).
 
     Raises
     ------
@@ -75,11 +83,20 @@ def prediction_sigma(
     probes = np.array([s.code for s in slots], dtype=np.int64)
     where = np.array([s.index(n) for s in slots], dtype=np.int64)
     _, jac = _core.jacobian(
-        _core_arm(arm), alpha, payload, codes, places, thetas, probes, where, self_weight
+        _core_arm(arm),
+        alpha,
+        payload,
+        codes,
+        places,
+        thetas,
+        probes,
+        where,
+        self_weight,
+        nan_on_failure=nan_on_failure,
     )
     # var_k = Σ_ij J_ki C_ij J_kj for every row and channel, without forming J C Jᵀ
     var = np.einsum("rci,ij,rcj->rc", jac, cov, jac)
-    sd = np.sqrt(np.clip(var, 0.0, None))
+    sd = np.sqrt(np.clip(var, 0.0, None))  # NaN rows stay NaN
     out: dict[str, Any] = {
         "sigma_dx_mm": sd[:, 0].copy(),
         "sigma_dy_mm": sd[:, 1].copy(),

@@ -26,7 +26,7 @@ Command line (registered by :func:`add_parser`)::
 
     eodarm sweep [--arm ARM.toml] [--alpha1 LO:HI:N ...] [--mass 1.5,5,6.5]
                  [--add EFFECT@PLACE=VALUE ...] [--reduce max:mass_kg] [-o OUT.nc | OUT.zarr]
-                 [--plot DIR] [--threads K] [--no-progress]
+                 [--plot DIR] [--threads K] [--no-progress] [--uncertainty] [--compensated-miss]
 """
 
 from __future__ import annotations
@@ -219,6 +219,8 @@ def sweep(
     mask_unreachable: bool = False,
     model: str = "analytic",
     fem_options: Mapping[str, Any] | None = None,
+    uncertainty: bool = False,
+    compensated_miss: bool = False,
 ) -> xr.Dataset:
     """Solve every pose of a grid under every payload, in chunks; an xarray Dataset.
 
@@ -264,6 +266,14 @@ def sweep(
         ``"fem"`` (the frame finite-element model of docs/fem.md, solved cell by cell; linear,
         so it agrees with the analytic model to first order in the load).
     fem_options : with ``model="fem"``, e.g. ``{"elements_per_link": 8}``.
+    uncertainty : also give ``sigma_dx_mm``, ``sigma_dy_mm``, ``sigma_dalpha_deg`` per cell,
+        the standard deviations from the arm's fitted covariance (its ``[fit]`` table), as
+        :func:`eodarm.solve` does; a reduced sweep gives σ at the cell the reduction chose
+        (:mod:`eodarm.workspace.uncertainty`).
+    compensated_miss : also compensate every solved cell with the fitted model and give
+        ``compensated_miss_mm`` (2σ of the loaded measure point at the compensated pose),
+        ``compensation_residual_mm`` and ``compensation_status`` (a reduced sweep: the largest
+        miss and residual of each group; :mod:`eodarm.workspace.compensated`).
 
     Returns
     -------
@@ -274,14 +284,16 @@ def sweep(
         ``effector_y_mm`` (and ``alpha_deg`` for lengths and effector grids) per pose. Every
         variable and coordinate has ``units`` and ``long_name`` attrs; the dataset's attrs
         name the arm (and carry its TOML), the model, self-weight, the grid kind and the
-        reduction.
+        reduction. With ``uncertainty`` or ``compensated_miss``, the variables above too.
 
     Raises
     ------
     ValueError
         (:class:`~eodarm.errors.InputError`) with one line naming the problem: no or several
         grids, an unknown or missing grid name, an empty or non-finite grid, a bad mass,
-        an unknown reduce dimension or one that is not innermost.
+        an unknown reduce dimension or one that is not innermost; ``uncertainty`` or
+        ``compensated_miss`` for an arm without a ``[fit]`` table, the FE model or
+        user-written effects.
         :class:`~eodarm.errors.SweepTooLargeError` (one of them), before anything is built,
         when the output would not fit in the memory available (docs/sweeps.md, "Size
         checks").
@@ -308,7 +320,11 @@ def sweep(
         model=model,
         fem_options=fem_options,
     )
-    limits.check_memory(setup.cells, setup.nbytes)
+    from eodarm.workspace import uncertainty as _unc
+
+    _unc.check(setup.job, uncertainty, compensated_miss)
+    extra = _unc.extra_nbytes(setup, uncertainty, compensated_miss)
+    limits.check_memory(setup.cells, setup.nbytes + extra)
     job, block, step = setup.job, setup.job.block, setup.step
     result = _allocate(setup.shapes, setup.dtypes)
 
@@ -330,7 +346,7 @@ def sweep(
         finally:
             if bar is not None:
                 bar.close()
-    return _dataset(setup, result)
+    return _unc.add_outputs(_dataset(setup, result), setup, result, uncertainty, compensated_miss)
 
 
 # ---------------------------------------------------------------------------- the plan
