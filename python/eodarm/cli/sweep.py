@@ -117,7 +117,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     p.add_argument(
         "--mask-unreachable",
         action="store_true",
-        help="treat out-of-stroke poses as not solved (NaN, skipped by --reduce)",
+        help="no effect any more: out-of-stroke cells are never ok (status out_of_stroke)",
     )
     p.add_argument("--no-self-weight", action="store_true", help="drop link/actuator weights")
     p.add_argument(

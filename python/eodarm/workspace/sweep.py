@@ -258,8 +258,8 @@ def sweep(
         ``dask.compute`` (``"threads"``, ``"processes"``, ``"synchronous"``).
     threads : threads of the compiled core per chunk (None: its default).
     alpha_ref_deg, elbow : the branch of a lengths grid, of an effector grid.
-    mask_unreachable : treat cells of unreachable poses (out of stroke) as not ok: NaN, and
-        skipped by reductions.
+    mask_unreachable : accepted for old scripts; changes nothing (cells of poses out of
+        stroke are never ok: their status is ``out_of_stroke``).
     model : ``"analytic"`` (the exact-pose model of docs/model.md, the fast core) or
         ``"fem"`` (the frame finite-element model of docs/fem.md, solved cell by cell; linear,
         so it agrees with the analytic model to first order in the load).
@@ -270,7 +270,8 @@ def sweep(
     xarray.Dataset
         dims (grid dims…, ``mass_kg``[, ``actuator`` | ``link``]) minus reduced ones, with
         ``force_n``, ``dx_mm``, ``dy_mm``, ``dalpha_deg`` (…, link), ``dl_mm`` (…, actuator),
-        ``ok`` per cell; ``reachable``, ``length_mm`` (…, actuator), ``effector_x_mm``,
+        ``status`` (uint8, docs/model.md §7) and ``ok`` (status 0) per cell, NaN values
+        where a cell is not ok; ``reachable``, ``length_mm`` (…, actuator), ``effector_x_mm``,
         ``effector_y_mm`` (and ``alpha_deg`` for lengths and effector grids) per pose. Every
         variable and coordinate has ``units`` and ``long_name`` attrs; the dataset's attrs
         name the arm (and carry its TOML), the model, self-weight, the grid kind and the

@@ -564,19 +564,19 @@ impl<const N: usize> FastArm<N> {
         cb.dy = dy;
         // The status (validity::classify's order): the pose's own, else over force, else
         // large deflection (a triangle that cannot close included).
+        // Selects, not branches: the lane loop stays vectorised.
         let down = m * self.g > 0.0;
+        let (large, over_code) = (Status::LargeDeflection.code(), Status::OverForce.code());
         for k in 0..L {
             let moved = !(dx[k] * dx[k] + dy[k] * dy[k] <= self.move_lim2);
             let rise = down & (dy[k] > self.rise_lim);
-            let code = if pb.code[k] != 0 {
-                pb.code[k]
-            } else if over[k] & !fail[k] {
-                Status::OverForce.code()
-            } else if fail[k] | big[k] | moved | rise {
-                Status::LargeDeflection.code()
+            let cell = if fail[k] | big[k] | moved | rise {
+                large
             } else {
-                Status::Ok.code()
+                0
             };
+            let cell = if over[k] & !fail[k] { over_code } else { cell };
+            let code = if pb.code[k] != 0 { pb.code[k] } else { cell };
             cb.status[k] = code;
             cb.ok[k] = code == 0;
         }
