@@ -718,6 +718,10 @@ fn reductions_equal_naive_reduction() {
                 ReduceOp::ArgMin,
             ] {
                 let (vals, idxs, ok) = naive(&full, 3, op, group);
+                // a group's status: the lowest code of its cells that are not ok, else 0
+                let status: Vec<u8> = (full.status.chunks(group))
+                    .map(|g| g.iter().copied().filter(|&c| c != 0).min().unwrap_or(0))
+                    .collect();
                 for chunk_rows in [None, Some(30), Some(100)] {
                     let o = SweepOptions {
                         reduce: Some(Reduce { op, group }),
@@ -727,6 +731,7 @@ fn reductions_equal_naive_reduction() {
                     };
                     let red = run(&arm, &eff, &alpha, &mass, o, &never).unwrap();
                     assert_eq!(red.ok, ok, "ok, group {group}, {op:?}");
+                    assert_eq!(red.status, status, "status, group {group}, {op:?}");
                     assert_eq!(red.length, full.length);
                     assert_eq!(red.reachable, full.reachable);
                     if op.is_arg() {
