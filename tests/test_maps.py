@@ -71,6 +71,12 @@ def limits_crossed(arm: eodarm.Arm, alpha: np.ndarray, mass: float) -> list[int]
 
 
 def test_capacity_is_the_payload_where_the_first_limit_is_reached(arm: eodarm.Arm) -> None:
+    # Force limits of 1500 N (not the example's 4000 N) bind away from the near-singular poses,
+    # whose capacity is NaN (the model is not valid there, docs/model.md §7).
+    d = arm.to_dict()
+    for a in d["actuator"]:
+        a["max_force_n"] = 1500.0
+    arm = eodarm.Arm.from_dict(d)
     cap = maps.payload_capacity(arm, GRID, effects=[*SOFT, *MODEL], max_payload_kg=300.0)
     c = cap["capacity_kg"].values.ravel()
     lim = cap["limit"].values.ravel()
@@ -147,7 +153,12 @@ def test_the_baseline_springs_compete_only_without_effects(arm: eodarm.Arm) -> N
 
 
 def _mesh(fig: Figure, k: int = 0) -> np.ma.MaskedArray:
-    meshes = [c for ax in fig.axes for c in ax.collections if isinstance(c, QuadMesh)]
+    meshes = [
+        c
+        for ax in fig.axes
+        for c in ax.collections
+        if isinstance(c, QuadMesh) and c.get_gid() != "not_ok"  # not the grey layer
+    ]
     return np.ma.masked_invalid(np.ma.filled(meshes[k].get_array(), np.nan))
 
 
@@ -159,10 +170,13 @@ def test_the_sag_map_shows_only_reachable_solved_poses(ds: xr.Dataset) -> None:
     poisoned["dy_mm"].values[~np.broadcast_to(good[..., None], ds["dy_mm"].shape)] = -1e6
     img = _mesh(draw.sag_map(poisoned, 6.5))
     shown = img.compressed()
+    dy = sel["dy_mm"].values[good]
+    if (dy < 0).all():  # every sound pose sags: the map shows the sag −dy (log scale)
+        shown = -shown
     assert shown.min() > -1e6
-    assert set(np.round(shown, 9)) <= set(np.round(sel["dy_mm"].values[good], 9))
+    assert set(np.round(shown, 9)) <= set(np.round(dy, 9))
     # every pixel shows the most sagging pose that lands in it: the overall worst is there
-    assert shown.min() == pytest.approx(float(sel["dy_mm"].values[good].min()))
+    assert shown.min() == pytest.approx(float(dy.min()))
 
 
 def test_a_pixel_shows_its_worst_pose(arm: eodarm.Arm) -> None:

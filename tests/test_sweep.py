@@ -104,21 +104,27 @@ def test_every_cell_is_what_solve_gives(arm: eodarm.Arm, full: xr.Dataset) -> No
     np.testing.assert_allclose(full["effector_y_mm"].values.ravel(), geo["O"][:, 3, 1])
 
 
-def test_a_cell_is_not_ok_exactly_where_solve_refuses_the_pose(
+def test_a_cell_is_ok_exactly_where_solve_gives_status_ok(
     arm: eodarm.Arm, full: xr.Dataset
 ) -> None:
+    """Not ok where solve refuses the pose, else the status solve gives (docs/model.md §7)."""
     names = ["alpha1", "alpha2", "alpha3"]
     alpha = poses_of(full, names)
     ok = cells(full, "ok", names).reshape(alpha.shape[0], len(MASSES))
+    status = cells(full, "status", names).reshape(alpha.shape[0], len(MASSES))
     refused = np.zeros_like(ok)
     for p in range(alpha.shape[0]):
         for j, m in enumerate(MASSES):
             try:
-                eodarm.solve(arm, alpha[p], m, effects=SOFT)
+                out = eodarm.solve(arm, alpha[p], m, effects=SOFT)
             except ValueError as exc:
                 assert "singular" in str(exc) or "cannot close" in str(exc), str(exc)
                 refused[p, j] = True
-    np.testing.assert_array_equal(~ok, refused)
+                assert status[p, j] != 0
+                continue
+            assert status[p, j] == out["status"][0], (p, j)
+    np.testing.assert_array_equal(ok, status == 0)
+    assert not ok[refused].any() and ok.any()
     # both kinds occur: the singular α1 for every payload, soft-spring closures only loaded
     singular = np.isclose(alpha[:, 0], full["alpha1"].values[0])
     assert refused[singular].all() and refused[~singular].any()
@@ -350,18 +356,22 @@ def test_a_lengths_grid_puts_the_actuators_at_the_asked_lengths(arm: eodarm.Arm)
     np.testing.assert_allclose(
         ds["length_mm"].values.reshape(-1, 3)[exists], want[exists], atol=1e-9
     )
-    # out of stroke (l1 = 200 < 250, l2 = 640 > 630) is not reachable, still solved
+    # out of stroke (l1 = 200 < 250, l2 = 640 > 630) is not reachable and not ok; a grid
+    # point without a pose is out of stroke too
     out = (want[:, 0] < 250) | (want[:, 1] > 630)
     reach = ds["reachable"].values.ravel()
     assert not reach[out].any() and reach[exists & ~out].all()
     ok = ds["ok"].values.ravel()
-    assert ok[exists].all() and not ok[~exists].any()
-    # the same poses through an angle sweep give the same cells
+    status = ds["status"].values.ravel()
+    assert (status[out | ~exists] == 1).all() and not ok[out | ~exists].any()
+    # the same poses through an angle sweep give the same cells and status
     sol = eodarm.solve(arm, alpha[exists], 2.0)
+    np.testing.assert_array_equal(status[exists], sol["status"])
+    assert ok[exists].any()
     # the sweep's fast kernel and solve agree to round-off of mm-sized coordinates
-    np.testing.assert_allclose(
-        ds["dy_mm"].values.ravel()[exists], sol["dy_mm"], rtol=1e-9, atol=1e-9
-    )
+    dy = ds["dy_mm"].values.ravel()[exists]
+    good = ok[exists]
+    np.testing.assert_allclose(dy[good], sol["dy_mm"][good], rtol=1e-9, atol=1e-9)
 
 
 def test_masking_a_lengths_grid_keeps_its_poses_and_drops_their_cells(arm: eodarm.Arm) -> None:
@@ -373,8 +383,11 @@ def test_masking_a_lengths_grid_keeps_its_poses_and_drops_their_cells(arm: eodar
         np.testing.assert_allclose(
             masked[key].values, plain[key].values, rtol=0, atol=1e-9, err_msg=key
         )
-    assert plain["ok"].values.ravel().tolist() == [False, True, True]
+    # out of stroke is never ok: the mask changes nothing
+    assert plain["ok"].values.ravel().tolist() == [False, False, True]
     assert masked["ok"].values.ravel().tolist() == [False, False, True]
+    assert plain["status"].values.ravel().tolist() == [1, 1, 0]
+    np.testing.assert_array_equal(masked["status"].values, plain["status"].values)
     assert np.isnan(masked["dy_mm"].values.ravel()[:2]).all()
     assert np.isfinite(masked["alpha_deg"].values[1]).all()
 

@@ -107,11 +107,16 @@ def test_sweep_cells_equal_solve_on_both_backends(
     effects = data.draw(effects_for(arm, kinds) if kinds else effects_for(arm), label="effects")
     mass = np.array(data.draw(st.lists(st.floats(0.0, 8.0), min_size=n_mass, max_size=n_mass)))
     got = core_sweep(arm, alpha, mass, effects, self_weight)
-    assert got["ok"].shape == (alpha.shape[0], n_mass) and got["ok"].all()
+    ok = got["ok"]
+    assert ok.shape == (alpha.shape[0], n_mass)
+    np.testing.assert_array_equal(ok, got["status"] == 0)
     for backend in ("rust", "numpy"):
         want = every_cell(arm, alpha, mass, effects, backend, self_weight)
+        # the status of each cell is solve's (eodarm.model.validity on the solved pose)
+        np.testing.assert_array_equal(got["status"], want["status"], err_msg=backend)
         for key in CELL_KEYS:
-            assert_close(got[key], want[key], f"{key} vs {backend}")
+            assert np.isnan(got[key][~ok]).all(), key
+            assert_close(got[key][ok], want[key][ok], f"{key} vs {backend}")
     geo = eodarm.forward(arm, alpha, backend="numpy")
     assert_close(got["length_mm"], geo["length_mm"], "length_mm")
     assert_close(got["effector_x_mm"], geo["O"][:, arm.n, 0], "effector_x_mm")
@@ -128,9 +133,11 @@ def test_large_sweep_equals_numpy_reference(effects: list[eodarm.Effect]) -> Non
     mass = np.array([0.0, 2.5, 7.0])
     got = core_sweep(arm, alpha, mass, effects)
     want = every_cell(arm, alpha, mass, effects, "numpy", True)
-    assert got["ok"].all()
+    ok = got["ok"]
+    assert ok.mean() > 0.5
+    np.testing.assert_array_equal(got["status"], want["status"])
     for key in CELL_KEYS:
-        assert_close(got[key], want[key], key)
+        assert_close(got[key][ok], want[key][ok], key)
     one = core_sweep(arm, alpha, mass, effects, threads=1)
     for key in (*CELL_KEYS, "length_mm", "effector_x_mm", "effector_y_mm"):
         np.testing.assert_array_equal(one[key], got[key], err_msg=f"{key}: threads")
@@ -146,10 +153,13 @@ def singular_angle(arm: eodarm.Arm) -> float:
 def test_unsolvable_cells_are_nan_not_errors() -> None:
     arm = eodarm.Arm.from_toml(EXAMPLE)
     alpha = np.array([[80.0, 10.0, 0.0], [singular_angle(arm), 10.0, 0.0], [95.0, 20.0, 5.0]])
-    soft = [eodarm.Effect("actuator_compliance", "M3", stiffness_n_per_mm=1.0)]
-    mass = np.array([1.0, 1e5])  # 1e5 kg cannot be held by a 1 N/mm actuator
+    soft = [eodarm.Effect("actuator_compliance", "M3", stiffness_n_per_mm=500.0)]
+    mass = np.array([1.0, 1e5])  # 1e5 kg cannot be held by a 500 N/mm actuator
     out = core_sweep(arm, alpha, mass, soft)
     np.testing.assert_array_equal(out["ok"], [[True, False], [False, False], [True, False]])
+    # the singular pose is out of the example arm's stroke too (the first reason); a triangle
+    # that cannot close is a large deflection
+    np.testing.assert_array_equal(out["status"], [[0, 5], [1, 1], [0, 5]])
     for key in CELL_KEYS:
         assert np.isnan(out[key][~out["ok"]]).all(), key
         assert np.isfinite(out[key][out["ok"]]).all(), key

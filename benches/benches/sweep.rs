@@ -1,5 +1,5 @@
 //! Criterion benchmarks of `arm_core::sweep` on the example arm (`examples/example_arm.toml`):
-//! 1e4, 1e5 and 1e6 poses × 1 payload, baseline model, all outputs; one thread against two
+//! 1e4, 1e5 and 1e6 poses × 1 payload, baseline model, all outputs (the status included); one thread against two
 //! (a pool of two built per call, `threads: Some(2)`, and rayon's global pool, `None`, which
 //! has two threads on a 2-CPU machine); stored against reduced (max over groups of 8 poses).
 //! The poses are given as rows (`Poses::Rows`, random angles) and, in `sweep_grid/…`, as a
@@ -33,6 +33,7 @@ struct Buffers {
     dalpha: Vec<f64>,
     dl: Vec<f64>,
     ok: Vec<bool>,
+    status: Vec<u8>,
     length: Vec<f64>,
     reachable: Vec<bool>,
     ex: Vec<f64>,
@@ -49,6 +50,7 @@ impl Buffers {
             dalpha: z(rows * n),
             dl: z(rows * n),
             ok: vec![false; rows],
+            status: vec![0; rows],
             length: z(poses * n),
             reachable: vec![false; poses],
             ex: z(poses),
@@ -66,6 +68,7 @@ impl Buffers {
                 dl_mm: &mut self.dl,
             }),
             ok: &mut self.ok,
+            status: &mut self.status,
             length_mm: &mut self.length,
             reachable: &mut self.reachable,
             effector_x_mm: &mut self.ex,

@@ -2,9 +2,11 @@
 //!
 //! A cell is (pose p, mass j), row `r = p·M + j`, payload force `(0, −m_j·g)` at the load
 //! point. Each cell gets what [`crate::Workspace::solve`] computes (loaded minus unloaded,
-//! exact closure; docs/model.md §2–§5); a cell whose pose is singular or whose loaded triangle
-//! cannot close is NaN with `ok = false`, never an error. Per pose the sweep also writes the
-//! unloaded lengths, a reachability mask and the unloaded load point.
+//! exact closure; docs/model.md §2–§5) and a status ([`crate::validity::Status`], docs/model.md
+//! §7: out of stroke, near singular, branch flip, over force, large deflection), computed in
+//! the same pass. A cell that is not ok (a singular pose or a loaded triangle that cannot
+//! close included) is NaN with `ok = false`, never an error. Per pose the sweep also writes
+//! the unloaded lengths, a reachability mask and the unloaded load point.
 //!
 //! * **Two kernels.** The baseline model and the length-only effects (`actuator_compliance`,
 //!   `mount_compliance`, `actuator_play`) run through the block kernel of `fast`
@@ -26,12 +28,13 @@
 //!   when the pool threads take every other chunk); when it returns true the sweep stops and
 //!   returns [`ArmError::Cancelled`], with the outputs partly written.
 //! * **Reductions.** With [`SweepOptions::reduce`], the cell fields are not stored per cell:
-//!   every `group` consecutive rows fold into one output row, NaN ignored (a group without a
-//!   value is NaN, its index −1). Per-pose outputs are still written per pose, except
+//!   every `group` consecutive rows fold into one output row over the cells that are ok (a
+//!   group without one is NaN, its index −1); its status is 0 when every cell is ok, else the
+//!   lowest code among those that are not. Per-pose outputs are still written per pose, except
 //!   `reachable` when the groups are whole poses and its buffer has one value per group:
 //!   then it is "some pose of the group is reachable".
-//! * **Mask.** With [`SweepOptions::mask_unreachable`] the cells of poses out of stroke are
-//!   not solved (NaN, `ok = false`) and the reductions skip them.
+//! * **Mask.** The cells of poses out of stroke are never ok (status `out_of_stroke`), so
+//!   [`SweepOptions::mask_unreachable`] changes nothing any more; it is kept for callers.
 //!
 //! Results do not depend on the chunk size or the number of threads (bit for bit).
 
@@ -274,8 +277,12 @@ impl<'a> Cells<'a> {
 pub struct SweepOut<'a> {
     /// Cell fields, `R` rows.
     pub cells: Cells<'a>,
-    /// The cell solved (reduced: any cell of the group solved), `R`.
+    /// The cell solved and its status ok (reduced: some cell of the group ok), `R`.
     pub ok: &'a mut [bool],
+    /// The status code of each cell ([`crate::validity::Status`]; reduced: 0 when every cell
+    /// of the group is ok, else the lowest code among those that are not), `R`; may be
+    /// empty (not written).
+    pub status: &'a mut [u8],
     /// Unloaded pin-to-pin lengths (mm), `N × n` (written also for singular poses).
     pub length_mm: &'a mut [f64],
     /// Not singular and every length within its actuator's stroke limits, `N`; or, with a
@@ -305,6 +312,7 @@ struct ChunkOut<'a> {
     out0: usize,
     cells: Cells<'a>,
     ok: &'a mut [bool],
+    status: &'a mut [u8],
     length: &'a mut [f64],
     reachable: &'a mut [bool],
     ex: &'a mut [f64],
@@ -317,6 +325,7 @@ struct Partial {
     vals: Vec<f64>,
     at: Vec<i64>,
     ok: bool,
+    status: u8,
     reach: bool,
 }
 
@@ -328,7 +337,6 @@ struct Plan<'a> {
     mass: &'a [f64],
     n: usize,
     self_weight: bool,
-    mask_unreachable: bool,
     reduce: Option<Reduce>,
     /// Poses per value of `reachable` (> 1: any pose of the group).
     pose_group: usize,
@@ -488,7 +496,6 @@ pub fn sweep_poses(
         mass: mass_kg,
         n,
         self_weight: opts.self_weight,
-        mask_unreachable: opts.mask_unreachable,
         reduce: opts.reduce,
         pose_group,
         axis_trig: Vec::new(),
@@ -662,6 +669,7 @@ fn check_out(
     }
     let per_pose = [
         ("ok", out.ok.len(), rows, false),
+        ("status", out.status.len(), rows, true),
         ("length_mm", out.length_mm.len(), poses * n, true),
         ("reachable", out.reachable.len(), poses / pose_group, true),
         ("effector_x_mm", out.effector_x_mm.len(), poses, true),
@@ -684,6 +692,7 @@ struct Gap<'a> {
     g: usize,
     cells: Cells<'a>,
     ok: &'a mut [bool],
+    status: &'a mut [u8],
     /// Its `reachable` value when reachability is per group, else empty.
     reach: &'a mut [bool],
 }
@@ -704,6 +713,7 @@ fn split_out<'a>(
     let SweepOut {
         mut cells,
         mut ok,
+        mut status,
         mut length_mm,
         mut reachable,
         mut effector_x_mm,
@@ -724,6 +734,7 @@ fn split_out<'a>(
                 g: pos,
                 cells: cells.split(0, s - pos, n),
                 ok: cut(&mut ok, 0, s - pos),
+                status: cut(&mut status, 0, s - pos),
                 reach: if grouped {
                     cut(&mut reachable, 0, s - pos)
                 } else {
@@ -754,6 +765,7 @@ fn split_out<'a>(
             out0: s,
             cells: cells.split(0, e - s, n),
             ok: cut(&mut ok, 0, e - s),
+            status: cut(&mut status, 0, e - s),
             length,
             reachable: reach,
             ex,
@@ -810,6 +822,7 @@ fn run_chunk(plan: &Plan<'_>, mut ch: ChunkOut<'_>, scratch: &mut Scratch) -> Re
             n,
             cells,
             ok: ch.ok,
+            status: ch.status,
         };
         let pose_out = PoseOut {
             length: ch.length,
@@ -867,7 +880,9 @@ fn run_chunk(plan: &Plan<'_>, mut ch: ChunkOut<'_>, scratch: &mut Scratch) -> Re
             &acc.at[gi * nf..(gi + 1) * nf],
         );
         if interior.contains(&g) {
-            write_group(&mut ch.cells, ch.ok, g - ch.out0, n, vals, at, acc.ok[gi]);
+            let o = g - ch.out0;
+            let done = (acc.ok[gi], acc.status[gi]);
+            write_group(&mut ch.cells, ch.ok, ch.status, o, n, vals, at, done);
             if grouped {
                 ch.reachable[g - ch.out0] = acc.reach[gi];
             }
@@ -877,6 +892,7 @@ fn run_chunk(plan: &Plan<'_>, mut ch: ChunkOut<'_>, scratch: &mut Scratch) -> Re
                 vals: vals.to_vec(),
                 at: at.to_vec(),
                 ok: acc.ok[gi],
+                status: acc.status[gi],
                 reach: acc.reach[gi],
             });
         }
@@ -893,18 +909,29 @@ fn merge_partials(op: ReduceOp, n: usize, mut partials: Vec<Partial>, gaps: Vec<
         let mut vals = vec![f64::NAN; nf];
         let mut at = vec![-1i64; nf];
         let mut ok = false;
+        let mut code = 0;
         let mut reach = false;
         while let Some(p) = parts.next_if(|p| p.g <= gap.g) {
             if p.g < gap.g {
                 continue;
             }
             ok |= p.ok;
+            reduce::fold_status(&mut code, p.status);
             reach |= p.reach;
             for f in 0..nf {
                 reduce::fold(op, &mut vals[f], &mut at[f], p.vals[f], p.at[f]);
             }
         }
-        write_group(&mut gap.cells, gap.ok, 0, n, &vals, &at, ok);
+        write_group(
+            &mut gap.cells,
+            gap.ok,
+            gap.status,
+            0,
+            n,
+            &vals,
+            &at,
+            (ok, code),
+        );
         if let Some(r) = gap.reach.first_mut() {
             *r = reach;
         }
@@ -943,7 +970,6 @@ fn run_kernel(
                 plan.arm,
                 plan.effects,
                 plan.self_weight,
-                plan.mask_unreachable,
                 plan.mass,
                 pose0,
                 alpha,
@@ -1000,13 +1026,14 @@ fn run_fast<const N: usize>(
         }
         for (j, &m) in mass.iter().enumerate() {
             k.cells(simd, &pb, m, &mut cb);
-            if plan.mask_unreachable {
-                for q in 0..L {
-                    cb.ok[q] &= pb.reachable[q];
-                }
-            }
+            // (Cells of poses out of stroke or singular are never ok: `mask_unreachable`
+            // has nothing to add here.)
             if let Sink::Store {
-                row0, cells, ok, ..
+                row0,
+                cells,
+                ok,
+                status,
+                ..
             } = sink
             {
                 cb.nan_failed();
@@ -1015,6 +1042,9 @@ fn run_fast<const N: usize>(
                 if masses == 1 {
                     let rows = r0..r0 + count;
                     ok[rows.clone()].copy_from_slice(&cb.ok[..count]);
+                    if !status.is_empty() {
+                        status[rows.clone()].copy_from_slice(&cb.status[..count]);
+                    }
                     cells.dx_mm[rows.clone()].copy_from_slice(&cb.dx[..count]);
                     cells.dy_mm[rows].copy_from_slice(&cb.dy[..count]);
                     let span = r0 * N..(r0 + count) * N;
@@ -1026,6 +1056,9 @@ fn run_fast<const N: usize>(
                 for q in 0..count {
                     let r = r0 + q * masses;
                     ok[r] = cb.ok[q];
+                    if let Some(s) = status.get_mut(r) {
+                        *s = cb.status[q];
+                    }
                     cells.dx_mm[r] = cb.dx[q];
                     cells.dy_mm[r] = cb.dy[q];
                     for i in 0..N {
@@ -1156,8 +1189,9 @@ fn fold_block<const N: usize, const OP: u8>(
     let mut g = row / group;
     let mut off = row - g * group;
     for q in 0..count {
+        let gi = g - acc.g0;
+        reduce::fold_status(&mut acc.status[gi], cb.status[q]);
         if cb.ok[q] {
-            let gi = g - acc.g0;
             acc.ok[gi] = true;
             let vals = &mut acc.vals[gi * nf..(gi + 1) * nf];
             let at = &mut acc.at[gi * nf..(gi + 1) * nf];

@@ -13,6 +13,7 @@ use arm_core::kinematics::Frames;
 use arm_core::sweep::{
     sweep, sweep_poses, CellFields, Cells, Grid, Poses, Reduce, ReduceOp, SweepOptions, SweepOut,
 };
+use arm_core::validity::{self, classify, Checks, Status};
 use arm_core::{Actuator, Arm, ArmError, Effect, EffectSet, Link, SolveOptions, Workspace, V2};
 
 fn v(x: f64, y: f64) -> V2 {
@@ -101,6 +102,7 @@ struct Outs {
     dl: Vec<f64>,
     idx: Option<[Vec<i64>; 5]>,
     ok: Vec<bool>,
+    status: Vec<u8>,
     length: Vec<f64>,
     reachable: Vec<bool>,
     ex: Vec<f64>,
@@ -169,6 +171,7 @@ fn run_poses(
         dl: z(rows * n),
         idx: None,
         ok: vec![false; rows],
+        status: vec![255; rows],
         length: z(poses * n),
         reachable: vec![false; reach_len],
         ex: z(poses),
@@ -204,6 +207,7 @@ fn run_poses(
         let out = SweepOut {
             cells,
             ok: &mut o.ok,
+            status: &mut o.status,
             length_mm: &mut o.length,
             reachable: &mut o.reachable,
             effector_x_mm: &mut o.ex,
@@ -228,15 +232,73 @@ fn opts(self_weight: bool) -> SweepOptions {
     }
 }
 
-/// Compares every cell with `Workspace::solve`; returns the worst error relative to each
-/// field's scale (its largest magnitude over the batch).
+/// The status of a cell by the checks of `arm_core::validity` on the unloaded frames and the
+/// solved workspace (`None`: the solve failed); also whether some checked quantity lies
+/// within 1e-9 (relative) of its limit, where the sweep's own arithmetic may decide the
+/// other way.
+fn status_of(arm: &Arm, rad: &[f64], ws: Option<&Workspace>, mass: f64) -> (Status, bool) {
+    let n = arm.n();
+    let mut f = Frames::new(n);
+    f.fill(arm, rad);
+    let close = |x: f64, lim: f64| (x - lim).abs() <= 1e-9 * lim.abs().max(1e-9);
+    let lengths: Vec<f64> = (0..n).map(|i| f.length(i)).collect();
+    let mut border = false;
+    let mut near = false;
+    for i in 0..n {
+        near |= validity::near_singular(f.joint[i], f.a[i], f.b[i]);
+        let line = f.a[i] - f.b[i];
+        let h = (line.x * (f.joint[i] - f.b[i]).y - line.y * (f.joint[i] - f.b[i]).x).abs()
+            / line.norm();
+        border |= close(h, validity::MIN_MOMENT_ARM * (f.a[i] - f.joint[i]).norm());
+    }
+    let pose = Checks {
+        out_of_stroke: validity::out_of_stroke(arm, &lengths),
+        near_singular: near,
+        ..Checks::default()
+    };
+    if classify(pose) != Status::Ok {
+        return (classify(pose), border);
+    }
+    let Some(ws) = ws else {
+        return (Status::LargeDeflection, border);
+    };
+    let reach = validity::reach(arm);
+    let mut turn = 0.0f64;
+    let mut loaded_rad = rad.to_vec();
+    for i in 0..n {
+        let d = (ws.new_alpha[i] - rad[i]).to_degrees();
+        turn = turn.max(d.abs());
+        border |= close(d.abs(), validity::MAX_DALPHA_DEG);
+        loaded_rad[i] = rad[i] + d.to_radians();
+        if let Some(m) = arm.actuators[i].max_force {
+            border |= close(ws.loaded.f[i].abs(), m);
+        }
+    }
+    let mut lf = Frames::new(n);
+    lf.fill(arm, &loaded_rad);
+    let (dx, dy) = (ws.dmeasure.x, ws.dmeasure.y);
+    border |= close(dx.hypot(dy), validity::MAX_DEFLECTION_OF_REACH * reach);
+    border |= close(dy, validity::MAX_RISE_OF_REACH * reach);
+    let checks = Checks {
+        branch_flip: (0..n).any(|i| f.side(i) * lf.side(i) < 0.0),
+        over_force: validity::over_force(arm, &ws.loaded.f),
+        large_deflection: validity::large_deflection(turn, dx, dy, mass * arm.g > 0.0, reach),
+        ..pose
+    };
+    (classify(checks), border)
+}
+
+/// Compares every cell with `Workspace::solve`: its status with the validity checks on the
+/// solve's results (exactly, except cells within 1e-9 of a limit, at most 1 % of them), and
+/// the values of the cells that are ok; returns the worst error relative to each field's
+/// scale (its largest magnitude over the batch).
 fn compare(arm: &Arm, eff: &EffectSet, alpha: &[f64], mass: &[f64], sw: bool) -> f64 {
     let n = arm.n();
     let got = run(arm, eff, alpha, mass, opts(sw), &never).unwrap();
     let mut ws = Workspace::new(arm);
     let m = mass.len();
     let mut want = got.clone();
-    let mut solved = 0;
+    let (mut ok_cells, mut borderline) = (0, 0);
     for (p, deg) in alpha.chunks(n).enumerate() {
         let rad: Vec<f64> = deg.iter().map(|d| d.to_radians()).collect();
         for (j, &mk) in mass.iter().enumerate() {
@@ -245,13 +307,18 @@ fn compare(arm: &Arm, eff: &EffectSet, alpha: &[f64], mass: &[f64], sw: bool) ->
                 self_weight: sw,
                 nan_on_failure: false,
             };
-            let ok = ws.solve(arm, eff, &rad, v(0.0, -mk * arm.g), so, r).is_ok();
-            assert_eq!(got.ok[r], ok, "ok of row {r}");
-            want.ok[r] = ok;
-            if !ok {
+            let solved = ws.solve(arm, eff, &rad, v(0.0, -mk * arm.g), so, r).is_ok();
+            let (status, border) = status_of(arm, &rad, solved.then_some(&ws), mk);
+            borderline += usize::from(border);
+            if !border {
+                assert_eq!(got.status[r], status.code(), "status of row {r}");
+            }
+            assert_eq!(got.ok[r], got.status[r] == 0, "ok of row {r}");
+            if !got.ok[r] {
                 continue;
             }
-            solved += 1;
+            assert!(solved, "row {r} is ok but does not solve");
+            ok_cells += 1;
             for i in 0..n {
                 want.force[r * n + i] = ws.loaded.f[i];
                 want.dalpha[r * n + i] = (ws.new_alpha[i] - rad[i]).to_degrees();
@@ -261,7 +328,11 @@ fn compare(arm: &Arm, eff: &EffectSet, alpha: &[f64], mass: &[f64], sw: bool) ->
             want.dy[r] = ws.dmeasure.y;
         }
     }
-    assert!(solved > 0);
+    assert!(ok_cells > 0);
+    assert!(
+        borderline * 100 <= got.ok.len(),
+        "{borderline} cells at a limit"
+    );
     let mut worst = 0.0f64;
     for (g, w) in [
         (&got.force, &want.force),
@@ -275,7 +346,7 @@ fn compare(arm: &Arm, eff: &EffectSet, alpha: &[f64], mass: &[f64], sw: bool) ->
             .filter(|x| x.is_finite())
             .fold(0.0f64, |a, x| a.max(x.abs()));
         for (a, b) in g.iter().zip(w) {
-            if b.is_nan() || !got.ok.iter().any(|&o| o) {
+            if b.is_nan() {
                 continue;
             }
             if a.is_nan() {
@@ -476,6 +547,56 @@ fn fallback_path_equals_workspace_solve() {
     }
 }
 
+/// The status of every cell equals the validity checks on `Workspace::solve`'s results
+/// (`compare`), in both kernels (3 links: block kernel; 7 links or a joint clearance: per
+/// cell), on arms with strokes and force limits, and each reason occurs.
+#[test]
+fn status_equals_the_checks_on_solve() {
+    let mut rng = Rng(21);
+    let mut seen = [0usize; 6];
+    let clearance = other_effects().swap_remove(0).1;
+    for (n, effects) in [(3, vec![]), (3, clearance), (7, vec![])] {
+        let mut arm = arm(n, &mut rng, Some((300.0, 540.0)));
+        let mut alpha = poses(n, 300, &mut rng);
+        // Actuator 1 without a stroke, and near singular (not singular) in a reachable pose
+        // turned as a whole (the other actuators' lengths stay).
+        (arm.actuators[0].min_length, arm.actuators[0].max_length) = (None, None);
+        let none = EffectSet::new(&arm, vec![]).unwrap();
+        let first = run(&arm, &none, &alpha, &[1.0], opts(true), &never).unwrap();
+        let p = first.reachable.iter().position(|&r| r).unwrap();
+        let turn = singular_pose(&arm) + 1.0 - alpha[p * n];
+        alpha[p * n..(p + 1) * n]
+            .iter_mut()
+            .for_each(|a| *a += turn);
+        // A force limit on actuator 1 at the median |F1| of the poses under 8 kg.
+        let mut ws = Workspace::new(&arm);
+        let mut f1: Vec<f64> = alpha
+            .chunks(n)
+            .enumerate()
+            .filter_map(|(r, deg)| {
+                let rad: Vec<f64> = deg.iter().map(|d| d.to_radians()).collect();
+                let so = SolveOptions::default();
+                let ok = ws.solve(&arm, &none, &rad, v(0.0, -8.0 * arm.g), so, r);
+                ok.is_ok().then(|| ws.loaded.f[0].abs())
+            })
+            .collect();
+        f1.sort_by(f64::total_cmp);
+        arm.actuators[0].max_force = Some(f1[f1.len() / 2]);
+        let eff = EffectSet::new(&arm, effects).unwrap();
+        let mass = [0.0, 2.0, 8.0, 60.0];
+        let worst = compare(&arm, &eff, &alpha, &mass, true);
+        assert!(worst < 1e-10, "n = {n}: {worst:e}");
+        let out = run(&arm, &eff, &alpha, &mass, opts(true), &never).unwrap();
+        for &c in &out.status {
+            seen[usize::from(c)] += 1;
+        }
+    }
+    // every reason but branch_flip, which neither kernel's closure produces
+    for code in [0, 1, 2, 4, 5] {
+        assert!(seen[code] > 0, "no cell of status {code}: {seen:?}");
+    }
+}
+
 /// A pose whose first actuator passes through its joint.
 fn singular_pose(arm: &Arm) -> f64 {
     let d = arm.b0 - arm.o1;
@@ -483,8 +604,8 @@ fn singular_pose(arm: &Arm) -> f64 {
     (d.y.atan2(d.x) - a.y.atan2(a.x)).to_degrees()
 }
 
-/// Singular poses and triangles that cannot close give NaN and ok = false, not an error,
-/// and the cells around them are unaffected.
+/// Singular poses and triangles that cannot close give NaN, ok = false and a status
+/// (near_singular, large_deflection), not an error, and the cells around them are unaffected.
 #[test]
 fn singular_and_unclosable_cells_are_nan() {
     let mut rng = Rng(5);
@@ -495,19 +616,23 @@ fn singular_and_unclosable_cells_are_nan() {
         &arm,
         vec![Effect::ActuatorCompliance(ActuatorCompliance {
             actuator: 2,
-            stiffness: 1.0,
+            stiffness: 500.0,
         })],
     )
     .unwrap();
     let mass = [1.0, 1e5];
     let out = run(&arm, &soft, &alpha, &mass, opts(true), &never).unwrap();
+    let (near, large) = (Status::NearSingular.code(), Status::LargeDeflection.code());
     for p in 0..20 {
         assert!(
             !out.ok[p * 2 + 1],
             "pose {p}: a 1e5 kg payload cannot close"
         );
+        let why = if p == 7 { near } else { large };
+        assert_eq!(out.status[p * 2 + 1], why, "pose {p}");
         assert!(out.dx[p * 2 + 1].is_nan() && out.dalpha[(p * 2 + 1) * 3].is_nan());
-        assert_eq!(out.ok[p * 2], p != 7, "pose {p}");
+        assert_eq!(out.status[p * 2] == near, p == 7, "pose {p}");
+        assert_eq!(out.ok[p * 2], out.status[p * 2] == 0, "pose {p}");
         assert_eq!(out.reachable[p], p != 7);
         assert!(
             out.length[p * 3].is_finite(),
@@ -593,6 +718,10 @@ fn reductions_equal_naive_reduction() {
                 ReduceOp::ArgMin,
             ] {
                 let (vals, idxs, ok) = naive(&full, 3, op, group);
+                // a group's status: the lowest code of its cells that are not ok, else 0
+                let status: Vec<u8> = (full.status.chunks(group))
+                    .map(|g| g.iter().copied().filter(|&c| c != 0).min().unwrap_or(0))
+                    .collect();
                 for chunk_rows in [None, Some(30), Some(100)] {
                     let o = SweepOptions {
                         reduce: Some(Reduce { op, group }),
@@ -602,6 +731,7 @@ fn reductions_equal_naive_reduction() {
                     };
                     let red = run(&arm, &eff, &alpha, &mass, o, &never).unwrap();
                     assert_eq!(red.ok, ok, "ok, group {group}, {op:?}");
+                    assert_eq!(red.status, status, "status, group {group}, {op:?}");
                     assert_eq!(red.length, full.length);
                     assert_eq!(red.reachable, full.reachable);
                     if op.is_arg() {
@@ -690,6 +820,7 @@ fn instruction_sets_agree_bitwise() {
         let slow = run(&arm, &eff, &alpha, &mass, base, &never).unwrap();
         assert_eq!(fast.bits(), slow.bits(), "n = {n}");
         assert_eq!(fast.ok, slow.ok);
+        assert_eq!(fast.status, slow.status);
         assert_eq!(fast.reachable, slow.reachable);
     }
     // Large turns (the atan2 lanes) and angles beyond the fast reduction (libm lanes).
@@ -706,7 +837,7 @@ fn instruction_sets_agree_bitwise() {
     for p in (0..50).step_by(7) {
         alpha[3 * p] += 360.0 * 1e4; // 3.6e6 degrees: the same pose, many turns later
     }
-    let mass = [5.0, 40.0];
+    let mass = [3.0, 5.0, 8.0, 40.0];
     let fast = run(&arm, &soft, &alpha, &mass, opts(true), &never).unwrap();
     let base = SweepOptions {
         baseline_simd: true,
@@ -714,9 +845,20 @@ fn instruction_sets_agree_bitwise() {
     };
     let slow = run(&arm, &soft, &alpha, &mass, base, &never).unwrap();
     assert_eq!(fast.bits(), slow.bits(), "soft arm");
-    assert!(fast.dalpha.iter().any(|d| d.abs() > 4.0));
+    assert_eq!(fast.status, slow.status, "soft arm");
+    // turns beyond the series (asin 1/16 ≈ 3.6°) within the 10° limit, and beyond it
+    let big = fast
+        .dalpha
+        .iter()
+        .filter(|d| d.is_finite())
+        .fold(0.0f64, |a, d| a.max(d.abs()));
+    assert!(big > 4.0, "{big}");
+    let large = Status::LargeDeflection.code();
+    assert!(fast.status.contains(&large));
     let worst = compare(&arm, &soft, &alpha, &mass, true);
-    assert!(worst < 1e-10, "{worst:e}");
+    // The scale is that of the ok cells (turns ≤ 10°); the scalar core's closure (acos of a
+    // cosine) loses a few 1e-10 of a 9° turn, which 1e-9 allows.
+    assert!(worst < 1e-9, "{worst:e}");
 }
 
 /// `cancel` returning true stops the sweep with `Cancelled`, on one thread and on several.
@@ -846,6 +988,7 @@ fn bad_options_are_errors() {
             dl_mm: &mut d,
         }),
         ok: &mut ok,
+        status: &mut [],
         length_mm: &mut [],
         reachable: &mut [],
         effector_x_mm: &mut [],

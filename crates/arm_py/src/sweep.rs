@@ -27,8 +27,13 @@ const PROGRESS_EVERY_S: f64 = 0.1;
 /// (N·M/group[, n]) with `reduce` ("max", "min", "argmax", "argmin"; the arg reductions give
 /// int64 offsets within each group, −1 where the group has no value).
 ///
+/// Every cell gets a `status` (uint8, `arm_core::validity` codes; reduced: 0 when every cell
+/// of the group is ok, else the lowest code among those that are not); `ok` is status == 0,
+/// and the values of cells that are not ok are NaN and skipped by the reductions.
+///
 /// `out`: a dict of C-contiguous arrays to write into instead (any shape with the right
-/// number of elements; the cell arrays and `ok` required, per-pose arrays optional; with a
+/// number of elements; the cell arrays and `ok` required, `status` and the per-pose arrays
+/// optional; with a
 /// reduction over whole poses, `reachable` may hold one value per group: any pose of it
 /// reachable); it is returned. `mask_unreachable`: cells of poses out of stroke are not
 /// solved. `progress(done_poses)` is called before the first chunk (with 0), then every 0.1 s or so. `chunk_rows`: rows per chunk
@@ -166,6 +171,7 @@ pub(crate) fn py_sweep<'py>(
             Cells::Values(cell_fields(&mut vg)?)
         };
         let mut okg = out_array::<bool>(&out, "ok", "bool", true)?;
+        let mut sg = out_array::<u8>(&out, "status", "uint8", false)?;
         let mut lg = out_array::<f64>(&out, POSE_KEYS[0], "float64", false)?;
         let mut rg = out_array::<bool>(&out, POSE_KEYS[1], "bool", false)?;
         let mut xg = out_array::<f64>(&out, POSE_KEYS[2], "float64", false)?;
@@ -173,6 +179,7 @@ pub(crate) fn py_sweep<'py>(
         let sweep_out = SweepOut {
             cells,
             ok: out_slice(&mut okg, "ok")?,
+            status: out_slice(&mut sg, "status")?,
             length_mm: out_slice(&mut lg, POSE_KEYS[0])?,
             reachable: out_slice(&mut rg, POSE_KEYS[1])?,
             effector_x_mm: out_slice(&mut xg, POSE_KEYS[2])?,

@@ -4,8 +4,10 @@ Each map draws every reachable pose of a sweep (:func:`eodarm.sweep`) as a dot a
 unloaded load point (x, y) in the global frame, coloured by a quantity. Many poses of a grid
 land near the same (x, y) (the last link's angle is free, for one); the dots are drawn in
 order of the quantity, so that where poses overlap **the worst one is on top** (largest sag,
-largest |force|, smallest capacity, largest deflection). Unreachable poses (out of stroke,
-singular, a loaded pose that cannot close) are not drawn.
+largest |force|, smallest capacity, largest deflection). Poses whose cell is not ok (out of
+stroke, near singular, over force, a deflection too large for the model; docs/model.md §7)
+have no value: the sag and force maps shade their pixels grey, under the valid ones, and
+count them by reason.
 
 Like :mod:`eodarm.viz.plots`, every function returns a :class:`matplotlib.figure.Figure` on its
 own Agg canvas and writes a PNG (120 dpi) only when ``path=`` is given.
@@ -53,6 +55,7 @@ from eodarm.workspace.maps import (
     arm_of,
     assume_max_force,
     effect_contributions,
+    not_ok_points,
     payload_capacity,
 )
 from eodarm.workspace.sweep import sweep
@@ -69,6 +72,9 @@ __all__ = [
 ]
 
 FloatArray = npt.NDArray[np.float64]
+
+#: Colour of the pixels whose poses are not ok (outside the model's validity).
+NOT_OK_GREY = "0.80"
 
 
 def _select_mass(ds: xr.Dataset, mass: float | None) -> tuple[xr.Dataset, float]:
@@ -112,6 +118,7 @@ class _Canvas:
 
     def __init__(self, arm: Arm, xs: FloatArray, ys: FloatArray, ref: FloatArray | None) -> None:
         self.arm = arm
+        self.not_ok = ""  # legend text of the grey pixels (set by shade)
         self.ref = ref if ref is not None and np.isfinite(ref).all() else None
         px = [arm.O1[0], arm.B0[0]]
         py = [arm.O1[1], arm.B0[1]]
@@ -169,6 +176,19 @@ class _Canvas:
         self.frame(ax)
         return mesh
 
+    def shade(self, ax: Axes, bad: tuple[FloatArray, FloatArray, dict[str, int]]) -> None:
+        """Grey pixels under the map where poses are not ok; :meth:`legend` counts them."""
+        x, y, counts = bad
+        if not x.size:
+            return
+        xe, ye, img = self.raster(x, y, np.ones_like(x), np.ones_like(x))
+        grey = ListedColormap([NOT_OK_GREY])
+        ax.pcolormesh(
+            xe, ye, img, shading="flat", rasterized=True, cmap=grey, zorder=0.9, gid="not_ok"
+        )
+        why = ", ".join(f"{k:,} {name}" for name, k in counts.items())
+        self.not_ok = "\n".join(textwrap.wrap(f"not ok: {why}", 44))
+
     def frame(self, ax: Axes) -> None:
         """Equal axes in mm, the chassis pins and the arm drawn thin at its middle pose."""
         x0, x1, y0, y1 = self.bounds
@@ -190,7 +210,7 @@ class _Canvas:
 
     def legend(self, ax: Axes) -> None:
         """The key to the arm drawing, added without replacing another legend."""
-        handles = [
+        handles: list[Any] = [
             Line2D(
                 [],
                 [],
@@ -205,6 +225,8 @@ class _Canvas:
             Line2D([], [], color="k", marker="^", ls="none", ms=7, label="O1 (first joint)"),
             Line2D([], [], color="k", marker="s", ls="none", ms=4, label="B0 (chassis pin)"),
         ]
+        if self.not_ok:
+            handles.append(Patch(fc=NOT_OK_GREY, label=self.not_ok))
         leg = Legend(
             ax,
             handles,
@@ -219,7 +241,7 @@ class _Canvas:
         """Say how many poses are drawn and what a pixel shows (in an axes, or under a figure)."""
         total = int(np.prod([ds.sizes[d] for d in ds["reachable"].dims]))
         text = (
-            f"{shown:,} of {total:,} poses reachable and solved; each {self.width:.3g} mm "
+            f"{shown:,} of {total:,} poses ok; each {self.width:.3g} mm "
             f"pixel shows its {worst} pose"
         )
         if isinstance(ax, Figure):
@@ -305,9 +327,11 @@ def sag_map(
     arm = arm_of(ds)
     sel, m = _select_mass(ds, mass)
     x, y, dy = _points(sel, sel["dy_mm"])
-    cv = _Canvas(arm, x, y, _ref_pose(ds, arm.n))
+    bad = not_ok_points(sel)
+    cv = _Canvas(arm, np.r_[x, bad[0]], np.r_[y, bad[1]], _ref_pose(ds, arm.n))
     fig = figure(8.4, 7.0 * cv.aspect + 1.6)
     ax = fig.add_subplot()
+    cv.shade(ax, bad)
     if dy.size:
         sag = -dy
         clipped = False
@@ -359,8 +383,9 @@ def force_maps(
     sel, m = _select_mass(ds, mass)
     n = arm.n
     pts = [_points(sel, sel["force_n"].sel(actuator=i + 1)) for i in range(n)]
-    xs = np.concatenate([p[0] for p in pts])
-    ys = np.concatenate([p[1] for p in pts])
+    bad = not_ok_points(sel)
+    xs = np.concatenate([*(p[0] for p in pts), bad[0]])
+    ys = np.concatenate([*(p[1] for p in pts), bad[1]])
     cv = _Canvas(arm, xs, ys, _ref_pose(ds, arm.n))
     ncols = min(n, 3)
     nrows = math.ceil(n / ncols)
@@ -371,6 +396,7 @@ def force_maps(
             fig.delaxes(ax)
             continue
         x, y, f = pts[i]
+        cv.shade(ax, bad)
         lim = arm.actuators[i].max_force_n
         if f.size:
             lo, hi, extend = _robust(f, 0.02, 0.98)

@@ -18,11 +18,20 @@ from eodarm.errors import EodarmError, InputError
 from eodarm.model.arm import Arm
 from eodarm.model.effects import Effect, split_effects
 from eodarm.model.solver import _core_arm, forward, stroke_violations
+from eodarm.model.validity import STATUS, status
 
 if TYPE_CHECKING:
     from eodarm.model.custom import EffectState
 
-__all__ = ["REDUCE_OPS", "kernel", "placeholder", "singular", "sweep_fallback"]
+__all__ = [
+    "REDUCE_OPS",
+    "cell_status",
+    "group_status",
+    "kernel",
+    "placeholder",
+    "singular",
+    "sweep_fallback",
+]
 
 #: The reductions of a sweep (per cell, NaN ignored).
 REDUCE_OPS = ("max", "min", "argmax", "argmin")
@@ -72,9 +81,10 @@ def sweep_fallback(
     Returns
     -------
     dict: ``force_n`` (N, M, n), ``dx_mm``, ``dy_mm`` (N, M), ``dalpha_deg``, ``dl_mm``
-    (N, M, n), ``ok`` (N, M) (False, and NaN values, where the pose is singular or the loaded
-    triangle cannot close); reduced, these have leading shape (N·M/group,), argmax/argmin as
-    int64 (−1 where the whole group is NaN) and ``ok`` as "any". Per pose, never reduced:
+    (N, M, n), ``status`` (N, M) uint8 (:func:`cell_status`), ``ok`` (N, M) its being 0
+    (NaN values where it is not); reduced, these have leading shape (N·M/group,),
+    argmax/argmin as int64 (−1 where the group has no ok cell), ``ok`` as "any" and
+    ``status`` by :func:`group_status`. Per pose, never reduced:
     ``length_mm`` (N, n) unloaded pin-to-pin, ``reachable`` (N,) (not singular and every
     length within [min_length_mm, max_length_mm]), ``effector_x_mm``, ``effector_y_mm`` (N,)
     the unloaded load point.
@@ -120,23 +130,23 @@ def sweep_fallback(
             nan_on_failure=True,
             **extras,
         )
-    ok = np.isfinite(out["dy_mm"])
+    code = cell_status(arm, np.repeat(alpha, m, axis=0), payload, out)
+    ok = code == 0
     cells: dict[str, npt.NDArray[Any]] = {
-        "force_n": out["force_n"],
-        "dx_mm": out["dx_mm"],
-        "dy_mm": out["dy_mm"],
-        "dalpha_deg": out["dalpha_deg"],
-        "dl_mm": out["dl_mm"],
+        key: np.where(ok.reshape(-1, *[1] * (out[key].ndim - 1)), out[key], np.nan)
+        for key in ("force_n", "dx_mm", "dy_mm", "dalpha_deg", "dl_mm")
     }
     res: dict[str, npt.NDArray[Any]] = {}
     if reduce is None:
         for key, val in cells.items():
             res[key] = val.reshape(n_pose, m, *val.shape[1:])
         res["ok"] = ok.reshape(n_pose, m)
+        res["status"] = code.reshape(n_pose, m)
     else:
         for key, val in cells.items():
             res[key] = reduce_rows(val, reduce, group)
         res["ok"] = np.asarray(ok.reshape(rows // group, group).any(axis=1))
+        res["status"] = group_status(code, group)
     geo = _core.forward(core, alpha)
     length = geo["length_mm"]
     in_stroke = (stroke_violations(arm, length) == 0).all(axis=1)
@@ -145,6 +155,26 @@ def sweep_fallback(
     res["effector_x_mm"] = np.ascontiguousarray(geo["O"][:, n, 0])
     res["effector_y_mm"] = np.ascontiguousarray(geo["O"][:, n, 1])
     return res
+
+
+def cell_status(
+    arm: Arm, alpha: FloatArray, payload: FloatArray, out: Mapping[str, Any]
+) -> npt.NDArray[np.uint8]:
+    """The status (R,) of solved cells (``out`` with NaN where a cell did not solve), as the
+    core's sweep gives it: :func:`eodarm.model.validity.status`, and a cell that did not
+    solve although its pose is in stroke and not near singular is a large deflection (its
+    loaded triangle cannot close)."""
+    code = status(arm, alpha, payload, out)
+    unsolved = ~np.isfinite(np.asarray(out["dy_mm"], dtype=float))
+    code[(code == 0) & unsolved] = STATUS.index("large_deflection")
+    return code
+
+
+def group_status(code: npt.NDArray[np.uint8], group: int) -> npt.NDArray[np.uint8]:
+    """The status of each group of ``group`` consecutive cells: 0 when every cell is ok, else
+    the lowest code among those that are not."""
+    g = np.where(code == 0, 255, code).reshape(-1, group).min(axis=1)
+    return np.where(g == 255, 0, g).astype(np.uint8)
 
 
 def _user_extras(

@@ -33,6 +33,7 @@ __all__ = [
     "as_sweep_kwargs",
     "assume_max_force",
     "effect_contributions",
+    "not_ok_points",
     "payload_capacity",
 ]
 
@@ -56,6 +57,24 @@ def arm_of(ds: xr.Dataset) -> Arm:
     if not text:
         raise EodarmError("this Dataset does not carry its arm (attrs['arm_toml']); pass arm=")
     return Arm.from_dict(tomllib.loads(str(text)), source=f"sweep of {ds.attrs.get('arm')}")
+
+
+def not_ok_points(sel: xr.Dataset) -> tuple[FloatArray, FloatArray, dict[str, int]]:
+    """The unloaded load points (x, y) of the poses whose cell of a one-payload slice of a
+    sweep is not ok (``status`` ≠ 0, docs/model.md §7; poses that exist only), and how many
+    have each reason."""
+    from eodarm.model.validity import STATUS
+
+    empty = np.empty(0)
+    if "status" not in sel or "effector_x_mm" not in sel:
+        return empty, empty, {}
+    dims = list(sel["effector_x_mm"].dims)
+    code = sel["status"].transpose(*dims).values.reshape(-1).astype(np.int64)
+    x = sel["effector_x_mm"].transpose(*dims).values.reshape(-1)
+    y = sel["effector_y_mm"].transpose(*dims).values.reshape(-1)
+    bad = (code != 0) & np.isfinite(x) & np.isfinite(y)
+    counts = np.bincount(code[bad], minlength=len(STATUS))
+    return x[bad], y[bad], {STATUS[c]: int(k) for c, k in enumerate(counts) if k}
 
 
 # ---------------------------------------------------------------------------- capacity
@@ -101,9 +120,10 @@ def payload_capacity(
     User-written effects (CONTRACT §8) do not change the forces; their length changes are not
     in the stroke limit (a warning says so).
 
-    Poses that are not reachable unloaded (out of stroke, singular) have NaN. Whether the
-    loaded pose still closes at the capacity is not checked (it does, unless the capacity is
-    near a singular pose).
+    Poses that are not reachable unloaded (out of stroke, singular) have NaN, and so have
+    those where the model is not valid at 0 or ``probe_kg`` (near singular, large deflection;
+    docs/model.md §7). Whether the loaded pose still closes at the capacity is not checked (it
+    does, unless the capacity is near a singular pose).
 
     Parameters
     ----------
@@ -143,7 +163,14 @@ def payload_capacity(
             stacklevel=2,
         )
     kw = {**as_sweep_kwargs(grid), **sweep_kw}
-    ds = sweep(arm, mass_kg=[0.0, probe_kg], effects=effs, self_weight=self_weight, **kw)
+    # The force limits are this function's to apply (a probe over a limit still gives the
+    # forces' slope): swept without them, the cells are dropped only where the model itself
+    # cannot be trusted (status other than over_force, docs/model.md §7).
+    free = arm.to_dict()
+    for a in free["actuator"]:
+        a.pop("max_force_n", None)
+    unlimited = Arm.from_dict(free, source=arm.source)
+    ds = sweep(unlimited, mass_kg=[0.0, probe_kg], effects=effs, self_weight=self_weight, **kw)
     n = arm.n
     f = ds["force_n"].transpose(..., "mass_kg", "actuator").values
     f0, f1 = f[..., 0, :], f[..., 1, :]
@@ -192,6 +219,7 @@ def payload_capacity(
         limit_labels=", ".join([*labels, "cap"]),
         max_payload_kg=float(max_payload_kg),
         max_force_n=np.where(np.isfinite(fmax), fmax, -1.0),
+        arm_toml=arm.to_toml(),  # the arm with its force limits, not the one swept
     )
     return out
 

@@ -194,7 +194,7 @@ def save(ds: xr.Dataset, path: str | os.PathLike[str]) -> None:
         if kind == "zarr":
             ds.to_zarr(tmp, mode="w", consolidated=False)
         else:
-            ds.to_netcdf(tmp, engine="scipy")
+            _netcdf3(ds).to_netcdf(tmp, engine="scipy")
         replace(tmp, out)
     except KeyboardInterrupt:
         with deferred_sigint():
@@ -203,6 +203,16 @@ def save(ds: xr.Dataset, path: str | os.PathLike[str]) -> None:
     except BaseException:
         _remove(tmp)
         raise
+
+
+def _netcdf3(ds: xr.Dataset) -> xr.Dataset:
+    """``ds`` ready for NetCDF-3, which has no unsigned bytes: ``status`` (uint8) marked
+    ``_Unsigned`` so that it is stored as a byte and read back as uint8 (its codes < 128)."""
+    if "status" not in ds or ds["status"].dtype != np.uint8:
+        return ds
+    out = ds.copy()
+    out["status"].attrs["_Unsigned"] = "true"
+    return out
 
 
 def _need_zarr(with_dask: bool) -> None:

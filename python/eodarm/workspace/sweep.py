@@ -43,9 +43,10 @@ import numpy.typing as npt
 from eodarm.errors import InputError
 from eodarm.model.arm import Arm, check_arm
 from eodarm.model.effects import Effect, effect_arrays, split_effects, with_arm_effects
-from eodarm.model.solver import _core_arm, forward, stroke_violations
+from eodarm.model.solver import _core_arm
+from eodarm.model.validity import STATUS
 from eodarm.workspace import cluster, limits
-from eodarm.workspace.fallback import REDUCE_OPS, kernel, placeholder, singular
+from eodarm.workspace.fallback import REDUCE_OPS, kernel, placeholder
 from eodarm.workspace.grid import Grid, coord_attrs, make_grid, masses_axis
 
 if TYPE_CHECKING:
@@ -61,7 +62,7 @@ FloatArray = npt.NDArray[np.float64]
 BoolArray = npt.NDArray[np.bool_]
 
 #: Outputs per (pose, payload) cell, reduced by a reduction.
-CELL_VARS = ("force_n", "dx_mm", "dy_mm", "dalpha_deg", "dl_mm", "ok")
+CELL_VARS = ("force_n", "dx_mm", "dy_mm", "dalpha_deg", "dl_mm", "ok", "status")
 #: Outputs per pose (no payload dimension).
 POSE_VARS = ("reachable", "length_mm", "effector_x_mm", "effector_y_mm")
 #: Default number of poses per chunk.
@@ -69,7 +70,7 @@ CHUNK_SIZE = 2**16
 #: A progress bar shows at once for more chunks than this, else after 2 s.
 PROGRESS_CHUNKS = 50
 
-_ATTRS: dict[str, dict[str, str]] = {
+_ATTRS: dict[str, dict[str, Any]] = {
     "force_n": {"units": "N", "long_name": "loaded actuator force (compression positive)"},
     "dx_mm": {"units": "mm", "long_name": "horizontal displacement of the measure point"},
     "dy_mm": {
@@ -82,7 +83,12 @@ _ATTRS: dict[str, dict[str, str]] = {
         "long_name": "change of actuator body length as its sensor sees it",
     },
     "ok": {
-        "long_name": "solved: the pose exists, is not singular and the loaded pose closes",
+        "long_name": "solved and within the model's validity (status 0, docs/model.md §7)",
+    },
+    "status": {
+        "long_name": "validity of the cell (docs/model.md §7): 0 ok, else the first broken limit",
+        "flag_values": list(range(len(STATUS))),
+        "flag_meanings": " ".join(STATUS),
     },
     "reachable": {
         "long_name": "pose exists, is not singular and every actuator is within its stroke",
@@ -116,17 +122,10 @@ def _chunk(job: _Job, start: int, stop: int) -> dict[str, npt.NDArray[Any]]:
     """Solve flat poses [start, stop) of the grid (a whole number of reduction blocks)."""
     arm, n = job.arm, job.arm.n
     alpha, exists = job.grid.poses(arm, start, stop)
-    keep = np.ones(stop - start, dtype=bool) if exists is None else exists.copy()
-    geo_len: FloatArray | None = None
-    geo_eff: FloatArray | None = None
-    if job.mask_unreachable:
-        run = np.where(keep[:, None], alpha, placeholder(arm))
-        geo = forward(arm, run)
-        geo_len, geo_eff = geo["length_mm"], geo["O"][:, n]
-        keep &= (stroke_violations(arm, geo_len) == 0).all(axis=1) & ~singular(geo, n)
+    # (`mask_unreachable` has nothing to do: cells of poses out of stroke are never ok.)
     pose_alpha = alpha  # the poses themselves (NaN where none), before any placeholder
-    if not keep.all():
-        alpha = np.where(keep[:, None], alpha, placeholder(arm))
+    if exists is not None and not exists.all():
+        alpha = np.where(exists[:, None], alpha, placeholder(arm))
     codes, places, values = effect_arrays(job.effects, n)
     m = job.mass.shape[0]
     out = kernel(
@@ -149,13 +148,14 @@ def _chunk(job: _Job, start: int, stop: int) -> dict[str, npt.NDArray[Any]]:
     ex = np.array(out["effector_x_mm"], dtype=float)
     ey = np.array(out["effector_y_mm"], dtype=float)
     reach = np.array(out["reachable"], dtype=bool)
-    if geo_len is not None and geo_eff is not None:  # masked poses that exist: their geometry
-        put = ~keep if exists is None else exists & ~keep
-        length[put], ex[put], ey[put] = geo_len[put], geo_eff[put, 0], geo_eff[put, 1]
-        reach[put] = False
     if exists is not None:
         length[~exists], ex[~exists], ey[~exists] = np.nan, np.nan, np.nan
         reach[~exists] = False
+        # A grid point without a pose is out of stroke (not the placeholder's near_singular);
+        # a reduced group with one has that lowest code.
+        missing = ~exists if not job.op else ~exists.reshape(-1, job.block).all(axis=1)
+        res["status"] = np.array(res["status"])
+        res["status"][missing] = STATUS.index("out_of_stroke")
     if job.block > 1:
         res["reachable"] = np.asarray(reach.reshape(-1, job.block).any(axis=1))
     else:
@@ -260,8 +260,8 @@ def sweep(
         ``dask.compute`` (``"threads"``, ``"processes"``, ``"synchronous"``).
     threads : threads of the compiled core per chunk (None: its default).
     alpha_ref_deg, elbow : the branch of a lengths grid, of an effector grid.
-    mask_unreachable : treat cells of unreachable poses (out of stroke) as not ok: NaN, and
-        skipped by reductions.
+    mask_unreachable : accepted for old scripts; changes nothing (cells of poses out of
+        stroke are never ok: their status is ``out_of_stroke``).
     model : ``"analytic"`` (the exact-pose model of docs/model.md, the fast core) or
         ``"fem"`` (the frame finite-element model of docs/fem.md, solved cell by cell; linear,
         so it agrees with the analytic model to first order in the load).
@@ -280,7 +280,8 @@ def sweep(
     xarray.Dataset
         dims (grid dims…, ``mass_kg``[, ``actuator`` | ``link``]) minus reduced ones, with
         ``force_n``, ``dx_mm``, ``dy_mm``, ``dalpha_deg`` (…, link), ``dl_mm`` (…, actuator),
-        ``ok`` per cell; ``reachable``, ``length_mm`` (…, actuator), ``effector_x_mm``,
+        ``status`` (uint8, docs/model.md §7) and ``ok`` (status 0) per cell, NaN values
+        where a cell is not ok; ``reachable``, ``length_mm`` (…, actuator), ``effector_x_mm``,
         ``effector_y_mm`` (and ``alpha_deg`` for lengths and effector grids) per pose. Every
         variable and coordinate has ``units`` and ``long_name`` attrs; the dataset's attrs
         name the arm (and carry its TOML), the model, self-weight, the grid kind and the
@@ -449,6 +450,8 @@ def _prepare(
         key: (
             np.bool_
             if key in ("ok", "reachable")
+            else np.uint8
+            if key == "status"
             else np.int64
             if arg and key in CELL_VARS
             else np.float64
@@ -488,7 +491,12 @@ def _layout(setup: _Setup) -> dict[str, tuple[list[str], list[int], dict[str, st
         vattrs = dict(_ATTRS[key])
         if op and key in CELL_VARS:
             if key == "ok":
-                vattrs["long_name"] = f"some cell over ({over}) is solved"
+                vattrs["long_name"] = f"some cell over ({over}) is ok (status 0)"
+            elif key == "status":
+                vattrs["long_name"] = (
+                    f"0 when every cell over ({over}) is ok, else the lowest status code "
+                    "among those that are not (docs/sweeps.md)"
+                )
             elif arg:
                 vattrs = {
                     "units": "1",

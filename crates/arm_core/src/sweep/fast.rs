@@ -22,6 +22,11 @@
 //!   δ itself: [`asin_small`] (series, < 1 ulp) for |sin δ| ≤ 1/16 and cos δ > 0, `atan2`
 //!   otherwise. A triangle that cannot close shows as `s′² < 0` (|c′| > 1 in the scalar core).
 //!
+//! * **Status** (docs/model.md §7, [`crate::validity`]) in the same pass: the stroke and
+//!   moment-arm checks per pose (with the geometry), the force and deflection limits per
+//!   cell. The closure keeps each triangle's side by construction (`s′ ≥ 0`), so no cell of
+//!   this kernel flips branch; a triangle that cannot close counts as a large deflection.
+//!
 //! The results agree with `Workspace::solve` to rounding (≈ 1e-13 relative on the deflections,
 //! whose magnitude is small against the positions they are differences of; the scalar core is
 //! the less accurate of the two there).
@@ -33,6 +38,9 @@ use super::trig::{asin_small, sincos_deg, ASIN_SERIES_MAX};
 use crate::arm::Arm;
 use crate::effects::{Effect, EffectSet, Unloaded, FORCE_ZERO_N};
 use crate::statics::SINGULAR_TOL;
+use crate::validity::{
+    self, Status, MAX_DALPHA_DEG, MAX_DEFLECTION_OF_REACH, MAX_RISE_OF_REACH, MIN_MOMENT_ARM,
+};
 
 /// Poses per block (lanes): two AVX-512 vectors, so that two independent chains overlap.
 pub const L: usize = 16;
@@ -76,6 +84,12 @@ pub struct FastArm<const N: usize> {
     /// Stroke limits (mm), ±∞ when absent.
     lo: [f64; N],
     hi: [f64; N],
+    /// Near-singular moment arm `MIN_MOMENT_ARM·ρ` (mm) and force limits (N, ∞ when absent).
+    near_tol: [f64; N],
+    fmax: [f64; N],
+    /// Squared largest displacement (mm²) and largest rise (mm) of the measure point.
+    move_lim2: f64,
+    rise_lim: f64,
 }
 
 fn p2(v: crate::V2) -> [f64; 2] {
@@ -114,7 +128,14 @@ impl<const N: usize> FastArm<N> {
             any_up: false,
             lo: z,
             hi: z,
+            near_tol: z,
+            fmax: z,
+            move_lim2: 0.0,
+            rise_lim: 0.0,
         };
+        let reach = validity::reach(arm);
+        k.move_lim2 = (MAX_DEFLECTION_OF_REACH * reach).powi(2);
+        k.rise_lim = MAX_RISE_OF_REACH * reach;
         for i in 0..N {
             let link = &arm.links[i];
             let act = &arm.actuators[i];
@@ -139,6 +160,8 @@ impl<const N: usize> FastArm<N> {
             k.body_c[i] = 1.0 / act.stiffness;
             k.lo[i] = act.min_length.unwrap_or(f64::NEG_INFINITY);
             k.hi[i] = act.max_length.unwrap_or(f64::INFINITY);
+            k.near_tol[i] = MIN_MOMENT_ARM * rho;
+            k.fmax[i] = act.max_force.unwrap_or(f64::INFINITY);
         }
         for e in effects.effects() {
             match e {
@@ -182,6 +205,8 @@ pub struct PoseBlock<const N: usize> {
     pub singular: [bool; L],
     /// Within every stroke limit (and not singular).
     pub reachable: [bool; L],
+    /// The pose's own status: out of stroke, near singular, else ok (code).
+    pub code: [u8; L],
     /// Unloaded load point (mm).
     pub ex: [f64; L],
     /// Unloaded load point (mm).
@@ -203,6 +228,7 @@ impl<const N: usize> PoseBlock<N> {
             gy: z,
             singular: [false; L],
             reachable: [false; L],
+            code: [0; L],
             ex: [0.0; L],
             ey: [0.0; L],
         }
@@ -222,8 +248,10 @@ pub struct CellBlock<const N: usize> {
     pub dalpha: [[f64; L]; N],
     /// Actuator body length change (mm).
     pub dl: [[f64; L]; N],
-    /// The cell solved (pose not singular, every loaded triangle closes).
+    /// The cell solved and within every limit (status ok).
     pub ok: [bool; L],
+    /// The status code ([`Status`]).
+    pub status: [u8; L],
 }
 
 impl<const N: usize> CellBlock<N> {
@@ -257,6 +285,7 @@ impl<const N: usize> CellBlock<N> {
             dalpha: z,
             dl: z,
             ok: [false; L],
+            status: [0; L],
         }
     }
 }
@@ -301,6 +330,7 @@ impl<const N: usize> FastArm<N> {
         // Link by link from the tip: geometry of link i (it needs the angles of links i and
         // i−1 only), then its statics, which need the actuator line of link i+1.
         let mut singular = [false; L];
+        let mut near = [false; L];
         let mut reach = [true; L];
         let mut px = [0.0; L];
         let mut py = [0.0; L];
@@ -346,6 +376,7 @@ impl<const N: usize> FastArm<N> {
             let (wl, wa) = (this.w_link[i], this.w_half[i]);
             let (len_tol, arm_tol, inv_rd) = (this.len_tol[i], this.arm_tol[i], this.inv_rd[i]);
             let (lo, hi) = (this.lo[i], this.hi[i]);
+            let near_tol = this.near_tol[i];
             // Lanes in groups of eight (one AVX-512 vector): two independent dependency chains
             // per link, which the CPU overlaps (the square root and division are slow).
             for k0 in (0..L).step_by(8) {
@@ -365,6 +396,7 @@ impl<const N: usize> FastArm<N> {
                     // `!(x > t)`: NaN counts as singular, as in the scalar core. Non-short-circuit
                     // `|`/`&` keep the lane loop branch-free.
                     singular[k] |= !(l > len_tol) | !(hv.abs() >= arm_tol * l);
+                    near[k] |= !(hv.abs() >= near_tol * l);
                     reach[k] &= (l >= lo) & (l <= hi);
                     pb.len[i][k] = l;
                     let sg = (dx[k] * ay - dy[k] * ax) * inv_rd;
@@ -414,6 +446,13 @@ impl<const N: usize> FastArm<N> {
         for k in 0..L {
             pb.singular[k] = singular[k];
             pb.reachable[k] = reach[k] & !singular[k];
+            pb.code[k] = if !reach[k] {
+                Status::OutOfStroke.code()
+            } else if near[k] | singular[k] {
+                Status::NearSingular.code()
+            } else {
+                Status::Ok.code()
+            };
             pb.ex[k] = this.o1[0] + px[k];
             pb.ey[k] = this.o1[1] + py[k];
         }
@@ -457,10 +496,11 @@ impl<const N: usize> FastArm<N> {
         let mut dx = [0.0; L];
         let mut dy = [0.0; L];
         let mut fail = pb.singular;
+        let mut over = [false; L];
         let mut dth = [[0.0; L]; N];
         let mut far = false;
         for i in 0..N {
-            let (bc, hr) = (self.body_c[i], self.half_inv_rd[i]);
+            let (bc, hr, fmax) = (self.body_c[i], self.half_inv_rd[i], self.fmax[i]);
             for k in 0..L {
                 let du = m * pb.fu[i][k];
                 let fw = pb.fw[i][k];
@@ -493,6 +533,7 @@ impl<const N: usize> FastArm<N> {
                 dy[k] += ns * pb.gx[i][k] + nc * pb.gy[i][k];
                 far |= !(sind.abs() <= ASIN_SERIES_MAX && cosd > 0.0);
                 dth[i][k] = side * asin_small(sind);
+                over[k] |= f.abs() > fmax;
                 cb.force[i][k] = f;
                 cb.dl[i][k] = body;
             }
@@ -502,6 +543,7 @@ impl<const N: usize> FastArm<N> {
         }
         let deg = 180.0f64 / std::f64::consts::PI;
         let mut da = [0.0; L];
+        let mut big = [false; L];
         for i in 0..N {
             for k in 0..L {
                 let a = da[k] + dth[i][k];
@@ -515,12 +557,28 @@ impl<const N: usize> FastArm<N> {
                 };
                 da[k] = a;
                 cb.dalpha[i][k] = a * deg;
+                big[k] |= !((a * deg).abs() <= MAX_DALPHA_DEG);
             }
         }
         cb.dx = dx;
         cb.dy = dy;
+        // The status (validity::classify's order): the pose's own, else over force, else
+        // large deflection (a triangle that cannot close included).
+        // Selects, not branches: the lane loop stays vectorised.
+        let down = m * self.g > 0.0;
+        let (large, over_code) = (Status::LargeDeflection.code(), Status::OverForce.code());
         for k in 0..L {
-            cb.ok[k] = !fail[k];
+            let moved = !(dx[k] * dx[k] + dy[k] * dy[k] <= self.move_lim2);
+            let rise = down & (dy[k] > self.rise_lim);
+            let cell = if fail[k] | big[k] | moved | rise {
+                large
+            } else {
+                0
+            };
+            let cell = if over[k] & !fail[k] { over_code } else { cell };
+            let code = if pb.code[k] != 0 { pb.code[k] } else { cell };
+            cb.status[k] = code;
+            cb.ok[k] = code == 0;
         }
     }
 

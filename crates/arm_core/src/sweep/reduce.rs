@@ -4,6 +4,10 @@
 //! The reductions ignore NaN and do not depend on the order in which the cells arrive (so
 //! neither on the chunk size nor on the thread count): `Max`/`Min` prefer +0 over −0 (resp.
 //! −0 over +0) on a tie, `ArgMax`/`ArgMin` the lowest offset within the group.
+//!
+//! A cell takes part only when its status (docs/model.md §7) is ok; the others are NaN. A
+//! group's status is 0 when every cell of it is ok, else the lowest code among its cells
+//! that are not ([`fold_status`]): like the reductions, independent of the order.
 
 use super::{CellFields, Cells, ReduceOp};
 
@@ -52,6 +56,18 @@ pub(crate) fn fold_op<const OP: u8>(acc: &mut f64, at: &mut i64, v: f64, off: i6
     }
 }
 
+/// Folds a cell's status code into a group's: 0 while every cell is ok, else the lowest
+/// code of a cell that is not.
+#[inline(always)]
+pub(crate) fn fold_status(acc: &mut u8, code: u8) {
+    let a = *acc;
+    *acc = if code != 0 && (a == 0 || code < a) {
+        code
+    } else {
+        a
+    };
+}
+
 /// Accumulators of the groups one chunk touches (per-thread scratch, reused across chunks).
 #[derive(Debug, Default)]
 pub(crate) struct Acc {
@@ -63,8 +79,10 @@ pub(crate) struct Acc {
     pub vals: Vec<f64>,
     /// `groups × nf` offsets of the reduced values within their group (−1 while none).
     pub at: Vec<i64>,
-    /// Any cell of the group solved.
+    /// Any cell of the group ok.
     pub ok: Vec<bool>,
+    /// The group's status so far ([`fold_status`]).
+    pub status: Vec<u8>,
     /// Any pose of the group reachable (when reachability is reduced per group).
     pub reach: Vec<bool>,
 }
@@ -80,6 +98,8 @@ impl Acc {
         self.at.resize(groups * nf, -1);
         self.ok.clear();
         self.ok.resize(groups, false);
+        self.status.clear();
+        self.status.resize(groups, 0);
         self.reach.clear();
         self.reach.resize(groups, false);
     }
@@ -97,6 +117,8 @@ pub(crate) enum Sink<'s, 'a> {
         cells: &'s mut CellFields<'a, f64>,
         /// The chunk's ok slice.
         ok: &'s mut [bool],
+        /// The chunk's status slice (empty: not wanted).
+        status: &'s mut [u8],
     },
     /// Folded into groups of `group` consecutive rows.
     Reduce {
@@ -110,19 +132,25 @@ pub(crate) enum Sink<'s, 'a> {
 }
 
 impl Sink<'_, '_> {
-    /// One cell at global row `row`; `v` holds the fields in [`n_fields`] order.
+    /// One cell at global row `row` of status `code` (ok when 0); `v` holds the fields in
+    /// [`n_fields`] order (used only when ok).
     #[inline]
-    pub fn cell(&mut self, row: usize, ok: bool, v: &[f64]) {
+    pub fn cell(&mut self, row: usize, code: u8, v: &[f64]) {
+        let ok = code == 0;
         match self {
             Sink::Store {
                 row0,
                 n,
                 cells,
                 ok: oks,
+                status,
             } => {
                 let n = *n;
                 let r = row - *row0;
                 oks[r] = ok;
+                if let Some(s) = status.get_mut(r) {
+                    *s = code;
+                }
                 let f = &mut cells.force_n[r * n..(r + 1) * n];
                 let a = &mut cells.dalpha_deg[r * n..(r + 1) * n];
                 let l = &mut cells.dl_mm[r * n..(r + 1) * n];
@@ -141,12 +169,13 @@ impl Sink<'_, '_> {
                 }
             }
             Sink::Reduce { group, op, acc } => {
-                if !ok {
-                    return; // a failed cell is all NaN: nothing to fold
-                }
                 let g = row / *group;
-                let off = (row - g * *group) as i64;
                 let gi = g - acc.g0;
+                fold_status(&mut acc.status[gi], code);
+                if !ok {
+                    return; // a cell that is not ok is all NaN: nothing to fold
+                }
+                let off = (row - g * *group) as i64;
                 let nf = acc.nf;
                 acc.ok[gi] = true;
                 let vals = &mut acc.vals[gi * nf..(gi + 1) * nf];
@@ -159,17 +188,22 @@ impl Sink<'_, '_> {
     }
 }
 
-/// Writes one reduced group at output index `o`.
+/// Writes one reduced group at output index `o` (`status` may be empty: not wanted).
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn write_group(
     cells: &mut Cells<'_>,
     oks: &mut [bool],
+    status: &mut [u8],
     o: usize,
     n: usize,
     vals: &[f64],
     at: &[i64],
-    ok: bool,
+    (ok, code): (bool, u8),
 ) {
     oks[o] = ok;
+    if let Some(s) = status.get_mut(o) {
+        *s = code;
+    }
     fn put<T: Copy>(c: &mut CellFields<'_, T>, o: usize, n: usize, v: &[T]) {
         c.force_n[o * n..(o + 1) * n].copy_from_slice(&v[..n]);
         c.dx_mm[o] = v[n];

@@ -79,7 +79,8 @@ pub(crate) fn cell_fields<'a, T: numpy::Element>(
     })
 }
 
-/// A dict of fresh output arrays of a sweep: cell fields `lead` (+ `n`), `ok` `lead`,
+/// A dict of fresh output arrays of a sweep: cell fields `lead` (+ `n`), `ok` and `status`
+/// `lead`,
 /// per-pose outputs for `poses` poses. Uninitialised (`numpy.empty`): no zeroing pass over
 /// memory that the core overwrites anyway, and the arrays of one dtype are views of one
 /// buffer, for which numpy asks the kernel for huge pages (ten separate arrays, none
@@ -108,12 +109,13 @@ pub(crate) fn new_outputs<'py>(
         })
         .collect();
     arrays.push(("ok", lead.to_vec(), "bool"));
+    arrays.push(("status", lead.to_vec(), "uint8"));
     arrays.push(("length_mm", vec![poses, n], "float64"));
     arrays.push(("reachable", vec![poses], "bool"));
     arrays.push(("effector_x_mm", vec![poses], "float64"));
     arrays.push(("effector_y_mm", vec![poses], "float64"));
     let out = PyDict::new(py);
-    for dtype in ["float64", "int64", "bool"] {
+    for dtype in ["float64", "int64", "bool", "uint8"] {
         let part: Vec<_> = arrays.iter().filter(|a| a.2 == dtype).collect();
         let total: usize = part.iter().map(|a| a.1.iter().product::<usize>()).sum();
         if part.is_empty() {
