@@ -11,7 +11,6 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from eodarm.data.datasets import example_arm
 from eodarm.errors import EodarmError
 from eodarm.model.arm import Arm
 from eodarm.model.effects import Effect, kind_of
@@ -22,8 +21,43 @@ if TYPE_CHECKING:
     from eodarm.model.effects import Slot
 
 
-def _load_arm(path: str | None) -> Arm:
-    return example_arm() if path is None else Arm.from_toml(path)
+#: The bundled data set whose arm every command uses when ``--arm`` is absent
+#: (docs/walkthrough.md, "Which arm").
+DEFAULT_DATASET = "seed2022"
+
+
+def _load_arm(path: str | None, measurements: str | None = None) -> Arm:
+    """The arm of a command: the ``--arm`` file; without one, the arm that belongs to the data.
+
+    * a command that reads no measurements (solve, synth, compensate, sweep): the bundled
+      :data:`DEFAULT_DATASET` arm;
+    * a command that reads ``measurements``: the arm of the bundled data set whose file it is
+      (by content: the bundled file or an exported copy). The arm of any other file is
+      unknown, and a model of another arm would explain nothing about it: refused, one line.
+
+    Says on stderr which arm was chosen when ``--arm`` is absent.
+    """
+    if path is not None:
+        return Arm.from_toml(path)
+    from eodarm.data import datasets
+
+    if measurements is None:
+        arm = datasets.bundled_arm(DEFAULT_DATASET)
+        _note(f"no --arm: using the bundled {DEFAULT_DATASET} arm '{arm.name}' ({arm.n} links)")
+        return arm
+    name = datasets.dataset_of(measurements)
+    if name is None:
+        raise EodarmError(
+            f"{measurements}: give the arm these were measured on with --arm ARM.toml (only "
+            f"bundled data have a known arm; e.g. eodarm datasets export {DEFAULT_DATASET} DIR)"
+        )
+    arm = datasets.bundled_arm(name)
+    _note(f"no --arm: {measurements} is the bundled {name} data; using its arm '{arm.name}'")
+    return arm
+
+
+#: ``--arm`` of a command that reads no measurements.
+ARM_HELP = f"arm file (default: the bundled {DEFAULT_DATASET} arm)"
 
 
 def _valued_effect(spec: str, flag: str = "--add") -> Effect:
@@ -258,7 +292,12 @@ def _plots(
 def data_command(sub: Any, name: str, helptext: str, desc: str) -> argparse.ArgumentParser:
     c = sub.add_parser(name, help=helptext, description=desc)
     c.add_argument("measurements", metavar="MEAS.csv", help="measurement file (CONTRACT §3)")
-    c.add_argument("--arm", metavar="ARM.toml", help="arm file (default: the bundled example)")
+    c.add_argument(
+        "--arm",
+        metavar="ARM.toml",
+        help="arm file (default: the bundled data set's arm when MEAS.csv is bundled data; "
+        "required otherwise)",
+    )
     c.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     c.add_argument("--plot", metavar="DIR", help="write PNG figures into DIR")
     c.add_argument(

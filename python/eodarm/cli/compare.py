@@ -54,7 +54,7 @@ def _worst(result: FitResult, k: int = 8) -> list[dict[str, Any]]:
 def run(args: argparse.Namespace) -> int:
     from eodarm.analysis.fit import FitWarning, outlier_table, robust_fit
 
-    arm = _load_arm(args.arm)
+    arm = _load_arm(args.arm, args.measurements)
     meas = _read(args.measurements, arm)
     sw = not args.no_self_weight
     model = _model(args.add, allow_values=True)

@@ -21,7 +21,7 @@ import numpy as np
 import numpy.typing as npt
 
 from eodarm.analysis.compensate import CompensationError, compensate
-from eodarm.cli._common import _floats, _load_arm, _note, _valued_effect
+from eodarm.cli._common import ARM_HELP, _floats, _load_arm, _note, _valued_effect
 from eodarm.cli._help import HELP
 from eodarm.errors import EodarmError
 from eodarm.model.arm import Arm
@@ -211,7 +211,7 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
         "puts it (and, with 3 links or more, the last link keeps its angle). The arm file's "
         "[[effect]] tables are part of the model (docs/compensation.md).",
     )
-    c.add_argument("--arm", metavar="ARM.toml", help="arm file (default: the bundled example)")
+    c.add_argument("--arm", metavar="ARM.toml", help=ARM_HELP)
     c.add_argument(
         "--alpha",
         action="append",

@@ -34,7 +34,7 @@ from eodarm.cli._common import (
 def run(args: argparse.Namespace) -> int:
     from eodarm.analysis.diagnose import diagnose
 
-    arm = _load_arm(args.arm)
+    arm = _load_arm(args.arm, args.measurements)
     meas = _read(args.measurements, arm)
     sw = not args.no_self_weight
     model = [m for m in _model(args.add, allow_values=False) if not isinstance(m, Effect)]

@@ -34,7 +34,7 @@ def run(args: argparse.Namespace) -> int:
         robust_fit,
     )
 
-    arm = _load_arm(args.arm)
+    arm = _load_arm(args.arm, args.measurements)
     meas = _read(args.measurements, arm)
     sw = not args.no_self_weight
     model = _model(args.add, allow_values=True)

@@ -11,6 +11,7 @@ from typing import Any
 import numpy as np
 
 from eodarm.cli._common import (
+    ARM_HELP,
     _effects_args,
     _floats,
     _load_arm,
@@ -152,7 +153,7 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
         help=HELP["solve"],
         description="Solve the arm model for poses × payloads and print deflections and forces.",
     )
-    s.add_argument("--arm", metavar="ARM.toml", help="arm file (default: the bundled example)")
+    s.add_argument("--arm", metavar="ARM.toml", help=ARM_HELP)
     s.add_argument(
         "--alpha",
         action="append",

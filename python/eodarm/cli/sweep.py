@@ -13,14 +13,15 @@ import numpy.typing as npt
 
 from eodarm.cli._help import HELP
 from eodarm.errors import EodarmError
-from eodarm.model.arm import Arm
 from eodarm.workspace import store
 from eodarm.workspace.sweep import CHUNK_SIZE, REDUCE_OPS, sweep
 
 if TYPE_CHECKING:
     import xarray as xr
 from eodarm.cli._common import (
+    ARM_HELP,
     _effects_args,
+    _load_arm,
     _note,
     _valued_effect,
 )
@@ -77,7 +78,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     # let "--alpha3 -20:20:21" read the range as a value, not as an option (argparse only
     # knows plain negative numbers); "--alpha3=-20:20:21" works regardless
     p._negative_number_matcher = re.compile(r"^-\d+$|^-\d*\.\d+$|^-[\d.]+(:[-\d.]+)+$|^-[\d.]+,")
-    p.add_argument("--arm", metavar="ARM.toml", help="arm file (default: the bundled seed arm)")
+    p.add_argument("--arm", metavar="ARM.toml", help=ARM_HELP)
     for k in range(1, _MAX_LINKS + 1):
         p.add_argument(
             f"--alpha{k}",
@@ -248,13 +249,7 @@ def run(args: argparse.Namespace) -> int:
         With a one-line reason (the main CLI prints it and exits with status 2): bad input,
         a sweep too large for memory or disk, a lost Dask cluster.
     """
-    if args.arm is None:
-        from eodarm.data import datasets
-
-        arm = datasets.load("seed2022").arm
-        _note("no --arm: sweeping the bundled seed2022 arm")
-    else:
-        arm = Arm.from_toml(args.arm)
+    arm = _load_arm(args.arm)
     grid = _cli_grid(args, arm.n)
     mass = parse_range(args.mass, "--mass")
     effects = [_valued_effect(s) for s in args.add or []]

@@ -27,6 +27,8 @@ from eodarm.model.arm import Arm
 __all__ = [
     "SEED2022_SIGMA",
     "Dataset",
+    "bundled_arm",
+    "dataset_of",
     "example_arm",
     "export",
     "load",
@@ -93,6 +95,28 @@ def load(name: str = "seed2022") -> Dataset:
         read_measurements(root / "measurements.csv", arm.n), source=f"{name}/measurements.csv"
     )
     return Dataset(name, _DESCRIPTIONS[name], root, arm, published, meas, tables)
+
+
+def bundled_arm(name: str = "seed2022") -> Arm:
+    """The arm of a bundled data set (its calibrated ``arm.toml``), without loading the rest."""
+    return Arm.from_toml(_root(name) / "arm.toml")
+
+
+def dataset_of(path: str | Path) -> str | None:
+    """The bundled data set whose measurement file has exactly the bytes of ``path`` (the
+    bundled file itself or an exported copy), or None."""
+    import hashlib
+
+    try:
+        data = Path(path).read_bytes()
+    except OSError:
+        return None
+    digest = hashlib.sha256(data).digest()
+    for name in _DESCRIPTIONS:
+        ours = (_root(name) / "measurements.csv").read_bytes()
+        if len(ours) == len(data) and hashlib.sha256(ours).digest() == digest:
+            return name
+    return None
 
 
 def export(name: str, directory: str | Path) -> list[Path]:
