@@ -61,8 +61,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``eodarm`` command; returns the exit status.
 
     Warnings raised while a command runs (an ignored key of an arm file, say) are held back:
-    after a success they are printed as notes on stderr, each once; after a failure only the
-    one-line error is printed, so that bad input always gives exactly one line.
+    after a success they are printed as notes on stderr, each once, followed by the held
+    notes (which arm was used) and the ``next:`` line; after a failure only the one-line error
+    is printed, so that bad input always gives exactly one line.
     """
     argv = list(sys.argv[1:] if argv is None else argv)
     parser = _parser(argv)
@@ -70,6 +71,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.command is None:
         parser.print_help(sys.stderr)
         return 2
+    from eodarm.cli import _common
+
+    _common.HELD.clear()
+    _common.NEXT.clear()
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         try:
@@ -90,6 +95,10 @@ def main(argv: Sequence[str] | None = None) -> int:
             print("eodarm: interrupted", file=sys.stderr)
             return 130
     _notes(caught)
+    for line in _common.HELD:  # which arm was used
+        _common._say(line, file=sys.stderr)
+    for line in _common.NEXT:  # what to run next, last (already wrapped)
+        print(line, file=sys.stderr)
     return code
 
 
@@ -109,9 +118,11 @@ MAX_NOTES = 5
 
 
 def _notes(caught: list[warnings.WarningMessage]) -> None:
+    import textwrap
+
     seen = list(dict.fromkeys(" ".join(str(w.message).split()) for w in caught))
     for text in seen[:MAX_NOTES]:
-        print(f"eodarm: note: {text}", file=sys.stderr)
+        print(textwrap.fill(f"eodarm: note: {text}", 100, subsequent_indent="  "), file=sys.stderr)
     if len(seen) > MAX_NOTES:
         print(f"eodarm: note: … and {len(seen) - MAX_NOTES} more", file=sys.stderr)
 

@@ -35,7 +35,8 @@ def _load_arm(path: str | None, measurements: str | None = None) -> Arm:
       (by content: the bundled file or an exported copy). The arm of any other file is
       unknown, and a model of another arm would explain nothing about it: refused, one line.
 
-    Says on stderr which arm was chosen when ``--arm`` is absent.
+    Says on stderr which arm was chosen when ``--arm`` is absent (after the command
+    succeeded, so that a failure stays one line).
     """
     if path is not None:
         return Arm.from_toml(path)
@@ -43,16 +44,16 @@ def _load_arm(path: str | None, measurements: str | None = None) -> Arm:
 
     if measurements is None:
         arm = datasets.bundled_arm(DEFAULT_DATASET)
-        _note(f"no --arm: using the bundled {DEFAULT_DATASET} arm '{arm.name}' ({arm.n} links)")
+        _held_note(f"no --arm: used the bundled {DEFAULT_DATASET} arm '{arm.name}' ({arm.n} links)")
         return arm
     name = datasets.dataset_of(measurements)
     if name is None:
         raise EodarmError(
             f"{measurements}: give the arm these were measured on with --arm ARM.toml (only "
-            f"bundled data have a known arm; e.g. eodarm datasets export {DEFAULT_DATASET} DIR)"
+            "bundled data have a known arm)"
         )
     arm = datasets.bundled_arm(name)
-    _note(f"no --arm: {measurements} is the bundled {name} data; using its arm '{arm.name}'")
+    _held_note(f"no --arm: these are the bundled {name} data; used their arm '{arm.name}'")
     return arm
 
 
@@ -142,7 +143,18 @@ def _model_kw(args: argparse.Namespace) -> dict[str, Any]:
 
 # ----------------------------------------------------------------- compare / fit / diagnose
 def _note(msg: str) -> None:
-    print(f"eodarm: {msg}", file=sys.stderr)
+    """A message on stderr, ``eodarm: …``, wrapped within :data:`WIDTH` columns."""
+    _say(f"eodarm: {msg}", file=sys.stderr)
+
+
+#: Messages held until the command has succeeded (the main CLI prints them, then the
+#: ``next:`` line, and drops them after a failure, whose one line is then all of stderr).
+HELD: list[str] = []
+NEXT: list[str] = []
+
+
+def _held_note(msg: str) -> None:
+    HELD.append(f"eodarm: {msg}")
 
 
 def _read(path: str, arm: Arm) -> Measurements:
@@ -222,23 +234,69 @@ def _model(specs: list[str] | None, allow_values: bool) -> list[Effect | Slot]:
     return out
 
 
+#: Terminal output is kept within this many columns.
+WIDTH = 100
+
+
 def _fmt(x: float, unit: str = "") -> str:
-    if x is None or not np.isfinite(x):
-        return "—"
-    return f"{x:.4g}{unit}"
+    """A number alone (viz.format.value: 4 significant digits, words for ∞ and NaN)."""
+    from eodarm.viz.format import value
+
+    return value(x, unit)
+
+
+def _channel(ch: str) -> tuple[str, str]:
+    """A channel identifier as (name, unit): ``dy_mm`` → (``dy``, ``mm``)."""
+    for suffix, unit in (("_mm", "mm"), ("_deg", "deg")):
+        if ch.endswith(suffix):
+            return ch.removesuffix(suffix), unit
+    return ch, ""
 
 
 def _rms_line(rms: dict[str, float]) -> str:
-    return "  ".join(f"{ch} {v:.4g}" for ch, v in rms.items())
+    """``dy 7.84 mm, dalpha1 0.510 deg, …``: each channel by name, value and unit once."""
+    from eodarm.viz.format import value
+
+    parts = []
+    for ch, v in rms.items():
+        name, unit = _channel(ch)
+        # no-break spaces: a wrapped line never parts a value from its name or unit
+        parts.append(f"{name}\u00a0{value(v, unit, digits=3)}".replace(" ", "\u00a0"))
+    return ", ".join(parts)
 
 
-def _print_table(head: list[str], rows: list[list[str]]) -> None:
+def _say(text: str, indent: str = "", width: int = WIDTH, file: Any = None) -> None:
+    """Print ``text`` wrapped within ``width`` columns, continuation lines indented more."""
+    import textwrap
+
+    print(
+        textwrap.fill(
+            text,
+            width,
+            initial_indent=indent,
+            subsequent_indent=indent + "  ",
+            break_on_hyphens=False,
+        ),
+        file=file,
+    )
+
+
+def _print_table(head: list[str], rows: list[list[str]], width: int = WIDTH) -> None:
+    """Right-aligned columns; a table wider than ``width`` is printed as one block per row
+    (``head: cell`` lines) instead, so that no line is wider."""
     widths = [
         max(len(h), *(len(r[i]) for r in rows)) if rows else len(h) for i, h in enumerate(head)
     ]
-    print("  ".join(h.rjust(w) for h, w in zip(head, widths, strict=True)))
+    if sum(widths) + 2 * (len(widths) - 1) <= width:
+        print("  ".join(h.rjust(w) for h, w in zip(head, widths, strict=True)))
+        for r in rows:
+            print("  ".join(c.rjust(w) for c, w in zip(r, widths, strict=True)))
+        return
+    key_w = max(len(h) for h in head[1:]) if len(head) > 1 else 0
     for r in rows:
-        print("  ".join(c.rjust(w) for c, w in zip(r, widths, strict=True)))
+        print(f"{head[0]} {r[0]}")
+        for h, c in zip(head[1:], r[1:], strict=True):
+            _say(f"{h.ljust(key_w)}  {c}", "  ", width)
 
 
 def _describe_data(meas: Measurements) -> str:
@@ -247,6 +305,26 @@ def _describe_data(meas: Measurements) -> str:
         f"{meas.n_rows} states, {len(meas.configs)} configurations, payloads {masses} kg, "
         f"{meas.n_values} values on {', '.join(meas.measured_channels)}"
     )
+
+
+def _next(*argv: str) -> None:
+    """The ``next:`` line on stderr (stdout is data): the command to run next."""
+    import shlex
+
+    words = ["eodarm:", "next:", "eodarm", *(shlex.quote(a) for a in argv)]
+    lines = [words[0]]
+    for w in words[1:]:  # wrapped as the shell continues a line, so that it pastes whole
+        if len(lines[-1]) + 1 + len(w) + 2 > WIDTH:
+            lines[-1] += " \\"
+            lines.append("  " + w)
+        else:
+            lines[-1] += " " + w
+    NEXT[:] = ["\n".join(lines)]
+
+
+def _arm_argv(args: argparse.Namespace) -> list[str]:
+    """``--arm FILE`` as the user gave it (nothing when the default arm was used)."""
+    return ["--arm", args.arm] if getattr(args, "arm", None) else []
 
 
 def _plots(

@@ -17,6 +17,7 @@ import math
 
 __all__ = [
     "interval95",
+    "p_value",
     "parameter_name",
     "value",
     "value_error",
@@ -47,6 +48,7 @@ def value(x: float, unit: str = "", digits: int = 4) -> str:
         return "—"
     if math.isinf(x):
         return "∞" if x > 0 else "−∞"
+    x = x + 0.0  # −0 reads as 0
     return _with_unit(f"{x:.{digits}g}".replace("-", "−"), unit)
 
 
@@ -109,3 +111,13 @@ def parameter_name(effect: str, at: str) -> str:
     if template is None:
         return f"{effect.replace('_', ' ')} at {at}"
     return template.format(i=index)
+
+
+def p_value(p: float) -> str:
+    """A p-value, one way everywhere: ``"p = 0.044"``, ``"p = 3.1e-12"``, ``"p < 1e-300"``
+    (below 1e-300, down to the 0 of floating-point underflow)."""
+    if p is None or math.isnan(p):
+        return "p = —"
+    if p < 1e-300:
+        return "p < 1e-300"
+    return f"p = {p:.2g}"
