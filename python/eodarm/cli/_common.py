@@ -307,6 +307,15 @@ def _describe_data(meas: Measurements) -> str:
     )
 
 
+def _stages(names: list[str], command: str) -> Any:
+    """A progress bar over the named stages of a command (eodarm.progress: on stderr, on a
+    terminal only, once the work has run 2 s); ``with _stages([...], "diagnose") as step:``
+    then ``step(name)`` before each stage."""
+    from eodarm.progress import stages
+
+    return stages(names, f"eodarm {command}")
+
+
 def _next(*argv: str) -> None:
     """The ``next:`` line on stderr (stdout is data): the command to run next."""
     import shlex
@@ -322,9 +331,16 @@ def _next(*argv: str) -> None:
     NEXT[:] = ["\n".join(lines)]
 
 
-def _arm_argv(args: argparse.Namespace) -> list[str]:
-    """``--arm FILE`` as the user gave it (nothing when the default arm was used)."""
-    return ["--arm", args.arm] if getattr(args, "arm", None) else []
+def _arm_argv(args: argparse.Namespace, always: bool = False) -> list[str]:
+    """``--arm FILE`` as the user gave it; without one, nothing, or with ``always`` the file
+    of the default arm (for data that will not be bundled data: a synthetic file)."""
+    if getattr(args, "arm", None):
+        return ["--arm", args.arm]
+    if not always:
+        return []
+    from eodarm.data.datasets import bundled_arm_path
+
+    return ["--arm", str(bundled_arm_path(DEFAULT_DATASET))]
 
 
 def _plots(

@@ -30,6 +30,7 @@ from eodarm.cli._common import (
     _note,
     _print_table,
     _say,
+    _stages,
     _valued_effect,
 )
 from eodarm.cli._help import HELP
@@ -153,9 +154,11 @@ def run(args: argparse.Namespace) -> int:
     alpha, mass, config = _nominal_poses(args, arm)
     self_weight = not args.no_self_weight
     try:
-        out = compensate(
-            arm, alpha, mass, effects, self_weight=self_weight, strict=not args.partial
-        )
+        with _stages(["compensating"], "compensate") as step:
+            step("compensating")
+            out = compensate(
+                arm, alpha, mass, effects, self_weight=self_weight, strict=not args.partial
+            )
     except CompensationError as exc:
         hint = "; --partial keeps the others" if alpha.shape[0] > 1 else ""
         raise EodarmError(f"{exc}{hint}") from None

@@ -31,6 +31,7 @@ from eodarm.cli._common import (
     _read,
     _rms_line,
     _say,
+    _stages,
     data_command,
 )
 
@@ -43,15 +44,25 @@ def run(args: argparse.Namespace) -> int:
     sw = not args.no_self_weight
     model = [m for m in _model(args.add, allow_values=False) if not isinstance(m, Effect)]
     mk = _model_kw(args)
-    d = diagnose(
-        arm,
-        meas,
-        model,
-        self_weight=sw,
-        max_set=args.max_set,
-        solver_model=mk["model"],
-        fem_options=mk["fem_options"],
-    )
+    with _stages(["diagnosing", "figures"], "diagnose") as step:
+        step("diagnosing")
+        d = diagnose(
+            arm,
+            meas,
+            model,
+            self_weight=sw,
+            max_set=args.max_set,
+            solver_model=mk["model"],
+            fem_options=mk["fem_options"],
+        )
+        step("figures")
+        _output(args, d, arm, meas, sw, mk)
+    _say_next(args, d)
+    return 0
+
+
+def _output(args: argparse.Namespace, d: Any, arm: Arm, meas: Any, sw: bool, mk: Any) -> None:
+    """The text or JSON on stdout, and the figures."""
     if args.json:
         # the contract's keys, and where each channel's σ came from
         print(json.dumps({**d.to_json(), "noise": _noise_json(meas)}, allow_nan=False))
@@ -67,8 +78,6 @@ def run(args: argparse.Namespace) -> int:
         path = Path(args.plot) / "residual_pattern.png"
         residual_map(best, path=path)
         _note(f"wrote {path}")
-    _say_next(args, d)
-    return 0
 
 
 def _say_next(args: argparse.Namespace, d: Any) -> None:

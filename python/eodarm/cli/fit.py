@@ -19,6 +19,7 @@ from eodarm.cli._common import (
     _read,
     _rms_line,
     _say,
+    _stages,
     data_command,
 )
 from eodarm.cli._help import HELP
@@ -43,14 +44,19 @@ def run(args: argparse.Namespace) -> int:
     model = _model(args.add, allow_values=True)
     if not model:
         raise EodarmError("fit needs at least one --add EFFECT@PLACE")
-    with warnings.catch_warnings(record=True) as caught:
+    names = ["fitting", *(["cross-validation"] if args.cv else [])]
+    with warnings.catch_warnings(record=True) as caught, _stages(names, "fit") as step:
         warnings.simplefilter("always", FitWarning)
         mk = _model_kw(args)
+        step("fitting")
         res, flagged = robust_fit(arm, meas, model, self_weight=sw, **mk)
         check_validity(res)
         outliers = outlier_table(res, flagged)
-        cv = cross_validate(arm, meas, res.slots, self_weight=sw, **mk) if args.cv else None
-        cv0 = cross_validate(arm, meas, [], self_weight=sw, **mk) if args.cv else None
+        cv = cv0 = None
+        if args.cv:
+            step("cross-validation")
+            cv = cross_validate(arm, meas, res.slots, self_weight=sw, **mk)
+            cv0 = cross_validate(arm, meas, [], self_weight=sw, **mk)
     for w in {str(w.message) for w in caught}:
         _note(w)
     before = compare(arm, meas, [], self_weight=sw, **mk)

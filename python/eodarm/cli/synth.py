@@ -11,7 +11,15 @@ import numpy as np
 import numpy.typing as npt
 
 from eodarm.analysis.synth import random_configs, synth
-from eodarm.cli._common import ARM_HELP, _effects_args, _load_arm, _valued_effect
+from eodarm.cli._common import (
+    ARM_HELP,
+    _arm_argv,
+    _effects_args,
+    _load_arm,
+    _next,
+    _stages,
+    _valued_effect,
+)
 from eodarm.cli._help import HELP
 from eodarm.errors import EodarmError
 from eodarm.model.arm import Arm
@@ -128,26 +136,29 @@ def run(args: argparse.Namespace) -> int:
         alpha = _solvable_configs(
             arm, k, np.random.default_rng([1, args.seed]), masses, hidden, not args.no_self_weight
         )
-    meas = synth(
-        arm,
-        alpha,
-        masses,
-        hidden=hidden,
-        channels=args.channels,
-        sigma=sigma,
-        noise=args.noise,
-        seed=args.seed,
-        self_weight=not args.no_self_weight,
-        sigma_columns=not args.no_sigma_columns,
-        repeats=args.repeats,
-    )
-    if args.output:
-        meas.to_csv(args.output)
-        where = args.output
-    else:
-        meas.to_csv(sys.stdout)
-        sys.stdout.flush()
-        where = "stdout"
+    with _stages(["solving", "writing"], "synth") as step:
+        step("solving")
+        meas = synth(
+            arm,
+            alpha,
+            masses,
+            hidden=hidden,
+            channels=args.channels,
+            sigma=sigma,
+            noise=args.noise,
+            seed=args.seed,
+            self_weight=not args.no_self_weight,
+            sigma_columns=not args.no_sigma_columns,
+            repeats=args.repeats,
+        )
+        step("writing")
+        if args.output:
+            meas.to_csv(args.output)
+            where = args.output
+        else:
+            meas.to_csv(sys.stdout)
+            sys.stdout.flush()
+            where = "stdout"
     model = ", ".join(f"{e.key}={e.value:g}" for e in hidden) or "none"
     if args.repeats == 1:
         what = f"{meas.n_rows} states ({alpha.shape[0]} configs × {len(masses)} payloads"
@@ -161,6 +172,7 @@ def run(args: argparse.Namespace) -> int:
         f"to {where}",
         file=sys.stderr,
     )
+    _next("diagnose", args.output or "FILE.csv", *_arm_argv(args, always=True))
     return 0
 
 

@@ -28,6 +28,7 @@ __all__ = [
     "SEED2022_SIGMA",
     "Dataset",
     "bundled_arm",
+    "bundled_arm_path",
     "dataset_of",
     "example_arm",
     "export",
@@ -97,9 +98,14 @@ def load(name: str = "seed2022") -> Dataset:
     return Dataset(name, _DESCRIPTIONS[name], root, arm, published, meas, tables)
 
 
+def bundled_arm_path(name: str = "seed2022") -> Path:
+    """The file of a bundled data set's arm (its calibrated ``arm.toml``)."""
+    return _root(name) / "arm.toml"
+
+
 def bundled_arm(name: str = "seed2022") -> Arm:
     """The arm of a bundled data set (its calibrated ``arm.toml``), without loading the rest."""
-    return Arm.from_toml(_root(name) / "arm.toml")
+    return Arm.from_toml(bundled_arm_path(name))
 
 
 def dataset_of(path: str | Path) -> str | None:
