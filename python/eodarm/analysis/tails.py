@@ -35,13 +35,21 @@ def _stirling_rest(z: float) -> float:
     ) / z
 
 
+def _log1p_ratio(u: float, v: float) -> float:
+    """ln(u/v) for u, v > 0: by log1p near u = v (where it keeps the digits), else directly."""
+    t = (u - v) / v
+    if abs(t) < 0.5:
+        return math.log1p(t)
+    return math.log(u) - math.log(v)
+
+
 def _log_gamma_prefactor(a: float, x: float) -> float:
     """ln(xᵃ e⁻ˣ / Γ(a)). For large a the terms of the plain sum reach ~a and cancel to ~1,
     losing digits; written around x = a with Stirling's series it keeps them."""
     if a < 10.0:
         return -x + a * math.log(x) - math.lgamma(a)
     t = (x - a) / a
-    return a * (math.log1p(t) - t) + 0.5 * math.log(a) - _HALF_LOG_2PI - _stirling_rest(a)
+    return a * (_log1p_ratio(x, a) - t) + 0.5 * math.log(a) - _HALF_LOG_2PI - _stirling_rest(a)
 
 
 def _log_beta_prefactor(a: float, b: float, x: float, y: float) -> float:
@@ -57,8 +65,8 @@ def _log_beta_prefactor(a: float, b: float, x: float, y: float) -> float:
         x0, y0 = a / ab, b / ab
         rest = _stirling_rest(ab) - _stirling_rest(a) - _stirling_rest(b)
         return (
-            a * math.log1p((x - x0) / x0)
-            + b * math.log1p((y - y0) / y0)
+            a * _log1p_ratio(x, x0)
+            + b * _log1p_ratio(y, y0)
             + 0.5 * math.log(a * b / ab)
             - _HALF_LOG_2PI
             + rest

@@ -180,7 +180,7 @@ def run(args: argparse.Namespace) -> int:
         e.key + (" (arm file)" if e in arm.effects else "")
         for e in with_arm_effects(arm.effects, effects)
     ]
-    print(
+    _say(
         f"arm {arm.name!r} ({arm.n} links), model: baseline"
         + "".join(f" + {m}" for m in model)
         + ("" if self_weight else ", self-weight off")

@@ -105,7 +105,7 @@ def _candidate(slot: Any) -> str:
 def _print_diagnosis(d: Any, arm: Arm, meas: Measurements) -> None:
     from eodarm.viz.format import p_value
 
-    print(
+    _say(
         f"diagnose {meas.source} with arm '{arm.name}', model: baseline"
         + "".join(f" + {s.key}" for s in d.model)
     )

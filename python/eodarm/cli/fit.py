@@ -119,7 +119,7 @@ def _print_fit(
     from eodarm.analysis.fit import determining_channel
     from eodarm.viz.format import interval95, parameter_name, value_error
 
-    print(f"fit {meas.source} with arm '{res.problem.arm.name}'")
+    _say(f"fit {meas.source} with arm '{res.problem.arm.name}'")
     _say(_describe_data(meas))
     flags = dict(undetermined)
     rows = []

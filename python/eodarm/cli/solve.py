@@ -121,7 +121,7 @@ def run(args: argparse.Namespace) -> int:
         sys.stdout.write("\n")
         return 0
     n = arm.n
-    print(
+    _say(
         f"arm {arm.name!r} ({n} links), model: baseline"
         + "".join(f" + {e.name}@{e.at}" for e in effects)
         + ("" if not args.no_self_weight else ", self-weight off")

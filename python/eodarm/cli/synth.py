@@ -17,6 +17,7 @@ from eodarm.cli._common import (
     _effects_args,
     _load_arm,
     _next,
+    _note,
     _stages,
     _valued_effect,
 )
@@ -167,11 +168,7 @@ def run(args: argparse.Namespace) -> int:
             f"{meas.n_rows} rows ({alpha.shape[0]} configs × {len(masses)} payloads × "
             f"{args.repeats} repeats"
         )
-    print(
-        f"eodarm: wrote {what}, {len(meas.measured_channels)} channels; hidden: {model}) "
-        f"to {where}",
-        file=sys.stderr,
-    )
+    _note(f"wrote {what}, {len(meas.measured_channels)} channels; hidden: {model}) to {where}")
     _next("diagnose", args.output or "FILE.csv", *_arm_argv(args, always=True))
     return 0
 
