@@ -125,7 +125,7 @@ def test_diagnose_folds_the_candidates_that_do_not_help(
     folded = " ".join(ranking.split("do not help", 1)[1].split())
     names = {x.strip() for x in folded.split("): ", 1)[1].split(", ")}
     for c in doc["ranking"]:
-        label = f"{c['effect']}@{c['at']}" + (" (taken up)" if c.get("unloaded") else "")
+        label = f"{c['effect']}@{c['at']}" + (f":{c['unloaded']}" if c.get("unloaded") else "")
         assert (label in names) == (c in idle), label
         assert (label in names) != (f"({label})" in ranking)  # folded, or a row of the table
 

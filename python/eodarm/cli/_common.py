@@ -281,16 +281,26 @@ def _say(text: str, indent: str = "", width: int = WIDTH, file: Any = None) -> N
     )
 
 
-def _print_table(head: list[str], rows: list[list[str]], width: int = WIDTH) -> None:
-    """Right-aligned columns; a table wider than ``width`` is printed as one block per row
-    (``head: cell`` lines) instead, so that no line is wider."""
+def _print_table(
+    head: list[str], rows: list[list[str]], width: int = WIDTH, left: tuple[int, ...] = ()
+) -> None:
+    """Columns right-aligned (those in ``left``: left-aligned, for words); a table wider than
+    ``width`` is printed as one block per row (``head  cell`` lines) instead, so that no line
+    is wider."""
     widths = [
         max(len(h), *(len(r[i]) for r in rows)) if rows else len(h) for i, h in enumerate(head)
     ]
+
+    def line(cells: list[str]) -> str:
+        return "  ".join(
+            c.ljust(w) if i in left else c.rjust(w)
+            for i, (c, w) in enumerate(zip(cells, widths, strict=True))
+        ).rstrip()
+
     if sum(widths) + 2 * (len(widths) - 1) <= width:
-        print("  ".join(h.rjust(w) for h, w in zip(head, widths, strict=True)))
+        print(line(head))
         for r in rows:
-            print("  ".join(c.rjust(w) for c, w in zip(r, widths, strict=True)))
+            print(line(r))
         return
     key_w = max(len(h) for h in head[1:]) if len(head) > 1 else 0
     for r in rows:

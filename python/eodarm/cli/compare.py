@@ -112,7 +112,7 @@ def run(args: argparse.Namespace) -> int:
 
 def _adds(model: list[Any]) -> list[str]:
     """The fitted (``--add EFFECT@PLACE``) part of compare's model, for diagnose."""
-    return [a for m in model if not isinstance(m, Effect) for a in ("--add", m.key)]
+    return [a for m in model if not isinstance(m, Effect) for a in ("--add", m.spec)]
 
 
 def _print_compare(

@@ -84,11 +84,11 @@ def _say_next(args: argparse.Namespace, d: Any) -> None:
     """What to run next: fit the suggested set; the rounds of a report when nothing in the
     catalogue explains the data; the workspace maps when nothing is missing."""
     data = [args.measurements, *_arm_argv(args)]
-    adds = [a for s in [*d.model, *d.suggested] for a in ("--add", s.key)]
+    adds = [a for s in [*d.model, *d.suggested] for a in ("--add", s.spec)]
     if d.verdict == "missing":
         _next("fit", *data, *adds, "--cv", "config")
     elif d.verdict == "unexplained":
-        _next("report", *data, *[a for s in d.model for a in ("--add", s.key)])
+        _next("report", *data, *[a for s in d.model for a in ("--add", s.spec)])
     else:
         _next("sweep", *_arm_argv(args), "-o", "sweep.nc", "--plot", "maps")
 
@@ -98,8 +98,8 @@ def _candidate(slot: Any) -> str:
     (actuator_compliance@M3)``."""
     from eodarm.viz.format import parameter_name
 
-    taken = " (taken up)" if getattr(slot, "unloaded", "centred") != "centred" else ""
-    return f"{parameter_name(slot.name, slot.at)}{taken} ({slot.label})"
+    taken = ", taken up" if getattr(slot, "unloaded", "centred") != "centred" else ""
+    return f"{parameter_name(slot.name, slot.at)}{taken} ({slot.spec})"
 
 
 def _print_diagnosis(d: Any, arm: Arm, meas: Measurements) -> None:
@@ -171,6 +171,7 @@ def _print_ranking(d: Any, width: int = WIDTH) -> None:
     main = [ch for ch in ("dy_mm", "dx_mm") if ch in chans]
     chans = main + [ch for ch in chans if ch not in main]
     rows = []
+    number = {c.slot.label: str(i + 1) for i, c in enumerate(helping)}
     for i, c in enumerate(helping):
         j = c.fit.slots.index(c.slot)
         rms = c.fit.rms()
@@ -180,30 +181,29 @@ def _print_ranking(d: Any, width: int = WIDTH) -> None:
                 _candidate(c.slot),
                 value(c.fit.estimate(j), c.slot.kind.unit, digits=3),
                 f"{c.fit.chi2_per_dof:.4g}",
-                ", ".join(c.confused_with),
+                ", ".join(f"#{number[k]}" if k in number else k for k in c.confused_with),
                 *(_fmt(rms.get(ch, np.nan)) for ch in chans),
             ]
         )
-    head = ["#", "candidate", "estimate", "χ²/dof", "confused with"]
+    head = ["#", "candidate", "estimate", "χ²/dof", "same as"]
     head += [f"{_channel(ch)[0]} {_channel(ch)[1]}" for ch in chans]
-    if not any(r[4] for r in rows):  # nothing confused: no empty column
+    same = [(r[0], r[4]) for r in rows if r[4]]
+    if not same or _span(head[:6], rows) > width:  # the column, or a line below the table
         head.pop(4)
         rows = [r[:4] + r[5:] for r in rows]
     fixed = len(head) - len(chans)
-
-    def span(k: int) -> int:
-        cols = head[: fixed + k]
-        return sum(max(len(h), *(len(r[i]) for r in rows)) for i, h in enumerate(cols)) + 2 * (
-            len(cols) - 1
-        )
-
     shown = len(chans)
-    while rows and shown > 0 and span(shown) > width:
+    while rows and shown > 0 and _span(head[: fixed + shown], rows) > width:
         shown -= 1
     if rows:
-        _print_table(head[: fixed + shown], [r[: fixed + shown] for r in rows], width)
+        _print_table(head[: fixed + shown], [r[: fixed + shown] for r in rows], width, left=(1,))
+        if fixed == 4 and same:
+            _say(
+                "the data cannot tell apart: "
+                + ", ".join(f"#{a} and {b}" for a, b in same if f"#{a}" < b or "#" not in b)
+            )
         if shown < len(chans):
-            print(
+            _say(
                 f"(RMS shown for {', '.join(chans[:shown]) or 'no channel'}; every channel's "
                 "in --json)"
             )
@@ -213,8 +213,14 @@ def _print_ranking(d: Any, width: int = WIDTH) -> None:
         unchanged = idle[0].fit.chi2_per_dof
         _say(
             f"do not help (their parameter stays where the effect is absent; χ²/dof "
-            f"{unchanged:.4g}): " + ", ".join(c.slot.label for c in idle)
+            f"{unchanged:.4g}): " + ", ".join(c.slot.spec for c in idle)
         )
+
+
+def _span(head: list[str], rows: list[list[str]]) -> int:
+    """Columns taken by the first ``len(head)`` columns of a table."""
+    widths = [max(len(h), *(len(r[i]) for r in rows)) for i, h in enumerate(head)]
+    return sum(widths) + 2 * (len(widths) - 1)
 
 
 def _print_fit(f: Any) -> None:

@@ -49,7 +49,18 @@ def value(x: float, unit: str = "", digits: int = 4) -> str:
     if math.isinf(x):
         return "∞" if x > 0 else "−∞"
     x = x + 0.0  # −0 reads as 0
-    return _with_unit(f"{x:.{digits}g}".replace("-", "−"), unit)
+    if x == 0:
+        return _with_unit("0", unit)
+    exp = math.floor(math.log10(abs(x)))
+    if -3 <= exp < 5:  # positional: 2002, 0.257, 71100, not 2e+03
+        if exp >= digits:  # round the integer to the digits asked for
+            x = round(x, digits - 1 - exp)
+        text = f"{x:.{max(digits - 1 - exp, 0)}f}"
+        text = text.rstrip("0").rstrip(".") if "." in text else text  # as %g: 1.5, not 1.500
+    else:  # a power of ten as in value_error: 4.87×10⁸
+        mant = f"{x / 10**exp:.{digits - 1}f}".rstrip("0").rstrip(".")
+        text = f"{mant}×10{str(exp).translate(_SUPERSCRIPT)}"
+    return _with_unit(text.replace("-", "−"), unit)
 
 
 def value_error(x: float, err: float, unit: str = "", digits: int = 2) -> str:
