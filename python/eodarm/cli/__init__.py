@@ -75,6 +75,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     _common.HELD.clear()
     _common.NEXT.clear()
+    _common.HOLD[0] = True
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         try:
@@ -94,6 +95,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         except KeyboardInterrupt:
             print("eodarm: interrupted", file=sys.stderr)
             return 130
+        finally:
+            _common.HOLD[0] = False
     _notes(caught)
     for line in _common.HELD:  # which arm was used
         _common._say(line, file=sys.stderr)

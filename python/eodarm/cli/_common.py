@@ -147,14 +147,25 @@ def _note(msg: str) -> None:
     _say(f"eodarm: {msg}", file=sys.stderr)
 
 
+def _one_line(msg: str) -> None:
+    """A message that ends a command (interrupted, failed): one line, never wrapped, so that
+    it is all there is on stderr."""
+    print(f"eodarm: {' '.join(msg.split())}", file=sys.stderr)
+
+
 #: Messages held until the command has succeeded (the main CLI prints them, then the
 #: ``next:`` line, and drops them after a failure, whose one line is then all of stderr).
+#: ``HOLD`` is set by the main CLI; a command run by itself prints them at once.
 HELD: list[str] = []
 NEXT: list[str] = []
+HOLD = [False]
 
 
 def _held_note(msg: str) -> None:
-    HELD.append(f"eodarm: {msg}")
+    if HOLD[0]:
+        HELD.append(f"eodarm: {msg}")
+    else:
+        _note(msg)
 
 
 def _read(path: str, arm: Arm) -> Measurements:

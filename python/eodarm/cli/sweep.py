@@ -23,6 +23,7 @@ from eodarm.cli._common import (
     _effects_args,
     _load_arm,
     _note,
+    _one_line,
     _valued_effect,
 )
 
@@ -298,10 +299,10 @@ def run(args: argparse.Namespace) -> int:
             if client is not None:
                 client.close()
     except store.SweepInterrupted as exc:
-        _note(_interrupted(exc))
+        _one_line(_interrupted(exc))
         return 130
     except KeyboardInterrupt:
-        _note("interrupted while solving: nothing written")
+        _one_line("interrupted while solving: nothing written")
         return 130
     dt = time.perf_counter() - t0
     size = math.prod(len(v) for v in next(v for v in grid.values() if isinstance(v, dict)).values())
@@ -331,7 +332,7 @@ def run(args: argparse.Namespace) -> int:
             )
         except KeyboardInterrupt:
             done = f": {out} is complete, the maps are not" if out else ""
-            _note(f"interrupted while plotting into {args.plot}{done}")
+            _one_line(f"interrupted while plotting into {args.plot}{done}")
             return 130
         _note("wrote " + ", ".join(str(w) for w in written))
     return 0
