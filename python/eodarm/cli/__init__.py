@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import os
 import sys
 import traceback
 import warnings
@@ -18,6 +19,14 @@ from typing import NoReturn
 from eodarm._version import __version__
 from eodarm.cli._help import HELP
 from eodarm.errors import EodarmError
+
+# One BLAS thread unless the user says otherwise, set before numpy is imported (nothing above
+# imports it): eodarm's linear algebra is on tall, narrow matrices (values × a few
+# parameters), where a threaded BLAS gains nothing, and the compiled core runs its own
+# threads. On a busy 2-core machine a two-thread dot product of 10 500 values took 14–36 ms
+# instead of 0.01 ms (docs/benchmarks.md, "Scaling").
+for _var in ("OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "OMP_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
 
 __all__ = ["COMMANDS", "main"]
 
