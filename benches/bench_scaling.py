@@ -1,6 +1,8 @@
 """How the cost of the analysis grows, and where the time goes at each size.
 
-Usage: python benches/bench_scaling.py [--quick] [--markdown FILE]
+Usage: python benches/bench_scaling.py [--quick] [--only links|states|candidates] [--markdown FILE]
+
+(``OPENBLAS_NUM_THREADS=1`` as the command line sets it; unset, numpy's BLAS uses every core.)
 
 Three studies, each a table (wall time of one call, the median of ``--repeat`` runs after a
 warm-up; then one run under cProfile whose own time is split by where it is spent):
@@ -235,15 +237,21 @@ def main() -> None:
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--quick", action="store_true", help="fewer sizes")
     ap.add_argument("--markdown", type=Path)
+    ap.add_argument("--only", choices=("links", "states", "candidates"), help="one study")
     args = ap.parse_args()
     load0 = os.getloadavg()[0]
-    parts = ["### Links", *study_links(args.repeat, args.quick), ""]
-    parts += ["### States", *study_states(args.repeat, args.quick), ""]
-    parts += ["### Candidates", *study_candidates(args.repeat)]
+    parts: list[str] = []
+    if args.only in (None, "links"):
+        parts += ["### Links", *study_links(args.repeat, args.quick), ""]
+    if args.only in (None, "states"):
+        parts += ["### States", *study_states(args.repeat, args.quick), ""]
+    if args.only in (None, "candidates"):
+        parts += ["### Candidates", *study_candidates(args.repeat)]
     head = (
         f"{datetime.datetime.now(datetime.UTC):%Y-%m-%d %H:%M} UTC, {platform.processor()}, "
         f"{os.cpu_count()} logical CPUs, Python {platform.python_version()}, load average "
-        f"{load0:.2f} before / {os.getloadavg()[0]:.2f} after, median of {args.repeat}"
+        f"{load0:.2f} before / {os.getloadavg()[0]:.2f} after, median of {args.repeat}, "
+        f"OPENBLAS_NUM_THREADS={os.environ.get('OPENBLAS_NUM_THREADS', 'unset')}"
     )
     text = "\n".join([head, "", *parts])
     print(text)
