@@ -28,6 +28,7 @@ import time
 from pathlib import Path
 
 import eodarm
+from bench_diagnose import cpu_model  # benches/ is the script's directory
 from eodarm.data.datasets import bundled_arm_path
 
 SEED = str(bundled_arm_path("seed2022").with_name("measurements.csv"))
@@ -47,16 +48,6 @@ COMMANDS: dict[str, tuple[list[str], float | None]] = {
     "eodarm solve (3 poses)": (["-m", "eodarm", "solve"], None),
     "eodarm report (seed2022)": (["-m", "eodarm", "report", "-o", "REPORT"], 4.0),
 }  # fmt: skip
-
-
-def cpu_model() -> str:
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or "unknown"
 
 
 def commit() -> str:

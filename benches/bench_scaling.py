@@ -45,6 +45,7 @@ from typing import Any
 import numpy as np
 
 import eodarm
+from bench_diagnose import cpu_model  # benches/ is the script's directory
 from eodarm.analysis.diagnose import all_slots, diagnose
 from eodarm.analysis.fit import fit
 from eodarm.analysis.synth import random_configs, synth
@@ -248,7 +249,7 @@ def main() -> None:
     if args.only in (None, "candidates"):
         parts += ["### Candidates", *study_candidates(args.repeat)]
     head = (
-        f"{datetime.datetime.now(datetime.UTC):%Y-%m-%d %H:%M} UTC, {platform.processor()}, "
+        f"{datetime.datetime.now(datetime.UTC):%Y-%m-%d %H:%M} UTC, {cpu_model()}, "
         f"{os.cpu_count()} logical CPUs, Python {platform.python_version()}, load average "
         f"{load0:.2f} before / {os.getloadavg()[0]:.2f} after, median of {args.repeat}, "
         f"OPENBLAS_NUM_THREADS={os.environ.get('OPENBLAS_NUM_THREADS', 'unset')}"

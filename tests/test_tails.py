@@ -50,7 +50,9 @@ def test_f_tail_equals_scipy(d1: float) -> None:
 @given(
     a=st.floats(0.05, 2e4),
     b=st.floats(0.05, 2e4),
-    x=st.floats(0.0, 1.0),
+    # subnormal x excluded: there scipy's xᵃ loses its digits (I_x(0.5, 2) at x = 5e-324:
+    # scipy 2.89e-162, the exact x^a/(a·B(a, b)) = 3.33e-162, ours)
+    x=st.floats(0.0, 1.0).filter(lambda v: v == 0.0 or v >= 1e-300),
 )
 def test_incomplete_beta_and_gamma_equal_scipy(a: float, b: float, x: float) -> None:
     theirs = float(special.betainc(a, b, x))

@@ -84,6 +84,17 @@ def _log_beta_prefactor(a: float, b: float, x: float, y: float) -> float:
     )
 
 
+def _lentz(d: float, c: float, a: float, b: float) -> tuple[float, float, float]:
+    """One step of the modified Lentz method for the continued fraction b₀ + a₁/(b₁ + …):
+    the new (D, C) and the factor Δ = C·D that multiplies the fraction's value."""
+    d = b + a * d
+    d = _TINY if abs(d) < _TINY else d
+    c = b + a / c
+    c = _TINY if abs(c) < _TINY else c
+    d = 1.0 / d
+    return d, c, d * c
+
+
 def gammaincc(a: float, x: float) -> float:
     """Q(a, x) = Γ(a, x)/Γ(a), the regularized upper incomplete gamma function (a > 0)."""
     if not a > 0:
@@ -113,12 +124,7 @@ def gammaincc(a: float, x: float) -> float:
     for i in range(1, _MAX_ITER):
         an = -i * (i - a)
         b += 2.0
-        d = an * d + b
-        d = _TINY if abs(d) < _TINY else d
-        c = b + an / c
-        c = _TINY if abs(c) < _TINY else c
-        d = 1.0 / d
-        delta = d * c
+        d, c, delta = _lentz(d, c, an, b)
         h *= delta
         if abs(delta - 1.0) < _EPS:
             break
@@ -136,19 +142,10 @@ def _betacf(a: float, b: float, x: float) -> float:
     for m in range(1, _MAX_ITER):
         m2 = 2 * m
         aa = m * (b - m) * x / ((qam + m2) * (a + m2))
-        d = 1.0 + aa * d
-        d = _TINY if abs(d) < _TINY else d
-        c = 1.0 + aa / c
-        c = _TINY if abs(c) < _TINY else c
-        d = 1.0 / d
-        h *= d * c
+        d, c, delta = _lentz(d, c, aa, 1.0)
+        h *= delta
         aa = -(a + m) * (qab + m) * x / ((a + m2) * (qap + m2))
-        d = 1.0 + aa * d
-        d = _TINY if abs(d) < _TINY else d
-        c = 1.0 + aa / c
-        c = _TINY if abs(c) < _TINY else c
-        d = 1.0 / d
-        delta = d * c
+        d, c, delta = _lentz(d, c, aa, 1.0)
         h *= delta
         if abs(delta - 1.0) < _EPS:
             break
