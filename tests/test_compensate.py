@@ -293,7 +293,7 @@ def test_cli_reads_a_pose_file_and_writes_the_commands(
         capsys, "compensate", "--arm", str(ARM_FILE), "--poses", str(poses), "-o", str(target)
     )
     assert code == 0, err
-    assert "wrote" in err and "miss_mm" in out
+    assert "wrote" in err and "miss mm" in out
     import csv
 
     with target.open(encoding="utf-8", newline="") as f:

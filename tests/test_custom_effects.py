@@ -705,7 +705,9 @@ def test_cli_report_with_effects(friction_csv: Path, tmp_path: Path) -> None:
 
 def test_cli_solve_and_sweep_with_effects(tmp_path: Path) -> None:
     args = ["--effects", str(FRICTION_PY), "--add", "actuator_friction@M2=30"]
-    out = run_cli("solve", *args, "--alpha", "90,10,0", "--mass", "5", "--json")
+    out = run_cli(
+        "solve", "--arm", str(EXAMPLE_TOML), *args, "--alpha", "90,10,0", "--mass", "5", "--json"
+    )
     assert out.returncode == 0, out.stderr
     pose = json.loads(out.stdout)["poses"][0]
     with registered("actuator_friction"):

@@ -282,8 +282,8 @@ def test_cli_fit_json_with_cv(two_hidden_csv: str) -> None:
     ("args", "needle"),
     [
         (("diagnose", "missing.csv"), "missing.csv"),
-        (("fit", "{csv}", "--add", "joint_clearance@O9"), "O9"),
-        (("fit", "{csv}", "--add", "spring@M1"), "spring@M1"),
+        (("fit", "{csv}", "--arm", str(ARMS_FILE), "--add", "joint_clearance@O9"), "O9"),
+        (("fit", "{csv}", "--arm", str(ARMS_FILE), "--add", "spring@M1"), "spring@M1"),
         (("diagnose", "{csv}", "--arm", "nope.toml"), "nope.toml"),
     ],
 )

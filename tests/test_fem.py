@@ -365,11 +365,14 @@ def test_plots_draw_the_fem(tmp_path: Path):
 def test_cli_solve_and_fit_with_the_fem(
     tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    code = main(["solve", "--model", "fem", "--alpha", "90,10,0", "--mass", "5", "--json"])
+    example = ["--arm", str(Path(__file__).resolve().parents[1] / "examples" / "example_arm.toml")]
+    code = main(
+        ["solve", *example, "--model", "fem", "--alpha", "90,10,0", "--mass", "5", "--json"]
+    )
     assert code == 0
     doc = json.loads(capsys.readouterr().out)
     assert doc["solver_model"] == "fem" and "pin_force_n" in doc["poses"][0]
-    an = main(["solve", "--alpha", "90,10,0", "--mass", "5", "--json"])
+    an = main(["solve", *example, "--alpha", "90,10,0", "--mass", "5", "--json"])
     assert an == 0
     ref = json.loads(capsys.readouterr().out)["poses"][0]
     assert doc["poses"][0]["dy_mm"] == pytest.approx(ref["dy_mm"], rel=2e-3)

@@ -30,6 +30,8 @@ from eodarm.data.noise import MIN_DOF, pooled_sigma, state_groups
 from eodarm.data.reader import from_dataframe, read_measurements
 from strategies import repeated_values
 
+EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "example_arm.toml"
+
 HEAD = "config,alpha1_deg,alpha2_deg,alpha3_deg,mass_kg"
 
 
@@ -223,16 +225,27 @@ def mixed_csv(arm: eodarm.Arm, tmp_path_factory: pytest.TempPathFactory) -> Path
     return path
 
 
+def _messages(err: str) -> list[str]:
+    """stderr as messages: a message wrapped within 100 columns continues on indented lines."""
+    out: list[str] = []
+    for line in err.splitlines():
+        if line.startswith("  ") and out:
+            out[-1] += " " + line.strip()
+        else:
+            out.append(line)
+    return out
+
+
 @pytest.mark.parametrize("command", ["compare", "diagnose", "fit"])
 def test_cli_says_where_sigma_came_from_in_one_line_per_kind(
     mixed_csv: Path, command: str, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    argv = [command, str(mixed_csv), "--json"]
+    argv = [command, str(mixed_csv), "--arm", str(EXAMPLE), "--json"]
     if command == "fit":
         argv += ["--add", "joint_clearance@O3"]
     assert main(argv) == 0
     cap = capsys.readouterr()
-    notes = [ln for ln in cap.err.splitlines() if "sigma" in ln or "noise" in ln]
+    notes = [m for m in _messages(cap.err) if ("sigma" in m or "noise" in m) and "next:" not in m]
     assert len(notes) == 2, cap.err
     pooled, dflt = notes
     meas = read_measurements(mixed_csv, 3)
@@ -271,8 +284,8 @@ def test_cli_with_given_sigmas_says_nothing_about_noise(
 ) -> None:
     alpha = random_configs(arm, 3, np.random.default_rng(2))
     synth(arm, alpha, [5.0], repeats=3).to_csv(tmp_path / "given.csv")
-    assert main(["compare", str(tmp_path / "given.csv")]) == 0
-    err = capsys.readouterr().err
+    assert main(["compare", str(tmp_path / "given.csv"), "--arm", str(EXAMPLE)]) == 0
+    err = capsys.readouterr().err.split("eodarm: next:")[0]  # the next: line names the file
     assert "sigma" not in err and "noise" not in err
 
 
@@ -280,7 +293,8 @@ def test_cli_synth_repeats_writes_every_state_k_times(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     out = tmp_path / "rep.csv"
-    argv = ["synth", "--configs", "4", "--masses", "1.5,6.5", "--repeats", "3"]
+    argv = ["synth", "--arm", str(EXAMPLE), "--configs", "4", "--masses", "1.5,6.5"]
+    argv += ["--repeats", "3"]
     assert main([*argv, "--noise", "2.5", "--no-sigma-columns", "-o", str(out)]) == 0
     assert "wrote 24 rows (4 configs × 2 payloads × 3 repeats" in capsys.readouterr().err
     meas = read_measurements(out, 3)

@@ -515,7 +515,10 @@ def test_report_command_with_the_fe_model(
     csv = tmp_path / "m.csv"
     meas.to_csv(csv)
     out = tmp_path / "r.html"
-    args = ["report", str(csv), "--model", "fem", "--elements-per-link", "4", "--rounds", "1"]
+    arm_file = tmp_path / "arm.toml"
+    arm_file.write_text(example_arm().to_toml(), encoding="utf-8")
+    args = ["report", str(csv), "--arm", str(arm_file), "--model", "fem"]
+    args += ["--elements-per-link", "4", "--rounds", "1"]
     assert main([*args, "-o", str(out)]) == 0
     assert capsys.readouterr().out.startswith("baseline")
     text = out.read_text(encoding="utf-8")

@@ -602,13 +602,10 @@ def _bounded_step(
     lo: npt.NDArray[np.float64],
     hi: npt.NDArray[np.float64],
 ) -> npt.NDArray[np.float64]:
-    """argmin ||r − a·d|| subject to lo ≤ d ≤ hi (columns scaled for conditioning)."""
-    from scipy.optimize import lsq_linear
+    """argmin ||r − a·d|| subject to lo ≤ d ≤ hi (exact; :mod:`eodarm.analysis.boxlsq`)."""
+    from eodarm.analysis.boxlsq import bounded_lstsq
 
-    norms = np.linalg.norm(a, axis=0)
-    norms[norms == 0] = 1.0
-    res = lsq_linear(a / norms, r, bounds=(lo * norms, hi * norms), method="bvls")
-    return np.asarray(res.x) / norms
+    return bounded_lstsq(a, r, lo, hi)
 
 
 def robust_fit(

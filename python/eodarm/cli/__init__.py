@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import os
 import sys
 import traceback
 import warnings
@@ -18,6 +19,14 @@ from typing import NoReturn
 from eodarm._version import __version__
 from eodarm.cli._help import HELP
 from eodarm.errors import EodarmError
+
+# One BLAS thread unless the user says otherwise, set before numpy is imported (nothing above
+# imports it): eodarm's linear algebra is on tall, narrow matrices (values × a few
+# parameters), where a threaded BLAS gains nothing, and the compiled core runs its own
+# threads. On a busy 2-core machine a two-thread dot product of 10 500 values took 14–36 ms
+# instead of 0.01 ms (docs/benchmarks.md, "Scaling").
+for _var in ("OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "OMP_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
 
 __all__ = ["COMMANDS", "main"]
 
@@ -61,8 +70,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``eodarm`` command; returns the exit status.
 
     Warnings raised while a command runs (an ignored key of an arm file, say) are held back:
-    after a success they are printed as notes on stderr, each once; after a failure only the
-    one-line error is printed, so that bad input always gives exactly one line.
+    after a success they are printed as notes on stderr, each once, followed by the held
+    notes (which arm was used) and the ``next:`` line; after a failure only the one-line error
+    is printed, so that bad input always gives exactly one line.
     """
     argv = list(sys.argv[1:] if argv is None else argv)
     parser = _parser(argv)
@@ -70,6 +80,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.command is None:
         parser.print_help(sys.stderr)
         return 2
+    from eodarm.cli import _common
+
+    _common.HELD.clear()
+    _common.NEXT.clear()
+    _common.HOLD[0] = True
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         try:
@@ -89,7 +104,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         except KeyboardInterrupt:
             print("eodarm: interrupted", file=sys.stderr)
             return 130
+        finally:
+            _common.HOLD[0] = False
     _notes(caught)
+    for line in _common.HELD:  # which arm was used
+        _common._say(line, file=sys.stderr)
+    for line in _common.NEXT:  # what to run next, last (already wrapped)
+        print(line, file=sys.stderr)
     return code
 
 
@@ -109,9 +130,11 @@ MAX_NOTES = 5
 
 
 def _notes(caught: list[warnings.WarningMessage]) -> None:
+    import textwrap
+
     seen = list(dict.fromkeys(" ".join(str(w.message).split()) for w in caught))
     for text in seen[:MAX_NOTES]:
-        print(f"eodarm: note: {text}", file=sys.stderr)
+        print(textwrap.fill(f"eodarm: note: {text}", 100, subsequent_indent="  "), file=sys.stderr)
     if len(seen) > MAX_NOTES:
         print(f"eodarm: note: … and {len(seen) - MAX_NOTES} more", file=sys.stderr)
 

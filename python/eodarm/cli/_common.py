@@ -11,7 +11,6 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from eodarm.data.datasets import example_arm
 from eodarm.errors import EodarmError
 from eodarm.model.arm import Arm
 from eodarm.model.effects import Effect, kind_of
@@ -22,8 +21,44 @@ if TYPE_CHECKING:
     from eodarm.model.effects import Slot
 
 
-def _load_arm(path: str | None) -> Arm:
-    return example_arm() if path is None else Arm.from_toml(path)
+#: The bundled data set whose arm every command uses when ``--arm`` is absent
+#: (docs/walkthrough.md, "Which arm").
+DEFAULT_DATASET = "seed2022"
+
+
+def _load_arm(path: str | None, measurements: str | None = None) -> Arm:
+    """The arm of a command: the ``--arm`` file; without one, the arm that belongs to the data.
+
+    * a command that reads no measurements (solve, synth, compensate, sweep): the bundled
+      :data:`DEFAULT_DATASET` arm;
+    * a command that reads ``measurements``: the arm of the bundled data set whose file it is
+      (by content: the bundled file or an exported copy). The arm of any other file is
+      unknown, and a model of another arm would explain nothing about it: refused, one line.
+
+    Says on stderr which arm was chosen when ``--arm`` is absent (after the command
+    succeeded, so that a failure stays one line).
+    """
+    if path is not None:
+        return Arm.from_toml(path)
+    from eodarm.data import datasets
+
+    if measurements is None:
+        arm = datasets.bundled_arm(DEFAULT_DATASET)
+        _held_note(f"no --arm: used the bundled {DEFAULT_DATASET} arm '{arm.name}' ({arm.n} links)")
+        return arm
+    name = datasets.dataset_of(measurements)
+    if name is None:
+        raise EodarmError(
+            f"{measurements}: give the arm these were measured on with --arm ARM.toml (only "
+            "bundled data have a known arm)"
+        )
+    arm = datasets.bundled_arm(name)
+    _held_note(f"no --arm: these are the bundled {name} data; used their arm '{arm.name}'")
+    return arm
+
+
+#: ``--arm`` of a command that reads no measurements.
+ARM_HELP = f"arm file (default: the bundled {DEFAULT_DATASET} arm)"
 
 
 def _valued_effect(spec: str, flag: str = "--add") -> Effect:
@@ -108,7 +143,29 @@ def _model_kw(args: argparse.Namespace) -> dict[str, Any]:
 
 # ----------------------------------------------------------------- compare / fit / diagnose
 def _note(msg: str) -> None:
-    print(f"eodarm: {msg}", file=sys.stderr)
+    """A message on stderr, ``eodarm: …``, wrapped within :data:`WIDTH` columns."""
+    _say(f"eodarm: {msg}", file=sys.stderr)
+
+
+def _one_line(msg: str) -> None:
+    """A message that ends a command (interrupted, failed): one line, never wrapped, so that
+    it is all there is on stderr."""
+    print(f"eodarm: {' '.join(msg.split())}", file=sys.stderr)
+
+
+#: Messages held until the command has succeeded (the main CLI prints them, then the
+#: ``next:`` line, and drops them after a failure, whose one line is then all of stderr).
+#: ``HOLD`` is set by the main CLI; a command run by itself prints them at once.
+HELD: list[str] = []
+NEXT: list[str] = []
+HOLD = [False]
+
+
+def _held_note(msg: str) -> None:
+    if HOLD[0]:
+        HELD.append(f"eodarm: {msg}")
+    else:
+        _note(msg)
 
 
 def _read(path: str, arm: Arm) -> Measurements:
@@ -188,23 +245,79 @@ def _model(specs: list[str] | None, allow_values: bool) -> list[Effect | Slot]:
     return out
 
 
+#: Terminal output is kept within this many columns.
+WIDTH = 100
+
+
 def _fmt(x: float, unit: str = "") -> str:
-    if x is None or not np.isfinite(x):
-        return "—"
-    return f"{x:.4g}{unit}"
+    """A number alone (viz.format.value: 4 significant digits, words for ∞ and NaN)."""
+    from eodarm.viz.format import value
+
+    return value(x, unit)
+
+
+def _channel(ch: str) -> tuple[str, str]:
+    """A channel identifier as (name, unit): ``dy_mm`` → (``dy``, ``mm``)."""
+    for suffix, unit in (("_mm", "mm"), ("_deg", "deg")):
+        if ch.endswith(suffix):
+            return ch.removesuffix(suffix), unit
+    return ch, ""
 
 
 def _rms_line(rms: dict[str, float]) -> str:
-    return "  ".join(f"{ch} {v:.4g}" for ch, v in rms.items())
+    """``dy 7.84 mm, dalpha1 0.510 deg, …``: each channel by name, value and unit once."""
+    from eodarm.viz.format import value
+
+    parts = []
+    for ch, v in rms.items():
+        name, unit = _channel(ch)
+        # no-break spaces: a wrapped line never parts a value from its name or unit
+        parts.append(f"{name}\u00a0{value(v, unit, digits=3)}".replace(" ", "\u00a0"))
+    return ", ".join(parts)
 
 
-def _print_table(head: list[str], rows: list[list[str]]) -> None:
+def _say(text: str, indent: str = "", width: int = WIDTH, file: Any = None) -> None:
+    """Print ``text`` wrapped within ``width`` columns, continuation lines indented more."""
+    import textwrap
+
+    print(
+        textwrap.fill(
+            text,
+            width,
+            initial_indent=indent,
+            subsequent_indent=indent + "  ",
+            break_on_hyphens=False,
+        ),
+        file=file,
+    )
+
+
+def _print_table(
+    head: list[str], rows: list[list[str]], width: int = WIDTH, left: tuple[int, ...] = ()
+) -> None:
+    """Columns right-aligned (those in ``left``: left-aligned, for words); a table wider than
+    ``width`` is printed as one block per row (``head  cell`` lines) instead, so that no line
+    is wider."""
     widths = [
         max(len(h), *(len(r[i]) for r in rows)) if rows else len(h) for i, h in enumerate(head)
     ]
-    print("  ".join(h.rjust(w) for h, w in zip(head, widths, strict=True)))
+
+    def line(cells: list[str]) -> str:
+        return "  ".join(
+            c.ljust(w) if i in left else c.rjust(w)
+            for i, (c, w) in enumerate(zip(cells, widths, strict=True))
+        ).rstrip()
+
+    if sum(widths) + 2 * (len(widths) - 1) <= width:
+        print(line(head))
+        for r in rows:
+            print(line(r))
+        return
+    key_w = max(len(h) for h in head[1:]) if len(head) > 1 else 0
     for r in rows:
-        print("  ".join(c.rjust(w) for c, w in zip(r, widths, strict=True)))
+        print(f"{head[0]} {r[0]}")
+        for h, c in zip(head[1:], r[1:], strict=True):
+            _say(f"{h.ljust(key_w)}  {c}", "  ", width)
 
 
 def _describe_data(meas: Measurements) -> str:
@@ -213,6 +326,42 @@ def _describe_data(meas: Measurements) -> str:
         f"{meas.n_rows} states, {len(meas.configs)} configurations, payloads {masses} kg, "
         f"{meas.n_values} values on {', '.join(meas.measured_channels)}"
     )
+
+
+def _stages(names: list[str], command: str) -> Any:
+    """A progress bar over the named stages of a command (eodarm.progress: on stderr, on a
+    terminal only, once the work has run 2 s); ``with _stages([...], "diagnose") as step:``
+    then ``step(name)`` before each stage."""
+    from eodarm.progress import stages
+
+    return stages(names, f"eodarm {command}")
+
+
+def _next(*argv: str) -> None:
+    """The ``next:`` line on stderr (stdout is data): the command to run next."""
+    import shlex
+
+    words = ["eodarm:", "next:", "eodarm", *(shlex.quote(a) for a in argv)]
+    lines = [words[0]]
+    for w in words[1:]:  # wrapped as the shell continues a line, so that it pastes whole
+        if len(lines[-1]) + 1 + len(w) + 2 > WIDTH:
+            lines[-1] += " \\"
+            lines.append("  " + w)
+        else:
+            lines[-1] += " " + w
+    NEXT[:] = ["\n".join(lines)]
+
+
+def _arm_argv(args: argparse.Namespace, always: bool = False) -> list[str]:
+    """``--arm FILE`` as the user gave it; without one, nothing, or with ``always`` the file
+    of the default arm (for data that will not be bundled data: a synthetic file)."""
+    if getattr(args, "arm", None):
+        return ["--arm", args.arm]
+    if not always:
+        return []
+    from eodarm.data.datasets import bundled_arm_path
+
+    return ["--arm", str(bundled_arm_path(DEFAULT_DATASET))]
 
 
 def _plots(
@@ -258,7 +407,12 @@ def _plots(
 def data_command(sub: Any, name: str, helptext: str, desc: str) -> argparse.ArgumentParser:
     c = sub.add_parser(name, help=helptext, description=desc)
     c.add_argument("measurements", metavar="MEAS.csv", help="measurement file (CONTRACT §3)")
-    c.add_argument("--arm", metavar="ARM.toml", help="arm file (default: the bundled example)")
+    c.add_argument(
+        "--arm",
+        metavar="ARM.toml",
+        help="arm file (default: the bundled data set's arm when MEAS.csv is bundled data; "
+        "required otherwise)",
+    )
     c.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     c.add_argument("--plot", metavar="DIR", help="write PNG figures into DIR")
     c.add_argument(

@@ -14,17 +14,21 @@ from eodarm.model.effects import Effect
 if TYPE_CHECKING:
     from eodarm.analysis.fit import FitResult
 from eodarm.cli._common import (
+    _arm_argv,
+    _channel,
     _describe_data,
     _fmt,
     _load_arm,
     _model,
     _model_kw,
+    _next,
     _noise_json,
     _note,
     _plots,
     _print_table,
     _read,
     _rms_line,
+    _say,
     data_command,
 )
 
@@ -54,7 +58,7 @@ def _worst(result: FitResult, k: int = 8) -> list[dict[str, Any]]:
 def run(args: argparse.Namespace) -> int:
     from eodarm.analysis.fit import FitWarning, outlier_table, robust_fit
 
-    arm = _load_arm(args.arm)
+    arm = _load_arm(args.arm, args.measurements)
     meas = _read(args.measurements, arm)
     sw = not args.no_self_weight
     model = _model(args.add, allow_values=True)
@@ -100,46 +104,69 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps(doc, allow_nan=False))
     else:
-        print(
-            f"compare {meas.source} with arm '{arm.name}', model: baseline"
-            + "".join(f" + {m.key}" for m in model)
-        )
-        print(_describe_data(meas))
-        print(
-            f"chi2/dof = {res.chi2_per_dof:.4g}  ({res.problem.n_values} values, "
-            f"{res.n_params} fitted parameters)"
-        )
-        print(f"RMS       {_rms_line(res.rms())}")
-        chans = list(res.rms())
-        for key, title in (("by_config", "configuration"), ("by_payload", "payload kg")):
-            print(f"\nRMS by {title}:")
-            _print_table(
-                [title, *chans],
-                [[lab, *(_fmt(v.get(c, np.nan)) for c in chans)] for lab, v in doc[key].items()],
-            )
-        print("\nworst cells (measured − model, in σ):")
-        _print_table(
-            ["line", "config", "kg", "channel", "measured", "model", "z"],
-            [
-                [
-                    str(r["line"]),
-                    r["config"],
-                    f"{r['mass_kg']:g}",
-                    r["channel"],
-                    _fmt(r["measured"]),
-                    _fmt(r["model"]),
-                    f"{r['z']:+.1f}",
-                ]
-                for r in doc["worst"]
-            ],
-        )
-        if outliers:
-            print(
-                "\noutliers (> 4σ after the fit, left out of it): "
-                + "; ".join(f"line {r['line']} {r['channel']} z={r['z']:+.1f}" for r in outliers)
-            )
+        _print_compare(doc, res, meas, arm, model, outliers)
     _plots(args.plot, meas, base, res, fixed + list(res.effects), arm, sw, None, _model_kw(args))
+    _next("diagnose", args.measurements, *_arm_argv(args), *_adds(model))
     return 0
+
+
+def _adds(model: list[Any]) -> list[str]:
+    """The fitted (``--add EFFECT@PLACE``) part of compare's model, for diagnose."""
+    return [a for m in model if not isinstance(m, Effect) for a in ("--add", m.spec)]
+
+
+def _print_compare(
+    doc: dict[str, Any],
+    res: FitResult,
+    meas: Any,
+    arm: Any,
+    model: list[Any],
+    outliers: list[dict[str, Any]],
+) -> None:
+    from eodarm.analysis.consistency import fit_p_value
+    from eodarm.viz.format import p_value
+
+    _say(
+        f"compare {meas.source} with arm '{arm.name}', model: baseline"
+        + "".join(f" + {m.key}" for m in model)
+    )
+    _say(_describe_data(meas))
+    fitted = f", {res.n_params} fitted parameters" if res.n_params else ""
+    _say(
+        f"χ²/dof {res.chi2_per_dof:.4g} ({p_value(fit_p_value(res))}; "
+        f"{res.problem.n_values} values{fitted})"
+    )
+    _say(f"RMS {_rms_line(res.rms())}")
+    chans = list(res.rms())
+    heads = [" ".join(_channel(ch)) for ch in chans]
+    for key, title in (("by_config", "configuration"), ("by_payload", "payload kg")):
+        print(f"\nRMS by {title}:")
+        _print_table(
+            [title, *heads],
+            [[lab, *(_fmt(v.get(c, np.nan)) for c in chans)] for lab, v in doc[key].items()],
+        )
+    print("\nworst cells (measured − model, in σ):")
+    _print_table(
+        ["line", "config", "kg", "channel", "measured", "model", "z"],
+        [
+            [
+                str(r["line"]),
+                r["config"],
+                f"{r['mass_kg']:g}",
+                r["channel"],
+                _fmt(r["measured"]),
+                _fmt(r["model"]),
+                f"{r['z']:+.1f}",
+            ]
+            for r in doc["worst"]
+        ],
+    )
+    if outliers:
+        print()
+        _say(
+            "outliers (> 4σ after the fit, left out of it): "
+            + "; ".join(f"line {r['line']} {r['channel']} z={r['z']:+.1f}" for r in outliers)
+        )
 
 
 def _write_residuals(path: str, res: FitResult, flagged: Any) -> None:

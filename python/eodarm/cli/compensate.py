@@ -21,7 +21,19 @@ import numpy as np
 import numpy.typing as npt
 
 from eodarm.analysis.compensate import CompensationError, compensate
-from eodarm.cli._common import _effects_args, _floats, _load_arm, _note, _valued_effect
+from eodarm.cli._common import (
+    ARM_HELP,
+    _arm_argv,
+    _effects_args,
+    _floats,
+    _load_arm,
+    _next,
+    _note,
+    _print_table,
+    _say,
+    _stages,
+    _valued_effect,
+)
 from eodarm.cli._help import HELP
 from eodarm.errors import EodarmError
 from eodarm.model.arm import Arm
@@ -143,9 +155,11 @@ def run(args: argparse.Namespace) -> int:
     alpha, mass, config = _nominal_poses(args, arm)
     self_weight = not args.no_self_weight
     try:
-        out = compensate(
-            arm, alpha, mass, effects, self_weight=self_weight, strict=not args.partial
-        )
+        with _stages(["compensating"], "compensate") as step:
+            step("compensating")
+            out = compensate(
+                arm, alpha, mass, effects, self_weight=self_weight, strict=not args.partial
+            )
     except CompensationError as exc:
         hint = "; --partial keeps the others" if alpha.shape[0] > 1 else ""
         raise EodarmError(f"{exc}{hint}") from None
@@ -167,37 +181,39 @@ def run(args: argparse.Namespace) -> int:
         e.key + (" (arm file)" if e in arm.effects else "")
         for e in with_arm_effects(arm.effects, effects)
     ]
-    print(
+    _say(
         f"arm {arm.name!r} ({arm.n} links), model: baseline"
         + "".join(f" + {m}" for m in model)
         + ("" if self_weight else ", self-weight off")
     )
-    head = ["row", "mass_kg", "nominal_deg", "command_deg", "change_deg", "length_mm"]
-    head += ["miss_mm", "residual_mm", "status"]
+    head = ["pose", "kg", "nominal α deg", "command α deg", "length mm", "miss mm", "left mm"]
+    head += ["status"]
     rows = []
     for i in range(alpha.shape[0]):
         ok = out["status"][i] == "ok"
         rows.append(
             [
-                str(i),
+                str(i + 1),
                 f"{mass[i]:g}",
                 "/".join(f"{a:g}" for a in alpha[i]),
-                "/".join(f"{a:.5f}" for a in out["alpha_deg"][i]) if ok else "—",
-                "/".join(f"{d:+.5f}" for d in out["alpha_deg"][i] - alpha[i]) if ok else "—",
-                "/".join(f"{x:.3f}" for x in out["length_mm"][i]) if ok else "—",
-                "—" if math.isnan(miss[i]) else f"{miss[i]:.4f}",
-                "—" if math.isnan(out["residual_mm"][i]) else f"{out['residual_mm'][i]:.2e}",
+                "/".join(f"{a:.4f}" for a in out["alpha_deg"][i]) if ok else "—",
+                "/".join(f"{x:.2f}" for x in out["length_mm"][i]) if ok else "—",
+                "—" if math.isnan(miss[i]) else f"{miss[i]:.3f}",
+                "—" if math.isnan(out["residual_mm"][i]) else f"{out['residual_mm'][i]:.0e}",
                 str(out["status"][i]),
             ]
         )
-    widths = [max(len(h), *(len(r[k]) for r in rows)) for k, h in enumerate(head)]
-    print("  ".join(h.rjust(w) for h, w in zip(head, widths, strict=True)))
-    for r in rows:
-        print("  ".join(c.rjust(w) for c, w in zip(r, widths, strict=True)))
-    print(
-        "miss_mm: how far the payload moves the point without compensation; residual_mm: what "
-        "the model leaves with it"
+    _print_table(head, [[c.replace("-", "−") for c in r] for r in rows])
+    _say(
+        "command: the unloaded angles to command; length: the actuator lengths that give them; "
+        "miss: how far the payload moves the point without compensation; left: what the model "
+        "leaves with it (--json or -o: full precision)"
     )
+    first = next((i for i in range(alpha.shape[0]) if out["status"][i] == "ok"), None)
+    if first is not None:  # check: solve at the command, the point lands on the nominal
+        cmd = ",".join(f"{a:.6g}" for a in out["alpha_deg"][first])
+        adds = [a for spec in args.add or [] for a in ("--add", spec)]
+        _next("solve", *_arm_argv(args), *adds, "--alpha", cmd, "--mass", f"{mass[first]:g}")
     return 0
 
 
@@ -211,7 +227,7 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
         "puts it (and, with 3 links or more, the last link keeps its angle). The arm file's "
         "[[effect]] tables are part of the model (docs/compensation.md).",
     )
-    c.add_argument("--arm", metavar="ARM.toml", help="arm file (default: the bundled example)")
+    c.add_argument("--arm", metavar="ARM.toml", help=ARM_HELP)
     c.add_argument(
         "--alpha",
         action="append",

@@ -5,9 +5,7 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from eodarm.cli._common import (
-    _note,
-)
+from eodarm.cli._common import _note, _say
 from eodarm.cli._help import HELP
 from eodarm.errors import EodarmError
 
@@ -18,7 +16,7 @@ def run(args: argparse.Namespace) -> int:
     if args.action == "list":
         for name in datasets.names():
             ds = datasets.load(name)
-            print(f"{name}\t{ds.description}")
+            _say(f"{name}: {ds.description}")
         return 0
     if args.action == "export":
         if not args.name or not args.directory:

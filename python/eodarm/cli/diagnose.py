@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import textwrap
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -16,17 +15,23 @@ from eodarm.model.effects import Effect
 if TYPE_CHECKING:
     from eodarm.data.measurements import Measurements
 from eodarm.cli._common import (
+    WIDTH,
+    _arm_argv,
+    _channel,
     _describe_data,
     _fmt,
     _load_arm,
     _model,
     _model_kw,
+    _next,
     _noise_json,
     _note,
     _plots,
     _print_table,
     _read,
     _rms_line,
+    _say,
+    _stages,
     data_command,
 )
 
@@ -34,20 +39,30 @@ from eodarm.cli._common import (
 def run(args: argparse.Namespace) -> int:
     from eodarm.analysis.diagnose import diagnose
 
-    arm = _load_arm(args.arm)
+    arm = _load_arm(args.arm, args.measurements)
     meas = _read(args.measurements, arm)
     sw = not args.no_self_weight
     model = [m for m in _model(args.add, allow_values=False) if not isinstance(m, Effect)]
     mk = _model_kw(args)
-    d = diagnose(
-        arm,
-        meas,
-        model,
-        self_weight=sw,
-        max_set=args.max_set,
-        solver_model=mk["model"],
-        fem_options=mk["fem_options"],
-    )
+    with _stages(["diagnosing", "figures"], "diagnose") as step:
+        step("diagnosing")
+        d = diagnose(
+            arm,
+            meas,
+            model,
+            self_weight=sw,
+            max_set=args.max_set,
+            solver_model=mk["model"],
+            fem_options=mk["fem_options"],
+        )
+        step("figures")
+        _output(args, d, arm, meas, sw, mk)
+    _say_next(args, d)
+    return 0
+
+
+def _output(args: argparse.Namespace, d: Any, arm: Arm, meas: Any, sw: bool, mk: Any) -> None:
+    """The text or JSON on stdout, and the figures."""
     if args.json:
         # the contract's keys, and where each channel's σ came from
         print(json.dumps({**d.to_json(), "noise": _noise_json(meas)}, allow_nan=False))
@@ -63,26 +78,50 @@ def run(args: argparse.Namespace) -> int:
         path = Path(args.plot) / "residual_pattern.png"
         residual_map(best, path=path)
         _note(f"wrote {path}")
-    return 0
+
+
+def _say_next(args: argparse.Namespace, d: Any) -> None:
+    """What to run next: fit the suggested set; the rounds of a report when nothing in the
+    catalogue explains the data; the workspace maps when nothing is missing."""
+    data = [args.measurements, *_arm_argv(args)]
+    adds = [a for s in [*d.model, *d.suggested] for a in ("--add", s.spec)]
+    if d.verdict == "missing":
+        _next("fit", *data, *adds, "--cv", "config")
+    elif d.verdict == "unexplained":
+        _next("report", *data, *[a for s in d.model for a in ("--add", s.spec)])
+    else:
+        _next("sweep", *_arm_argv(args), "-o", "sweep.nc", "--plot", "maps")
+
+
+def _candidate(slot: Any) -> str:
+    """A candidate in words with its identifier: ``actuator 3 body stiffness
+    (actuator_compliance@M3)``."""
+    from eodarm.viz.format import parameter_name
+
+    taken = ", taken up" if getattr(slot, "unloaded", "centred") != "centred" else ""
+    return f"{parameter_name(slot.name, slot.at)}{taken} ({slot.spec})"
 
 
 def _print_diagnosis(d: Any, arm: Arm, meas: Measurements) -> None:
-    print(
+    from eodarm.viz.format import p_value
+
+    _say(
         f"diagnose {meas.source} with arm '{arm.name}', model: baseline"
         + "".join(f" + {s.key}" for s in d.model)
     )
-    print(_describe_data(meas))
-    print(
-        f"baseline: chi2/dof {d.baseline.chi2_per_dof:.4g} (p = {d.p_baseline:.2g})   "
+    _say(_describe_data(meas))
+    _say(
+        f"baseline: χ²/dof {d.baseline.chi2_per_dof:.4g} ({p_value(d.p_baseline)}); "
         f"RMS {_rms_line(d.baseline.rms())}"
     )
-    print(f"verdict: {d.verdict.upper()}", end="")
     if d.verdict == "adequate":
-        print(" — the model explains the data within their noise; nothing is missing")
+        _say(
+            "verdict: ADEQUATE — the model explains the data within their noise; nothing is missing"
+        )
     elif d.verdict == "missing":
-        print(
-            f" — suggested: {' + '.join(s.label for s in d.suggested)}"
-            f"  ({d.sets_searched} candidate sets searched)"
+        _say(
+            f"verdict: MISSING — suggested: {' + '.join(s.label for s in d.suggested)} "
+            f"({d.sets_searched} candidate sets searched)"
         )
         if d.suggested_fit is not None:
             _print_fit(d.suggested_fit)
@@ -90,62 +129,118 @@ def _print_diagnosis(d: Any, arm: Arm, meas: Measurements) -> None:
             _say("accepted: " + "; ".join(d.acceptance.reasons()), "    ")
     else:
         _print_unexplained(d)
-    print("\nranking (each candidate added alone, parameter fitted):")
+    _print_ranking(d)
+    for a in d.advice:
+        x, y = a["pair"]
+        print()
+        _say(f"{x} and {y} cannot be told apart with these channels and poses.")
+        if a["channel"]:
+            _say(
+                f"measure {a['channel']['channel']}: it separates them by "
+                f"χ² = {a['channel']['chi2_separation']:.3g} on the same poses",
+                "  ",
+            )
+        pose = a["pose"]
+        if pose and pose["chi2_separation"] > 3.84:
+            ang = ", ".join(f"{v:.1f}" for v in pose["alpha_deg"])
+            _say(
+                f"or add the pose alpha = ({ang}) deg at {pose['mass_kg']:g} kg: "
+                f"χ² = {pose['chi2_separation']:.3g} between them on the measured channels",
+                "  ",
+            )
+        elif pose:
+            _say("no reachable pose separates them on the measured channels alone", "  ")
+    if d.outliers:
+        print()
+        _say(
+            "outliers (> 4σ after the best fit, left out): "
+            + "; ".join(f"line {r['line']} {r['channel']} z={r['z']:+.1f}" for r in d.outliers)
+        )
+
+
+def _print_ranking(d: Any, width: int = WIDTH) -> None:
+    """The candidates that lower χ² as a table (the RMS of as many channels as fit within
+    ``width`` columns), the others folded into one wrapped line."""
+    from eodarm.viz.format import value
+
+    floor = 1e-6 * max(d.baseline.chi2, 1.0)
+    helping = [c for c in d.ranking if c.delta_chi2 > floor]
+    idle = [c for c in d.ranking if c.delta_chi2 <= floor]
+    print("\nranking (each candidate added alone, its parameter fitted):")
     chans = list(d.baseline.rms())
+    main = [ch for ch in ("dy_mm", "dx_mm") if ch in chans]
+    chans = main + [ch for ch in chans if ch not in main]
     rows = []
-    for i, c in enumerate(d.ranking):
+    number = {c.slot.label: str(i + 1) for i, c in enumerate(helping)}
+    for i, c in enumerate(helping):
         j = c.fit.slots.index(c.slot)
         rms = c.fit.rms()
         rows.append(
             [
                 str(i + 1),
-                c.slot.label,
-                f"{c.slot.kind.param}={_fmt(c.fit.estimate(j))}",
+                _candidate(c.slot),
+                value(c.fit.estimate(j), c.slot.kind.unit, digits=3),
                 f"{c.fit.chi2_per_dof:.4g}",
+                ", ".join(f"#{number[k]}" if k in number else k for k in c.confused_with),
                 *(_fmt(rms.get(ch, np.nan)) for ch in chans),
-                ", ".join(c.confused_with),
             ]
         )
-    _print_table(["#", "effect@place", "estimate", "chi2/dof", *chans, "confused with"], rows)
-    for a in d.advice:
-        x, y = a["pair"]
-        print(f"\n{x} and {y} cannot be told apart with these channels and poses.")
-        if a["channel"]:
-            print(
-                f"  measure {a['channel']['channel']}: it separates them by "
-                f"chi2 = {a['channel']['chi2_separation']:.3g} on the same poses"
+    head = ["#", "candidate", "estimate", "χ²/dof", "same as"]
+    head += [f"{_channel(ch)[0]} {_channel(ch)[1]}" for ch in chans]
+    same = [(r[0], r[4]) for r in rows if r[4]]
+    if not same or _span(head[:6], rows) > width:  # the column, or a line below the table
+        head.pop(4)
+        rows = [r[:4] + r[5:] for r in rows]
+    fixed = len(head) - len(chans)
+    shown = len(chans)
+    while rows and shown > 0 and _span(head[: fixed + shown], rows) > width:
+        shown -= 1
+    if rows:
+        _print_table(head[: fixed + shown], [r[: fixed + shown] for r in rows], width, left=(1,))
+        if fixed == 4 and same:
+            _say(
+                "the data cannot tell apart: "
+                + ", ".join(f"#{a} and {b}" for a, b in same if f"#{a}" < b or "#" not in b)
             )
-        pose = a["pose"]
-        if pose and pose["chi2_separation"] > 3.84:
-            ang = ", ".join(f"{v:.1f}" for v in pose["alpha_deg"])
-            print(
-                f"  or add the pose alpha = ({ang}) deg at {pose['mass_kg']:g} kg: "
-                f"chi2 = {pose['chi2_separation']:.3g} between them on the measured channels"
+        if shown < len(chans):
+            _say(
+                f"(RMS shown for {', '.join(chans[:shown]) or 'no channel'}; every channel's "
+                "in --json)"
             )
-        elif pose:
-            print("  no reachable pose separates them on the measured channels alone")
-    if d.outliers:
-        print(
-            "\noutliers (> 4σ after the best fit, left out): "
-            + "; ".join(f"line {r['line']} {r['channel']} z={r['z']:+.1f}" for r in d.outliers)
+    else:
+        print("no single candidate lowers χ²")
+    if idle:
+        unchanged = idle[0].fit.chi2_per_dof
+        _say(
+            f"do not help (their parameter stays where the effect is absent; χ²/dof "
+            f"{unchanged:.4g}): " + ", ".join(c.slot.spec for c in idle)
         )
+
+
+def _span(head: list[str], rows: list[list[str]]) -> int:
+    """Columns taken by the first ``len(head)`` columns of a table."""
+    widths = [max(len(h), *(len(r[i]) for r in rows)) for i, h in enumerate(head)]
+    return sum(widths) + 2 * (len(widths) - 1)
 
 
 def _print_fit(f: Any) -> None:
+    from eodarm.viz.format import value_error
+
+    rows = []
     for i, s in enumerate(f.slots):
-        print(f"    {s.key:28s} {s.kind.param} = {_fmt(f.estimate(i))} ± {_fmt(f.stderr(i))}")
-    print(f"    chi2/dof {f.chi2_per_dof:.4g}   RMS {_rms_line(f.rms())}")
-
-
-def _say(text: str, indent: str = "", width: int = 100) -> None:
-    print(textwrap.fill(text, width, initial_indent=indent, subsequent_indent=indent + "  "))
+        note = "  (at its bound)" if f.at_bound[i] else ""
+        rows.append((_candidate(s), value_error(f.estimate(i), f.stderr(i), s.kind.unit) + note))
+    w = max(len(r[0]) for r in rows)
+    for name, est in rows:
+        _say(f"{name.ljust(w)}  {est}", "    ")
+    _say(f"χ²/dof {f.chi2_per_dof:.4g}; RMS {_rms_line(f.rms())}", "    ")
 
 
 def _print_unexplained(d: Any) -> None:
     """The verdict 'unexplained' in words, the best effort, and the pattern that is left."""
     from eodarm.analysis.residuals import residual_pattern
 
-    print(" — what is missing is not in the catalogue")
+    print("verdict: UNEXPLAINED — what is missing is not in the catalogue")
     _say(
         f"none of the {d.sets_searched} sets of up to three candidate effects fits the data "
         "within their noise with every parameter away from its bounds and predicts held-out "
@@ -161,7 +256,7 @@ def _print_unexplained(d: Any) -> None:
         _print_fit(best)
         if d.best_effort_cv is not None:
             _say(
-                "held-out RMS (leave one configuration out) " + _rms_line(d.best_effort_cv["rms"]),
+                "held-out RMS (leave one configuration out): " + _rms_line(d.best_effort_cv["rms"]),
                 "    ",
             )
         if d.acceptance is not None:

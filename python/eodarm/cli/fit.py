@@ -7,15 +7,19 @@ import json
 from typing import Any
 
 from eodarm.cli._common import (
+    _arm_argv,
     _describe_data,
     _load_arm,
     _model,
     _model_kw,
+    _next,
     _note,
     _plots,
     _print_table,
     _read,
     _rms_line,
+    _say,
+    _stages,
     data_command,
 )
 from eodarm.cli._help import HELP
@@ -34,20 +38,25 @@ def run(args: argparse.Namespace) -> int:
         robust_fit,
     )
 
-    arm = _load_arm(args.arm)
+    arm = _load_arm(args.arm, args.measurements)
     meas = _read(args.measurements, arm)
     sw = not args.no_self_weight
     model = _model(args.add, allow_values=True)
     if not model:
         raise EodarmError("fit needs at least one --add EFFECT@PLACE")
-    with warnings.catch_warnings(record=True) as caught:
+    names = ["fitting", *(["cross-validation"] if args.cv else [])]
+    with warnings.catch_warnings(record=True) as caught, _stages(names, "fit") as step:
         warnings.simplefilter("always", FitWarning)
         mk = _model_kw(args)
+        step("fitting")
         res, flagged = robust_fit(arm, meas, model, self_weight=sw, **mk)
         check_validity(res)
         outliers = outlier_table(res, flagged)
-        cv = cross_validate(arm, meas, res.slots, self_weight=sw, **mk) if args.cv else None
-        cv0 = cross_validate(arm, meas, [], self_weight=sw, **mk) if args.cv else None
+        cv = cv0 = None
+        if args.cv:
+            step("cross-validation")
+            cv = cross_validate(arm, meas, res.slots, self_weight=sw, **mk)
+            cv0 = cross_validate(arm, meas, [], self_weight=sw, **mk)
     for w in {str(w.message) for w in caught}:
         _note(w)
     before = compare(arm, meas, [], self_weight=sw, **mk)
@@ -70,41 +79,7 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps(doc, allow_nan=False))
     else:
-        from eodarm.analysis.fit import determining_channel
-        from eodarm.viz.format import interval95, parameter_name, value_error
-
-        print(f"fit {meas.source} with arm '{arm.name}'")
-        print(_describe_data(meas))
-        rows = []
-        flags = dict(undetermined)
-        for i, s in enumerate(res.slots):
-            est, err, unit = res.estimate(i), res.stderr(i), s.kind.unit
-            note = "at its bound" if res.at_bound[i] else ("NOT DETERMINED" if i in flags else "")
-            rows.append(
-                [
-                    f"{parameter_name(s.name, s.at)} ({s.spec})",
-                    value_error(est, err, unit),
-                    interval95(est, err) if not res.at_bound[i] else "—",
-                    note,
-                ]
-            )
-        _print_table(["parameter", "estimate ± standard error", "95 % interval", ""], rows)
-        for i, why in undetermined:
-            s = res.slots[i]
-            print(
-                f"  {s.spec} is not determined ({why}): fix or drop it, or "
-                f"{determining_channel(s, meas.measured_channels)}"
-            )
-        print(f"\nbefore  chi2/dof {before.chi2_per_dof:10.4g}   RMS {_rms_line(before.rms())}")
-        print(f"after   chi2/dof {res.chi2_per_dof:10.4g}   RMS {_rms_line(res.rms())}")
-        if cv is not None and cv0 is not None:
-            print(f"CV (leave one configuration out)  baseline RMS {_rms_line(cv0['rms'])}")
-            print(f"CV (leave one configuration out)  fitted   RMS {_rms_line(cv['rms'])}")
-        if outliers:
-            print(
-                "outliers (> 4σ, left out of the fit): "
-                + "; ".join(f"line {r['line']} {r['channel']} z={r['z']:+.1f}" for r in outliers)
-            )
+        _print_fit(res, meas, before, undetermined, cv, cv0, outliers)
     steps = None
     if cv is not None and cv0 is not None:
         steps = [
@@ -122,7 +97,63 @@ def run(args: argparse.Namespace) -> int:
             },
         ]
     _plots(args.plot, meas, before, res, list(res.effects), arm, sw, steps, _model_kw(args))
+    if args.output:
+        _next("solve", "--arm", args.output, "--uncertainty")
+    else:
+        adds = [a for spec in args.add or [] for a in ("--add", spec)]
+        _next("fit", args.measurements, *_arm_argv(args), *adds, "-o", "fitted.toml")
     return 0
+
+
+def _print_fit(
+    res: Any,
+    meas: Any,
+    before: Any,
+    undetermined: list[tuple[int, str]],
+    cv: Any,
+    cv0: Any,
+    outliers: list[dict[str, Any]],
+) -> None:
+    """The parameter table (value ± error to the error's two digits, 95 % interval, a
+    footnote mark on what the data do not determine), then χ² and RMS before and after."""
+    from eodarm.analysis.fit import determining_channel
+    from eodarm.viz.format import interval95, parameter_name, value_error
+
+    _say(f"fit {meas.source} with arm '{res.problem.arm.name}'")
+    _say(_describe_data(meas))
+    flags = dict(undetermined)
+    rows = []
+    for i, s in enumerate(res.slots):
+        est, err, unit = res.estimate(i), res.stderr(i), s.kind.unit
+        mark = " (at its bound)" if res.at_bound[i] else (" *" if i in flags else "")
+        rows.append(
+            [
+                f"{parameter_name(s.name, s.at)} ({s.spec})",
+                value_error(est, err, unit) + mark,
+                interval95(est, err) if not res.at_bound[i] else "—",
+            ]
+        )
+    _print_table(["parameter", "estimate ± standard error", "95 % interval"], rows)
+    if undetermined:
+        print("* not determined (relative standard error > 100 % or |correlation| > 0.95):")
+    for i, why in undetermined:
+        s = res.slots[i]
+        _say(
+            f"{s.spec} ({why}): fix or drop it, or "
+            f"{determining_channel(s, meas.measured_channels)}",
+            "  ",
+        )
+    print()
+    _say(f"before: χ²/dof {before.chi2_per_dof:.4g}; RMS {_rms_line(before.rms())}")
+    _say(f"after:  χ²/dof {res.chi2_per_dof:.4g}; RMS {_rms_line(res.rms())}")
+    if cv is not None and cv0 is not None:
+        _say(f"held-out (leave one configuration out), baseline: RMS {_rms_line(cv0['rms'])}")
+        _say(f"held-out (leave one configuration out), fitted:   RMS {_rms_line(cv['rms'])}")
+    if outliers:
+        _say(
+            "outliers (> 4σ, left out of the fit): "
+            + "; ".join(f"line {r['line']} {r['channel']} z={r['z']:+.1f}" for r in outliers)
+        )
 
 
 def _write_fitted(res: Any, path: str, data: str) -> None:

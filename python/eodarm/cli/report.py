@@ -43,7 +43,7 @@ def run(args: argparse.Namespace) -> int:
         )
         _note("no measurements given: reporting on the bundled data set seed2022")
     else:
-        arm = _load_arm(args.arm)
+        arm = _load_arm(args.arm, args.measurements)
         meas = _read(args.measurements, arm)
         title = args.title
         intro = None

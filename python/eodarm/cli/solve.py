@@ -11,12 +11,17 @@ from typing import Any
 import numpy as np
 
 from eodarm.cli._common import (
+    ARM_HELP,
+    _arm_argv,
     _effects_args,
     _floats,
     _load_arm,
     _model_args,
     _model_kw,
+    _next,
     _note,
+    _print_table,
+    _say,
     _valued_effect,
 )
 from eodarm.cli._help import HELP
@@ -68,9 +73,10 @@ def run(args: argparse.Namespace) -> int:
         alphas = [[90.0] + [10.0] * (arm.n - 2) + [0.0]] if arm.n >= 2 else [[60.0]]
     masses = _floats(args.mass, "--mass")
     effects = [_valued_effect(s) for s in args.add or []]
-    rows = [(a, m) for a in alphas for m in masses]
-    alpha = np.array([r[0] for r in rows], dtype=float)
-    mass = np.array([r[1] for r in rows], dtype=float)
+    rows_in = [(a, m) for a in alphas for m in masses]
+    alpha = np.array([r[0] for r in rows_in], dtype=float)
+    mass = np.array([r[1] for r in rows_in], dtype=float)
+    adds = [a for spec in args.add or [] for a in ("--add", spec)]
     out = solve(
         arm,
         alpha,
@@ -108,40 +114,45 @@ def run(args: argparse.Namespace) -> int:
                     "mass_kg": float(mass[i]),
                     **{k: np.asarray(v[i]).tolist() for k, v in out.items()},
                 }
-                for i in range(len(rows))
+                for i in range(len(rows_in))
             ],
         }
         json.dump(doc, sys.stdout, indent=None if args.compact else 1, allow_nan=False)
         sys.stdout.write("\n")
         return 0
     n = arm.n
-    print(
+    _say(
         f"arm {arm.name!r} ({n} links), model: baseline"
         + "".join(f" + {e.name}@{e.at}" for e in effects)
         + ("" if not args.no_self_weight else ", self-weight off")
         + (f", finite-element model ({dofs} DOF)" if dofs else "")
     )
-    head = ["alpha_deg", "mass_kg", "dx_mm", "dy_mm"]
-    head += [f"F{i + 1}_N" for i in range(n)] + [f"da{i + 1}_deg" for i in range(n)]
-    head += [f"dl{i + 1}_mm" for i in range(n)]
+    head = ["α deg", "kg", "dx mm", "dy mm", "force N", "dα deg", "dl mm"]
     if args.uncertainty:
-        head += ["sigma_dx_mm", "sigma_dy_mm"]
+        head += ["σ dx mm", "σ dy mm"]
     head += ["status"]
-    print("  ".join(f"{h:>12}" for h in head))
-    for i in range(len(rows)):
+    rows = []
+    for i in range(len(rows_in)):
         cells = [
             "/".join(f"{a:g}" for a in alpha[i]),
             f"{mass[i]:g}",
             f"{out['dx_mm'][i]:.4f}",
             f"{out['dy_mm'][i]:.4f}",
+            "/".join(f"{f:.0f}" for f in out["force_n"][i]),
+            "/".join(f"{d:.3f}" for d in out["dalpha_deg"][i]),
+            "/".join(f"{d:.3f}" for d in out["dl_mm"][i]),
         ]
-        cells += [f"{f:.1f}" for f in out["force_n"][i]]
-        cells += [f"{d:.5f}" for d in out["dalpha_deg"][i]]
-        cells += [f"{d:.5f}" for d in out["dl_mm"][i]]
         if args.uncertainty:
             cells += [f"{out['sigma_dx_mm'][i]:.2g}", f"{out['sigma_dy_mm'][i]:.2g}"]
         cells += [STATUS[int(out["status"][i])]]
-        print("  ".join(f"{c:>12}" for c in cells))
+        rows.append([c.replace("-", "−") for c in cells])
+    _print_table(head, rows)
+    _say(
+        "a/b/c: links or actuators 1…n; dα: loaded − unloaded angle; dl: actuator length "
+        "change (--json: every output, full precision)"
+    )
+    a0 = ",".join(f"{a:g}" for a in alpha[0])
+    _next("compensate", *_arm_argv(args), *adds, "--alpha", a0, "--mass", f"{mass[0]:g}")
     return 0
 
 
@@ -152,7 +163,7 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
         help=HELP["solve"],
         description="Solve the arm model for poses × payloads and print deflections and forces.",
     )
-    s.add_argument("--arm", metavar="ARM.toml", help="arm file (default: the bundled example)")
+    s.add_argument("--arm", metavar="ARM.toml", help=ARM_HELP)
     s.add_argument(
         "--alpha",
         action="append",

@@ -13,15 +13,17 @@ import numpy.typing as npt
 
 from eodarm.cli._help import HELP
 from eodarm.errors import EodarmError
-from eodarm.model.arm import Arm
 from eodarm.workspace import store
 from eodarm.workspace.sweep import CHUNK_SIZE, REDUCE_OPS, sweep
 
 if TYPE_CHECKING:
     import xarray as xr
 from eodarm.cli._common import (
+    ARM_HELP,
     _effects_args,
+    _load_arm,
     _note,
+    _one_line,
     _valued_effect,
 )
 
@@ -77,7 +79,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     # let "--alpha3 -20:20:21" read the range as a value, not as an option (argparse only
     # knows plain negative numbers); "--alpha3=-20:20:21" works regardless
     p._negative_number_matcher = re.compile(r"^-\d+$|^-\d*\.\d+$|^-[\d.]+(:[-\d.]+)+$|^-[\d.]+,")
-    p.add_argument("--arm", metavar="ARM.toml", help="arm file (default: the bundled seed arm)")
+    p.add_argument("--arm", metavar="ARM.toml", help=ARM_HELP)
     for k in range(1, _MAX_LINKS + 1):
         p.add_argument(
             f"--alpha{k}",
@@ -266,13 +268,7 @@ def run(args: argparse.Namespace) -> int:
         With a one-line reason (the main CLI prints it and exits with status 2): bad input,
         a sweep too large for memory or disk, a lost Dask cluster.
     """
-    if args.arm is None:
-        from eodarm.data import datasets
-
-        arm = datasets.load("seed2022").arm
-        _note("no --arm: sweeping the bundled seed2022 arm")
-    else:
-        arm = Arm.from_toml(args.arm)
+    arm = _load_arm(args.arm)
     grid = _cli_grid(args, arm.n)
     mass = parse_range(args.mass, "--mass")
     effects = [_valued_effect(s) for s in args.add or []]
@@ -327,10 +323,10 @@ def run(args: argparse.Namespace) -> int:
             if client is not None:
                 client.close()
     except store.SweepInterrupted as exc:
-        _note(_interrupted(exc))
+        _one_line(_interrupted(exc))
         return 130
     except KeyboardInterrupt:
-        _note("interrupted while solving: nothing written")
+        _one_line("interrupted while solving: nothing written")
         return 130
     dt = time.perf_counter() - t0
     size = math.prod(len(v) for v in next(v for v in grid.values() if isinstance(v, dict)).values())
@@ -361,7 +357,7 @@ def run(args: argparse.Namespace) -> int:
             written += _uncertainty_maps(args, arm, grid, effects, plot_mass, mass, reduce, ds)
         except KeyboardInterrupt:
             done = f": {out} is complete, the maps are not" if out else ""
-            _note(f"interrupted while plotting into {args.plot}{done}")
+            _one_line(f"interrupted while plotting into {args.plot}{done}")
             return 130
         _note("wrote " + ", ".join(str(w) for w in written))
     return 0

@@ -8,11 +8,20 @@ import sys
 from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 
 from eodarm.analysis.synth import random_configs, synth
-from eodarm.cli._common import _effects_args, _valued_effect
+from eodarm.cli._common import (
+    ARM_HELP,
+    _arm_argv,
+    _effects_args,
+    _load_arm,
+    _next,
+    _note,
+    _stages,
+    _valued_effect,
+)
 from eodarm.cli._help import HELP
-from eodarm.data.datasets import example_arm
 from eodarm.errors import EodarmError
 from eodarm.model.arm import Arm
 from eodarm.model.effects import Effect
@@ -27,7 +36,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         description="Virtual test bench: solve the arm with hidden effects for configurations "
         "× payloads, add Gaussian noise and write a measurement CSV (CONTRACT §3).",
     )
-    p.add_argument("--arm", metavar="ARM.toml", help="arm file (default: the bundled example)")
+    p.add_argument("--arm", metavar="ARM.toml", help=ARM_HELP)
     poses = p.add_mutually_exclusive_group()
     poses.add_argument(
         "--configs",
@@ -101,10 +110,7 @@ def run(args: argparse.Namespace) -> int:
     EodarmError
         With a one-line reason (the main CLI prints it and exits with status 2).
     """
-    if args.arm is None:
-        arm = example_arm()
-    else:
-        arm = Arm.from_toml(args.arm)
+    arm = _load_arm(args.arm)
     n = arm.n
     masses = _floats(args.masses, "--masses")
     if not masses:
@@ -128,27 +134,32 @@ def run(args: argparse.Namespace) -> int:
         if k < 1:
             raise EodarmError(f"--configs: need at least 1 configuration, got {k}")
         # configurations from their own stream, so that they do not share draws with the noise
-        alpha = random_configs(arm, k, np.random.default_rng([1, args.seed]))
-    meas = synth(
-        arm,
-        alpha,
-        masses,
-        hidden=hidden,
-        channels=args.channels,
-        sigma=sigma,
-        noise=args.noise,
-        seed=args.seed,
-        self_weight=not args.no_self_weight,
-        sigma_columns=not args.no_sigma_columns,
-        repeats=args.repeats,
-    )
-    if args.output:
-        meas.to_csv(args.output)
-        where = args.output
-    else:
-        meas.to_csv(sys.stdout)
-        sys.stdout.flush()
-        where = "stdout"
+        alpha = _solvable_configs(
+            arm, k, np.random.default_rng([1, args.seed]), masses, hidden, not args.no_self_weight
+        )
+    with _stages(["solving", "writing"], "synth") as step:
+        step("solving")
+        meas = synth(
+            arm,
+            alpha,
+            masses,
+            hidden=hidden,
+            channels=args.channels,
+            sigma=sigma,
+            noise=args.noise,
+            seed=args.seed,
+            self_weight=not args.no_self_weight,
+            sigma_columns=not args.no_sigma_columns,
+            repeats=args.repeats,
+        )
+        step("writing")
+        if args.output:
+            meas.to_csv(args.output)
+            where = args.output
+        else:
+            meas.to_csv(sys.stdout)
+            sys.stdout.flush()
+            where = "stdout"
     model = ", ".join(f"{e.key}={e.value:g}" for e in hidden) or "none"
     if args.repeats == 1:
         what = f"{meas.n_rows} states ({alpha.shape[0]} configs × {len(masses)} payloads"
@@ -157,12 +168,46 @@ def run(args: argparse.Namespace) -> int:
             f"{meas.n_rows} rows ({alpha.shape[0]} configs × {len(masses)} payloads × "
             f"{args.repeats} repeats"
         )
-    print(
-        f"eodarm: wrote {what}, {len(meas.measured_channels)} channels; hidden: {model}) "
-        f"to {where}",
-        file=sys.stderr,
-    )
+    _note(f"wrote {what}, {len(meas.measured_channels)} channels; hidden: {model}) to {where}")
+    _next("diagnose", args.output or "FILE.csv", *_arm_argv(args, always=True))
     return 0
+
+
+def _solvable_configs(
+    arm: Arm,
+    k: int,
+    rng: np.random.Generator,
+    masses: list[float],
+    hidden: list[Effect],
+    self_weight: bool,
+) -> npt.NDArray[np.float64]:
+    """``k`` random well-conditioned configurations whose every loaded state the model can
+    solve: a soft arm (the seed's 500 N/mm springs) pushes an actuator near the edge of its
+    triangle past it under the largest payload; such draws are replaced by further ones."""
+    from eodarm.model.solver import solve
+
+    def solvable(a: npt.NDArray[np.float64]) -> bool:
+        try:
+            solve(
+                arm,
+                np.repeat(a[None, :], len(masses), axis=0),
+                np.asarray(masses),
+                effects=hidden,
+                self_weight=self_weight,
+            )
+        except (ValueError, EodarmError):
+            return False
+        return True
+
+    keep: list[npt.NDArray[np.float64]] = []
+    for _ in range(50):
+        keep += [a for a in random_configs(arm, k, rng) if solvable(a)]
+        if len(keep) >= k:
+            return np.ascontiguousarray(np.array(keep[:k]))
+    raise EodarmError(
+        f"found only {len(keep)} of {k} random configurations that the model can solve under "
+        f"{max(masses):g} kg; give the poses with --alpha"
+    )
 
 
 def _floats(text: str, what: str) -> list[float]:

@@ -27,6 +27,9 @@ from eodarm.model.arm import Arm
 __all__ = [
     "SEED2022_SIGMA",
     "Dataset",
+    "bundled_arm",
+    "bundled_arm_path",
+    "dataset_of",
     "example_arm",
     "export",
     "load",
@@ -93,6 +96,33 @@ def load(name: str = "seed2022") -> Dataset:
         read_measurements(root / "measurements.csv", arm.n), source=f"{name}/measurements.csv"
     )
     return Dataset(name, _DESCRIPTIONS[name], root, arm, published, meas, tables)
+
+
+def bundled_arm_path(name: str = "seed2022") -> Path:
+    """The file of a bundled data set's arm (its calibrated ``arm.toml``)."""
+    return _root(name) / "arm.toml"
+
+
+def bundled_arm(name: str = "seed2022") -> Arm:
+    """The arm of a bundled data set (its calibrated ``arm.toml``), without loading the rest."""
+    return Arm.from_toml(bundled_arm_path(name))
+
+
+def dataset_of(path: str | Path) -> str | None:
+    """The bundled data set whose measurement file has exactly the bytes of ``path`` (the
+    bundled file itself or an exported copy), or None."""
+    import hashlib
+
+    try:
+        data = Path(path).read_bytes()
+    except OSError:
+        return None
+    digest = hashlib.sha256(data).digest()
+    for name in _DESCRIPTIONS:
+        ours = (_root(name) / "measurements.csv").read_bytes()
+        if len(ours) == len(data) and hashlib.sha256(ours).digest() == digest:
+            return name
+    return None
 
 
 def export(name: str, directory: str | Path) -> list[Path]:

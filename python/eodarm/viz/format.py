@@ -17,6 +17,7 @@ import math
 
 __all__ = [
     "interval95",
+    "p_value",
     "parameter_name",
     "value",
     "value_error",
@@ -47,7 +48,19 @@ def value(x: float, unit: str = "", digits: int = 4) -> str:
         return "—"
     if math.isinf(x):
         return "∞" if x > 0 else "−∞"
-    return _with_unit(f"{x:.{digits}g}".replace("-", "−"), unit)
+    x = x + 0.0  # −0 reads as 0
+    if x == 0:
+        return _with_unit("0", unit)
+    exp = math.floor(math.log10(abs(x)))
+    if -3 <= exp < 5:  # positional: 2002, 0.257, 71100, not 2e+03
+        if exp >= digits:  # round the integer to the digits asked for
+            x = round(x, digits - 1 - exp)
+        text = f"{x:.{max(digits - 1 - exp, 0)}f}"
+        text = text.rstrip("0").rstrip(".") if "." in text else text  # as %g: 1.5, not 1.500
+    else:  # a power of ten as in value_error: 4.87×10⁸
+        mant = f"{x / 10**exp:.{digits - 1}f}".rstrip("0").rstrip(".")
+        text = f"{mant}×10{str(exp).translate(_SUPERSCRIPT)}"
+    return _with_unit(text.replace("-", "−"), unit)
 
 
 def value_error(x: float, err: float, unit: str = "", digits: int = 2) -> str:
@@ -109,3 +122,13 @@ def parameter_name(effect: str, at: str) -> str:
     if template is None:
         return f"{effect.replace('_', ' ')} at {at}"
     return template.format(i=index)
+
+
+def p_value(p: float) -> str:
+    """A p-value, one way everywhere: ``"p = 0.044"``, ``"p = 3.1e-12"``, ``"p < 1e-300"``
+    (below 1e-300, down to the 0 of floating-point underflow)."""
+    if p is None or math.isnan(p):
+        return "p = —"
+    if p < 1e-300:
+        return "p < 1e-300"
+    return f"p = {p:.2g}"
