@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import eodarm
-from arms import example_arm, four_link_arm, two_link_arm
+from arms import EXAMPLES, example_arm, four_link_arm, two_link_arm
 from eodarm.analysis.compensate import CompensationWarning
 from eodarm.model import custom
 
@@ -147,7 +147,8 @@ def test_the_command_line_compensates_with_an_effects_file(
         "    drop[:, 1] = -mm_per_kg * state.mass_kg\n"
         '    return {"measure_mm": drop}\n'
     )
-    args = ["compensate", "--effects", str(tmp_path / "hook.py"), "--add"]
+    args = ["compensate", "--arm", str(EXAMPLES / "example_arm.toml")]
+    args += ["--effects", str(tmp_path / "hook.py"), "--add"]
     args += ["hook_drop@base=0.4", "--alpha", "90,10,0", "--mass", "5", "--json"]
     assert main(args) == 0
     doc = json.loads(capsys.readouterr().out)
@@ -156,3 +157,33 @@ def test_the_command_line_compensates_with_an_effects_file(
         example_arm(), [[90.0, 10.0, 0.0]], 5.0, [eodarm.Effect("hook_drop", "base", mm_per_kg=0.4)]
     )
     np.testing.assert_allclose(doc["alpha_deg"], want["alpha_deg"], rtol=0, atol=1e-12)
+
+
+def test_the_table_s_uncompensated_miss_includes_the_user_effect(
+    tmp_path: Any, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The terminal's "miss" column is what the payload does to the model with the user's
+    effect (here it adds 0.4 mm/kg · 5 kg downward), not to the catalogue part alone."""
+    from eodarm.cli import main
+
+    custom.unregister("hook_drop")
+    (tmp_path / "hook.py").write_text(
+        "import numpy as np\nimport eodarm\n\n"
+        '@eodarm.custom_effect("hook_drop", places="base", parameter="mm_per_kg", start=0.1)\n'
+        "def hook_drop(state, i, mm_per_kg):\n"
+        "    drop = np.zeros((state.n_states, 2))\n"
+        "    drop[:, 1] = -mm_per_kg * state.mass_kg\n"
+        '    return {"measure_mm": drop}\n'
+    )
+    args = ["compensate", "--arm", str(EXAMPLES / "example_arm.toml")]
+    args += ["--effects", str(tmp_path / "hook.py"), "--add"]
+    args += ["hook_drop@base=0.4", "--alpha", "90,10,0", "--mass", "5"]
+    assert main(args) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert "miss mm" in lines[1]
+    # pose, kg, nominal, command, length, miss, left, status
+    shown = float(lines[2].split()[5])
+    out = eodarm.solve(
+        example_arm(), [[90.0, 10.0, 0.0]], 5.0, [eodarm.Effect("hook_drop", "base", mm_per_kg=0.4)]
+    )
+    assert shown == pytest.approx(float(np.hypot(out["dx_mm"], out["dy_mm"])[0]), abs=1e-3)

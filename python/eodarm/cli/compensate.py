@@ -98,25 +98,23 @@ def _uncompensated_miss(
     self_weight: bool,
 ) -> npt.NDArray[np.float64]:
     """How far the loaded measure point of the nominal poses misses (mm; NaN where the model
-    cannot solve a pose): what compensation removes."""
-    from eodarm.model import native as _core
-    from eodarm.model.effects import effect_arrays
-    from eodarm.model.solver import _core_arm
+    cannot solve a pose): what compensation removes. User-written effects included."""
+    from eodarm.model.solver import solve
 
-    codes, places, values = effect_arrays(with_arm_effects(arm.effects, effects), arm.n)
-    payload = np.zeros((alpha.shape[0], 2))
-    payload[:, 1] = -mass * arm.g
-    out = _core.solve(
-        _core_arm(arm),
-        np.ascontiguousarray(alpha),
-        payload,
-        codes,
-        places,
-        values,
-        self_weight,
-        True,
-    )
-    return np.asarray(np.hypot(out["dx_mm"], out["dy_mm"]))
+    def miss(rows: npt.NDArray[np.intp]) -> npt.NDArray[np.float64]:
+        out = solve(arm, alpha[rows], mass[rows], effects, self_weight=self_weight)
+        return np.asarray(np.hypot(out["dx_mm"], out["dy_mm"]))
+
+    try:
+        return miss(np.arange(alpha.shape[0]))
+    except EodarmError:  # some pose cannot be solved: the others still can, one by one
+        result = np.full(alpha.shape[0], np.nan)
+        for i in range(alpha.shape[0]):
+            try:
+                result[i] = miss(np.array([i]))[0]
+            except EodarmError:
+                pass
+        return result
 
 
 def _write_csv(

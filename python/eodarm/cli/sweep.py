@@ -11,13 +11,6 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import numpy.typing as npt
 
-from eodarm.cli._help import HELP
-from eodarm.errors import EodarmError
-from eodarm.workspace import store
-from eodarm.workspace.sweep import CHUNK_SIZE, REDUCE_OPS, sweep
-
-if TYPE_CHECKING:
-    import xarray as xr
 from eodarm.cli._common import (
     ARM_HELP,
     _effects_args,
@@ -26,6 +19,15 @@ from eodarm.cli._common import (
     _one_line,
     _valued_effect,
 )
+from eodarm.cli._help import HELP
+from eodarm.errors import EodarmError
+from eodarm.workspace import store
+from eodarm.workspace.sweep import CHUNK_SIZE, REDUCE_OPS, sweep
+
+if TYPE_CHECKING:
+    import xarray as xr
+
+    from eodarm.model.arm import Arm
 
 FloatArray = npt.NDArray[np.float64]
 
