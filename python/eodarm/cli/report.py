@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import textwrap
 from pathlib import Path
 from typing import Any
 
@@ -19,19 +20,55 @@ from eodarm.cli._help import HELP
 from eodarm.model.effects import Effect
 
 
-def run(args: argparse.Namespace) -> int:
+def _published(tables: dict[str, Any]) -> list[tuple[str, float]]:
+    """The seed paper's own models against its measured sag (Tables 8 and 9): RMS in mm."""
+    import numpy as np
 
+    t9 = tables.get("table9")
+    if t9 is None:
+        return []
+    meas = t9["measured_sag_mm"].to_numpy(float)
+
+    def rms(col: str) -> float:
+        return float(np.sqrt(np.mean((t9[col].to_numpy(float) - meas) ** 2)))
+
+    return [
+        ("the paper's analytic model (500 N/mm springs, Table 8)", rms("analytic_500Nmm_sag_mm")),
+        ("the paper's FEM model (Table 9)", rms("fem_sag_mm")),
+    ]
+
+
+def run(args: argparse.Namespace) -> int:
+    from eodarm.progress import stages
+
+    rounds = [f"round {k} of at most {args.rounds}" for k in range(1, max(args.rounds, 0) + 1)]
+    names = ["reading", *rounds, "writing the report"]
+    with stages(names, "eodarm report") as step:
+        step("reading")
+        return _run(args, step)
+
+
+def _run(args: argparse.Namespace, step: Any) -> int:
     from eodarm.analysis.workflow import investigate
     from eodarm.viz.report import write_report
+    from eodarm.viz.report_summary import answer_lines, make_answer, sag_word
 
     mk = _model_kw(args)
+    published: list[tuple[str, float]] = []
+    handover: dict[str, str] = {}
     if args.measurements is None:
         from eodarm.data import datasets
 
         ds = datasets.load("seed2022")
         arm = _load_arm(args.arm) if args.arm else ds.arm
         meas = ds.measurements
-        title = args.title or "eodarm: why the seed paper's arm sags more than its model says"
+        title = args.title
+        published = _published(ds.tables)
+        handover = {
+            "setup": "eodarm datasets export seed2022 seed2022",
+            "measurements": "seed2022/measurements.csv",
+            "arm": args.arm or "seed2022/arm.toml",
+        }
         intro = (
             "<p>The bundled data set <code>seed2022</code>: Table 1 geometry calibrated on "
             "Table 5, "
@@ -47,6 +84,7 @@ def run(args: argparse.Namespace) -> int:
         meas = _read(args.measurements, arm)
         title = args.title
         intro = None
+        handover = {"measurements": args.measurements, "arm": args.arm or "ARM.toml"}
     sw = not args.no_self_weight
     model = [m for m in _model(args.add, allow_values=False) if not isinstance(m, Effect)]
     inv = investigate(
@@ -57,18 +95,14 @@ def run(args: argparse.Namespace) -> int:
         max_rounds=args.rounds,
         solver_model=mk["model"],
         fem_options=mk["fem_options"],
+        on_round=lambda k: step(f"round {k} of at most {args.rounds}"),
     )
+    step("writing the report")
     last = inv.steps[-1]
-    import html
-
-    extra = [
-        (
-            "How the rounds ended",
-            f"<p>{len(inv.rounds)} round(s) of diagnosis; stopped because "
-            f"{html.escape(inv.stopped)}. The model reported above is the last step of the "
-            "ladder.</p>",
-        )
-    ]
+    base = inv.rounds[0].baseline
+    if title is None and args.measurements is None:
+        word = sag_word(meas, base) or "differently"
+        title = f"eodarm: why the seed paper's arm sags {word} than its spring model says"
     out = Path(args.output)
     if out.parent and not out.parent.exists():
         out.parent.mkdir(parents=True, exist_ok=True)
@@ -80,22 +114,45 @@ def run(args: argparse.Namespace) -> int:
         steps=inv.steps,
         cv=last.get("cv"),
         title=title,
-        extra_sections=extra,
         final_fit=last["fit"] if len(inv.steps) > 1 else None,
         rounds=inv.rounds,
         intro_html=intro,
+        stopped=inv.stopped,
+        published=published,
+        handover=handover,
         **mk,
     )
     main = "dy_mm" if "dy_mm" in meas.measured_channels else meas.measured_channels[0]
+    print("the ladder of models (each step adds effects, all refitted):")
     for s in inv.steps:
         cvr = s["cv_rms"] or {}
+        label = s["label"].replace(" (best effort)", "")
+        if len(label) > 58:
+            label = label[:55] + "..."
+        rms = s["rms"].get(main, float("nan"))
         print(
-            f"{s['label']:60s}  chi2/dof {s['chi2_per_dof']:10.4g}  RMS {main} "
-            f"{s['rms'].get(main, float('nan')):.4g}  CV {cvr.get(main, float('nan')):.4g}"
+            f"  {label:58s} χ²/dof {s['chi2_per_dof']:8.4g}  RMS {rms:6.3g}"
+            f"  held out {cvr.get(main, float('nan')):6.3g}"
         )
+    final = last["fit"]
+    answer = make_answer(
+        meas,
+        base,
+        inv.steps[0]["cv_rms"],
+        final,
+        last["cv_rms"],
+        inv.rounds,
+        inv.stopped,
+        main,
+        published,
+    )
+    for line in answer_lines(answer):
+        print(line)
     solver = "analytic" if mk["model"] == "analytic" else f"fem {mk['fem_options'] or {}}"
-    _note(f"model: {solver}; stopped: {inv.stopped}")
+    for line in textwrap.wrap(f"model: {solver}; stopped: {inv.stopped}", 92):
+        _note(line)
     _note(f"wrote {out}")
+    _note(f'next: open {out}; the fitted arm file is in it ("Take the model with you")')
     return 0
 
 

@@ -155,10 +155,10 @@ def deflection_share(
             text += f"\nmeas. {me:.1f}".replace("-", "−")
         ax.annotate(
             text,
-            (xi + bar_w / 2, min(t, me) if math.isfinite(me) else t),
+            (xi, min(t, me) if math.isfinite(me) else t),
             textcoords="offset points",
-            xytext=(3, -4),
-            ha="left",
+            xytext=(0, -9),
+            ha="center",
             va="top",
             fontsize="x-small",
         )
@@ -166,7 +166,7 @@ def deflection_share(
     lo = float(np.nanmin([*budget.total, *measured, *base, 0.0]))
     hi = float(np.nanmax([*budget.total, *measured, *base, 0.0]))
     span = hi - lo or 1.0
-    ax.set_ylim(lo - 0.15 * span, hi + 0.05 * span)
+    ax.set_ylim(lo - 0.2 * span, hi + 0.05 * span)
     ax.set_xlim(-0.6, k - 0.1)
     ax.set_xticks(x, labels)
     ax.set_xlabel("configuration")

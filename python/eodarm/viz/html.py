@@ -43,6 +43,9 @@ figcaption { font-size: .85em; color: #555; }
 .note { color: #555; font-size: .9em; }
 .warn { color: #8c3b00; }
 code { background: #f4f4f4; padding: 0 .2em; }
+p.answer { font-size: 1.1em; }
+h2.part { margin-top: 3em; border-bottom: 3px solid #1f77b4; }
+pre { background: #f7f7f7; padding: .6em; font-size: .8em; overflow-x: auto; }
 footer { margin-top: 3em; font-size: .8em; color: #777; }
 """
 

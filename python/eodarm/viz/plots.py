@@ -170,6 +170,8 @@ def measured_vs_model(
         ax.set_xlim(lim)
         ax.set_ylim(lim)
         ax.set_box_aspect(1)
+        ax.xaxis.set_major_locator(MaxNLocator(nbins=5))
+        ax.yaxis.set_major_locator(MaxNLocator(nbins=5))
         ax.grid(True, lw=0.4, alpha=0.5)
         ax.set_title(
             channel_title(ch) + "\nRMS: " + textwrap.fill("; ".join(rms_text), 48),
@@ -283,18 +285,9 @@ def residual_vs_payload(
         note = f"RMS {num(ra, 2)} {unit}" if same else f"RMS {num(rb, 2)} → {num(ra, 2)} {unit}"
         if off:
             worst_b = float(np.max(np.abs(res_b[rows])))
-            note += f"\n{off} before-point(s) off the axes (to ±{num(worst_b, 2)})"
-        ax.text(
-            0.03,
-            0.04,
-            note,
-            transform=ax.transAxes,
-            fontsize="x-small",
-            color="0.2",
-            bbox={"fc": "white", "ec": "none", "alpha": 0.7, "pad": 1.0},
-        )
+            note += f"; {off} off the axes (to ±{num(worst_b, 2)})"
         first = meas.alpha_deg[rows[0]] if rows.size else meas.alpha_deg[0]
-        ax.set_title(f"{label}: α = {angles_text(first)}", fontsize="small")
+        ax.set_title(f"{label}: α = {angles_text(first)}\n{note}", fontsize="small")
         ax.grid(True, lw=0.4, alpha=0.5)
         ax.tick_params(labelsize="small")
         if i % ncols == 0:
@@ -303,7 +296,7 @@ def residual_vs_payload(
             ax.set_xlabel("payload [kg]", fontsize="small")
     for ax in axes:
         ax.set_ylim(-top, top)
-        ax.yaxis.set_major_locator(MaxNLocator(nbins=6, symmetric=True))
+        ax.yaxis.set_major_locator(MaxNLocator(nbins=7, steps=[1, 2, 5, 10], symmetric=True))
     handles = [
         Line2D([], [], ls="--", marker="o", mfc="none", color=GREY),
         Line2D([], [], ls="-", marker="o", color=PALETTE[0]),
