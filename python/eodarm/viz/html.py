@@ -5,14 +5,19 @@ embedded as PNG data URIs.
 from __future__ import annotations
 
 import base64
+import contextlib
+import contextvars
 import html
 import io
 import math
 import os
-from collections.abc import Sequence
+import re
+import select
+import signal
+from collections.abc import Iterator, Sequence
 from typing import Any
 
-__all__ = ["CSS", "Num", "Raw", "esc", "img", "num", "row", "table"]
+__all__ = ["CSS", "Num", "Raw", "deferred", "esc", "img", "num", "render_deferred", "row", "table"]
 
 PathLike = str | os.PathLike[str]
 
@@ -100,17 +105,115 @@ class Num:
         self.text = num(x, digits) + suffix
 
 
-def img(fig: Any, alt: str, caption: str, narrow: bool = False) -> str:
-    """A figure as an embedded PNG (base64) with a caption."""
+#: Figures of :func:`img` waiting to be rendered by :func:`render_deferred` (None: render at
+#: once).
+_PENDING: contextvars.ContextVar[list[Any] | None] = contextvars.ContextVar(
+    "eodarm_pending_figures", default=None
+)
+
+_MARK = re.compile("\x00fig(\\d+)\x00")
+
+
+def png_base64(fig: Any) -> str:
+    """A figure as base64 PNG at 120 dpi (fast zlib level: the page is written once)."""
     buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=120)
-    data = base64.b64encode(buf.getvalue()).decode("ascii")
+    fig.savefig(buf, format="png", dpi=120, pil_kwargs={"compress_level": 1})
+    return base64.b64encode(buf.getvalue()).decode("ascii")
+
+
+def img(fig: Any, alt: str, caption: str, narrow: bool = False) -> str:
+    """A figure as an embedded PNG (base64) with a caption. Inside :func:`deferred`, the PNG
+    is a placeholder until :func:`render_deferred` draws every figure of the page."""
+    pending = _PENDING.get()
+    if pending is None:
+        data = png_base64(fig)
+    else:
+        pending.append(fig)
+        data = f"\x00fig{len(pending) - 1}\x00"
     cls = ' class="narrow"' if narrow else ""
     return (
         f"<figure{cls}>"
         f'<img src="data:image/png;base64,{data}" alt="{esc(alt)}">'
         f"<figcaption>{esc(caption)}</figcaption></figure>"
     )
+
+
+@contextlib.contextmanager
+def deferred() -> Iterator[list[Any]]:
+    """Collect the figures of :func:`img` instead of drawing each at once."""
+    token = _PENDING.set([])
+    try:
+        yield _PENDING.get() or []
+    finally:
+        _PENDING.reset(token)
+
+
+def render_deferred(text: str, figs: Sequence[Any], parallel: bool = True) -> str:
+    """Draw the collected figures and put them in place of their placeholders.
+
+    Drawing is most of a page's time and every figure is independent: with ``parallel`` and
+    two or more CPUs, a forked child draws every second figure while this process draws the
+    others. The PNGs are the same either way; if the child fails or is silent for 120 s its
+    figures are drawn here.
+    """
+    pngs = _render_all(list(figs), parallel)
+    return _MARK.sub(lambda m: pngs[int(m[1])], text)
+
+
+def _render_all(figs: list[Any], parallel: bool) -> list[str]:
+    out: list[str | None] = [None] * len(figs)
+    child_idx = list(range(1, len(figs), 2))
+    pid, fd = -1, -1
+    if parallel and len(figs) >= 2 and hasattr(os, "fork") and (os.cpu_count() or 1) >= 2:
+        try:
+            fd, wfd = os.pipe()
+            pid = os.fork()
+        except OSError:
+            pid = -1
+        if pid == 0:  # the child: draw its share, send it, leave without cleanup
+            code = 0
+            try:
+                os.close(fd)
+                payload = "\n".join(png_base64(figs[i]) for i in child_idx).encode("ascii")
+                with os.fdopen(wfd, "wb") as w:
+                    w.write(payload)
+            except BaseException:
+                code = 1
+            os._exit(code)
+        if pid > 0:
+            os.close(wfd)
+    mine = range(0, len(figs), 2) if pid > 0 else range(len(figs))
+    for i in mine:
+        out[i] = png_base64(figs[i])
+    if pid > 0:
+        got = _read_child(fd, pid)
+        if len(got) == len(child_idx):
+            for i, png in zip(child_idx, got, strict=True):
+                out[i] = png
+    return [d if d is not None else png_base64(figs[i]) for i, d in enumerate(out)]
+
+
+def _read_child(fd: int, pid: int, timeout: float = 120.0) -> list[str]:
+    """The child's PNGs, or [] if it failed or stayed silent for ``timeout`` seconds."""
+    chunks = []
+    ok = True
+    with os.fdopen(fd, "rb") as r:
+        while True:
+            ready, _, _ = select.select([r], [], [], timeout)
+            if not ready:
+                ok = False
+                with contextlib.suppress(OSError):
+                    os.kill(pid, signal.SIGKILL)
+                break
+            chunk = r.read1(1 << 20)
+            if not chunk:
+                break
+            chunks.append(chunk)
+    _, status = os.waitpid(pid, 0)
+    if not ok or status != 0:
+        return []
+    text = b"".join(chunks).decode("ascii")
+    return text.split("\n") if text else []
 
 
 def row(left: str, right: str) -> str:

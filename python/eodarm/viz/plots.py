@@ -137,26 +137,35 @@ def measured_vs_model(
         rms_text = []
         for j, (label, f) in enumerate(shown.items()):
             marker = MARKERS[j % len(MARKERS)]
-            groups = cfg_rows if by_config else [np.arange(meas.n_rows)]
-            for g, rows in enumerate(groups):
-                rows = rows[m[rows]]
-                colour = PALETTE[g % len(PALETTE)] if by_config else PALETTE[j % len(PALETTE)]
-                ax.errorbar(
-                    x_all[rows],
-                    f.prediction[rows, c],
-                    xerr=sig_all[rows],
-                    fmt=marker,
-                    ms=5 if j == 0 else 4.5,
-                    mfc="none" if j == 0 and len(shown) > 1 else colour,
-                    color=colour,
-                    elinewidth=0.8,
-                    capsize=0,
-                    alpha=0.9,
-                    zorder=3 + j,
-                )
-            # one invisible line per model carries its data, in row order, for readers
-            ax.plot(x_all[m], f.prediction[m, c], ls="none", marker="none", gid=f"model:{label}")
+            colour_of = np.empty(meas.n_rows, dtype=object)
+            for g, rows in enumerate(cfg_rows):
+                colour_of[rows] = PALETTE[(g if by_config else j) % len(PALETTE)]
+            cols = list(colour_of[m])
             y = f.prediction[m, c]
+            # one collection of bars and one of markers per model (cheap to draw)
+            ax.hlines(
+                y,
+                x_all[m] - sig_all[m],
+                x_all[m] + sig_all[m],
+                colors=cols,
+                lw=0.8,
+                alpha=0.9,
+                zorder=3 + j,
+            )
+            hollow = j == 0 and len(shown) > 1
+            ax.scatter(
+                x_all[m],
+                y,
+                s=25 if j == 0 else 20,
+                marker=marker,
+                facecolors="none" if hollow else cols,
+                edgecolors=cols,
+                linewidths=1.0,
+                alpha=0.9,
+                zorder=3 + j,
+            )
+            # one invisible line per model carries its data, in row order, for readers
+            ax.plot(x_all[m], y, ls="none", marker="none", gid=f"model:{label}")
             off = int(np.sum((y < lim[0]) | (y > lim[1])))
             rms = f.rms().get(ch, math.nan)
             rms_text.append(

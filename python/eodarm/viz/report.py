@@ -178,6 +178,59 @@ def write_report(
         main,
         published or (),
     )
+    with page.deferred() as figs:
+        parts = _page(
+            arm,
+            meas,
+            diagnosis,
+            steps,
+            cv,
+            doc_title,
+            extra_sections,
+            final_fit,
+            rounds,
+            intro_html,
+            kw,
+            answer,
+            base,
+            final,
+            best,
+            main,
+            unit,
+            self_weight,
+            handover,
+        )
+    text = page.render_deferred("\n".join(parts) + "\n", figs)
+    out = Path(path)
+    try:
+        out.write_text(text, encoding="utf-8")
+    except OSError as exc:
+        raise EodarmError(f"{out}: cannot write the report: {exc.strerror or exc}") from None
+    return out
+
+
+def _page(
+    arm: Arm,
+    meas: Measurements,
+    diagnosis: Diagnosis,
+    steps: Sequence[Mapping[str, Any]] | None,
+    cv: Mapping[str, Any] | None,
+    doc_title: str,
+    extra_sections: Sequence[tuple[str, str]] | None,
+    final_fit: FitResult | None,
+    rounds: Sequence[Diagnosis] | None,
+    intro_html: str | None,
+    kw: Mapping[str, Any],
+    answer: Any,
+    base: FitResult,
+    final: FitResult,
+    best: FitResult | None,
+    main: str,
+    unit: str,
+    self_weight: bool,
+    handover: Mapping[str, str] | None,
+) -> list[str]:
+    """The page's parts, in order (figures as placeholders inside :func:`page.deferred`)."""
     parts: list[str] = [
         "<!DOCTYPE html>",
         '<html lang="en"><head><meta charset="utf-8">',
@@ -231,12 +284,7 @@ def write_report(
         "</footer>",
         "</body></html>",
     ]
-    out = Path(path)
-    try:
-        out.write_text("\n".join(parts) + "\n", encoding="utf-8")
-    except OSError as exc:
-        raise EodarmError(f"{out}: cannot write the report: {exc.strerror or exc}") from None
-    return out
+    return parts
 
 
 def _data_section(
