@@ -127,11 +127,11 @@ def _run(args: argparse.Namespace, step: Any) -> int:
     for s in inv.steps:
         cvr = s["cv_rms"] or {}
         label = s["label"].replace(" (best effort)", "")
-        if len(label) > 58:
-            label = label[:55] + "..."
+        if len(label) > 50:
+            label = label[:47] + "..."
         rms = s["rms"].get(main, float("nan"))
         print(
-            f"  {label:58s} χ²/dof {s['chi2_per_dof']:8.4g}  RMS {rms:6.3g}"
+            f"  {label:50s} χ²/dof {s['chi2_per_dof']:8.4g}  RMS {rms:6.3g}"
             f"  held out {cvr.get(main, float('nan')):6.3g}"
         )
     final = last["fit"]

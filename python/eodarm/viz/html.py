@@ -141,9 +141,10 @@ def img(fig: Any, alt: str, caption: str, narrow: bool = False) -> str:
 @contextlib.contextmanager
 def deferred() -> Iterator[list[Any]]:
     """Collect the figures of :func:`img` instead of drawing each at once."""
-    token = _PENDING.set([])
+    figs: list[Any] = []
+    token = _PENDING.set(figs)
     try:
-        yield _PENDING.get() or []
+        yield figs
     finally:
         _PENDING.reset(token)
 

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import base64
 import math
+import re
 import textwrap
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -75,10 +76,17 @@ def sag_word(meas: Measurements, base: FitResult) -> str | None:
 
 
 def model_words(fit: FitResult) -> str:
-    """The effects of a model in words, grouped: ``"actuator 1–3 body, actuator 1–3 mount"``."""
-    names = [parameter_name(s.name, s.at).replace(" stiffness", "") for s in fit.slots]
-    fixed = [parameter_name(e.name, e.at).replace(" stiffness", "") for e in fit.fixed]
-    return ", ".join([*fixed, *names]) or "nothing added"
+    """The effects of a model in words, the same kind at several places in one group:
+    ``"actuator 1/2/3 body, actuator 1/2/3 mount"``."""
+    names = [parameter_name(e.name, e.at) for e in fit.fixed]
+    names += [parameter_name(s.name, s.at) for s in fit.slots]
+    groups: dict[tuple[str, str], list[str]] = {}
+    for n in names:
+        m = re.fullmatch(r"(\D*?)(\d+)(.*)", n.replace(" stiffness", ""))
+        key = (m[1], m[3]) if m else (n, "")
+        groups.setdefault(key, []).append(m[2] if m else "")
+    words = [f"{pre}{'/'.join(nums)}{post}" for (pre, post), nums in groups.items()]
+    return ", ".join(words) or "nothing added"
 
 
 def _typ_sigma(meas: Measurements, ch: str) -> float:
@@ -360,7 +368,7 @@ def handover_section(
     text = fitted.to_toml()
     uri = "data:application/toml;base64," + base64.b64encode(text.encode("utf-8")).decode()
     adds = " ".join(f"--add {s.key}" for s in fit.slots)
-    row0 = int(np.argmax(np.abs(meas.values[:, meas.index(meas.measured_channels[0])])))
+    row0 = int(np.flatnonzero(np.asarray(meas.config) == meas.configs[0])[0])
     alpha = ",".join(f"{x:.1f}" for x in meas.alpha_deg[row0])
     mass = float(np.max(meas.mass_kg))
     grids = " ".join(f"--alpha{k + 1} {_grid(meas, k)}" for k in range(arm.n))
