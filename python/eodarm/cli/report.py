@@ -20,17 +20,18 @@ from eodarm.cli._help import HELP
 from eodarm.model.effects import Effect
 
 
-def _published(tables: dict[str, Any]) -> list[tuple[str, float]]:
-    """The seed paper's own models against its measured sag (Tables 8 and 9): RMS in mm."""
-    import numpy as np
+def _published(root: Path) -> list[tuple[str, float]]:
+    """The seed paper's own models against its measured sag (Tables 8 and 9 as published,
+    ``table9.csv``): RMS in mm. Read with the csv module (pandas would add 0.3 s)."""
+    import csv
+    import math
 
-    t9 = tables.get("table9")
-    if t9 is None:
-        return []
-    meas = t9["measured_sag_mm"].to_numpy(float)
+    with (root / "table9.csv").open(encoding="utf-8") as f:
+        rows = list(csv.DictReader(f))
 
     def rms(col: str) -> float:
-        return float(np.sqrt(np.mean((t9[col].to_numpy(float) - meas) ** 2)))
+        d = [float(r[col]) - float(r["measured_sag_mm"]) for r in rows]
+        return math.sqrt(sum(x * x for x in d) / len(d))
 
     return [
         ("the paper's analytic model (500 N/mm springs, Table 8)", rms("analytic_500Nmm_sag_mm")),
@@ -59,11 +60,11 @@ def _run(args: argparse.Namespace, step: Any) -> int:
     if args.measurements is None:
         from eodarm.data import datasets
 
-        ds = datasets.load("seed2022")
+        ds = datasets.load("seed2022", tables=False)
         arm = _load_arm(args.arm) if args.arm else ds.arm
         meas = ds.measurements
         title = args.title
-        published = _published(ds.tables)
+        published = _published(ds.root)
         handover = {
             "setup": "eodarm datasets export seed2022 seed2022",
             "measurements": "seed2022/measurements.csv",
