@@ -51,6 +51,7 @@ def run(args: argparse.Namespace) -> int:
 
 def _run(args: argparse.Namespace, step: Any) -> int:
     from eodarm.analysis.workflow import investigate
+    from eodarm.viz.plots import compact_label
     from eodarm.viz.report import write_report
     from eodarm.viz.report_summary import answer_lines, make_answer, sag_word
 
@@ -127,7 +128,7 @@ def _run(args: argparse.Namespace, step: Any) -> int:
     print("the ladder of models (each step adds effects, all refitted):")
     for s in inv.steps:
         cvr = s["cv_rms"] or {}
-        label = s["label"].replace(" (best effort)", "")
+        label = compact_label(s["label"])
         if len(label) > 50:
             label = label[:47] + "..."
         rms = s["rms"].get(main, float("nan"))

@@ -65,6 +65,7 @@ __all__ = [
     "arm_pose",
     "channel_title",
     "channel_unit",
+    "compact_label",
     "deflection_share",
     "effect_label",
     "ladder",
@@ -337,6 +338,27 @@ def residual_vs_payload(
     return finish(fig, path)
 
 
+def compact_label(label: str) -> str:
+    """A ladder step's label with one effect at several places written once:
+    ``"+ a@M1 + a@M2 + b@O1"`` → ``"+ a@M1, M2 + b@O1"``."""
+    parts = label.split(" + ")
+    out: list[str] = []
+    last = ""
+    for p in parts:
+        name, at = p.split("@", 1) if "@" in p else ("", "")
+        bare = name.removeprefix("+ ")
+        if bare and bare == last and out:
+            tail = ""
+            if " (" in at:
+                at, tail = at.split(" (", 1)
+                tail = " (" + tail
+            out[-1] += f", {at}{tail}"
+        else:
+            out.append(p)
+        last = bare
+    return " + ".join(out)
+
+
 def _model_name(fit: FitResult) -> str:
     """The effects a fit carries, or ``"baseline"``."""
     keys = [e.key for e in fit.fixed] + [s.key for s in fit.slots]
@@ -372,7 +394,7 @@ def ladder(
         if channel not in s["rms"]:
             raise EodarmError(f"ladder: step '{s['label']}' has no RMS for channel '{channel}'")
     unit = channel_unit(channel)
-    labels = [str(s["label"]) for s in steps]
+    labels = [compact_label(str(s["label"])) for s in steps]
     x = np.arange(len(steps), dtype=float)
     rms = np.array([float(s["rms"][channel]) for s in steps])
     cv = np.array(

@@ -86,7 +86,7 @@ def model_words(fit: FitResult) -> str:
         key = (m[1], m[3]) if m else (n, "")
         groups.setdefault(key, []).append(m[2] if m else "")
     words = [f"{pre}{'/'.join(nums)}{post}" for (pre, post), nums in groups.items()]
-    return ", ".join(words) or "nothing added"
+    return "baseline + " + ", ".join(words) if words else "the baseline (nothing added)"
 
 
 def _typ_sigma(meas: Measurements, ch: str) -> float:
@@ -160,7 +160,7 @@ def answer_lines(a: Answer) -> list[str]:
     u, s = a.unit, a.sigma
     ch = short_channel(a.main)
     lines = [
-        f"final model: baseline + {a.model} ({a.n_params} fitted)",
+        f"final model: {a.model} ({a.n_params} fitted)",
         f"last round ({a.rounds}): {a.verdict}: {_verdict_words(a)}",
         f"{ch} RMS in-sample {a.base_rms:.3g} → {a.final_rms:.3g} {u}, held out "
         f"{a.base_cv:.3g} → {a.final_cv:.3g} {u} (σ {s:.2g} {u}: {a.final_cv / s:.1f}σ held out)",
@@ -236,7 +236,7 @@ def answer_section(
     )
     return [
         "<h2>The answer</h2>",
-        f'<p class="answer">Final model: <b>baseline + {page.esc(a.model)}</b> '
+        f'<p class="answer">Final model: <b>{page.esc(a.model)}</b> '
         f"({a.n_params} parameter{'s' if a.n_params != 1 else ''} fitted jointly, "
         f"{page.esc(kw_model)}).<br>"
         f'Last round ({a.rounds}): <span class="verdict {v}">{v}</span> '
@@ -275,7 +275,12 @@ def _correlation_figure(fit: FitResult) -> Any:
     for i in range(k):
         for j in range(k):
             x = corr[i, j]
-            txt = "—" if not math.isfinite(x) else f"{x:+.2f}".replace("-", "−")
+            if not math.isfinite(x):
+                txt = "—"
+            elif abs(x) < 0.005:
+                txt = "0"
+            else:
+                txt = f"{x:+.2f}".replace("-", "−")
             ax.text(
                 j,
                 i,
@@ -340,8 +345,8 @@ def parameter_section(fit: FitResult, meas: Measurements) -> list[str]:
                 "correlation of the fitted parameters",
                 "Correlation between the fitted parameters (+1: the data trade one for the "
                 "other; 0: independent). A body spring and a mount spring of the same "
-                "actuator act in series on the same motion and are told apart only by the "
-                "actuator's own length sensor.",
+                "actuator act in series on the same motion: only the actuator's own length "
+                "sensor (dlK_mm) tells them apart, and without it they correlate near ±1.",
                 narrow=True,
             )
         )
