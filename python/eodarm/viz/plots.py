@@ -270,6 +270,7 @@ def residual_vs_payload(
     if float(fin_b.max(initial=0.0)) <= 3 * top:
         top = max(top, float(fin_b.max(initial=0.0)) * 1.1)
     left_out = False
+    off = [0, 0.0]  # before-points beyond the axes: how many, the largest |residual|
     for i, (ax, label, rows) in enumerate(zip(axes, configs, config_rows(meas), strict=True)):
         rows = rows[meas.measured[rows, c]]
         rows = rows[np.argsort(meas.mass_kg[rows], kind="stable")]
@@ -291,11 +292,11 @@ def residual_vs_payload(
             left_out = True
         rb = float(np.sqrt(np.mean(res_b[rows] ** 2))) if rows.size else math.nan
         ra = float(np.sqrt(np.mean(res_a[rows] ** 2))) if rows.size else math.nan
-        off = int(np.sum(np.abs(res_b[rows]) > top)) if not same else 0
+        beyond = np.abs(res_b[rows]) > top
+        if not same and beyond.any():
+            off[0] += int(beyond.sum())
+            off[1] = max(off[1], float(np.max(np.abs(res_b[rows]))))
         note = f"RMS {num(ra, 2)} {unit}" if same else f"RMS {num(rb, 2)} → {num(ra, 2)} {unit}"
-        if off:
-            worst_b = float(np.max(np.abs(res_b[rows])))
-            note += f"; {off} off the axes (to ±{num(worst_b, 2)})"
         first = meas.alpha_deg[rows[0]] if rows.size else meas.alpha_deg[0]
         ax.set_title(f"{label}: α = {angles_text(first)}\n{note}", fontsize="small")
         ax.grid(True, lw=0.4, alpha=0.5)
@@ -334,6 +335,11 @@ def residual_vs_payload(
         fontsize="small",
     )
     title = f"Residual of {short_channel(ch)} (measured − model) against payload, per configuration"
+    if off[0]:
+        title += (
+            f"\nthe axes fit the after model; {off[0]} before-points lie beyond them "
+            f"(up to ±{num(off[1], 2)} {unit})"
+        )
     fig.suptitle(title)
     return finish(fig, path)
 
