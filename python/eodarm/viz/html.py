@@ -153,9 +153,9 @@ def render_deferred(text: str, figs: Sequence[Any], parallel: bool = True) -> st
     """Draw the collected figures and put them in place of their placeholders.
 
     Drawing is most of a page's time and every figure is independent: with ``parallel`` and
-    two or more CPUs, a forked child draws every second figure while this process draws the
-    others. The PNGs are the same either way; if the child fails or is silent for 120 s its
-    figures are drawn here.
+    two or more CPUs, a forked child draws about half of them (by panels) while this process
+    draws the others. The PNGs are the same either way; if the child fails or is silent for
+    120 s, its figures are drawn here.
     """
     pngs = _render_all(list(figs), parallel)
     return _MARK.sub(lambda m: pngs[int(m[1])], text)
@@ -163,7 +163,15 @@ def render_deferred(text: str, figs: Sequence[Any], parallel: bool = True) -> st
 
 def _render_all(figs: list[Any], parallel: bool) -> list[str]:
     out: list[str | None] = [None] * len(figs)
-    child_idx = list(range(1, len(figs), 2))
+    # Split the work evenly: a figure's drawing time grows with its panels (axes), so the
+    # figures go, largest first, to whichever side has less so far.
+    load = [0, 0]
+    sides: list[list[int]] = [[], []]
+    for i in sorted(range(len(figs)), key=lambda i: -len(figs[i].axes)):
+        side = 0 if load[0] <= load[1] else 1
+        sides[side].append(i)
+        load[side] += len(figs[i].axes) + 1
+    mine_idx, child_idx = sorted(sides[0]), sorted(sides[1])
     pid, fd = -1, -1
     if parallel and len(figs) >= 2 and hasattr(os, "fork") and (os.cpu_count() or 1) >= 2:
         try:
@@ -183,7 +191,7 @@ def _render_all(figs: list[Any], parallel: bool) -> list[str]:
             os._exit(code)
         if pid > 0:
             os.close(wfd)
-    mine = range(0, len(figs), 2) if pid > 0 else range(len(figs))
+    mine = mine_idx if pid > 0 else range(len(figs))
     for i in mine:
         out[i] = png_base64(figs[i])
     if pid > 0:
