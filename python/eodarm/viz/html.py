@@ -32,6 +32,7 @@ table { border-collapse: collapse; margin: .5em 0 1em 0; font-size: .9em; displa
 th, td { border: 1px solid #ccc; padding: .25em .6em; text-align: left; vertical-align: top; }
 th { background: #f0f3f7; }
 td.num { text-align: right; font-variant-numeric: tabular-nums; white-space: nowrap; }
+span.num { font-variant-numeric: tabular-nums; white-space: nowrap; }
 tr.hl td { background: #fff4d6; font-weight: bold; }
 .row { display: flex; flex-wrap: wrap; gap: 1.5em; align-items: flex-start; }
 .row > div { flex: 0 1 auto; max-width: 100%; overflow-x: auto; }

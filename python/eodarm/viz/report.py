@@ -44,6 +44,7 @@ from eodarm.data.measurements import Measurements, default_sigma
 from eodarm.errors import EodarmError
 from eodarm.model.arm import Arm
 from eodarm.viz import html as page
+from eodarm.viz.format import value
 from eodarm.viz.report_diagnosis import diagnosis_section, left_section, rounds_section
 from eodarm.viz.report_summary import (
     answer_section,
@@ -553,9 +554,9 @@ def _share_section(
         f"the arm in configuration {worst}",
         f"Configuration {worst}, the one the final model misses most at {mass:g} kg "
         f"(α = {', '.join(f'{a:.1f}' for a in alpha[0])}°): the final model's loaded pose, "
-        f"deflections exaggerated ×{scale:g} so that {page.num(sag, 3)} mm on a "
-        f"{page.num(reach, 3)} mm arm can be seen (measured dy {page.num(measured[k], 3)} mm, "
-        f"model {page.num(budget.total[k], 3)} mm).",
+        f"deflections exaggerated ×{scale:g} so that {value(sag, 'mm', 3)} on a "
+        f"{reach:.0f} mm arm can be seen (measured dy {value(measured[k], 'mm', 3)}, "
+        f"model {value(budget.total[k], 'mm', 3)}).",
         narrow=True,
     )
     out.append(pose)

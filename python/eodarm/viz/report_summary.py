@@ -162,8 +162,14 @@ def answer_lines(a: Answer) -> list[str]:
     lines = [
         f"final model: {a.model} ({a.n_params} fitted)",
         f"last round ({a.rounds}): {a.verdict}: {_verdict_words(a)}",
-        f"{ch} RMS in-sample {a.base_rms:.3g} → {a.final_rms:.3g} {u}, held out "
-        f"{a.base_cv:.3g} → {a.final_cv:.3g} {u} (σ {s:.2g} {u}: {a.final_cv / s:.1f}σ held out)",
+        (
+            f"{ch} RMS in-sample {a.base_rms:.3g} → {a.final_rms:.3g} {u}, held out "
+            f"{a.base_cv:.3g} → {a.final_cv:.3g} {u} (σ {s:.2g} {u}: {a.final_cv / s:.1f}σ "
+            "held out)"
+            if math.isfinite(a.final_cv) and math.isfinite(a.base_cv)
+            else f"{ch} RMS in-sample {a.base_rms:.3g} → {a.final_rms:.3g} {u} (σ {s:.2g} {u}; "
+            "not cross-validated: fewer than two configurations)"
+        ),
     ]
     if a.published:
         lines.append("published models: " + "; ".join(f"{n} {v:.3g} {u}" for n, v in a.published))
@@ -176,6 +182,22 @@ def answer_lines(a: Answer) -> list[str]:
     for line in lines:
         out += textwrap.wrap(line, 100, subsequent_indent="  ")
     return out
+
+
+def _held_words(a: Answer) -> str:
+    """The held-out half of the answer's RMS sentence, against σ."""
+    u, s = a.unit, a.sigma
+    if not math.isfinite(a.final_cv):
+        return (
+            f"not cross-validated (fewer than two configurations); typical σ {page.num(s, 2)} "
+            f"{u}: {page.num(a.final_rms / s, 2)}σ in-sample."
+        )
+    z = a.final_cv / s
+    tail = "still " if z > 2 else ""
+    return (
+        f"<b>{page.num(a.final_cv, 3)} {u}</b> on held-out configurations, against a typical "
+        f"σ of {page.num(s, 2)} {u}: {tail}{page.num(z, 2)}σ."
+    )
 
 
 def answer_section(
@@ -240,16 +262,21 @@ def answer_section(
         f"({a.n_params} parameter{'s' if a.n_params != 1 else ''} fitted jointly, "
         f"{page.esc(kw_model)}).<br>"
         f'Last round ({a.rounds}): <span class="verdict {v}">{v}</span> '
-        f"{page.esc(_verdict_words(a))}; the investigation stopped because "
-        f"{page.esc(a.stopped)}.</p>",
+        f"{page.esc(_verdict_words(a))}"
+        + (
+            f"; the investigation stopped because {page.esc(a.stopped)}"
+            if a.stopped and a.verdict != "adequate"
+            else ""
+        )
+        + ".</p>",
         f'<p class="answer">{page.esc(ch)} RMS <b>{page.num(a.base_rms, 3)} → '
-        f"{page.num(a.final_rms, 3)} {u}</b> in-sample, <b>{page.num(a.final_cv, 3)} {u}</b> on "
-        f"held-out configurations, against a typical σ of {page.num(s, 2)} {u}: still "
-        f"{page.num(a.final_cv / s, 2)}σ.</p>",
-        page.row(table, f"<div>{left}</div>"),
+        f"{page.num(a.final_rms, 3)} {u}</b> in-sample, " + _held_words(a) + "</p>",
+        table,
         pub,
-        '<p class="note">What is left: for every measured channel, the configuration where '
-        "the final model misses most (RMS residual over its payloads), worst first.</p>",
+        "<h3>What is left</h3>",
+        '<p class="note">For every measured channel, the configuration where the final model '
+        "misses most (RMS residual over its payloads), worst first in units of σ.</p>",
+        left,
         img,
     ]
 
@@ -318,7 +345,7 @@ def parameter_section(fit: FitResult, meas: Measurements) -> list[str]:
                 f"#{i + 1} {parameter_name(s.name, s.at)}",
                 page.Raw(f"<code>{page.esc(s.key)}</code>"),
                 page.Raw(f'<span class="num">{page.esc(value_error(est, err, kind.unit))}</span>'),
-                interval95(est, err, kind.unit),
+                page.Raw(f'<span class="num">{page.esc(interval95(est, err, kind.unit))}</span>'),
                 page.Raw(f'<span class="num">{_percent(rel)}</span>'),
                 note,
             ]
