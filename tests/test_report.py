@@ -282,3 +282,14 @@ def test_parallel_and_serial_figures_are_the_same_png(arm: eodarm.Arm) -> None:
     serial = page.render_deferred(text, figs(), parallel=False)
     par = page.render_deferred(text, figs(), parallel=True)
     assert "\x00" not in serial and serial == par
+
+
+def test_investigate_reports_each_round_as_it_begins(arm: eodarm.Arm) -> None:
+    from eodarm.analysis.workflow import investigate
+
+    alpha = random_configs(arm, 3, np.random.default_rng(9))
+    hidden = [eodarm.Effect("mount_compliance", "M1", stiffness_n_per_mm=1500.0)]
+    meas = synth(arm, alpha, (1.5, 5.0), hidden=hidden, channels="dy_mm,dalpha", seed=6)
+    seen: list[int] = []
+    inv = investigate(arm, meas, max_rounds=3, on_round=seen.append)
+    assert seen == list(range(1, len(inv.rounds) + 1))

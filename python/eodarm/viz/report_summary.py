@@ -366,14 +366,25 @@ def parameter_section(fit: FitResult, meas: Measurements) -> list[str]:
         table,
     ]
     if len(fit.slots) >= 2:
+        caption = (
+            "Correlation between the fitted parameters (+1: the data trade one for the "
+            "other; 0: independent)."
+        )
+        keys = {s.key for s in fit.slots}
+        if any(
+            f"actuator_compliance@{s.at}" in keys and s.name == "mount_compliance"
+            for s in fit.slots
+        ):
+            caption += (
+                " A body spring and a mount spring of the same actuator act in series on the "
+                "same motion: only the actuator's own length sensor (dlK_mm) tells them apart, "
+                "and without it they correlate near ±1."
+            )
         out.append(
             page.img(
                 _correlation_figure(fit),
                 "correlation of the fitted parameters",
-                "Correlation between the fitted parameters (+1: the data trade one for the "
-                "other; 0: independent). A body spring and a mount spring of the same "
-                "actuator act in series on the same motion: only the actuator's own length "
-                "sensor (dlK_mm) tells them apart, and without it they correlate near ±1.",
+                caption,
                 narrow=True,
             )
         )
