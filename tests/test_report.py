@@ -297,3 +297,12 @@ def test_investigate_reports_each_round_as_it_begins(arm: eodarm.Arm) -> None:
     seen: list[int] = []
     inv = investigate(arm, meas, max_rounds=3, on_round=seen.append)
     assert seen == list(range(1, len(inv.rounds) + 1))
+
+
+def test_report_refuses_no_rounds_in_one_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert main(["report", "--rounds", "0", "-o", str(tmp_path / "r.html")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == ["eodarm: error: --rounds must be 1 or more, got 0"]
+    assert not (tmp_path / "r.html").exists()

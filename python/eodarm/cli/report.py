@@ -40,9 +40,13 @@ def _published(root: Path) -> list[tuple[str, float]]:
 
 
 def run(args: argparse.Namespace) -> int:
+    from eodarm.errors import InputError
     from eodarm.progress import stages
 
-    rounds = [f"round {k} of at most {args.rounds}" for k in range(1, max(args.rounds, 0) + 1)]
+    if args.rounds < 1:
+        raise InputError(f"--rounds must be 1 or more, got {args.rounds}")
+
+    rounds = [f"round {k} of at most {args.rounds}" for k in range(1, args.rounds + 1)]
     names = ["reading", *rounds, "writing the report"]
     with stages(names, "eodarm report") as step:
         step("reading")
