@@ -505,7 +505,8 @@ def ladder(
 
     h1, l1 = ax.get_legend_handles_labels()
     h2, l2 = ax2.get_legend_handles_labels()
-    ax.legend(h1 + h2, l1 + l2, fontsize="small", loc="upper right", framealpha=0.9)
+    # below the axes, never over the data
+    fig.legend(h1 + h2, l1 + l2, fontsize="small", loc="outside lower center", ncols=2)
     ax.set_title(f"Error ladder: {short_channel(channel)} as effects are added")
     ax.set_xlabel("model (each step adds effects to the previous one; all parameters refitted)")
     return finish(fig, path)
