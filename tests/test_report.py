@@ -306,3 +306,38 @@ def test_report_refuses_no_rounds_in_one_line(
     err = capsys.readouterr().err.strip().splitlines()
     assert err == ["eodarm: error: --rounds must be 1 or more, got 0"]
     assert not (tmp_path / "r.html").exists()
+
+
+def test_the_report_is_the_same_drawn_on_one_process_or_two(
+    arm: eodarm.Arm, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from eodarm.analysis.workflow import investigate
+    from eodarm.viz.report import write_report
+
+    alpha = random_configs(arm, 3, np.random.default_rng(11))
+    hidden = [eodarm.Effect("mount_compliance", "M1", stiffness_n_per_mm=1500.0)]
+    meas = synth(arm, alpha, (1.5, 5.0), hidden=hidden, channels="dy_mm,dalpha", seed=6)
+    inv = investigate(arm, meas, max_rounds=2)
+    last = inv.steps[-1]
+    texts = []
+    for parallel in (True, False):
+        monkeypatch.setattr(page, "PARALLEL", parallel)
+        path = write_report(
+            tmp_path / f"r{parallel}.html",
+            arm,
+            meas,
+            inv.rounds[0],
+            steps=inv.steps,
+            cv=last["cv"],
+            final_fit=last["fit"],
+            rounds=inv.rounds,
+            stopped=inv.stopped,
+        )
+        text = path.read_text(encoding="utf-8")
+        # the footer and the fitted file's [fit] table carry the time of writing
+        text = re.sub(r"<footer>.*</footer>", "", text)
+        text = re.sub(r'href="data:application/toml;base64,[^"]*"', "", text)
+        texts.append(re.sub(r"date = &quot;[^&]*&quot;", "", text))
+    assert texts[0] == texts[1]
+    # the answer, the budget, the arm, the ladder and the residuals at least
+    assert texts[0].count('src="data:image/png;base64,') >= 5

@@ -14,10 +14,22 @@ import os
 import re
 import select
 import signal
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from typing import Any
 
-__all__ = ["CSS", "Num", "Raw", "deferred", "esc", "img", "num", "render_deferred", "row", "table"]
+__all__ = [
+    "CSS",
+    "Aside",
+    "Num",
+    "Raw",
+    "deferred",
+    "esc",
+    "img",
+    "num",
+    "render_deferred",
+    "row",
+    "table",
+]
 
 PathLike = str | os.PathLike[str]
 
@@ -162,8 +174,58 @@ def render_deferred(text: str, figs: Sequence[Any], parallel: bool = True) -> st
     return _MARK.sub(lambda m: pngs[int(m[1])], text)
 
 
+#: Whether pages may be drawn on two processes (tests switch it off to compare).
+PARALLEL = True
+
+
+def _can_fork(parallel: bool) -> bool:
+    return PARALLEL and parallel and hasattr(os, "fork") and (os.cpu_count() or 1) >= 2
+
+
+class Aside:
+    """``fn()`` (returning text) run in a forked child while this process goes on; calling
+    the object gives its result. Without two CPUs or ``fork``, or if the child fails or is
+    silent for 120 s, ``fn()`` runs here when called: the text is the same either way.
+    Inside the child, :func:`img` draws at once (nothing is deferred to this process)."""
+
+    def __init__(self, fn: Callable[[], str], parallel: bool = True) -> None:
+        self.fn = fn
+        self.pid, self.fd = -1, -1
+        if not _can_fork(parallel):
+            return
+        try:
+            fd, wfd = os.pipe()
+            pid = os.fork()
+        except OSError:
+            return
+        if pid == 0:  # the child: do the work, send it, leave without any cleanup
+            code = 0
+            try:
+                os.close(fd)
+                _PENDING.set(None)
+                data = fn().encode("utf-8")
+                with os.fdopen(wfd, "wb") as w:
+                    w.write(data)
+            except BaseException:
+                code = 1
+            os._exit(code)
+        os.close(wfd)
+        self.pid, self.fd = pid, fd
+
+    @property
+    def forked(self) -> bool:
+        return self.pid > 0
+
+    def __call__(self) -> str:
+        if self.forked:
+            data = _read_child(self.fd, self.pid)
+            self.pid = -1
+            if data is not None:
+                return data.decode("utf-8")
+        return self.fn()
+
+
 def _render_all(figs: list[Any], parallel: bool) -> list[str]:
-    out: list[str | None] = [None] * len(figs)
     # Split the work evenly: a figure's drawing time grows with its panels (axes), so the
     # figures go, largest first, to whichever side has less so far.
     load = [0, 0]
@@ -172,39 +234,19 @@ def _render_all(figs: list[Any], parallel: bool) -> list[str]:
         side = 0 if load[0] <= load[1] else 1
         sides[side].append(i)
         load[side] += len(figs[i].axes) + 1
-    mine_idx, child_idx = sorted(sides[0]), sorted(sides[1])
-    pid, fd = -1, -1
-    if parallel and len(figs) >= 2 and hasattr(os, "fork") and (os.cpu_count() or 1) >= 2:
-        try:
-            fd, wfd = os.pipe()
-            pid = os.fork()
-        except OSError:
-            pid = -1
-        if pid == 0:  # the child: draw its share, send it, leave without cleanup
-            code = 0
-            try:
-                os.close(fd)
-                payload = "\n".join(png_base64(figs[i]) for i in child_idx).encode("ascii")
-                with os.fdopen(wfd, "wb") as w:
-                    w.write(payload)
-            except BaseException:
-                code = 1
-            os._exit(code)
-        if pid > 0:
-            os.close(wfd)
-    mine = mine_idx if pid > 0 else range(len(figs))
-    for i in mine:
-        out[i] = png_base64(figs[i])
-    if pid > 0:
-        got = _read_child(fd, pid)
-        if len(got) == len(child_idx):
-            for i, png in zip(child_idx, got, strict=True):
-                out[i] = png
-    return [d if d is not None else png_base64(figs[i]) for i, d in enumerate(out)]
+    mine, theirs = sorted(sides[0]), sorted(sides[1])
+    if len(figs) < 2 or not theirs:
+        return [png_base64(f) for f in figs]
+    aside = Aside(lambda: "\n".join(png_base64(figs[i]) for i in theirs), parallel)
+    out: dict[int, str] = {i: png_base64(figs[i]) for i in (mine if aside.forked else ())}
+    got = aside().split("\n")
+    if len(got) == len(theirs):
+        out.update(zip(theirs, got, strict=True))
+    return [out[i] if i in out else png_base64(figs[i]) for i in range(len(figs))]
 
 
-def _read_child(fd: int, pid: int, timeout: float = 120.0) -> list[str]:
-    """The child's PNGs, or [] if it failed or stayed silent for ``timeout`` seconds."""
+def _read_child(fd: int, pid: int, timeout: float = 120.0) -> bytes | None:
+    """What the child wrote, or None if it failed or stayed silent for ``timeout`` s."""
     chunks = []
     ok = True
     with os.fdopen(fd, "rb") as r:
@@ -221,9 +263,8 @@ def _read_child(fd: int, pid: int, timeout: float = 120.0) -> list[str]:
             chunks.append(chunk)
     _, status = os.waitpid(pid, 0)
     if not ok or status != 0:
-        return []
-    text = b"".join(chunks).decode("ascii")
-    return text.split("\n") if text else []
+        return None
+    return b"".join(chunks)
 
 
 def row(left: str, right: str) -> str:

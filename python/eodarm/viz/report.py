@@ -180,7 +180,7 @@ def write_report(
         published or (),
     )
     with page.deferred() as figs:
-        parts = _page(
+        parts, forked = _page(
             arm,
             meas,
             diagnosis,
@@ -201,7 +201,7 @@ def write_report(
             self_weight,
             handover,
         )
-    text = page.render_deferred("\n".join(parts) + "\n", figs)
+    text = page.render_deferred("\n".join(parts) + "\n", figs, parallel=not forked)
     out = Path(path)
     try:
         out.write_text(text, encoding="utf-8")
@@ -230,8 +230,39 @@ def _page(
     unit: str,
     self_weight: bool,
     handover: Mapping[str, str] | None,
-) -> list[str]:
-    """The page's parts, in order (figures as placeholders inside :func:`page.deferred`)."""
+) -> tuple[list[str], bool]:
+    """The page's parts, in order (figures as placeholders inside :func:`page.deferred`).
+
+    The second half, how the investigation got there, is built and drawn aside (in a forked
+    child when there are two CPUs: :class:`page.Aside`) while this process does the answer.
+    """
+
+    def steps_behind() -> str:
+        out = [
+            '<h2 class="part">How the investigation got there</h2>',
+            "<p>The steps behind the answer above, in order: the data, the baseline, the first "
+            "diagnosis, the further rounds, the fitted model, the ladder of models and the "
+            "residuals.</p>",
+        ]
+        out += _data_section(arm, meas, self_weight, kw)
+        out += _baseline_section(meas, diagnosis, main, kw)
+        out += diagnosis_section(meas, diagnosis, main, unit)
+        if rounds and len(rounds) > 1:
+            out += rounds_section(rounds, main)
+        out += _fitted_section(meas, diagnosis, cv, final_fit)
+        if steps:
+            out += _ladder_section(steps, main, unit)
+        out += _residual_section(meas, base, final, main)
+        last = rounds[-1] if rounds else diagnosis
+        if last.verdict == "unexplained":
+            what = "the model the report ends with" if final_fit is not None else "the best effort"
+            if final is base:
+                what = "the baseline"
+            out += left_section(meas, final, f"{what} ({_model_keys(final)})")
+        return "\n".join(out)
+
+    history = page.Aside(steps_behind)
+    forked = history.forked
     parts: list[str] = [
         "<!DOCTYPE html>",
         '<html lang="en"><head><meta charset="utf-8">',
@@ -255,27 +286,7 @@ def _page(
             ho.get("arm", str(arm.source)),
             ho.get("setup"),
         )
-    parts += [
-        '<h2 class="part">How the investigation got there</h2>',
-        "<p>The steps behind the answer above, in order: the data, the baseline, the first "
-        "diagnosis, the further rounds, the fitted model, the ladder of models and the "
-        "residuals.</p>",
-    ]
-    parts += _data_section(arm, meas, self_weight, kw)
-    parts += _baseline_section(meas, diagnosis, main, kw)
-    parts += diagnosis_section(meas, diagnosis, main, unit)
-    if rounds and len(rounds) > 1:
-        parts += rounds_section(rounds, main)
-    parts += _fitted_section(meas, diagnosis, cv, final_fit)
-    if steps:
-        parts += _ladder_section(steps, main, unit)
-    parts += _residual_section(meas, base, final, main)
-    last = rounds[-1] if rounds else diagnosis
-    if last.verdict == "unexplained":
-        what = "the model the report ends with" if final_fit is not None else "the best effort"
-        if final is base:
-            what = "the baseline"
-        parts += left_section(meas, final, f"{what} ({_model_keys(final)})")
+    parts.append(history())
     for heading, body in extra_sections or ():
         parts += [f"<h2>{page.esc(heading)}</h2>", body]
     stamp = _dt.datetime.now(_dt.UTC).strftime("%Y-%m-%d %H:%M UTC")
@@ -285,7 +296,7 @@ def _page(
         "</footer>",
         "</body></html>",
     ]
-    return parts
+    return parts, forked
 
 
 def _data_section(
