@@ -96,6 +96,7 @@ def deflection_share(
     path: PathLike | None = None,
     model: str = "analytic",
     fem_options: Mapping[str, Any] | None = None,
+    budget: tuple[SagBudget, float, npt.NDArray[np.float64], npt.NDArray[np.float64]] | None = None,
 ) -> Figure:
     """The sag budget of the model ``arm`` + ``effects``, per configuration, at one payload.
 
@@ -106,50 +107,54 @@ def deflection_share(
     the measured dy (red cross, mean of the rows at that payload). The grey bar marks the
     baseline's dy (the arm file alone) for comparison.
 
+    ``budget`` is :func:`budget_at`'s result when the caller has it already.
+
     Returns
     -------
     Figure
         One axes; containers in component order, then the residual; lines with gid
         ``total``, ``measured`` and ``baseline``.
     """
-    budget, m, measured, base = budget_at(
-        arm,
-        meas,
-        effects,
-        self_weight=self_weight,
-        mass=mass,
-        model=model,
-        fem_options=fem_options,
-    )
+    if budget is None:
+        budget = budget_at(
+            arm,
+            meas,
+            effects,
+            self_weight=self_weight,
+            mass=mass,
+            model=model,
+            fem_options=fem_options,
+        )
+    split, m, measured, base = budget
     labels = list(meas.configs)
     k = len(labels)
-    names = [component_name(lb) for lb in budget.labels]
-    colours = _colours(budget.labels)
+    names = [component_name(lb) for lb in split.labels]
+    colours = _colours(split.labels)
     width = min(14.0, max(7.0, 0.75 * k + 4.5))
     fig = figure(width, 5.4)
     ax = fig.add_subplot()
     x = np.arange(k, dtype=float)
     bar_w = 0.56
-    level = budget.rigid.copy()
-    for name, share, colour in zip(names, budget.shares, colours, strict=True):
+    level = split.rigid.copy()
+    for name, share, colour in zip(names, split.shares, colours, strict=True):
         ax.bar(x, share, bar_w, bottom=level, color=colour, label=name, edgecolor="white", lw=0.5)
         level = level + share
-    resid = np.where(np.isfinite(measured), measured - budget.total, 0.0)
+    resid = np.where(np.isfinite(measured), measured - split.total, 0.0)
     ax.bar(
         x,
         resid,
         bar_w,
-        bottom=budget.total,
+        bottom=split.total,
         color="none",
         edgecolor=PALETTE[3],
         hatch="///",
         lw=0.8,
         label="residual: measured − model",
     )
-    ax.plot(x, budget.total, "D", color="k", ms=6, gid="total", zorder=5)
+    ax.plot(x, split.total, "D", color="k", ms=6, gid="total", zorder=5)
     ax.plot(x, measured, "X", color=PALETTE[3], ms=9, gid="measured", zorder=6)
     ax.plot(x, base, "_", color=GREY, ms=28, mew=2.5, gid="baseline", zorder=4)
-    for xi, t, me in zip(x, budget.total, measured, strict=True):
+    for xi, t, me in zip(x, split.total, measured, strict=True):
         text = f"model {t:.1f}".replace("-", "−")
         if math.isfinite(me):
             text += f"\nmeas. {me:.1f}".replace("-", "−")
@@ -163,8 +168,8 @@ def deflection_share(
             fontsize="x-small",
         )
     ax.axhline(0.0, color="k", lw=0.7)
-    lo = float(np.nanmin([*budget.total, *measured, *base, 0.0]))
-    hi = float(np.nanmax([*budget.total, *measured, *base, 0.0]))
+    lo = float(np.nanmin([*split.total, *measured, *base, 0.0]))
+    hi = float(np.nanmax([*split.total, *measured, *base, 0.0]))
     span = hi - lo or 1.0
     ax.set_ylim(lo - 0.2 * span, hi + 0.05 * span)
     ax.set_xlim(-0.6, k - 0.1)

@@ -528,7 +528,15 @@ def _share_section(
         rows,
     )
     img = page.img(
-        plots.deflection_share(arm, meas, effects, self_weight=sw, mass=mass, **kw),
+        plots.deflection_share(
+            arm,
+            meas,
+            effects,
+            self_weight=sw,
+            mass=mass,
+            budget=(budget, mass, measured, base),
+            **kw,
+        ),
         "the sag budget",
         f"Sag budget of the final model at {mass:g} kg, per configuration. Starting from the "
         "rigid arm (which does not sag), each part's share is its added sag averaged over "
