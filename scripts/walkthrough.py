@@ -191,9 +191,18 @@ def main() -> None:
         out = run(cmd, work)
         w(f"```\n$ {cmd}\n{out}\n```\n")
         w(
-            "`report.html` is one self-contained page (figures embedded) with the data, the "
-            "comparison, the ranking, the fitted model with its cross-validation, the ladder, "
-            "the residuals and the share of the sag due to each effect.\n"
+            "`report.html` is one self-contained page (figures embedded) that opens with the "
+            "answer: the model the investigation ends with, the verdict of its last round, the "
+            "sag RMS from the baseline to the final model in-sample and on held-out "
+            "configurations against σ, what is still unexplained (the worst configuration per "
+            "channel) and the measured-vs-model figure of the baseline and the final model. "
+            "Then the fitted parameters (value ± error, 95 % interval, correlation heat map, "
+            "“not determined” flags), the sag budget (each part's share of the model's sag, "
+            "adding up to it, and the residual to the measured sag), the worst configuration "
+            "drawn with its sag exaggerated, and the fitted arm file to download with the "
+            "commands that reproduce and use it. The steps behind the answer follow: the data, "
+            "the baseline, the diagnosis and its rounds, the ladder and the residuals. The "
+            "terminal output ends with the same summary.\n"
         )
         stories(work, w)
         (DOCS / "walkthrough.md").write_text("\n".join(doc) + "\n", encoding="utf-8")

@@ -192,6 +192,8 @@ def test_report_command_on_the_bundled_data(tmp_path: Path) -> None:
     text = (tmp_path / "r.html").read_text()
     assert "mount_compliance@M2" in text and "data:image/png;base64," in text
     assert 'src="http' not in text and 'href="http' not in text and "<script" not in text
-    # the ladder printed on stdout falls to the mounts model
-    last = out.stdout.strip().splitlines()[-1]
-    assert "mount_compliance@M3" in last
+    # the ladder printed on stdout falls to the mounts model, then the summary follows
+    lines = out.stdout.strip().splitlines()
+    end = next(i for i, line in enumerate(lines) if line.startswith("final model:"))
+    assert "mount_compliance@M1, M2, M3" in lines[end - 1]
+    assert "actuator 1/2/3 mount" in lines[end]

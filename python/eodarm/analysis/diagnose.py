@@ -198,9 +198,20 @@ def _bounded_qp_batch(
     ridge = np.eye(k) * 1e-12
     # 0: free, 1: at the lower bound, 2: at the upper bound (only where one is finite).
     options = [(0, 1, 2) if np.isfinite(hi[:, j]).any() else (0, 1) for j in range(k)]
-    for pattern in itertools.product(*options):
+    # Faces with fewer variables held first. A feasible face solution that satisfies the KKT
+    # conditions (the gradient pushes every held variable against its bound) is the global
+    # optimum of the convex problem, so its problem needs no further face: the result is the
+    # exhaustive search's, found sooner.
+    patterns = sorted(itertools.product(*options), key=lambda p: sum(v != 0 for v in p))
+    done = np.zeros(kset, dtype=bool)
+    tol = 1e-9 * (1.0 + np.abs(b).max(axis=1))
+    for pattern in patterns:
+        todo = np.flatnonzero(~done)
+        if todo.size == 0:
+            break
         pat = np.array(pattern)
-        held = np.where(pat == 1, lo, np.where(pat == 2, hi, 0.0))
+        gt, bt, lot, hit = g[todo], b[todo], lo[todo], hi[todo]
+        held = np.where(pat == 1, lot, np.where(pat == 2, hit, 0.0))
         valid = np.isfinite(held).all(axis=1)
         if not valid.any():
             continue
@@ -208,16 +219,24 @@ def _bounded_qp_batch(
         free = np.flatnonzero(pat == 0)
         fixed = np.flatnonzero(pat != 0)
         if free.size:
-            gff = g[:, free][:, :, free] + ridge[: free.size, : free.size]
-            rhs = b[:, free] - np.einsum("kij,kj->ki", g[:, free][:, :, fixed], d[:, fixed])
+            gff = gt[:, free][:, :, free] + ridge[: free.size, : free.size]
+            rhs = bt[:, free] - np.einsum("kij,kj->ki", gt[:, free][:, :, fixed], d[:, fixed])
             sol = np.linalg.solve(gff, rhs[..., None])[..., 0]
             d[:, free] = sol
-            valid &= np.all(sol >= lo[:, free] - 1e-12, axis=1)
-            valid &= np.all(sol <= hi[:, free] + 1e-12, axis=1)
-        obj = 0.5 * np.einsum("ki,kij,kj->k", d, g, d) - np.einsum("ki,ki->k", b, d)
-        better = valid & (obj < best)
-        best[better] = obj[better]
-        best_d[better] = d[better]
+            valid &= np.all(sol >= lot[:, free] - 1e-12, axis=1)
+            valid &= np.all(sol <= hit[:, free] + 1e-12, axis=1)
+        obj = 0.5 * np.einsum("ki,kij,kj->k", d, gt, d) - np.einsum("ki,ki->k", bt, d)
+        better = valid & (obj < best[todo])
+        best[todo[better]] = obj[better]
+        best_d[todo[better]] = d[better]
+        grad = np.einsum("kij,kj->ki", gt, d) - bt
+        kkt = valid.copy()
+        t = tol[todo][:, None]
+        if (pat == 1).any():
+            kkt &= np.all(grad[:, pat == 1] >= -t, axis=1)
+        if (pat == 2).any():
+            kkt &= np.all(grad[:, pat == 2] <= t, axis=1)
+        done[todo[kkt]] = True
     return best_d, best
 
 

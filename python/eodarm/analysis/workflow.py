@@ -16,7 +16,7 @@ and otherwise the investigation stops and says why.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -59,6 +59,7 @@ def investigate(
     cv: bool = True,
     solver_model: str = "analytic",
     fem_options: Mapping[str, Any] | None = None,
+    on_round: Callable[[int], None] | None = None,
 ) -> Investigation:
     """Diagnose; while something is missing, add the suggested set and diagnose again.
 
@@ -75,6 +76,7 @@ def investigate(
     ``solver_model`` (``"analytic"`` or ``"fem"``) and ``fem_options`` choose the model that
     predicts the channels in every diagnosis, fit and cross-validation, as in
     :func:`eodarm.diagnose` (``model`` is the list of effects already in the model).
+    ``on_round(k)``, when given, is called as round ``k`` (1-based) begins (progress).
     """
     current = [Slot.of(s) for s in model]
     do_cv = cv and len(meas.configs) >= 2
@@ -102,7 +104,9 @@ def investigate(
         }
 
     stopped = f"the limit of {max_rounds} rounds was reached"
-    for _ in range(max_rounds):
+    for k in range(max_rounds):
+        if on_round is not None:
+            on_round(k + 1)
         d = diagnose(
             arm,
             meas,

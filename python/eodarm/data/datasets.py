@@ -84,18 +84,21 @@ class Dataset:
         return (self.root / "NOTES.md").read_text(encoding="utf-8")
 
 
-def load(name: str = "seed2022") -> Dataset:
-    """Load a bundled data set (tables as pandas DataFrames)."""
-    import pandas as pd
-
+def load(name: str = "seed2022", tables: bool = True) -> Dataset:
+    """Load a bundled data set (tables as pandas DataFrames; ``tables=False`` leaves them
+    out, and pandas unimported, for callers that need only the arm and the measurements)."""
     root = _root(name)
     arm = Arm.from_toml(root / "arm.toml")
     published = Arm.from_toml(root / "arm_published.toml")
-    tables = {p.stem: pd.read_csv(p) for p in sorted(root.glob("table*.csv"))}
+    found: dict[str, Any] = {}
+    if tables:
+        import pandas as pd
+
+        found = {p.stem: pd.read_csv(p) for p in sorted(root.glob("table*.csv"))}
     meas = dataclasses.replace(
         read_measurements(root / "measurements.csv", arm.n), source=f"{name}/measurements.csv"
     )
-    return Dataset(name, _DESCRIPTIONS[name], root, arm, published, meas, tables)
+    return Dataset(name, _DESCRIPTIONS[name], root, arm, published, meas, found)
 
 
 def bundled_arm_path(name: str = "seed2022") -> Path:

@@ -5,14 +5,31 @@ embedded as PNG data URIs.
 from __future__ import annotations
 
 import base64
+import contextlib
+import contextvars
 import html
 import io
 import math
 import os
-from collections.abc import Sequence
+import re
+import select
+import signal
+from collections.abc import Callable, Iterator, Sequence
 from typing import Any
 
-__all__ = ["CSS", "Num", "Raw", "esc", "img", "num", "row", "table"]
+__all__ = [
+    "CSS",
+    "Aside",
+    "Num",
+    "Raw",
+    "deferred",
+    "esc",
+    "img",
+    "num",
+    "render_deferred",
+    "row",
+    "table",
+]
 
 PathLike = str | os.PathLike[str]
 
@@ -27,6 +44,7 @@ table { border-collapse: collapse; margin: .5em 0 1em 0; font-size: .9em; displa
 th, td { border: 1px solid #ccc; padding: .25em .6em; text-align: left; vertical-align: top; }
 th { background: #f0f3f7; }
 td.num { text-align: right; font-variant-numeric: tabular-nums; white-space: nowrap; }
+span.num { font-variant-numeric: tabular-nums; white-space: nowrap; }
 tr.hl td { background: #fff4d6; font-weight: bold; }
 .row { display: flex; flex-wrap: wrap; gap: 1.5em; align-items: flex-start; }
 .row > div { flex: 0 1 auto; max-width: 100%; overflow-x: auto; }
@@ -43,6 +61,9 @@ figcaption { font-size: .85em; color: #555; }
 .note { color: #555; font-size: .9em; }
 .warn { color: #8c3b00; }
 code { background: #f4f4f4; padding: 0 .2em; }
+p.answer { font-size: 1.1em; }
+h2.part { margin-top: 3em; border-bottom: 3px solid #1f77b4; }
+pre { background: #f7f7f7; padding: .6em; font-size: .8em; overflow-x: auto; }
 footer { margin-top: 3em; font-size: .8em; color: #777; }
 """
 
@@ -97,17 +118,153 @@ class Num:
         self.text = num(x, digits) + suffix
 
 
-def img(fig: Any, alt: str, caption: str, narrow: bool = False) -> str:
-    """A figure as an embedded PNG (base64) with a caption."""
+#: Figures of :func:`img` waiting to be rendered by :func:`render_deferred` (None: render at
+#: once).
+_PENDING: contextvars.ContextVar[list[Any] | None] = contextvars.ContextVar(
+    "eodarm_pending_figures", default=None
+)
+
+_MARK = re.compile("\x00fig(\\d+)\x00")
+
+
+def png_base64(fig: Any) -> str:
+    """A figure as base64 PNG at 120 dpi (fast zlib level: the page is written once)."""
     buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=120)
-    data = base64.b64encode(buf.getvalue()).decode("ascii")
+    fig.savefig(buf, format="png", dpi=120, pil_kwargs={"compress_level": 1})
+    return base64.b64encode(buf.getvalue()).decode("ascii")
+
+
+def img(fig: Any, alt: str, caption: str, narrow: bool = False) -> str:
+    """A figure as an embedded PNG (base64) with a caption. Inside :func:`deferred`, the PNG
+    is a placeholder until :func:`render_deferred` draws every figure of the page."""
+    pending = _PENDING.get()
+    if pending is None:
+        data = png_base64(fig)
+    else:
+        pending.append(fig)
+        data = f"\x00fig{len(pending) - 1}\x00"
     cls = ' class="narrow"' if narrow else ""
     return (
         f"<figure{cls}>"
         f'<img src="data:image/png;base64,{data}" alt="{esc(alt)}">'
         f"<figcaption>{esc(caption)}</figcaption></figure>"
     )
+
+
+@contextlib.contextmanager
+def deferred() -> Iterator[list[Any]]:
+    """Collect the figures of :func:`img` instead of drawing each at once."""
+    figs: list[Any] = []
+    token = _PENDING.set(figs)
+    try:
+        yield figs
+    finally:
+        _PENDING.reset(token)
+
+
+def render_deferred(text: str, figs: Sequence[Any], parallel: bool = True) -> str:
+    """Draw the collected figures and put them in place of their placeholders.
+
+    Drawing is most of a page's time and every figure is independent: with ``parallel`` and
+    two or more CPUs, a forked child draws about half of them (by panels) while this process
+    draws the others. The PNGs are the same either way; if the child fails or is silent for
+    120 s, its figures are drawn here.
+    """
+    pngs = _render_all(list(figs), parallel)
+    return _MARK.sub(lambda m: pngs[int(m[1])], text)
+
+
+#: Whether pages may be drawn on two processes (tests switch it off to compare).
+PARALLEL = True
+
+
+def _can_fork(parallel: bool) -> bool:
+    return PARALLEL and parallel and hasattr(os, "fork") and (os.cpu_count() or 1) >= 2
+
+
+class Aside:
+    """``fn()`` (returning text) run in a forked child while this process goes on; calling
+    the object gives its result. Without two CPUs or ``fork``, or if the child fails or is
+    silent for 120 s, ``fn()`` runs here when called: the text is the same either way.
+    Inside the child, :func:`img` draws at once (nothing is deferred to this process)."""
+
+    def __init__(self, fn: Callable[[], str], parallel: bool = True) -> None:
+        self.fn = fn
+        self.pid, self.fd = -1, -1
+        if not _can_fork(parallel):
+            return
+        try:
+            fd, wfd = os.pipe()
+            pid = os.fork()
+        except OSError:
+            return
+        if pid == 0:  # the child: do the work, send it, leave without any cleanup
+            code = 0
+            try:
+                os.close(fd)
+                _PENDING.set(None)
+                data = fn().encode("utf-8")
+                with os.fdopen(wfd, "wb") as w:
+                    w.write(data)
+            except BaseException:
+                code = 1
+            os._exit(code)
+        os.close(wfd)
+        self.pid, self.fd = pid, fd
+
+    @property
+    def forked(self) -> bool:
+        return self.pid > 0
+
+    def __call__(self) -> str:
+        if self.forked:
+            data = _read_child(self.fd, self.pid)
+            self.pid = -1
+            if data is not None:
+                return data.decode("utf-8")
+        return self.fn()
+
+
+def _render_all(figs: list[Any], parallel: bool) -> list[str]:
+    # Split the work evenly: a figure's drawing time grows with its panels (axes), so the
+    # figures go, largest first, to whichever side has less so far.
+    load = [0, 0]
+    sides: list[list[int]] = [[], []]
+    for i in sorted(range(len(figs)), key=lambda i: -len(figs[i].axes)):
+        side = 0 if load[0] <= load[1] else 1
+        sides[side].append(i)
+        load[side] += len(figs[i].axes) + 1
+    mine, theirs = sorted(sides[0]), sorted(sides[1])
+    if len(figs) < 2 or not theirs:
+        return [png_base64(f) for f in figs]
+    aside = Aside(lambda: "\n".join(png_base64(figs[i]) for i in theirs), parallel)
+    out: dict[int, str] = {i: png_base64(figs[i]) for i in (mine if aside.forked else ())}
+    got = aside().split("\n")
+    if len(got) == len(theirs):
+        out.update(zip(theirs, got, strict=True))
+    return [out[i] if i in out else png_base64(figs[i]) for i in range(len(figs))]
+
+
+def _read_child(fd: int, pid: int, timeout: float = 120.0) -> bytes | None:
+    """What the child wrote, or None if it failed or stayed silent for ``timeout`` s."""
+    chunks = []
+    ok = True
+    with os.fdopen(fd, "rb") as r:
+        while True:
+            ready, _, _ = select.select([r], [], [], timeout)
+            if not ready:
+                ok = False
+                with contextlib.suppress(OSError):
+                    os.kill(pid, signal.SIGKILL)
+                break
+            chunk = r.read1(1 << 20)
+            if not chunk:
+                break
+            chunks.append(chunk)
+    _, status = os.waitpid(pid, 0)
+    if not ok or status != 0:
+        return None
+    return b"".join(chunks)
 
 
 def row(left: str, right: str) -> str:

@@ -21,13 +21,12 @@ from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
-import numpy.typing as npt
 
 try:
     from matplotlib.figure import Figure
     from matplotlib.lines import Line2D
     from matplotlib.patches import Patch
-    from matplotlib.ticker import FixedLocator, FuncFormatter, NullLocator
+    from matplotlib.ticker import MaxNLocator
 except ImportError as exc:  # pragma: no cover - depends on the environment
     raise ImportError(
         "eodarm.plots needs matplotlib: pip install 'eodarm[plot]' (or matplotlib>=3.8)"
@@ -36,10 +35,8 @@ except ImportError as exc:  # pragma: no cover - depends on the environment
 from eodarm.analysis.fit import FitResult
 from eodarm.data.measurements import Measurements
 from eodarm.errors import EodarmError
-from eodarm.model.arm import Arm
-from eodarm.model.effects import Effect
-from eodarm.model.solver import solve
 from eodarm.viz.arm_drawing import arm_pose
+from eodarm.viz.budget_plot import deflection_share
 from eodarm.viz.style import (
     DPI,
     GREY,
@@ -56,7 +53,6 @@ from eodarm.viz.style import (
     effect_label,
     figure,
     finish,
-    free_corner,
     main_channel,
     num,
     short_channel,
@@ -69,6 +65,7 @@ __all__ = [
     "arm_pose",
     "channel_title",
     "channel_unit",
+    "compact_label",
     "deflection_share",
     "effect_label",
     "ladder",
@@ -83,6 +80,7 @@ def measured_vs_model(
     meas: Measurements,
     fits: Mapping[str, FitResult],
     path: PathLike | None = None,
+    axes_from: str | None = None,
 ) -> Figure:
     """Measured against model value of every measured channel, one panel per channel.
 
@@ -90,15 +88,20 @@ def measured_vs_model(
     ----------
     meas : the measurements.
     fits : label → fit of a model to ``meas`` (e.g. ``{"baseline": f0, "fitted": f1}``).
-        Each is drawn in its own colour and marker, with ±σ error bars on the measured value.
+        Each model has its own marker (the first open, the others filled); the colour is the
+        configuration (up to ten; beyond, the model). A fit whose predictions equal an earlier
+        one's (nothing fitted, same model) is drawn once, under the earlier label.
     path : where to write a PNG (120 dpi); nothing is written when ``None``.
+    axes_from : the label of the fit whose values (with the measurements ±σ) set each
+        panel's axes; default the last. Points of other fits beyond the axes are counted in
+        the panel ("n off the axes").
 
     Returns
     -------
     Figure
         One axes per measured channel (in channel order) with the line y = x; each panel's
-        legend gives every fit's RMS residual on that channel (mm or deg). Cells a fit left out
-        (outliers) are ringed in black.
+        title gives every model's RMS residual on that channel (mm or deg); one legend
+        below the panels. Cells a fit left out (outliers) are ringed in black.
     """
     chans = meas.measured_channels
     if not chans:
@@ -107,68 +110,109 @@ def measured_vs_model(
         raise EodarmError("measured_vs_model: give at least one fit")
     for label, f in fits.items():
         check_fit(meas, f, label)
+    shown: dict[str, FitResult] = {}
+    for label, f in fits.items():
+        if not any(
+            np.array_equal(f.prediction, g.prediction, equal_nan=True) for g in shown.values()
+        ):
+            shown[label] = f
+    ref = axes_from if axes_from in shown else list(shown)[-1]
+    by_config = len(meas.configs) <= len(PALETTE)
+    cfg_rows = config_rows(meas)
     ncols = min(3, len(chans))
     nrows = math.ceil(len(chans) / ncols)
-    fig = figure(4.3 * ncols, 4.1 * nrows + 0.5)
+    fig = figure(4.3 * ncols, 4.3 * nrows + 0.9)
     axes = axes_grid(fig, len(chans), ncols)
+    left_out = False
     for ax, ch in zip(axes, chans, strict=True):
         c = meas.index(ch)
-        m = meas.measured[:, c]
-        x = meas.values[m, c]
-        sig = meas.sigma[m, c]
         unit = channel_unit(ch)
-        lo, hi = float(np.min(x - sig)), float(np.max(x + sig))
-        for j, (label, f) in enumerate(fits.items()):
-            y = f.prediction[m, c]
-            rms = f.rms().get(ch, math.nan)
-            colour = PALETTE[j % len(PALETTE)]
-            cont = ax.errorbar(
-                x,
-                y,
-                xerr=sig,
-                fmt=MARKERS[j % len(MARKERS)],
-                ms=4.5,
-                mfc="none" if j == 0 and len(fits) > 1 else colour,
-                color=colour,
-                elinewidth=0.9,
-                capsize=0,
-                alpha=0.9,
-                label=f"{label}: RMS {num(rms)} {unit}",
-                zorder=3 + j,
-            )
-            cont.lines[0].set_gid(f"model:{label}")
-            out = ~f.problem.use[m, c]
-            if out.any():
-                ringed = j > 0 and any(
-                    (~g.problem.use[m, c]).any() for g in list(fits.values())[:j]
-                )
-                ax.plot(
-                    x[out],
-                    y[out],
-                    "o",
-                    ms=10,
-                    mfc="none",
-                    mec="k",
-                    label="_left out" if ringed else "left out of the fit (outlier)",
-                    zorder=10,
-                )
-            finite = y[np.isfinite(y)]
-            if finite.size:
-                lo, hi = min(lo, float(finite.min())), max(hi, float(finite.max()))
+        m = meas.measured[:, c]
+        x_all, sig_all = meas.values[:, c], meas.sigma[:, c]
+        ref_y = shown[ref].prediction[m, c]
+        vals = np.concatenate([x_all[m] - sig_all[m], x_all[m] + sig_all[m], ref_y])
+        vals = vals[np.isfinite(vals)]
+        lo, hi = float(vals.min()), float(vals.max())
         pad = 0.06 * (hi - lo) if hi > lo else max(abs(hi), 1e-3) * 0.1
         lim = (lo - pad, hi + pad)
-        ax.plot(lim, lim, color="k", lw=0.9, ls=":", label="y = x", zorder=1)
+        rms_text = []
+        for j, (label, f) in enumerate(shown.items()):
+            marker = MARKERS[j % len(MARKERS)]
+            colour_of = np.empty(meas.n_rows, dtype=object)
+            for g, rows in enumerate(cfg_rows):
+                colour_of[rows] = PALETTE[(g if by_config else j) % len(PALETTE)]
+            cols = list(colour_of[m])
+            y = f.prediction[m, c]
+            # one collection of bars and one of markers per model (cheap to draw)
+            ax.hlines(
+                y,
+                x_all[m] - sig_all[m],
+                x_all[m] + sig_all[m],
+                colors=cols,
+                lw=0.8,
+                alpha=0.9,
+                zorder=3 + j,
+            )
+            hollow = j == 0 and len(shown) > 1
+            ax.scatter(
+                x_all[m],
+                y,
+                s=25 if j == 0 else 20,
+                marker=marker,
+                facecolors="none" if hollow else cols,
+                edgecolors=cols,
+                linewidths=1.0,
+                alpha=0.9,
+                zorder=3 + j,
+            )
+            # one invisible line per model carries its data, in row order, for readers
+            ax.plot(x_all[m], y, ls="none", marker="none", gid=f"model:{label}")
+            off = int(np.sum((y < lim[0]) | (y > lim[1])))
+            rms = f.rms().get(ch, math.nan)
+            rms_text.append(
+                f"{label} {num(rms)} {unit}" + (f" ({off} off the axes)" if off else "")
+            )
+            out = ~f.problem.use[m, c]
+            if out.any():
+                ax.plot(x_all[m][out], y[out], "o", ms=10, mfc="none", mec="k", zorder=10)
+                left_out = True
+        ax.plot(lim, lim, color="k", lw=0.9, ls=":", zorder=1)
         ax.set_xlim(lim)
         ax.set_ylim(lim)
         ax.set_box_aspect(1)
+        ax.xaxis.set_major_locator(MaxNLocator(nbins=5))
+        ax.yaxis.set_major_locator(MaxNLocator(nbins=5))
         ax.grid(True, lw=0.4, alpha=0.5)
-        ax.set_title(channel_title(ch), fontsize="medium")
+        ax.set_title(
+            channel_title(ch) + "\nRMS: " + textwrap.fill("; ".join(rms_text), 48),
+            fontsize="small",
+        )
         ax.set_xlabel(f"measured {short_channel(ch)} [{unit}]")
         ax.set_ylabel(f"model {short_channel(ch)} [{unit}]")
-        ys = np.concatenate([f.prediction[m, c] for f in fits.values()])
-        xs = np.tile(x, len(fits))
-        ax.legend(fontsize="small", loc=free_corner(xs, ys, lim), framealpha=0.85)
-    fig.suptitle(f"Measured vs model ({source_label(meas)}, {meas.n_rows} states; bars ±σ)")
+    handles: list[Any] = []
+    names: list[str] = []
+    for j, label in enumerate(shown):
+        colour = "0.3" if by_config else PALETTE[j % len(PALETTE)]
+        mfc = "none" if j == 0 and len(shown) > 1 else colour
+        handles.append(
+            Line2D([], [], ls="none", marker=MARKERS[j % len(MARKERS)], color=colour, mfc=mfc)
+        )
+        names.append(f"model: {label}")
+    if by_config:
+        for g, label in enumerate(meas.configs):
+            handles.append(Patch(color=PALETTE[g % len(PALETTE)]))
+            names.append(f"configuration {label}")
+    handles.append(Line2D([], [], color="k", lw=0.9, ls=":"))
+    names.append("y = x (model right)")
+    if left_out:
+        handles.append(Line2D([], [], ls="none", marker="o", ms=10, mfc="none", mec="k"))
+        names.append("left out of the fit (outlier)")
+    fig.legend(
+        handles, names, loc="outside lower center", fontsize="small", ncols=min(4, len(names))
+    )
+    fig.suptitle(
+        f"Measured vs model ({source_label(meas)}, {meas.n_rows} states; bars ±σ; axes fit {ref})"
+    )
     return finish(fig, path)
 
 
@@ -185,7 +229,8 @@ def residual_vs_payload(
     ----------
     meas : the measurements.
     before, after : two fits to ``meas`` (typically the baseline and the fitted model); the
-        same fit object twice draws that one model alone.
+        same model twice (the same object, or equal predictions: nothing fitted) draws that
+        one model alone, with no "before → after".
     channel : the channel; default :func:`main_channel` (``dy_mm`` when measured, else the
         channel with the largest baseline RMS in units of σ).
     path : where to write a PNG (120 dpi); nothing is written when ``None``.
@@ -194,8 +239,10 @@ def residual_vs_payload(
     -------
     Figure
         One axes per configuration (shared axes): ``before`` grey, dashed, open markers;
-        ``after`` coloured and solid; a shaded ±1σ band of the measurement around zero. Each
-        panel states both RMS values of its configuration.
+        ``after`` coloured and solid; shaded ±1σ and ±3σ bands of the measurement around
+        zero. The linear y axis fits ``after`` (and ``before`` when it is within three times
+        that range); ``before`` points beyond it are counted in the panel. Each panel states
+        both RMS values of its configuration.
     """
     check_fit(meas, before, "before")
     check_fit(meas, after, "after")
@@ -214,17 +261,27 @@ def residual_vs_payload(
     fig = figure(max(2.9 * ncols, 6.5), 2.35 * nrows + 1.2)
     axes = axes_grid(fig, k, ncols, sharex=True, sharey=True)
     res_b, res_a = before.residual[:, c], after.residual[:, c]
-    same = after is before  # one model only: draw it once
+    # one model only (nothing fitted): draw it once
+    same = after is before or np.array_equal(before.prediction, after.prediction, equal_nan=True)
+    s0 = float(np.nanmedian(meas.sigma[meas.measured[:, c], c]))
+    fin_a = np.abs(res_a[np.isfinite(res_a)])
+    fin_b = np.abs(res_b[np.isfinite(res_b)])
+    top = max(float(fin_a.max(initial=0.0)), 3.2 * s0) * 1.15
+    if float(fin_b.max(initial=0.0)) <= 3 * top:
+        top = max(top, float(fin_b.max(initial=0.0)) * 1.1)
     left_out = False
+    off = [0, 0.0]  # before-points beyond the axes: how many, the largest |residual|
     for i, (ax, label, rows) in enumerate(zip(axes, configs, config_rows(meas), strict=True)):
         rows = rows[meas.measured[rows, c]]
         rows = rows[np.argsort(meas.mass_kg[rows], kind="stable")]
         m = meas.mass_kg[rows]
         sig = meas.sigma[rows, c]
-        if np.unique(m).size > 1:
-            ax.fill_between(m, -sig, sig, color=PALETTE[0], alpha=0.15, lw=0)
-        elif rows.size:
-            ax.axhspan(-float(sig.max()), float(sig.max()), color=PALETTE[0], alpha=0.15, lw=0)
+        for k_sig, alpha in ((3, 0.08), (1, 0.16)):
+            if np.unique(m).size > 1:
+                ax.fill_between(m, -k_sig * sig, k_sig * sig, color=PALETTE[0], alpha=alpha, lw=0)
+            elif rows.size:
+                half = k_sig * float(sig.max())
+                ax.axhspan(-half, half, color=PALETTE[0], alpha=alpha, lw=0)
         ax.axhline(0.0, color="k", lw=0.6)
         if not same:
             ax.plot(m, res_b[rows], ls="--", marker="o", mfc="none", color=GREY, ms=5, gid="before")
@@ -235,54 +292,37 @@ def residual_vs_payload(
             left_out = True
         rb = float(np.sqrt(np.mean(res_b[rows] ** 2))) if rows.size else math.nan
         ra = float(np.sqrt(np.mean(res_a[rows] ** 2))) if rows.size else math.nan
-        ax.text(
-            0.03,
-            0.04,
-            f"RMS {num(ra, 2)} {unit}" if same else f"RMS {num(rb, 2)} → {num(ra, 2)} {unit}",
-            transform=ax.transAxes,
-            fontsize="x-small",
-            color="0.2",
-            bbox={"fc": "white", "ec": "none", "alpha": 0.7, "pad": 1.0},
-        )
+        beyond = np.abs(res_b[rows]) > top
+        if not same and beyond.any():
+            off[0] += int(beyond.sum())
+            off[1] = max(off[1], float(np.max(np.abs(res_b[rows]))))
+        note = f"RMS {num(ra, 2)} {unit}" if same else f"RMS {num(rb, 2)} → {num(ra, 2)} {unit}"
         first = meas.alpha_deg[rows[0]] if rows.size else meas.alpha_deg[0]
-        ax.set_title(f"{label}: α = {angles_text(first)}", fontsize="small")
+        ax.set_title(f"{label}: α = {angles_text(first)}\n{note}", fontsize="small")
         ax.grid(True, lw=0.4, alpha=0.5)
         ax.tick_params(labelsize="small")
         if i % ncols == 0:
             ax.set_ylabel(f"residual {short_channel(ch)} [{unit}]", fontsize="small")
         if i + ncols >= k:
             ax.set_xlabel("payload [kg]", fontsize="small")
-    # Before and after differ by orders of magnitude; on a linear axis the ±σ band and the
-    # fitted residuals would be a flat line. Linear within ±3σ, logarithmic beyond.
-    s0 = float(np.nanmedian(meas.sigma[meas.measured[:, c], c]))
-    both = np.abs(np.concatenate([res_b, res_a]))
-    worst = float(np.max(both[np.isfinite(both)], initial=0.0))
-    symlog = worst > 30 * s0
-    if symlog:
-        lin = 3 * s0
-        ticks = [0.0, lin, -lin]
-        p = 10.0 ** math.ceil(math.log10(2 * lin))
-        while p <= 1.5 * worst:
-            ticks += [p, -p]
-            p *= 10
-        for ax in axes:
-            ax.set_yscale("symlog", linthresh=lin, linscale=1.5)
-            ax.yaxis.set_major_locator(FixedLocator(sorted(ticks)))
-            ax.yaxis.set_major_formatter(FuncFormatter(lambda v, _pos: num(v, 2)))
-            ax.yaxis.set_minor_locator(NullLocator())
+    for ax in axes:
+        ax.set_ylim(-top, top)
+        ax.yaxis.set_major_locator(MaxNLocator(nbins=7, steps=[1, 2, 5, 10], symmetric=True))
     handles = [
         Line2D([], [], ls="--", marker="o", mfc="none", color=GREY),
         Line2D([], [], ls="-", marker="o", color=PALETTE[0]),
-        Patch(color=PALETTE[0], alpha=0.15),
+        Patch(color=PALETTE[0], alpha=0.16),
+        Patch(color=PALETTE[0], alpha=0.08),
     ]
     names = [
         f"before: {_model_name(before)} (RMS {num(before.rms().get(ch, math.nan))} {unit})",
         f"after: {_model_name(after)} (RMS {num(after.rms().get(ch, math.nan))} {unit})",
         "±1σ of the measurement",
+        "±3σ",
     ]
     if same:
         del handles[0], names[0]
-        names[0] = f"{_model_name(after)} (RMS {num(after.rms().get(ch, math.nan))} {unit})"
+        names[0] = f"model: {_model_name(after)} (RMS {num(after.rms().get(ch, math.nan))} {unit})"
     if left_out:
         handles.append(Line2D([], [], ls="none", marker="o", ms=10, mfc="none", mec="k"))
         names.append("left out of the fit (outlier)")
@@ -295,10 +335,34 @@ def residual_vs_payload(
         fontsize="small",
     )
     title = f"Residual of {short_channel(ch)} (measured − model) against payload, per configuration"
-    if symlog:
-        title += f"\ny axis linear within ±3σ (±{num(3 * s0, 2)} {unit}), logarithmic beyond"
+    if off[0]:
+        title += (
+            f"\nthe axes fit the after model; {off[0]} before-points lie beyond them "
+            f"(up to ±{num(off[1], 2)} {unit})"
+        )
     fig.suptitle(title)
     return finish(fig, path)
+
+
+def compact_label(label: str) -> str:
+    """A ladder step's label with one effect at several places written once:
+    ``"+ a@M1 + a@M2 + b@O1"`` → ``"+ a@M1, M2 + b@O1"``."""
+    parts = label.split(" + ")
+    out: list[str] = []
+    last = ""
+    for p in parts:
+        name, at = p.split("@", 1) if "@" in p else ("", "")
+        bare = name.removeprefix("+ ")
+        if bare and bare == last and out:
+            tail = ""
+            if " (" in at:
+                at, tail = at.split(" (", 1)
+                tail = " (" + tail
+            out[-1] += f", {at}{tail}"
+        else:
+            out.append(p)
+        last = bare
+    return " + ".join(out)
 
 
 def _model_name(fit: FitResult) -> str:
@@ -336,7 +400,7 @@ def ladder(
         if channel not in s["rms"]:
             raise EodarmError(f"ladder: step '{s['label']}' has no RMS for channel '{channel}'")
     unit = channel_unit(channel)
-    labels = [str(s["label"]) for s in steps]
+    labels = [compact_label(str(s["label"])) for s in steps]
     x = np.arange(len(steps), dtype=float)
     rms = np.array([float(s["rms"][channel]) for s in steps])
     cv = np.array(
@@ -441,128 +505,8 @@ def ladder(
 
     h1, l1 = ax.get_legend_handles_labels()
     h2, l2 = ax2.get_legend_handles_labels()
-    ax.legend(h1 + h2, l1 + l2, fontsize="small", loc="upper right", framealpha=0.9)
+    # below the axes, never over the data
+    fig.legend(h1 + h2, l1 + l2, fontsize="small", loc="outside lower center", ncols=2)
     ax.set_title(f"Error ladder: {short_channel(channel)} as effects are added")
     ax.set_xlabel("model (each step adds effects to the previous one; all parameters refitted)")
-    return finish(fig, path)
-
-
-def deflection_share(
-    arm: Arm,
-    meas: Measurements,
-    effects: Sequence[Effect],
-    self_weight: bool = True,
-    mass: float | None = None,
-    path: PathLike | None = None,
-    model: str = "analytic",
-    fem_options: Mapping[str, Any] | None = None,
-) -> Figure:
-    """Who makes the sag: each effect's share of the measure point's dy, per configuration.
-
-    For every configuration (its unloaded angles: the first row of the configuration in
-    ``meas``) at payload ``mass``:
-
-    * baseline (actuator springs only): ``solve(arm, α, mass).dy``;
-    * each effect e: ``solve(..., effects=[e]).dy − solve(...).dy``;
-    * total: ``solve(..., effects=effects).dy`` (black diamond; it differs from the sum of the
-      bars only by the interaction of the effects, which is small).
-
-    Parameters
-    ----------
-    arm, meas : the arm and the measurements (for the configurations and payloads).
-    effects : the effects with their values (e.g. ``fit_result.effects``).
-    self_weight : as :func:`eodarm.solve`.
-    mass : payload, kg; default the largest in ``meas``.
-    path : where to write a PNG (120 dpi); nothing is written when ``None``.
-    model, fem_options : the model that solves, as in :func:`eodarm.solve`.
-
-    Returns
-    -------
-    Figure
-        One axes of stacked bars per configuration (positive parts stacked upwards from zero,
-        negative parts downwards), one colour per component, in mm.
-    """
-    effects = list(effects)
-    m = float(np.max(meas.mass_kg)) if mass is None else float(mass)
-    rows = [r[0] for r in config_rows(meas)]
-    alpha = meas.alpha_deg[rows]
-    labels = list(meas.configs)
-
-    def dy(effs: list[Effect]) -> npt.NDArray[np.float64]:
-        out = solve(
-            arm,
-            alpha,
-            m,
-            effects=effs,
-            self_weight=self_weight,
-            model=model,
-            fem_options=fem_options,
-        )
-        return np.asarray(out["dy_mm"], dtype=float)
-
-    base = dy([])
-    parts = [("baseline (actuator springs only)", base, GREY)]
-    for j, e in enumerate(effects):
-        parts.append((effect_label(e), dy([e]) - base, PALETTE[j % len(PALETTE)]))
-    total = dy(effects)
-
-    k = len(labels)
-    # the legend sits below the axes: the figure must be as wide as its longest entry
-    # (about 0.075 in a character at "small" size), two entries a row when they fit
-    entry = 0.075 * max(len(name) for name, _, _ in parts) + 0.6
-    width = min(14.0, max(6.5, 0.55 * k + 4.0, entry + 0.4))
-    legend_cols = 2 if 2 * entry <= width - 0.3 else 1
-    fig = figure(width, 4.8)
-    ax = fig.add_subplot()
-    x = np.arange(k, dtype=float)
-    up = np.zeros(k)
-    down = np.zeros(k)
-    bar_w = 0.62
-    for name, v, colour in parts:
-        pos, neg = np.clip(v, 0, None), np.clip(v, None, 0)
-        ax.bar(x, pos, bar_w, bottom=up, color=colour, label=name, edgecolor="white", lw=0.5)
-        ax.bar(
-            x, neg, bar_w, bottom=down, color=colour, label="_" + name, edgecolor="white", lw=0.5
-        )
-        up += pos
-        down += neg
-    (marker,) = ax.plot(
-        x, total, "D", color="k", ms=6, label="total, all effects together", gid="total"
-    )
-    if k <= 16:
-        for xi, t in zip(x, total, strict=True):
-            ax.annotate(
-                f"{t:.2f}".replace("-", "−"),
-                (xi, t),
-                textcoords="offset points",
-                xytext=(0, -13 if t < 0 else 6),
-                ha="center",
-                fontsize="x-small",
-            )
-    ax.axhline(0.0, color="k", lw=0.7)
-    lo, hi = float(min(down.min(), total.min(), 0.0)), float(max(up.max(), total.max(), 0.0))
-    span = hi - lo or 1.0
-    ax.set_ylim(lo - 0.12 * span, hi + 0.08 * span)
-    ax.set_xticks(x, labels)
-    if max(len(lb) for lb in labels) * 0.085 > 0.9 * (width - 1.5) / k:
-        ax.tick_params(axis="x", labelrotation=45)
-    ax.set_xlabel("configuration")
-    ax.set_ylabel("contribution to dy of the measure point [mm]")
-    ax.grid(True, axis="y", lw=0.4, alpha=0.5)
-    handles: list[Any] = [
-        cont for cont in ax.containers if not str(cont.get_label()).startswith("_")
-    ]
-    fig.legend(
-        [*handles, marker],
-        [*(str(h.get_label()) for h in handles), str(marker.get_label())],
-        loc="outside lower center",
-        fontsize="small",
-        ncols=legend_cols,
-    )
-    sw = "with" if self_weight else "without"
-    fe = "; FE model" if model == "fem" else ""
-    ax.set_title(
-        f"Who makes the sag? Contributions to dy at payload {m:g} kg\n"
-        f"(each effect alone minus the baseline; {sw} self-weight{fe})"
-    )
     return finish(fig, path)

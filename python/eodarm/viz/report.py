@@ -44,11 +44,13 @@ from eodarm.data.measurements import Measurements, default_sigma
 from eodarm.errors import EodarmError
 from eodarm.model.arm import Arm
 from eodarm.viz import html as page
-from eodarm.viz.report_diagnosis import (
-    diagnosis_section,
-    left_section,
-    rounds_section,
-    verdict_line,
+from eodarm.viz.format import value
+from eodarm.viz.report_diagnosis import diagnosis_section, left_section, rounds_section
+from eodarm.viz.report_summary import (
+    answer_section,
+    handover_section,
+    make_answer,
+    parameter_section,
 )
 
 __all__ = ["build_ladder", "write_report"]
@@ -56,17 +58,8 @@ __all__ = ["build_ladder", "write_report"]
 PathLike = str | os.PathLike[str]
 
 
-def _nice_scale(max_dalpha_deg: float, target_deg: float = 8.0) -> float:
-    """A round exaggeration (1, 2 or 5 × 10^k) that turns the largest dα into about 8°."""
-    if not (math.isfinite(max_dalpha_deg) and max_dalpha_deg > 0):
-        return 50.0
-    raw = target_deg / max_dalpha_deg
-    k = math.floor(math.log10(raw))
-    return max(m * 10.0**k for m in (1, 2, 5) if m * 10.0**k <= raw)
-
-
 def _p_value(p: float) -> page.Num | str:
-    return "< 1e-300" if p <= 0 else page.Num(p, 3)
+    return "< 1e-300" if p <= 0 else page.Num(p, 3)  # the same words as the sets' table
 
 
 def _unit(channel: str) -> str:
@@ -110,6 +103,9 @@ def write_report(
     intro_html: str | None = None,
     model: str | None = None,
     fem_options: Mapping[str, Any] | None = None,
+    stopped: str | None = None,
+    published: Sequence[tuple[str, float]] | None = None,
+    handover: Mapping[str, str] | None = None,
 ) -> Path:
     """Write the diagnosis as one self-contained HTML file.
 
@@ -134,6 +130,11 @@ def write_report(
         options, as in :func:`eodarm.fit`); default (``None``) the one the diagnosis was
         made with, and only that one is accepted (also for ``final_fit`` and the fits of
         ``steps``). The report names it.
+    stopped : why the investigation stopped, in words (shown with the final answer).
+    published : ``(name, RMS of the main channel)`` of published models on the same data,
+        shown beside the final model's error.
+    handover : ``measurements``, ``arm`` (paths for the commands that reproduce the fit) and
+        optionally ``setup`` (a command to run first); default the data's and arm's sources.
 
     Returns
     -------
@@ -164,32 +165,128 @@ def write_report(
     elif cv is False:
         cv = None
 
+    base_cv = None
+    if steps and steps[0].get("cv_rms"):
+        base_cv = steps[0]["cv_rms"]
+    answer = make_answer(
+        meas,
+        base,
+        base_cv,
+        final,
+        (cv or {}).get("rms") if best is not None else base_cv,
+        list(rounds) if rounds else [diagnosis],
+        stopped or "",
+        main,
+        published or (),
+    )
+    with page.deferred() as figs:
+        parts, forked = _page(
+            arm,
+            meas,
+            diagnosis,
+            steps,
+            cv,
+            doc_title,
+            extra_sections,
+            final_fit,
+            rounds,
+            intro_html,
+            kw,
+            answer,
+            base,
+            final,
+            best,
+            main,
+            unit,
+            self_weight,
+            handover,
+        )
+    text = page.render_deferred("\n".join(parts) + "\n", figs, parallel=not forked)
+    out = Path(path)
+    try:
+        out.write_text(text, encoding="utf-8")
+    except OSError as exc:
+        raise EodarmError(f"{out}: cannot write the report: {exc.strerror or exc}") from None
+    return out
+
+
+def _page(
+    arm: Arm,
+    meas: Measurements,
+    diagnosis: Diagnosis,
+    steps: Sequence[Mapping[str, Any]] | None,
+    cv: Mapping[str, Any] | None,
+    doc_title: str,
+    extra_sections: Sequence[tuple[str, str]] | None,
+    final_fit: FitResult | None,
+    rounds: Sequence[Diagnosis] | None,
+    intro_html: str | None,
+    kw: Mapping[str, Any],
+    answer: Any,
+    base: FitResult,
+    final: FitResult,
+    best: FitResult | None,
+    main: str,
+    unit: str,
+    self_weight: bool,
+    handover: Mapping[str, str] | None,
+) -> tuple[list[str], bool]:
+    """The page's parts, in order (figures as placeholders inside :func:`page.deferred`).
+
+    The second half, how the investigation got there, is built and drawn aside (in a forked
+    child when there are two CPUs: :class:`page.Aside`) while this process does the answer.
+    """
+
+    def steps_behind() -> str:
+        out = [
+            '<h2 class="part">How the investigation got there</h2>',
+            "<p>The steps behind the answer above, in order: the data, the baseline, the first "
+            "diagnosis, the further rounds, the fitted model, the ladder of models and the "
+            "residuals.</p>",
+        ]
+        out += _data_section(arm, meas, self_weight, kw)
+        out += _baseline_section(meas, diagnosis, main, kw)
+        out += diagnosis_section(meas, diagnosis, main, unit)
+        if rounds and len(rounds) > 1:
+            out += rounds_section(rounds, main)
+        out += _fitted_section(meas, diagnosis, cv, final_fit)
+        if steps:
+            out += _ladder_section(steps, main, unit)
+        out += _residual_section(meas, base, final, main)
+        last = rounds[-1] if rounds else diagnosis
+        if last.verdict == "unexplained":
+            what = "the model the report ends with" if final_fit is not None else "the best effort"
+            if final is base:
+                what = "the baseline"
+            out += left_section(meas, final, f"{what} ({_model_keys(final)})")
+        return "\n".join(out)
+
+    history = page.Aside(steps_behind)
+    forked = history.forked
     parts: list[str] = [
         "<!DOCTYPE html>",
         '<html lang="en"><head><meta charset="utf-8">',
         f"<title>{page.esc(doc_title)}</title>",
         f"<style>{page.CSS}</style></head><body>",
         f"<h1>{page.esc(doc_title)}</h1>",
-        verdict_line(diagnosis),
     ]
     if intro_html:
         parts.append(intro_html)
-    parts += _data_section(arm, meas, self_weight, kw)
-    parts += _baseline_section(meas, diagnosis, main, kw)
-    parts += diagnosis_section(meas, diagnosis, main, unit)
-    if rounds and len(rounds) > 1:
-        parts += rounds_section(rounds, main)
-    parts += _fitted_section(meas, diagnosis, cv, final_fit)
-    if steps:
-        parts += _ladder_section(steps, main, unit)
-    parts += _residual_section(meas, base, final, main)
-    last = rounds[-1] if rounds else diagnosis
-    if last.verdict == "unexplained":
-        what = "the model the report ends with" if final_fit is not None else "the best effort"
-        if final is base:
-            what = "the baseline"
-        parts += left_section(meas, final, f"{what} ({_model_keys(final)})")
+    parts += answer_section(answer, meas, base, final, model_name(**kw))
+    if final.slots:
+        parts += parameter_section(final, meas)
     parts += _share_section(arm, meas, final, self_weight, kw)
+    if final.slots:
+        ho = handover or {}
+        parts += handover_section(
+            final,
+            arm,
+            meas,
+            ho.get("measurements", str(meas.source)),
+            ho.get("arm", str(arm.source)),
+            ho.get("setup"),
+        )
+    parts.append(history())
     for heading, body in extra_sections or ():
         parts += [f"<h2>{page.esc(heading)}</h2>", body]
     stamp = _dt.datetime.now(_dt.UTC).strftime("%Y-%m-%d %H:%M UTC")
@@ -199,12 +296,7 @@ def write_report(
         "</footer>",
         "</body></html>",
     ]
-    out = Path(path)
-    try:
-        out.write_text("\n".join(parts) + "\n", encoding="utf-8")
-    except OSError as exc:
-        raise EodarmError(f"{out}: cannot write the report: {exc.strerror or exc}") from None
-    return out
+    return parts, forked
 
 
 def _data_section(
@@ -266,10 +358,7 @@ def _model_line(kw: Mapping[str, Any]) -> str:
 def _baseline_section(
     meas: Measurements, d: Diagnosis, main: str, kw: Mapping[str, Any]
 ) -> list[str]:
-    from eodarm.viz import plots
-
-    base, best = d.baseline, _ends_with(d)
-    name = "suggested" if d.suggested_fit is not None else "best effort"
+    base = d.baseline
     model = ", ".join(s.key for s in d.model)
     what = (
         f"Baseline: the arm file's model with {page.esc(model)} fitted."
@@ -277,48 +366,32 @@ def _baseline_section(
         else "Baseline: rigid links, pins without clearance, each actuator an axial spring "
         "with the arm file's stiffness, rigid base; nothing fitted."
     )
-    what += f" Every model in this report is the {page.esc(model_name(**kw))}."
-    rb, ra = base.rms(), best.rms() if best is not None else {}
-    head = ["channel", "typical σ", "RMS baseline", "RMS/σ"]
-    if best is not None:
-        head += [f"RMS {name}", "RMS/σ"]
+    what += (
+        f" Every model in this report is the {page.esc(model_name(**kw))}. The baseline's "
+        "points are the open markers of the measured-vs-model figure in “The answer”."
+    )
+    rb = base.rms()
     rows = []
     for ch in meas.measured_channels:
         s = _sigma_typ(meas, ch)
         u = _unit(ch)
-        row: list[Any] = [
-            f"{ch}",
-            page.Num(s, 3, f" {u}"),
-            page.Num(rb.get(ch, math.nan), 4, f" {u}"),
-            page.Num(rb.get(ch, math.nan) / s, 3),
-        ]
-        if best is not None:
-            row += [
-                page.Num(ra.get(ch, math.nan), 4, f" {u}"),
-                page.Num(ra.get(ch, math.nan) / s, 3),
+        rows.append(
+            [
+                f"{ch}",
+                page.Num(s, 3, f" {u}"),
+                page.Num(rb.get(ch, math.nan), 4, f" {u}"),
+                page.Num(rb.get(ch, math.nan) / s, 3),
             ]
-        rows.append(row)
+        )
     chi: list[list[Any]] = [
         ["χ²/dof baseline", page.Num(base.chi2_per_dof)],
         ["p-value of the baseline χ²", _p_value(d.p_baseline)],
     ]
-    if best is not None:
-        chi.append([f"χ²/dof {name} model", page.Num(best.chi2_per_dof)])
-    tables = (
-        f'<div class="row"><div>{page.table(head, rows)}</div>'
-        f"<div>{page.table([], chi)}</div></div>"
+    tables = page.row(
+        page.table(["channel", "typical σ", "RMS baseline", "RMS/σ"], rows),
+        f"<div>{page.table([], chi)}</div>",
     )
-    fits = {"baseline": base}
-    if best is not None:
-        fits[name] = best
-    fig = plots.measured_vs_model(meas, fits)
-    img = page.img(
-        fig,
-        "measured against model, per channel",
-        "Measured (x, ±σ) against model (y) for every measured channel; on the dotted line "
-        "y = x the model is right. The legend gives each model's RMS residual.",
-    )
-    return ["<h2>2. Baseline against the measurements</h2>", f"<p>{what}</p>", tables, img]
+    return ["<h2>2. Baseline against the measurements</h2>", f"<p>{what}</p>", tables]
 
 
 def _fitted_section(
@@ -337,25 +410,6 @@ def _fitted_section(
             "<p>No set explains the data: this is the best effort, the set the information "
             "criterion (BIC) prefers. It does not explain the data within their noise.</p>"
         )
-    rows = []
-    for i, s in enumerate(best.slots):
-        kind = s.kind
-        est, err = best.estimate(i), best.stderr(i)
-        note = "at its bound" if best.at_bound[i] else ""
-        rows.append(
-            [
-                s.key,
-                kind.param,
-                page.Num(est, 5),
-                page.Num(err, 2),
-                kind.unit,
-                page.Num(100 * err / est if math.isfinite(est) and est else math.nan, 2, " %"),
-                note,
-            ]
-        )
-    table = page.table(
-        ["effect@place", "parameter", "estimate", "± stderr", "unit", "rel.", "note"], rows
-    )
     rb, ra = d.baseline.rms(), best.rms()
     rms_rows = [
         [
@@ -372,8 +426,8 @@ def _fitted_section(
     out += [
         f"<p>Model: {page.esc(_model_keys(best))}, all parameters fitted jointly "
         f"({best.problem.n_values} values, {best.n_params} "
-        f"parameter{'s' if best.n_params != 1 else ''}).</p>",
-        table,
+        f"parameter{'s' if best.n_params != 1 else ''}; their values, errors "
+        "and correlations: “The fitted parameters” above).</p>",
         page.table(["channel", "RMS baseline", "RMS fitted", "RMS cross-validated"], rms_rows),
     ]
     if cv:
@@ -451,51 +505,87 @@ def _residual_section(
 def _share_section(
     arm: Arm, meas: Measurements, final: FitResult, sw: bool, kw: Mapping[str, Any]
 ) -> list[str]:
-    from eodarm.model.solver import solve
+    from eodarm.model.solver import forward, solve
     from eodarm.viz import plots
+    from eodarm.viz.budget_plot import budget_at, component_name
 
-    effects = final.effects
-    mass = float(np.max(meas.mass_kg))
-    rows_idx = [int(np.flatnonzero(np.asarray(meas.config) == c)[0]) for c in meas.configs]
-    alpha = meas.alpha_deg[rows_idx]
-    base = solve(arm, alpha, mass, self_weight=sw, **kw)["dy_mm"]
-    contrib = [
-        solve(arm, alpha, mass, effects=[e], self_weight=sw, **kw)["dy_mm"] - base for e in effects
-    ]
-    total = solve(arm, alpha, mass, effects=effects, self_weight=sw, **kw)["dy_mm"]
+    effects = [*final.fixed, *final.effects]
+    budget, mass, measured, base = budget_at(arm, meas, effects, self_weight=sw, mass=None, **kw)
+    names = [component_name(lb) for lb in budget.labels]
     rows = [
-        [label, page.Num(base[i], 3), *(page.Num(v[i], 3) for v in contrib), page.Num(total[i], 3)]
+        [
+            label,
+            *(page.Num(v[i], 3) for v in budget.shares),
+            page.Num(budget.total[i], 3),
+            page.Num(measured[i], 3),
+            page.Num(measured[i] - budget.total[i], 3),
+            page.Num(base[i], 3),
+        ]
         for i, label in enumerate(meas.configs)
     ]
     table = page.table(
-        ["config", "baseline [mm]", *(f"{e.key} [mm]" for e in effects), "total [mm]"],
+        ["config", *names, "model", "measured", "residual", "baseline"],
         rows,
     )
     img = page.img(
-        plots.deflection_share(arm, meas, effects, self_weight=sw, mass=mass, **kw),
-        "contributions to the sag",
-        f"Contribution of each effect to the sag dy of the measure point at {mass:g} kg "
-        "(the effect alone minus the baseline), per configuration; the diamond is the total "
-        "with every effect together.",
+        plots.deflection_share(
+            arm,
+            meas,
+            effects,
+            self_weight=sw,
+            mass=mass,
+            budget=(budget, mass, measured, base),
+            **kw,
+        ),
+        "the sag budget",
+        f"Sag budget of the final model at {mass:g} kg, per configuration. Starting from the "
+        "rigid arm (which does not sag), each part's share is its added sag averaged over "
+        "every order in which the parts can be switched on (the Shapley value), so each "
+        "share is counted with all the others present and the shares add up exactly to the "
+        "model's sag (black diamond); for springs in series this is each spring's share of "
+        "the work, as a hand calculation splits it. The hatched part is what the model "
+        "misses, up to the measured sag (cross). The grey bar is the baseline's sag.",
     )
     out = [
-        "<h2>7. Who makes the sag?</h2>",
-        f"<p>dy of the measure point [mm] at payload {mass:g} kg, model: "
-        f"{page.esc(', '.join(plots.effect_label(e) for e in effects) or 'baseline only')} "
-        f"({page.esc(model_name(**kw))}).</p>",
+        "<h2>Who makes the sag?</h2>",
+        f"<p>dy of the measure point [mm] at payload {mass:g} kg, split between the parts of "
+        f"the final model ({page.esc(model_name(**kw))}); the shares add up to the model "
+        f"within {page.num(max(budget.closure, 1e-15), 1)} mm.</p>",
         page.row(table, img),
     ]
-    first = meas.configs[0]
-    r0 = rows_idx[0]
-    one = solve(arm, alpha[:1], mass, effects=effects, self_weight=sw, **kw)
-    scale = _nice_scale(float(np.max(np.abs(one["dalpha_deg"]))))
+    # the configuration the final model misses most, drawn with its sag made visible
+    per = {}
+    c = meas.index("dy_mm") if "dy_mm" in meas.measured_channels else None
+    for k, label in enumerate(meas.configs):
+        per[label] = abs(measured[k] - budget.total[k]) if c is not None else 0.0
+    finite = {k: v for k, v in per.items() if math.isfinite(v)}
+    worst = max(finite, key=lambda k: finite[k]) if finite else meas.configs[0]
+    k = list(meas.configs).index(worst)
+    r0 = int(np.flatnonzero(np.asarray(meas.config) == worst)[0])
+    alpha = meas.alpha_deg[r0 : r0 + 1]
+    one = solve(arm, alpha, mass, effects=effects, self_weight=sw, **kw)
+    geo = forward(arm, alpha)
+    reach = float(np.hypot(*(geo["measure"][0] - np.asarray(arm.O1, dtype=float))))
+    sag = math.hypot(float(one["dx_mm"][0]), float(one["dy_mm"][0]))
+    scale = _nice_scale_length(sag, 0.15 * reach)
     pose = page.img(
         plots.arm_pose(arm, alpha[0], out=one, scale=scale),
-        f"the arm in configuration {first}",
-        f"Configuration {first} (α = {', '.join(f'{a:.1f}' for a in meas.alpha_deg[r0])}°) "
-        f"under {mass:g} kg with the fitted model ({model_name(**kw)}); the loaded pose is "
-        f"exaggerated ×{scale:g}.",
+        f"the arm in configuration {worst}",
+        f"Configuration {worst}, the one the final model misses most at {mass:g} kg "
+        f"(α = {', '.join(f'{a:.1f}' for a in alpha[0])}°): the final model's loaded pose, "
+        f"deflections exaggerated ×{scale:g} so that {value(sag, 'mm', 3)} on a "
+        f"{reach:.0f} mm arm can be seen (measured dy {value(measured[k], 'mm', 3)}, "
+        f"model {value(budget.total[k], 'mm', 3)}).",
         narrow=True,
     )
     out.append(pose)
     return out
+
+
+def _nice_scale_length(length: float, target: float) -> float:
+    """A round exaggeration (1, 2 or 5 × 10^k) that draws ``length`` as about ``target``."""
+    if not (math.isfinite(length) and length > 0 and target > 0):
+        return 1.0
+    raw = target / length
+    k = math.floor(math.log10(raw))
+    return max(m * 10.0**k for m in (1, 2, 5) if m * 10.0**k <= raw)

@@ -169,11 +169,18 @@ def diagnosis_section(meas: Measurements, d: Diagnosis, main: str, unit: str) ->
     the next measurement."""
     sugg = {s.key for s in d.suggested}
     rows, hl = [], []
+    # candidates that fit to no effect at all (Δχ² = 0 to rounding) are named in one line
+    tiny = 1e-9 * max(1.0, d.baseline.chi2)
+    idle = [c for c in d.ranking if c.delta_chi2 <= tiny and c.slot.key not in sugg]
+    if len(idle) < 2:
+        idle = []
     for i, c in enumerate(d.ranking, start=1):
+        if c in idle:
+            continue
         rows.append(
             [
                 page.Num(i, 3),
-                c.slot.key,
+                c.slot.label,
                 _estimate(c),
                 page.Num(c.delta_chi2, 4),
                 page.Num(c.fit.chi2_per_dof, 4),
@@ -197,7 +204,7 @@ def diagnosis_section(meas: Measurements, d: Diagnosis, main: str, unit: str) ->
     )
     v = page.esc(d.verdict)
     out = [
-        "<h2>3. Diagnosis: which effect is missing?</h2>",
+        "<h2>3. The first diagnosis (round 1): which effect is missing?</h2>",
         f'<p>Verdict: <span class="verdict {v}">{v}</span></p>',
         f"<p>{_story(d, main, unit)}</p>",
     ]
@@ -222,6 +229,13 @@ def diagnosis_section(meas: Measurements, d: Diagnosis, main: str, unit: str) ->
         "data cannot tell apart from this one.</p>",
         ranking,
     ]
+    if idle:
+        out.append(
+            f"<p>The other {len(idle)} candidates do not help at all: each fits to no effect "
+            "(a rigid part or a zero gap, Δχ² = 0): "
+            + page.esc(", ".join(c.slot.label for c in idle))
+            + ".</p>"
+        )
     if d.outliers:
         orows = [
             [
@@ -321,7 +335,7 @@ def rounds_section(rounds: Sequence[Diagnosis], main: str) -> list[str]:
             ]
         )
     return [
-        "<h2>3b. Further rounds</h2>",
+        "<h2>3b. The rounds: what each added</h2>",
         "<p>One diagnosis searches sets of up to three effects. Each further round adds to "
         "the model the set the rule accepted or, when nothing explains the data, the best "
         "effort if the rule finds that it improves the model (away from its bounds, "

@@ -1,0 +1,452 @@
+"""The report's first screen and its hand-over: the final answer, the fitted parameters as
+an engineer reads them, and the fitted arm file with the commands that use it.
+
+* :func:`answer_section`: the verdict of the *last* round, the model the investigation ends
+  with, the main channel's RMS from the baseline to the final model in-sample and on held-out
+  configurations against σ, what is still unexplained, and published models' errors;
+* :func:`answer_lines`: the same summary as terminal lines (within 100 columns);
+* :func:`parameter_section`: value ± error (two significant digits of the error), the 95 %
+  interval, the correlation matrix as a heat map and the "not determined" flag;
+* :func:`handover_section`: the fitted arm file embedded as a download (data URI) and the
+  commands to reproduce it and to use it.
+"""
+
+from __future__ import annotations
+
+import base64
+import math
+import re
+import textwrap
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from eodarm.analysis.diagnose import Diagnosis
+from eodarm.analysis.fit import FitResult, determining_channel
+from eodarm.data.measurements import Measurements
+from eodarm.model.arm import Arm
+from eodarm.viz import html as page
+from eodarm.viz.format import interval95, parameter_name, value, value_error
+from eodarm.viz.style import channel_unit, short_channel
+
+__all__ = [
+    "Answer",
+    "answer_lines",
+    "answer_section",
+    "handover_section",
+    "parameter_section",
+    "sag_word",
+]
+
+
+@dataclass
+class Answer:
+    """The numbers of the final answer, shared by the page and the terminal."""
+
+    main: str
+    unit: str
+    sigma: float
+    base_rms: float
+    final_rms: float
+    base_cv: float
+    final_cv: float
+    base_chi2: float
+    final_chi2: float
+    model: str
+    n_params: int
+    verdict: str
+    rounds: int
+    stopped: str
+    left: list[tuple[str, str, float, float]] = field(default_factory=list)
+    published: list[tuple[str, float]] = field(default_factory=list)
+
+
+def sag_word(meas: Measurements, base: FitResult) -> str | None:
+    """``"less"`` when the data sag less than the baseline says, ``"more"`` when more (sum of
+    |dy| over the measured rows); ``None`` without dy."""
+    if "dy_mm" not in meas.measured_channels:
+        return None
+    c = meas.index("dy_mm")
+    m = meas.measured[:, c]
+    measured = float(np.sum(np.abs(meas.values[m, c])))
+    model = float(np.sum(np.abs(base.prediction[m, c])))
+    return "less" if measured < model else "more"
+
+
+def model_words(fit: FitResult) -> str:
+    """The effects of a model in words, the same kind at several places in one group:
+    ``"actuator 1/2/3 body, actuator 1/2/3 mount"``."""
+    names = [parameter_name(e.name, e.at) for e in fit.fixed]
+    names += [parameter_name(s.name, s.at) for s in fit.slots]
+    groups: dict[tuple[str, str], list[str]] = {}
+    for n in names:
+        m = re.fullmatch(r"(\D*?)(\d+)(.*)", n.replace(" stiffness", ""))
+        key = (m[1], m[3]) if m else (n, "")
+        groups.setdefault(key, []).append(m[2] if m else "")
+    words = [f"{pre}{'/'.join(nums)}{post}" for (pre, post), nums in groups.items()]
+    return "baseline + " + ", ".join(words) if words else "the baseline (nothing added)"
+
+
+def _typ_sigma(meas: Measurements, ch: str) -> float:
+    c = meas.index(ch)
+    s = meas.sigma[meas.measured[:, c], c]
+    return float(np.median(s)) if s.size else math.nan
+
+
+def _config_rms(fit: FitResult, ch: str) -> dict[str, float]:
+    meas = fit.problem.meas
+    c = meas.index(ch)
+    out = {}
+    for label in meas.configs:
+        sel = (np.asarray(meas.config) == label) & fit.problem.use[:, c]
+        if sel.any():
+            out[label] = float(np.sqrt(np.mean(fit.residual[sel, c] ** 2)))
+    return out
+
+
+def make_answer(
+    meas: Measurements,
+    base: FitResult,
+    base_cv: Mapping[str, float] | None,
+    final: FitResult,
+    final_cv: Mapping[str, float] | None,
+    rounds: Sequence[Diagnosis],
+    stopped: str,
+    main: str,
+    published: Sequence[tuple[str, float]] = (),
+) -> Answer:
+    """Collect the answer's numbers: the baseline and the final model, each with its
+    held-out RMS per channel (``None`` when not computed), and the rounds."""
+
+    left = []
+    for ch in meas.measured_channels:
+        per = _config_rms(final, ch)
+        if per:
+            worst = max(per, key=lambda k: per[k])
+            left.append((ch, worst, per[worst], per[worst] / _typ_sigma(meas, ch)))
+    left.sort(key=lambda t: -t[3])
+    return Answer(
+        main=main,
+        unit=channel_unit(main),
+        sigma=_typ_sigma(meas, main),
+        base_rms=float(base.rms().get(main, math.nan)),
+        final_rms=float(final.rms().get(main, math.nan)),
+        base_cv=float((base_cv or {}).get(main, math.nan)),
+        final_cv=float((final_cv or {}).get(main, math.nan)),
+        base_chi2=float(base.chi2_per_dof),
+        final_chi2=float(final.chi2_per_dof),
+        model=model_words(final),
+        n_params=final.n_params,
+        verdict=rounds[-1].verdict if rounds else "adequate",
+        rounds=len(rounds),
+        stopped=stopped,
+        left=left,
+        published=list(published),
+    )
+
+
+def _verdict_words(a: Answer) -> str:
+    if a.verdict == "adequate":
+        return "the final model explains the data within their noise"
+    if a.verdict == "missing":
+        return "something is still missing (the rounds ran out)"
+    return "no effect of the catalogue explains what is left"
+
+
+def answer_lines(a: Answer) -> list[str]:
+    """The answer as terminal lines, each within 100 columns."""
+    u, s = a.unit, a.sigma
+    ch = short_channel(a.main)
+    lines = [
+        f"final model: {a.model} ({a.n_params} fitted)",
+        f"last round ({a.rounds}): {a.verdict}: {_verdict_words(a)}",
+        (
+            f"{ch} RMS in-sample {a.base_rms:.3g} → {a.final_rms:.3g} {u}, held out "
+            f"{a.base_cv:.3g} → {a.final_cv:.3g} {u} (σ {s:.2g} {u}: {a.final_cv / s:.1f}σ "
+            "held out)"
+            if math.isfinite(a.final_cv) and math.isfinite(a.base_cv)
+            else f"{ch} RMS in-sample {a.base_rms:.3g} → {a.final_rms:.3g} {u} (σ {s:.2g} {u}; "
+            "not cross-validated: fewer than two configurations)"
+        ),
+    ]
+    if a.published:
+        lines.append("published models: " + "; ".join(f"{n} {v:.3g} {u}" for n, v in a.published))
+    if a.left:
+        bits = [
+            f"{short_channel(c)} {cfg} {v:.2g} {channel_unit(c)}" for c, cfg, v, _ in a.left[:3]
+        ]
+        lines.append("largest residual RMS left (channel, configuration): " + ", ".join(bits))
+    out: list[str] = []
+    for line in lines:
+        out += textwrap.wrap(line, 100, subsequent_indent="  ")
+    return out
+
+
+def _held_words(a: Answer) -> str:
+    """The held-out half of the answer's RMS sentence, against σ."""
+    u, s = a.unit, a.sigma
+    if not math.isfinite(a.final_cv):
+        return (
+            f"not cross-validated (fewer than two configurations); typical σ {page.num(s, 2)} "
+            f"{u}: {page.num(a.final_rms / s, 2)}σ in-sample."
+        )
+    z = a.final_cv / s
+    tail = "still " if z > 2 else ""
+    return (
+        f"<b>{page.num(a.final_cv, 3)} {u}</b> on held-out configurations, against a typical "
+        f"σ of {page.num(s, 2)} {u}: {tail}{page.num(z, 2)}σ."
+    )
+
+
+def answer_section(
+    a: Answer, meas: Measurements, base: FitResult, final: FitResult, kw_model: str
+) -> list[str]:
+    """The report's first section: the final answer and its measured-vs-model figure."""
+    from eodarm.viz import plots
+
+    u, s = a.unit, a.sigma
+    ch = short_channel(a.main)
+    v = page.esc(a.verdict)
+    rows: list[list[Any]] = [
+        [
+            "in-sample RMS",
+            page.Num(a.base_rms, 3, f" {u}"),
+            page.Num(a.final_rms, 3, f" {u}"),
+            page.Num(a.final_rms / s, 2, " σ"),
+        ],
+        [
+            "held-out RMS (each configuration predicted without its own data)",
+            page.Num(a.base_cv, 3, f" {u}"),
+            page.Num(a.final_cv, 3, f" {u}"),
+            page.Num(a.final_cv / s, 2, " σ"),
+        ],
+        ["χ²/dof (1 = within the noise)", page.Num(a.base_chi2, 4), page.Num(a.final_chi2, 3), ""],
+    ]
+    table = page.table([f"{ch}", "baseline", "final model", "final / typical σ"], rows)
+    pub = ""
+    if a.published:
+        pub = (
+            "<p>Published models on the same measurements (not fitted to them, so their error "
+            "is already out-of-sample): "
+            + "; ".join(f"{page.esc(n)}: <b>{page.num(x, 3)} {u}</b> RMS" for n, x in a.published)
+            + f". The final model predicts held-out configurations to <b>{page.num(a.final_cv, 3)}"
+            f" {u}</b>.</p>"
+        )
+    left_rows = [
+        [
+            c,
+            cfg,
+            page.Num(rms, 3, f" {channel_unit(c)}"),
+            page.Num(z, 2, " σ"),
+        ]
+        for c, cfg, rms, z in a.left
+    ]
+    left = page.table(
+        ["channel", "worst configuration", "its RMS residual", "in units of typical σ"],
+        left_rows,
+    )
+    fig = plots.measured_vs_model(meas, {"baseline": base, "final model": final})
+    img = page.img(
+        fig,
+        "measured against model: baseline and final model",
+        "Measured (x, ±σ) against model (y), per channel: the baseline (open markers) and the "
+        "final model (filled), coloured by configuration; on the dotted line y = x the model "
+        "is right. Each panel's axes fit the final model; baseline points beyond them are "
+        "counted in the panel's title.",
+    )
+    return [
+        "<h2>The answer</h2>",
+        f'<p class="answer">Final model: <b>{page.esc(a.model)}</b> '
+        f"({a.n_params} parameter{'s' if a.n_params != 1 else ''} fitted jointly, "
+        f"{page.esc(kw_model)}).<br>"
+        f'Last round ({a.rounds}): <span class="verdict {v}">{v}</span> '
+        f"{page.esc(_verdict_words(a))}"
+        + (
+            f"; the investigation stopped because {page.esc(a.stopped)}"
+            if a.stopped and a.verdict != "adequate"
+            else ""
+        )
+        + ".</p>",
+        f'<p class="answer">{page.esc(ch)} RMS <b>{page.num(a.base_rms, 3)} → '
+        f"{page.num(a.final_rms, 3)} {u}</b> in-sample, " + _held_words(a) + "</p>",
+        table,
+        pub,
+        "<h3>What is left</h3>",
+        '<p class="note">For every measured channel, the configuration where the final model '
+        "misses most (RMS residual over its payloads), worst first in units of σ.</p>",
+        left,
+        img,
+    ]
+
+
+# ---------------------------------------------------------------------------- parameters
+def _percent(rel: float) -> str:
+    if not math.isfinite(rel):
+        return "∞"
+    return f"{100 * rel:.2g} %" if rel < 0.1 else f"{100 * rel:.0f} %"
+
+
+def _correlation_figure(fit: FitResult) -> Any:
+    from matplotlib.colors import TwoSlopeNorm
+
+    from eodarm.viz.style import figure
+
+    corr = fit.correlation()
+    k = len(fit.slots)
+    names = [f"{parameter_name(s.name, s.at)}" for s in fit.slots]
+    fig = figure(2.2 + 0.75 * k + 2.2, 1.4 + 0.6 * k)
+    ax = fig.add_subplot()
+    im = ax.imshow(corr, cmap="RdBu_r", norm=TwoSlopeNorm(0.0, -1.0, 1.0))
+    for i in range(k):
+        for j in range(k):
+            x = corr[i, j]
+            if not math.isfinite(x):
+                txt = "—"
+            elif abs(x) < 0.005:
+                txt = "0"
+            else:
+                txt = f"{x:+.2f}".replace("-", "−")
+            ax.text(
+                j,
+                i,
+                txt,
+                ha="center",
+                va="center",
+                fontsize="x-small",
+                color="white" if math.isfinite(x) and abs(x) > 0.6 else "black",
+            )
+    ax.set_xticks(range(k), [f"#{i + 1}" for i in range(k)])
+    ax.set_yticks(range(k), [f"#{i + 1} {n}" for i, n in enumerate(names)], fontsize="small")
+    fig.colorbar(im, ax=ax, shrink=0.8, label="correlation")
+    ax.set_title("Correlation of the fitted parameters", fontsize="medium")
+    return fig
+
+
+def parameter_section(fit: FitResult, meas: Measurements) -> list[str]:
+    """The fitted parameters as a table and their correlation as a heat map."""
+    flagged = dict(fit.undetermined())
+    rows, hl = [], []
+    for i, s in enumerate(fit.slots):
+        kind = s.kind
+        est, err = fit.estimate(i), fit.stderr(i)
+        rel = err / abs(est) if math.isfinite(est) and est and math.isfinite(err) else math.nan
+        note = ""
+        if fit.at_bound[i]:
+            note = "at its bound"
+        elif i in flagged:
+            note = (
+                f"NOT DETERMINED ({flagged[i]}): fix it or drop it; to determine it, "
+                f"{determining_channel(s, meas.measured_channels)}"
+            )
+        rows.append(
+            [
+                f"#{i + 1} {parameter_name(s.name, s.at)}",
+                page.Raw(f"<code>{page.esc(s.key)}</code>"),
+                page.Raw(f'<span class="num">{page.esc(value_error(est, err, kind.unit))}</span>'),
+                page.Raw(f'<span class="num">{page.esc(interval95(est, err, kind.unit))}</span>'),
+                page.Raw(f'<span class="num">{_percent(rel)}</span>'),
+                note,
+            ]
+        )
+        hl.append(i in flagged)
+    table = page.table(
+        ["parameter", "identifier", "value ± standard error", "95 % interval", "rel.", "note"],
+        rows,
+        hl,
+    )
+    out = [
+        "<h2>The fitted parameters</h2>",
+        "<p>Each value is rounded to the second significant digit of its standard error; "
+        "the 95 % interval is value ± 1.96 standard errors (normal approximation). A "
+        "parameter is <b>not determined</b> when its relative error exceeds 100 % or its "
+        "correlation with another parameter exceeds 0.95 in magnitude: the data then allow "
+        "almost any value, and the model is better with it fixed or dropped.</p>",
+        table,
+    ]
+    if len(fit.slots) >= 2:
+        caption = (
+            "Correlation between the fitted parameters (+1: the data trade one for the "
+            "other; 0: independent)."
+        )
+        keys = {s.key for s in fit.slots}
+        if any(
+            f"actuator_compliance@{s.at}" in keys and s.name == "mount_compliance"
+            for s in fit.slots
+        ):
+            caption += (
+                " A body spring and a mount spring of the same actuator act in series on the "
+                "same motion: only the actuator's own length sensor (dlK_mm) tells them apart, "
+                "and without it they correlate near ±1."
+            )
+        out.append(
+            page.img(
+                _correlation_figure(fit),
+                "correlation of the fitted parameters",
+                caption,
+                narrow=True,
+            )
+        )
+    return out
+
+
+# ---------------------------------------------------------------------------- hand-over
+def _grid(meas: Measurements, k: int) -> str:
+    a = meas.alpha_deg[:, k]
+    lo, hi = math.floor(float(np.min(a)) / 5) * 5, math.ceil(float(np.max(a)) / 5) * 5
+    return f"{lo:g}:{hi:g}:5"
+
+
+def handover_section(
+    fit: FitResult,
+    arm: Arm,
+    meas: Measurements,
+    meas_path: str,
+    arm_path: str,
+    setup: str | None = None,
+) -> list[str]:
+    """The fitted arm file as a download link and the commands that reproduce and use it."""
+    fitted = fit.fitted_arm(data=str(meas.source))
+    text = fitted.to_toml()
+    uri = "data:application/toml;base64," + base64.b64encode(text.encode("utf-8")).decode()
+    adds = " ".join(f"--add {s.key}" for s in fit.slots)
+    row0 = int(np.flatnonzero(np.asarray(meas.config) == meas.configs[0])[0])
+    alpha = ",".join(f"{x:.1f}" for x in meas.alpha_deg[row0])
+    mass = float(np.max(meas.mass_kg))
+    grids = " ".join(f"--alpha{k + 1} {_grid(meas, k)}" for k in range(arm.n))
+    cmds = []
+    if setup:
+        cmds.append(("get the data", setup))
+    cmds += [
+        (
+            "reproduce the fit",
+            f"eodarm fit {meas_path} --arm {arm_path} {adds} -o fitted.toml",
+        ),
+        (
+            "deflections with their uncertainty",
+            f"eodarm solve --arm fitted.toml --alpha {alpha} --mass {mass:g} --uncertainty",
+        ),
+        (
+            "maps over the working range",
+            f"eodarm sweep --arm fitted.toml {grids} --mass {mass:g} -o sweep.nc --plot maps",
+        ),
+        (
+            "the angles to command so that the loaded arm reaches its pose",
+            f"eodarm compensate --arm fitted.toml --alpha {alpha} --mass {mass:g}",
+        ),
+    ]
+    items = "".join(
+        f"<li>{page.esc(what)}:<br><code>{page.esc(cmd)}</code></li>" for what, cmd in cmds
+    )
+    return [
+        "<h2>Take the model with you</h2>",
+        f'<p><a download="fitted.toml" href="{uri}">Download the fitted arm file '
+        "(fitted.toml)</a>: the arm with the final model's effects at their fitted values, "
+        "each with its standard error, and a <code>[fit]</code> table with their covariance "
+        f"(χ²/dof {page.num(fit.chi2_per_dof, 3)}, {fit.problem.n_values} values). Solving it "
+        "gives exactly the final model of this report.</p>",
+        f"<ul>{items}</ul>",
+        f"<details><summary>The fitted file, as embedded ({value(len(text), digits=6)} "
+        f"characters)</summary><pre>{page.esc(text)}</pre></details>",
+    ]
