@@ -233,8 +233,8 @@ def _page(
 ) -> tuple[list[str], bool]:
     """The page's parts, in order (figures as placeholders inside :func:`page.deferred`).
 
-    The second half, how the investigation got there, is built and drawn aside (in a forked
-    child when there are two CPUs: :class:`page.Aside`) while this process does the answer.
+    The second half, how the investigation got there, is built in this process; the drawing
+    of all figures is shared with a forked child (:func:`page.render_deferred`).
     """
 
     def steps_behind() -> str:
@@ -261,7 +261,10 @@ def _page(
             out += left_section(meas, final, f"{what} ({_model_keys(final)})")
         return "\n".join(out)
 
-    history = page.Aside(steps_behind)
+    # Built here, not in a forked child: building solves with the compiled core, whose
+    # thread pool (rayon) does not survive fork(); only the drawing of finished figures,
+    # pure matplotlib, is forked (page.render_deferred).
+    history = page.Aside(steps_behind, parallel=False)
     forked = history.forked
     parts: list[str] = [
         "<!DOCTYPE html>",
