@@ -36,7 +36,7 @@
 //! Results do not depend on the chunk size or the number of threads (bit for bit).
 
 mod fallback;
-mod fast;
+pub(crate) mod fast;
 mod reduce;
 pub mod trig;
 
