@@ -63,7 +63,8 @@ def solve(
     extra_joint_mm: npt.NDArray[np.float64] | None = None,
     extra_tilt_rad: npt.NDArray[np.float64] | None = None,
     extra_measure_mm: npt.NDArray[np.float64] | None = None,
-) -> dict[str, npt.NDArray[np.float64]]: ...
+    out: dict[str, npt.NDArray[Any]] | None = None,
+) -> dict[str, npt.NDArray[Any]]: ...
 def statics(
     arm: CoreArm,
     alpha_deg: npt.NDArray[np.float64],

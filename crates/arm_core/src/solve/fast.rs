@@ -40,6 +40,7 @@ use crate::effects::EffectSet;
 use crate::error::Result;
 use crate::geometry::V2;
 use crate::sweep::fast::{compose, rot, FastArm, PoseBlock, Turn, L};
+use crate::sweep::transpose_into;
 use crate::sweep::trig::{asin_small, sincos_deg, ASIN_SERIES_MAX};
 use crate::validity::{self, Checks};
 
@@ -62,6 +63,8 @@ pub(crate) struct SolveKernel<const N: usize> {
     base: Base,
     /// The arm's reach Σ|next_i| (validity).
     reach: f64,
+    /// Force limits (N), +∞ where none.
+    fmax: [f64; N],
 }
 
 /// Per-pose results of a block (`[link][lane]`).
@@ -79,8 +82,8 @@ pub(crate) struct SolveBlock<const N: usize> {
     dy: [f64; L],
     /// Singular or a triangle that cannot close.
     fail: [bool; L],
-    /// Some rigid loaded triangle on the other side of its unloaded one.
-    flip: [bool; L],
+    /// Status codes (docs/model.md §7).
+    status: [u8; L],
 }
 
 impl<const N: usize> SolveBlock<N> {
@@ -96,7 +99,7 @@ impl<const N: usize> SolveBlock<N> {
             dx: [0.0; L],
             dy: [0.0; L],
             fail: [false; L],
-            flip: [false; L],
+            status: [0; L],
         }
     }
 }
@@ -110,6 +113,7 @@ impl<const N: usize> SolveKernel<N> {
             bend: Bending::new(arm, effects),
             base: Base::new(arm, effects),
             reach: validity::reach(arm),
+            fmax: std::array::from_fn(|i| arm.actuators[i].max_force.unwrap_or(f64::INFINITY)),
         })
     }
 
@@ -362,7 +366,10 @@ impl<const N: usize> SolveKernel<N> {
         }
         let deg = 180.0f64 / std::f64::consts::PI;
         let mut da = phi;
+        let mut max_da = [0.0f64; L];
+        let mut over = [false; L];
         for i in 0..N {
+            let fmax = self.fmax[i];
             for k in 0..L {
                 let a = da[k] + dth[i][k];
                 // The loaded angle nearest the unloaded one (wrap into [−π, π)).
@@ -375,12 +382,29 @@ impl<const N: usize> SolveKernel<N> {
                 };
                 da[k] = a;
                 sb.dalpha[i][k] = a * deg;
+                max_da[k] = max_da[k].max(sb.dalpha[i][k].abs());
+                over[k] |= sb.force[i][k].abs() > fmax;
             }
+        }
+        for k in 0..L {
+            let checks = Checks {
+                out_of_stroke: pb.out_of_stroke[k],
+                near_singular: pb.near_singular[k],
+                branch_flip: flip[k],
+                over_force: over[k],
+                large_deflection: validity::large_deflection_sq(
+                    max_da[k],
+                    dx[k],
+                    dy[k],
+                    pay[1][k] < 0.0,
+                    self.reach,
+                ),
+            };
+            sb.status[k] = validity::classify(checks).code();
         }
         sb.dx = dx;
         sb.dy = dy;
         sb.fail = fail;
-        sb.flip = flip;
     }
 }
 
@@ -471,43 +495,29 @@ impl<const N: usize> SolveKernel<N> {
             let alpha = &input.alpha_deg[p * N..(p + count) * N];
             let payload = &input.payload_n[2 * p..2 * (p + count)];
             self.block(simd, alpha, payload, count, &mut pb, &mut sb);
+            let span = p * N..(p + count) * N;
+            transpose_into(&sb.force, &mut out.force_n[span.clone()]);
+            transpose_into(&sb.dforce, &mut out.dforce_n[span.clone()]);
+            transpose_into(&sb.dalpha, &mut out.dalpha_deg[span.clone()]);
+            transpose_into(&sb.dl, &mut out.dl_mm[span.clone()]);
+            transpose_into(&sb.dlength, &mut out.dlength_mm[span.clone()]);
+            transpose_into(&pb.len, &mut out.length_mm[span]);
+            let reaction = &mut out.reaction_n[2 * p * N..2 * (p + count) * N];
+            for (q, row) in reaction.chunks_exact_mut(2 * N).enumerate() {
+                for i in 0..N {
+                    row[2 * i] = sb.reaction[0][i][q];
+                    row[2 * i + 1] = sb.reaction[1][i][q];
+                }
+            }
+            out.dx_mm[p..p + count].copy_from_slice(&sb.dx[..count]);
+            out.dy_mm[p..p + count].copy_from_slice(&sb.dy[..count]);
+            status[p..p + count].copy_from_slice(&sb.status[..count]);
             for q in 0..count {
-                let r = p + q;
                 if sb.fail[q] {
+                    let r = p + q;
                     let g = general.get_or_insert_with(|| General::new(ctx.arm));
                     status[r] = g.solve(ctx, alpha, payload, q, &mut out, r, first_row + r)?;
-                    continue;
                 }
-                let span = r * N..(r + 1) * N;
-                let mut max_da = 0.0f64;
-                for i in 0..N {
-                    let j = r * N + i;
-                    out.force_n[j] = sb.force[i][q];
-                    out.dforce_n[j] = sb.dforce[i][q];
-                    out.reaction_n[2 * j] = sb.reaction[0][i][q];
-                    out.reaction_n[2 * j + 1] = sb.reaction[1][i][q];
-                    out.dalpha_deg[j] = sb.dalpha[i][q];
-                    out.dl_mm[j] = sb.dl[i][q];
-                    out.dlength_mm[j] = sb.dlength[i][q];
-                    out.length_mm[j] = pb.len[i][q];
-                    max_da = max_da.max(sb.dalpha[i][q].abs());
-                }
-                out.dx_mm[r] = sb.dx[q];
-                out.dy_mm[r] = sb.dy[q];
-                let checks = Checks {
-                    out_of_stroke: pb.out_of_stroke[q],
-                    near_singular: pb.near_singular[q],
-                    branch_flip: sb.flip[q],
-                    over_force: validity::over_force(ctx.arm, &out.force_n[span]),
-                    large_deflection: validity::large_deflection(
-                        max_da,
-                        sb.dx[q],
-                        sb.dy[q],
-                        payload[2 * q + 1] < 0.0,
-                        self.reach,
-                    ),
-                };
-                status[r] = validity::classify(checks).code();
             }
             p += count;
         }
