@@ -36,7 +36,7 @@ use clearance::Clearance;
 use super::status::pose_status;
 use super::{write_row, BatchInput, BatchOutput, SolveOptions, Workspace};
 use crate::arm::Arm;
-use crate::effects::EffectSet;
+use crate::effects::{Effect, EffectSet};
 use crate::error::Result;
 use crate::geometry::V2;
 use crate::sweep::fast::{compose, rot, FastArm, PoseBlock, Turn, L};
@@ -107,6 +107,18 @@ impl<const N: usize> SolveBlock<N> {
 impl<const N: usize> SolveKernel<N> {
     /// The kernel of `arm` (with `N` links) and `effects`, or `None` for another `N`.
     pub(crate) fn new(arm: &Arm, effects: &EffectSet, self_weight: bool) -> Option<Self> {
+        // Every effect the kernel computes, listed without a wildcard: a new kind of the
+        // catalogue does not compile until it is added here (and to the lanes).
+        for e in effects.effects() {
+            match e {
+                Effect::ActuatorCompliance(_)
+                | Effect::MountCompliance(_)
+                | Effect::ActuatorPlay(_)
+                | Effect::JointClearance(_)
+                | Effect::LinkBending(_)
+                | Effect::BaseCompliance(_) => {}
+            }
+        }
         Some(Self {
             fa: FastArm::with_lengths(arm, effects, self_weight)?,
             clear: Clearance::new(effects),
