@@ -523,7 +523,7 @@ pub(crate) fn split_output<'a>(
 }
 
 /// The general path over one chunk: [`Workspace::solve_extra`] pose by pose.
-#[allow(clippy::too_many_arguments)]
+#[allow(clippy::too_many_arguments, clippy::needless_range_loop)] // p indexes the outputs
 fn solve_chunk(
     arm: &Arm,
     effects: &EffectSet,
@@ -557,6 +557,7 @@ fn solve_chunk(
 }
 
 /// Writes the solved pose in `ws` (unloaded angles `alpha`, rad) into output row `p`.
+#[allow(clippy::needless_range_loop)] // i indexes six parallel arrays
 pub(crate) fn write_row(
     ws: &Workspace,
     alpha: &[f64],

@@ -433,7 +433,8 @@ fn large_turns<const N: usize>(turn: &[[[f64; L]; N]; 2], dth: &mut [[f64; L]; N
     }
 }
 
-/// The solve kernel of an arm of 1–6 links.
+/// The solve kernel of an arm of 1–6 links (one per call: the variants' sizes do not matter).
+#[allow(clippy::large_enum_variant)]
 pub(crate) enum Kernel {
     F1(SolveKernel<1>),
     F2(SolveKernel<2>),

@@ -41,6 +41,7 @@ impl Base {
     /// The tilt of every lane: its angle `phi` (rad), its rotation (sin, cos − 1) in `sr`,
     /// `cm`, and the displacement of O_1 it causes, (R(Δφ) − I)·(O_1 − pivot), in `dx`, `dy`.
     #[inline(always)]
+    #[allow(clippy::too_many_arguments)] // five lane arrays out
     pub(crate) fn tilt<const N: usize>(
         &self,
         pb: &PoseBlock<N>,
