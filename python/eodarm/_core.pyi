@@ -63,7 +63,8 @@ def solve(
     extra_joint_mm: npt.NDArray[np.float64] | None = None,
     extra_tilt_rad: npt.NDArray[np.float64] | None = None,
     extra_measure_mm: npt.NDArray[np.float64] | None = None,
-    out: dict[str, npt.NDArray[Any]] | None = None,
+    # a dict of arrays; typed Any so that callers may pass the extras as **kwargs
+    out: Any = None,
 ) -> dict[str, npt.NDArray[Any]]: ...
 def statics(
     arm: CoreArm,

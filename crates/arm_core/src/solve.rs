@@ -1,7 +1,7 @@
 //! The batch solver: statics of both states, effects, exact loaded pose, for many poses.
 //!
 //! Poses are processed in chunks, in parallel with rayon above [`PARALLEL_THRESHOLD`] poses.
-//! Arms of 1–6 links with the built-in effects go through the block kernel ([`fast`]: 16
+//! Arms of 1–6 links with the built-in effects go through the block kernel (`solve/fast.rs`: 16
 //! poses at a time, structure of arrays); user-written deformations ([`ExtraDeformations`])
 //! and longer arms go through the general path, one [`Workspace`] per chunk (nothing is
 //! allocated per pose). Both give the status of every pose ([`solve_batch_status`]).

@@ -22,6 +22,10 @@
 //!   δ itself: [`asin_small`] (series, < 1 ulp) for |sin δ| ≤ 1/16 and cos δ > 0, `atan2`
 //!   otherwise. A triangle that cannot close shows as `s′² < 0` (|c′| > 1 in the scalar core).
 //!
+//! The pose stage ([`FastArm::poses_sc_impl`], with a payload per lane), [`Turn`] and
+//! [`compose`] are shared with the block kernel of `solve` (`crate::solve::fast`), which adds
+//! the effects that move pins and the status of each pose.
+//!
 //! The results agree with `Workspace::solve` to rounding (≈ 1e-13 relative on the deflections,
 //! whose magnitude is small against the positions they are differences of; the scalar core is
 //! the less accurate of the two there).
