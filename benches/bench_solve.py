@@ -328,7 +328,7 @@ def machine() -> list[str]:
         f"- machine: {platform.machine()}, {ncpu} CPUs (nproc), {cpu}",
         f"- python {platform.python_version()}, numpy {np.__version__}, "
         f"eodarm {eodarm.__version__}",
-        f"- rayon threads: {threads}; the core goes parallel from 2048 poses",
+        f"- rayon threads: {threads}; the block kernel goes parallel from 512 poses",
     ]
 
 
