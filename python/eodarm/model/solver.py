@@ -114,7 +114,7 @@ def solve(
         raise InputError(f"pose row {bad[0]}: mass_kg is negative ({mass[bad[0]]})")
     payload = np.zeros((alpha.shape[0], 2))
     payload[:, 1] = -mass * arm.g
-    return solve_payload(
+    return _solve_payload(
         arm,
         alpha,
         payload,
@@ -145,6 +145,36 @@ def solve_payload(
     """Like :func:`solve`, with any payload force vector (N, 2) in N at the load point."""
     check_arm(arm, "solve_payload")
     _check_memory(alpha_deg, arm.n)
+    return _solve_payload(
+        arm,
+        alpha_deg,
+        payload_n,
+        effects,
+        backend,
+        self_weight,
+        model,
+        fem_options,
+        extra,
+        uncertainty,
+        out,
+    )
+
+
+def _solve_payload(
+    arm: Arm,
+    alpha_deg: npt.ArrayLike,
+    payload_n: npt.ArrayLike,
+    effects: Effect | list[Effect] | tuple[Effect, ...] | None,
+    backend: Backend,
+    self_weight: bool,
+    model: str,
+    fem_options: Mapping[str, Any] | None,
+    extra: Mapping[str, npt.ArrayLike | None] | None,
+    uncertainty: bool,
+    out: Mapping[str, npt.NDArray[Any]] | None,
+) -> Arrays:
+    """:func:`solve_payload` once the arm and the memory the outputs need are checked (the
+    memory check reads /proc: once per call, not once per layer)."""
     from eodarm.model import fem
 
     alpha = _poses(alpha_deg, arm.n, "alpha_deg")
