@@ -1,11 +1,14 @@
-"""Throughput of ``eodarm.solve``: compiled core vs numpy reference vs a pure-Python loop.
+"""Throughput of ``eodarm.solve``: compiled core vs numpy reference vs independent versions.
 
-Times ``eodarm.solve`` with ``backend="rust"`` and ``backend="numpy"`` on the example arm, for
-the baseline model and for all six effect kinds at once, and a plain-Python per-pose loop
-(floats and :mod:`math`, baseline model only) written below and checked against
-``eodarm.solve`` before it is timed. Every figure is the best of k calls, k growing until the
-calls have taken about a second. The pure-Python loop is timed at 1e3 and 1e4 poses only;
-larger sizes use its per-pose cost at the largest timed size (marked as extrapolated).
+Times ``eodarm.solve`` as a user calls it (all outputs, ``status`` included) with
+``backend="rust"`` and ``backend="numpy"`` on the example arm, for the baseline model and for
+all six effect kinds at once, in the same run as two independent implementations of the
+baseline model written below and checked against ``eodarm.solve`` before they are timed: a
+vectorised numpy version (whole arrays, one loop over the links) and a plain-Python per-pose
+loop (floats and :mod:`math`). Every figure is the best of k calls, k growing until the calls
+have taken about a second. The pure-Python loop is timed at 1e3 and 1e4 poses only; larger
+sizes use its per-pose cost at the largest timed size (marked as extrapolated). ``--parts``
+also splits one call at 1e6 poses into its parts (input checks, allocation, kernel).
 
 Run from the repository root (``docs/benchmarks.md`` has the results)::
 
@@ -170,6 +173,88 @@ def solve_python(arm: PyArm, alpha_deg: FloatArray, mass_kg: FloatArray) -> list
     ]
 
 
+# ------------------------------------------------------------------ the vectorised baseline
+def _rot_np(s: FloatArray, c: FloatArray, p: Vec) -> tuple[FloatArray, FloatArray]:
+    return c * p[0] - s * p[1], s * p[0] + c * p[1]
+
+
+def solve_numpy(arm: PyArm, alpha_deg: FloatArray, mass_kg: FloatArray) -> dict[str, FloatArray]:
+    """Baseline model of N poses with whole numpy arrays: ``dx_mm``, ``dy_mm`` (N,) and the
+    loaded forces ``force_n`` (N, n); the same steps as :func:`solve_pose_python`."""
+    n = len(arm.links)
+    rad = np.radians(alpha_deg)
+    sn, cs = np.sin(rad), np.cos(rad)
+    rows = alpha_deg.shape[0]
+    ox, oy = np.full(rows, arm.o1[0]), np.full(rows, arm.o1[1])
+    bx, by = np.full(rows, arm.b0[0]), np.full(rows, arm.b0[1])
+    o, a, b, cm = [], [], [], []
+    for i, (nxt, pa, pb, pc, _) in enumerate(arm.links):
+        s, c = sn[:, i], cs[:, i]
+        o.append((ox, oy))
+        b.append((bx, by))
+        x, y = _rot_np(s, c, pa)
+        a.append((ox + x, oy + y))
+        x, y = _rot_np(s, c, pc)
+        cm.append((ox + x, oy + y))
+        x, y = _rot_np(s, c, pb)
+        bx, by = ox + x, oy + y
+        x, y = _rot_np(s, c, nxt)
+        ox, oy = ox + x, oy + y
+    o.append((ox, oy))
+    x, y = _rot_np(sn[:, -1], cs[:, -1], arm.measure)
+    meas = (o[n - 1][0] + x, o[n - 1][1] + y)
+    e, ell, h, side = [], [], [], []
+    for i in range(n):
+        vx, vy = a[i][0] - b[i][0], a[i][1] - b[i][1]
+        ln = np.hypot(vx, vy)
+        rx, ry = a[i][0] - o[i][0], a[i][1] - o[i][1]
+        e.append((vx / ln, vy / ln))
+        ell.append(ln)
+        h.append((rx * vy - ry * vx) / ln)
+        side.append(np.sign((b[i][0] - o[i][0]) * ry - (b[i][1] - o[i][1]) * rx))
+
+    def forces(g: float, px: FloatArray, py: FloatArray) -> list[FloatArray]:
+        f: list[FloatArray] = [np.zeros(rows)] * n
+        rx, ry = -px, -py  # the "reaction" beyond the tip is minus the payload
+        for i in range(n - 1, -1, -1):
+            w_c = -arm.links[i][4] * g
+            w_a = -0.5 * arm.acts[i][1] * g
+            qx = -rx
+            qy = w_c + w_a - ry
+            t = (cm[i][0] - o[i][0]) * w_c + (a[i][0] - o[i][0]) * w_a
+            t += (o[i + 1][0] - o[i][0]) * (-ry) - (o[i + 1][1] - o[i][1]) * (-rx)
+            if i + 1 < n:
+                w_b = -0.5 * arm.acts[i + 1][1] * g
+                fx, fy = -f[i + 1] * e[i + 1][0], w_b - f[i + 1] * e[i + 1][1]
+                qx, qy = qx + fx, qy + fy
+                t += (b[i + 1][0] - o[i][0]) * fy - (b[i + 1][1] - o[i][1]) * fx
+            f[i] = -t / h[i]
+            rx, ry = -qx - f[i] * e[i][0], -qy - f[i] * e[i][1]
+        return f
+
+    zero = np.zeros(rows)
+    fw = forces(arm.g, zero, zero)
+    fd = forces(0.0, zero, -mass_kg * arm.g)
+    ox, oy = np.full(rows, arm.o1[0]), np.full(rows, arm.o1[1])
+    bx, by = np.full(rows, arm.b0[0]), np.full(rows, arm.b0[1])
+    for i, (nxt, pa, pb, _, _) in enumerate(arm.links):
+        length = ell[i] - fd[i] / arm.acts[i][0]
+        dx, dy = bx - ox, by - oy
+        rho, d = math.hypot(*pa), np.hypot(dx, dy)
+        cos_t = (rho * rho + d * d - length * length) / (2.0 * rho * d)
+        al = np.arctan2(dy, dx) + side[i] * np.arccos(cos_t) - math.atan2(pa[1], pa[0])
+        s, c = np.sin(al), np.cos(al)
+        x, y = _rot_np(s, c, pb if i + 1 < n else arm.measure)
+        bx, by = ox + x, oy + y  # next base pin, or the measure point on the last link
+        x, y = _rot_np(s, c, nxt)
+        ox, oy = ox + x, oy + y
+    return {
+        "dx_mm": bx - meas[0],
+        "dy_mm": by - meas[1],
+        "force_n": np.column_stack([w + d for w, d in zip(fw, fd, strict=True)]),
+    }
+
+
 # ------------------------------------------------------------------ timing
 def poses(rows: int, seed: int = 7) -> tuple[FloatArray, FloatArray]:
     """Reproducible poses α ∈ [60, 110] × [0, 30] × [−10, 10]° and masses 0…7 kg."""
@@ -193,25 +278,32 @@ def best_time(call: Callable[[], object], budget_s: float, min_repeats: int) -> 
 
 
 def verify(arm: eodarm.Arm, parm: PyArm) -> float:
-    """Check the pure-Python loop against both backends of ``eodarm.solve`` on 200 poses.
+    """Check the pure-Python loop and the vectorised version against both backends of
+    ``eodarm.solve`` on 2000 poses.
 
     Exits when ``dx_mm``/``dy_mm`` differ by more than 1e-9 mm or a loaded force by more than
     1e-10 relative; returns the largest |Δ dy_mm| (mm).
     """
-    alpha, mass = poses(200, seed=11)
-    got = np.array(solve_python(parm, alpha, mass))
+    alpha, mass = poses(2000, seed=11)
+    loop = np.array(solve_python(parm, alpha, mass))
+    vec = solve_numpy(parm, alpha, mass)
+    mine = {
+        "pure-Python loop": (loop[:, 0], loop[:, 1], loop[:, 2:]),
+        "vectorised numpy": (vec["dx_mm"], vec["dy_mm"], vec["force_n"]),
+    }
     worst = 0.0
-    for backend in ("rust", "numpy"):
-        ref = eodarm.solve(arm, alpha, mass, backend=backend)
-        err_dy = float(np.max(np.abs(got[:, 1] - ref["dy_mm"])))
-        err_dx = float(np.max(np.abs(got[:, 0] - ref["dx_mm"])))
-        err_f = float(np.max(np.abs(got[:, 2:] - ref["force_n"]) / (1.0 + np.abs(ref["force_n"]))))
-        if max(err_dy, err_dx) > 1e-9 or err_f > 1e-10:
-            raise SystemExit(
-                f"pure-Python loop disagrees with backend={backend}: |Δdy| = {err_dy:.3g} mm, "
-                f"|Δdx| = {err_dx:.3g} mm, relative |ΔF| = {err_f:.3g}"
-            )
-        worst = max(worst, err_dy)
+    for name, (dx, dy, force) in mine.items():
+        for backend in ("rust", "numpy"):
+            ref = eodarm.solve(arm, alpha, mass, backend=backend)
+            err_dy = float(np.max(np.abs(dy - ref["dy_mm"])))
+            err_dx = float(np.max(np.abs(dx - ref["dx_mm"])))
+            err_f = float(np.max(np.abs(force - ref["force_n"]) / (1.0 + np.abs(ref["force_n"]))))
+            if max(err_dy, err_dx) > 1e-9 or err_f > 1e-10:
+                raise SystemExit(
+                    f"{name} disagrees with backend={backend}: |Δdy| = {err_dy:.3g} mm, "
+                    f"|Δdx| = {err_dx:.3g} mm, relative |ΔF| = {err_f:.3g}"
+                )
+            worst = max(worst, err_dy)
     return worst
 
 
@@ -236,7 +328,7 @@ def machine() -> list[str]:
         f"- machine: {platform.machine()}, {ncpu} CPUs (nproc), {cpu}",
         f"- python {platform.python_version()}, numpy {np.__version__}, "
         f"eodarm {eodarm.__version__}",
-        f"- rayon threads: {threads}; the core goes parallel from 2048 poses",
+        f"- rayon threads: {threads}; the block kernel goes parallel from 512 poses",
     ]
 
 
@@ -270,6 +362,48 @@ def others(start: tuple[float, ...], end: tuple[float, ...]) -> str:
     )
 
 
+#: The parts of one ``eodarm.solve`` call that ``--parts`` times, each alone.
+PARTS = (
+    "eodarm.solve (all of it)",
+    "eodarm.solve(out=...) (no allocation)",
+    "core only: _core.solve(out=...)",
+    "core with allocation: _core.solve",
+    "input checks and conversion (Python)",
+)
+
+
+def parts(arm: eodarm.Arm, budget: float, min_repeats: int) -> list[str]:
+    """Where the time of one call at 1e6 poses goes (baseline model): the table's rows."""
+    from eodarm.model import native as _core
+    from eodarm.model.effects import effect_arrays
+    from eodarm.model.solver import _core_arm, _per_row, _poses
+
+    rows = 1_000_000
+    alpha, mass = poses(rows)
+    payload = np.column_stack([np.zeros(rows), -mass * arm.g])
+    core, codes = _core_arm(arm), effect_arrays([], arm.n)
+    out = {k: np.empty_like(v) for k, v in eodarm.solve(arm, alpha, mass).items()}
+
+    def checks() -> None:
+        a = _poses(alpha, arm.n, "alpha_deg")
+        m = _per_row(mass, a.shape[0], "mass_kg")
+        p = np.zeros((a.shape[0], 2))
+        p[:, 1] = -m * arm.g
+
+    calls = (
+        partial(eodarm.solve, arm, alpha, mass),
+        partial(eodarm.solve, arm, alpha, mass, out=out),
+        partial(_core.solve, core, alpha, payload, *codes, True, out=out),
+        partial(_core.solve, core, alpha, payload, *codes, True),
+        checks,
+    )
+    lines = ["| part (baseline, 1,000,000 poses) | ms | ns/pose |", "|---|---:|---:|"]
+    for name, call in zip(PARTS, calls, strict=True):
+        t = best_time(call, budget, min_repeats)
+        lines.append(f"| {name} | {t * 1e3:,.1f} | {t / rows * 1e9:,.1f} |")
+    return lines
+
+
 def fmt_rate(x: float | None, extrapolated: bool = False) -> str:
     if x is None:
         return "—"
@@ -287,6 +421,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap.add_argument("--sizes", help="comma-separated pose counts (default 1e3,1e4,1e5,1e6)")
     ap.add_argument("--quick", action="store_true", help="1e3…1e5 poses, ~0.2 s per figure")
     ap.add_argument("--markdown", type=Path, metavar="FILE", help="also write the table here")
+    ap.add_argument("--parts", action="store_true", help="split a 1e6-pose call into parts")
     args = ap.parse_args(argv)
     sizes = tuple(int(float(s)) for s in args.sizes.split(",")) if args.sizes else SIZES
     if args.quick and not args.sizes:
@@ -298,7 +433,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     err = verify(arm, parm)
     load0, cpu0 = os.getloadavg(), cpu_seconds()
     started = datetime.now(UTC).strftime("%Y-%m-%d %H:%M UTC")
-    print(f"pure-Python loop agrees with eodarm.solve (rust, numpy): max |Δdy| = {err:.1e} mm")
+    print(
+        "pure-Python loop and vectorised numpy agree with eodarm.solve (rust, numpy): "
+        f"max |Δdy| = {err:.1e} mm"
+    )
 
     py_rate: dict[int, float] = {}  # poses/s of the pure-Python loop at each timed size
     py_sizes = sorted({s for s in sizes if s <= PY_MAX} or {min(PY_MAX, min(sizes))})
@@ -308,10 +446,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"pure Python, {rows:>9,} poses: {py_rate[rows]:>12,.0f} poses/s")
 
     header = (
-        "| model | poses | rust (poses/s) | numpy (poses/s) | pure Python (poses/s) "
-        "| rust/numpy | rust/pure Python |"
+        "| model | poses | rust (poses/s) | numpy reference (poses/s) "
+        "| vectorised numpy (poses/s) | pure Python (poses/s) "
+        "| rust/numpy ref. | rust/vectorised | rust/pure Python |"
     )
-    table = [header, "|---|---:|---:|---:|---:|---:|---:|"]
+    table = [header, "|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
     for model, effects in MODELS.items():
         eodarm.solve(arm, poses(10)[0], 1.0, effects=effects)  # build the cached core arm
         for rows in sizes:
@@ -321,16 +460,25 @@ def main(argv: Sequence[str] | None = None) -> int:
                 call = partial(eodarm.solve, arm, alpha, mass, effects=effects, backend=backend)
                 t = best_time(call, budget, min_repeats)
                 rate[backend] = rows / t
+            vec = None
+            if not effects:
+                call = partial(solve_numpy, parm, alpha, mass)
+                vec = rows / best_time(call, budget, min_repeats)
             extra = rows not in py_rate  # extrapolated from the largest timed size
             py = None if effects else py_rate.get(rows, py_rate[py_sizes[-1]])
             row = (
                 f"| {model} | {rows:,} | {fmt_rate(rate['rust'])} | {fmt_rate(rate['numpy'])} "
-                f"| {fmt_rate(py, extra)} | {fmt_ratio(rate['rust'] / rate['numpy'])} "
+                f"| {fmt_rate(vec)} | {fmt_rate(py, extra)} "
+                f"| {fmt_ratio(rate['rust'] / rate['numpy'])} "
+                f"| {fmt_ratio(rate['rust'] / vec if vec else None)} "
                 f"| {fmt_ratio(rate['rust'] / py if py else None, extra)} |"
             )
             table.append(row)
             print(row, flush=True)
 
+    if args.parts:
+        table += ["", *parts(arm, budget, min_repeats)]
+        print("\n".join(table[-len(PARTS) - 3 :]), flush=True)
     load1, cpu1 = os.getloadavg(), cpu_seconds()
     notes = [
         f"- run: {started}, `python3 benches/bench_solve.py"

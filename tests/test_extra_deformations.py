@@ -67,8 +67,12 @@ def test_extras_reproduce_builtin_effects(case, data) -> None:
     # Stiffnesses in the strategies' plausible ranges (every loaded triangle closes).
     k = data.draw(effect_at(arm, "mount_compliance", f"M{i + 1}"), label="mount").value
     kb = data.draw(effect_at(arm, "base_compliance", "base"), label="base").value
+    # Zero extras: the built-in effect goes through the same (general) path as the extras, so
+    # that the comparison is of the causes alone (the block kernel that solves built-in effects
+    # without extras agrees with that path to ~1e-12 mm, test_solve_kernel.py).
+    general = {"extra_measure_mm": np.zeros((rows, 2))}
     for backend in ("rust", "numpy"):
-        base = eodarm.solve(arm, alpha, mass, backend=backend)
+        base = eodarm.solve(arm, alpha, mass, backend=backend, extra=general)
         df = base["dforce_n"][:, i]
         unseen = np.zeros((rows, n))
         unseen[:, i] = -df / k
@@ -78,6 +82,7 @@ def test_extras_reproduce_builtin_effects(case, data) -> None:
             mass,
             [eodarm.Effect("mount_compliance", f"M{i + 1}", stiffness_n_per_mm=k)],
             backend=backend,
+            extra=general,
         )
         got = eodarm.solve(arm, alpha, mass, backend=backend, extra={"extra_unseen_mm": unseen})
         assert_close(got, want, atol=1e-12)
@@ -90,6 +95,7 @@ def test_extras_reproduce_builtin_effects(case, data) -> None:
             mass,
             [eodarm.Effect("actuator_compliance", f"M{i + 1}", stiffness_n_per_mm=k)],
             backend=backend,
+            extra=general,
         )
         got = eodarm.solve(arm, alpha, mass, backend=backend, extra={"extra_seen_mm": seen})
         assert_close(got, want, atol=1e-11)
@@ -103,6 +109,7 @@ def test_extras_reproduce_builtin_effects(case, data) -> None:
             mass,
             [eodarm.Effect("base_compliance", "base", stiffness_nmm_per_rad=kb)],
             backend=backend,
+            extra=general,
         )
         got = eodarm.solve(arm, alpha, mass, backend=backend, extra={"extra_tilt_rad": tilt})
         assert_close(got, want, atol=1e-12)
@@ -148,18 +155,24 @@ def test_zero_and_absent_extras_change_nothing() -> None:
     }
     for backend in ("rust", "numpy"):
         plain = eodarm.solve(arm, alpha, 3.0, eff, backend=backend)
-        for extra in (zeros, {"extra_seen_mm": None}, {}):
+        for extra in ({"extra_seen_mm": None}, {}):
             out = eodarm.solve(arm, alpha, 3.0, eff, backend=backend, extra=extra)
             for key in plain:
                 np.testing.assert_array_equal(out[key], plain[key], err_msg=key)
+        # Given extras, the core solves on its general path; without, on the block kernel:
+        # the same numbers to rounding (1e-9 mm, deg and N relative, test_solve_kernel.py).
+        out = eodarm.solve(arm, alpha, 3.0, eff, backend=backend, extra=zeros)
+        for key in plain:
+            np.testing.assert_allclose(out[key], plain[key], rtol=1e-9, atol=1e-9, err_msg=key)
 
 
 def test_measure_shift_moves_only_the_measure_point() -> None:
     arm = eodarm.Arm.from_toml(EXAMPLE)
     alpha = np.array([[80.0, 10.0, 0.0], [95.0, 20.0, -5.0]])
     shift = np.array([[0.5, -0.25], [-1.0, 0.125]])
+    zero = {"extra_measure_mm": np.zeros((2, 2))}  # the same (general) path as the shift's
     for backend in ("rust", "numpy"):
-        plain = eodarm.solve(arm, alpha, 3.0, backend=backend)
+        plain = eodarm.solve(arm, alpha, 3.0, backend=backend, extra=zero)
         out = eodarm.solve(arm, alpha, 3.0, backend=backend, extra={"extra_measure_mm": shift})
         np.testing.assert_allclose(out["dx_mm"] - plain["dx_mm"], shift[:, 0], atol=1e-12)
         np.testing.assert_allclose(out["dy_mm"] - plain["dy_mm"], shift[:, 1], atol=1e-12)
@@ -206,7 +219,10 @@ def test_statics_rust_equals_numpy_and_the_solver(case, self_weight) -> None:
     for key in rust:
         scale = max(1.0, float(np.abs(ref[key]).max()))
         np.testing.assert_allclose(rust[key], ref[key], rtol=0.0, atol=1e-9 * scale, err_msg=key)
-    solved = eodarm.solve(arm, alpha, mass, backend="rust", self_weight=self_weight)
+    # The statics user effects read are the general path's, bit for bit (the block kernel,
+    # which solves the built-in effects alone, agrees to rounding: test_solve_kernel.py).
+    general = {"extra_measure_mm": np.zeros((alpha.shape[0], 2))}
+    solved = eodarm.solve(arm, alpha, mass, backend="rust", self_weight=self_weight, extra=general)
     scale = max(1.0, float(np.abs(solved["force_n"]).max()))
     np.testing.assert_array_equal(rust["force_n"], solved["force_n"])
     np.testing.assert_array_equal(rust["reaction_n"], solved["reaction_n"])

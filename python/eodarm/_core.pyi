@@ -63,7 +63,9 @@ def solve(
     extra_joint_mm: npt.NDArray[np.float64] | None = None,
     extra_tilt_rad: npt.NDArray[np.float64] | None = None,
     extra_measure_mm: npt.NDArray[np.float64] | None = None,
-) -> dict[str, npt.NDArray[np.float64]]: ...
+    # a dict of arrays; typed Any so that callers may pass the extras as **kwargs
+    out: Any = None,
+) -> dict[str, npt.NDArray[Any]]: ...
 def statics(
     arm: CoreArm,
     alpha_deg: npt.NDArray[np.float64],

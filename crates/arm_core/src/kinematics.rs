@@ -305,3 +305,96 @@ pub fn inverse_kinematics(
     out[2] = a3;
     Ok(true)
 }
+
+/// Rows per parallel task of [`forward_batch`].
+const FORWARD_CHUNK: usize = 1024;
+
+/// The outputs of [`forward_batch`], row-major, filled in place: `o` (N × (n+1) × 2) joints
+/// and the load point, `a`, `b`, `c` (N × n × 2) actuator pins, base pins and centres of
+/// mass, `measure` (N × 2), `length` (N × n) pin-to-pin lengths.
+#[derive(Debug)]
+pub struct ForwardOutput<'a> {
+    /// Joints O_1…O_n and the load point.
+    pub o: &'a mut [f64],
+    /// Actuator pins A_i.
+    pub a: &'a mut [f64],
+    /// Base pins B_{i−1}.
+    pub b: &'a mut [f64],
+    /// Centres of mass C_i.
+    pub c: &'a mut [f64],
+    /// Measure point.
+    pub measure: &'a mut [f64],
+    /// Pin-to-pin lengths (mm).
+    pub length: &'a mut [f64],
+}
+
+/// The global points of N poses (`alpha_deg`, N × n, degrees), in parallel over chunks.
+///
+/// # Errors
+/// [`ArmError::Shape`] for outputs of the wrong size; [`ArmError::NonFinite`] naming the
+/// first row with a non-finite angle.
+pub fn forward_batch(arm: &Arm, alpha_deg: &[f64], out: ForwardOutput<'_>) -> Result<()> {
+    use rayon::prelude::*;
+    let n = arm.n();
+    let rows = alpha_deg.len() / n;
+    let sizes = [
+        (out.o.len(), rows * (n + 1) * 2),
+        (out.a.len(), rows * n * 2),
+        (out.b.len(), rows * n * 2),
+        (out.c.len(), rows * n * 2),
+        (out.measure.len(), rows * 2),
+        (out.length.len(), rows * n),
+    ];
+    if alpha_deg.len() != rows * n || sizes.iter().any(|(got, want)| got != want) {
+        return Err(ArmError::Shape {
+            what: "forward outputs",
+            expected: rows * n,
+            got: alpha_deg.len(),
+        });
+    }
+    let k = FORWARD_CHUNK;
+    let chunks = alpha_deg
+        .par_chunks(k * n)
+        .zip(out.o.par_chunks_mut(k * (n + 1) * 2))
+        .zip(out.a.par_chunks_mut(k * n * 2))
+        .zip(out.b.par_chunks_mut(k * n * 2))
+        .zip(out.c.par_chunks_mut(k * n * 2))
+        .zip(out.measure.par_chunks_mut(k * 2))
+        .zip(out.length.par_chunks_mut(k * n))
+        .enumerate();
+    let results: Vec<Result<()>> = chunks
+        .map(|(ci, ((((((alpha, o), a), b), c), m), len))| {
+            let mut fr = Frames::new(n);
+            let mut rad = vec![0.0; n];
+            for (p, src) in alpha.chunks_exact(n).enumerate() {
+                if !src.iter().all(|v| v.is_finite()) {
+                    return Err(ArmError::NonFinite {
+                        row: ci * k + p,
+                        what: "alpha_deg",
+                    });
+                }
+                for (r, d) in rad.iter_mut().zip(src) {
+                    *r = d.to_radians();
+                }
+                fr.fill(arm, &rad);
+                let put = |dst: &mut [f64], j: usize, q: V2| {
+                    dst[2 * j] = q.x;
+                    dst[2 * j + 1] = q.y;
+                };
+                for (i, q) in fr.joint.iter().enumerate() {
+                    put(o, p * (n + 1) + i, *q);
+                }
+                for i in 0..n {
+                    put(a, p * n + i, fr.a[i]);
+                    put(b, p * n + i, fr.b[i]);
+                    put(c, p * n + i, fr.c[i]);
+                    len[p * n + i] = fr.length(i);
+                }
+                put(m, p, fr.measure);
+            }
+            Ok(())
+        })
+        .collect();
+    // The first failing row: chunks are in order and each stops at its first failure.
+    results.into_iter().collect()
+}

@@ -50,7 +50,8 @@ pub use effects::{Effect, EffectSet, Mechanism};
 pub use error::{ArmError, Result};
 pub use geometry::V2;
 pub use solve::{
-    solve_batch, solve_batch_extra, BatchBuffers, BatchInput, BatchOutput, SolveOptions, Workspace,
+    solve_batch, solve_batch_extra, solve_batch_general, solve_batch_status, BatchBuffers,
+    BatchInput, BatchOutput, SolveOptions, Workspace,
 };
 pub use statics::{statics_batch, StaticsBuffers, StaticsOutput};
 pub use sweep::{sweep, CellFields, Cells, Reduce, ReduceOp, SweepOptions, SweepOut};

@@ -1,7 +1,13 @@
 //! The batch solver: statics of both states, effects, exact loaded pose, for many poses.
 //!
-//! Poses are processed in chunks, each with its own [`Workspace`] (nothing is allocated per
-//! pose), in parallel with rayon above [`PARALLEL_THRESHOLD`] poses.
+//! Poses are processed in chunks, in parallel with rayon above [`PARALLEL_THRESHOLD`] poses.
+//! Arms of 1–6 links with the built-in effects go through the block kernel (`solve/fast.rs`: 16
+//! poses at a time, structure of arrays); user-written deformations ([`ExtraDeformations`])
+//! and longer arms go through the general path, one [`Workspace`] per chunk (nothing is
+//! allocated per pose). Both give the status of every pose ([`solve_batch_status`]).
+
+mod fast;
+mod status;
 
 use rayon::prelude::*;
 
@@ -17,6 +23,11 @@ use crate::statics::{solve_forces, ActuatorLines, Forces};
 pub const PARALLEL_THRESHOLD: usize = 2048;
 /// Poses per parallel work item.
 pub const CHUNK: usize = 1024;
+/// Below this many poses the block kernel runs on the calling thread (it is ~5× faster per
+/// pose than the general path, so it pays to split smaller batches).
+pub const KERNEL_PARALLEL_THRESHOLD: usize = 512;
+/// Poses per parallel work item of the block kernel (16 blocks).
+pub const KERNEL_CHUNK: usize = 256;
 
 /// Options of a solve.
 #[derive(Debug, Clone, Copy)]
@@ -357,26 +368,109 @@ pub fn solve_batch_extra(
     opts: SolveOptions,
     out: BatchOutput<'_>,
 ) -> Result<()> {
+    let mut status = vec![0u8; out.dx_mm.len()];
+    solve_batch_status(arm, effects, input, extra, opts, out, &mut status)
+}
+
+/// [`solve_batch_extra`] that also writes the status code of every pose
+/// ([`crate::validity::Status`], docs/model.md §7) into `status` (one per pose), computed in
+/// the same pass. A pose that failed (NaN with `nan_on_failure`) gets the status of what is
+/// known of it: its unloaded checks, else `large_deflection` (its angles are NaN).
+///
+/// # Errors
+/// As [`solve_batch_extra`]; a `status` of the wrong length is a [`ArmError::Shape`].
+#[allow(clippy::too_many_arguments)]
+pub fn solve_batch_status(
+    arm: &Arm,
+    effects: &EffectSet,
+    input: BatchInput<'_>,
+    extra: ExtraDeformations<'_>,
+    opts: SolveOptions,
+    out: BatchOutput<'_>,
+    status: &mut [u8],
+) -> Result<()> {
+    run(arm, effects, input, extra, opts, out, status, false)
+}
+
+/// [`solve_batch_status`] through the general path only ([`Workspace::solve_extra`] pose by
+/// pose), whatever the effects: the reference the block kernel is tested against.
+///
+/// # Errors
+/// As [`solve_batch_status`].
+#[allow(clippy::too_many_arguments)]
+pub fn solve_batch_general(
+    arm: &Arm,
+    effects: &EffectSet,
+    input: BatchInput<'_>,
+    extra: ExtraDeformations<'_>,
+    opts: SolveOptions,
+    out: BatchOutput<'_>,
+    status: &mut [u8],
+) -> Result<()> {
+    run(arm, effects, input, extra, opts, out, status, true)
+}
+
+#[allow(clippy::too_many_arguments)]
+fn run(
+    arm: &Arm,
+    effects: &EffectSet,
+    input: BatchInput<'_>,
+    extra: ExtraDeformations<'_>,
+    opts: SolveOptions,
+    out: BatchOutput<'_>,
+    status: &mut [u8],
+    general: bool,
+) -> Result<()> {
     let n = arm.n();
     let rows = check_input(arm, &input)?;
     extra.check(rows, n)?;
     out.check(rows, n)?;
-    if rows < PARALLEL_THRESHOLD {
-        return solve_chunk(arm, effects, input, extra, opts, out, 0);
+    if status.len() != rows {
+        return Err(ArmError::Shape {
+            what: "status",
+            expected: rows,
+            got: status.len(),
+        });
     }
-    let chunks = split_output(out, n, CHUNK);
+    // The block kernel covers the built-in effects of arms of 1–6 links; user-written
+    // deformations and longer arms take the general path.
+    let kernel = if extra.is_none() && !general {
+        fast::Kernel::new(arm, effects, opts.self_weight)
+    } else {
+        None
+    };
+    let simd = pulp::Arch::new();
+    let ctx = fast::Ctx { arm, effects, opts };
+    let run = |sub: BatchInput<'_>, chunk: BatchOutput<'_>, st: &mut [u8], start: usize| {
+        let m = chunk.dx_mm.len();
+        match &kernel {
+            Some(k) => k.chunk(simd, &ctx, sub, chunk, st, start),
+            None => {
+                let extra = extra.rows(start, m, n);
+                solve_chunk(arm, effects, sub, extra, opts, chunk, st, start)
+            }
+        }
+    };
+    let (threshold, chunk_rows) = match kernel {
+        Some(_) => (KERNEL_PARALLEL_THRESHOLD, KERNEL_CHUNK),
+        None => (PARALLEL_THRESHOLD, CHUNK),
+    };
+    if rows < threshold {
+        return run(input, out, status, 0);
+    }
+    let chunks = split_output(out, n, chunk_rows);
     let errors: Vec<ArmError> = chunks
         .into_par_iter()
+        .zip(status.par_chunks_mut(chunk_rows))
         .enumerate()
-        .filter_map(|(k, chunk)| {
-            let start = k * CHUNK;
+        .filter_map(|(k, (chunk, st))| {
+            let start = k * chunk_rows;
             let m = chunk.dx_mm.len();
             let sub = BatchInput {
                 alpha_deg: &input.alpha_deg[start * n..(start + m) * n],
                 payload_n: &input.payload_n[2 * start..2 * (start + m)],
             };
-            let extra = extra.rows(start, m, n);
-            solve_chunk(arm, effects, sub, extra, opts, chunk, start).err()
+            run(sub, chunk, st, start).err()
         })
         .collect();
     // Chunks come back in order, so the first error is the lowest failing chunk's.
@@ -437,7 +531,8 @@ pub(crate) fn split_output<'a>(
     chunks
 }
 
-#[allow(clippy::needless_range_loop)] // i indexes six parallel arrays
+/// The general path over one chunk: [`Workspace::solve_extra`] pose by pose.
+#[allow(clippy::too_many_arguments, clippy::needless_range_loop)] // p indexes the outputs
 fn solve_chunk(
     arm: &Arm,
     effects: &EffectSet,
@@ -445,10 +540,13 @@ fn solve_chunk(
     extra: ExtraDeformations<'_>,
     opts: SolveOptions,
     mut out: BatchOutput<'_>,
+    status: &mut [u8],
     first_row: usize,
 ) -> Result<()> {
     let n = arm.n();
     let mut ws = Workspace::new(arm);
+    let mut loaded = Frames::new(n);
+    let reach = crate::validity::reach(arm);
     let mut alpha = vec![0.0; n];
     for p in 0..out.dx_mm.len() {
         let row = first_row + p;
@@ -456,28 +554,39 @@ fn solve_chunk(
             *a = d.to_radians();
         }
         let payload = V2::new(input.payload_n[2 * p], input.payload_n[2 * p + 1]);
-        if let Err(e) = ws.solve_extra(arm, effects, &alpha, payload, opts, row, (&extra, p)) {
-            if !opts.nan_on_failure || !e.is_pose_failure() {
-                return Err(e);
-            }
-            fill_nan(&mut out, p, n);
-            continue;
+        match ws.solve_extra(arm, effects, &alpha, payload, opts, row, (&extra, p)) {
+            Ok(()) => write_row(&ws, &alpha, &mut out, p, n),
+            Err(e) if opts.nan_on_failure && e.is_pose_failure() => fill_nan(&mut out, p, n),
+            Err(e) => return Err(e),
         }
-        for i in 0..n {
-            let j = p * n + i;
-            out.force_n[j] = ws.loaded.f[i];
-            out.reaction_n[2 * j] = ws.loaded.r[i].x;
-            out.reaction_n[2 * j + 1] = ws.loaded.r[i].y;
-            out.dforce_n[j] = ws.delta.f[i];
-            out.dalpha_deg[j] = (ws.new_alpha[i] - alpha[i]).to_degrees();
-            out.dl_mm[j] = ws.body_dl[i];
-            out.dlength_mm[j] = ws.new_length[i] - ws.lines.length[i];
-            out.length_mm[j] = ws.lines.length[i];
-        }
-        out.dx_mm[p] = ws.dmeasure.x;
-        out.dy_mm[p] = ws.dmeasure.y;
+        let down = payload.y < 0.0;
+        status[p] = status::pose_status(arm, &ws.frames, &mut loaded, &out, p, down, reach);
     }
     Ok(())
+}
+
+/// Writes the solved pose in `ws` (unloaded angles `alpha`, rad) into output row `p`.
+#[allow(clippy::needless_range_loop)] // i indexes six parallel arrays
+pub(crate) fn write_row(
+    ws: &Workspace,
+    alpha: &[f64],
+    out: &mut BatchOutput<'_>,
+    p: usize,
+    n: usize,
+) {
+    for i in 0..n {
+        let j = p * n + i;
+        out.force_n[j] = ws.loaded.f[i];
+        out.reaction_n[2 * j] = ws.loaded.r[i].x;
+        out.reaction_n[2 * j + 1] = ws.loaded.r[i].y;
+        out.dforce_n[j] = ws.delta.f[i];
+        out.dalpha_deg[j] = (ws.new_alpha[i] - alpha[i]).to_degrees();
+        out.dl_mm[j] = ws.body_dl[i];
+        out.dlength_mm[j] = ws.new_length[i] - ws.lines.length[i];
+        out.length_mm[j] = ws.lines.length[i];
+    }
+    out.dx_mm[p] = ws.dmeasure.x;
+    out.dy_mm[p] = ws.dmeasure.y;
 }
 
 pub(crate) fn fill_nan(out: &mut BatchOutput<'_>, p: usize, n: usize) {

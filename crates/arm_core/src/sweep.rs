@@ -39,7 +39,7 @@
 //! Results do not depend on the chunk size or the number of threads (bit for bit).
 
 mod fallback;
-mod fast;
+pub(crate) mod fast;
 mod reduce;
 pub mod trig;
 
@@ -1087,7 +1087,7 @@ fn run_fast<const N: usize>(
 
 /// Writes the first `out.len() / N` lanes of a `[link][lane]` block as rows of `N`.
 #[inline(always)]
-fn transpose_into<const N: usize>(block: &[[f64; L]; N], out: &mut [f64]) {
+pub(crate) fn transpose_into<const N: usize>(block: &[[f64; L]; N], out: &mut [f64]) {
     for (q, row) in out.chunks_exact_mut(N).enumerate() {
         for i in 0..N {
             row[i] = block[i][q];

@@ -90,6 +90,7 @@ pub struct Checks {
 }
 
 /// The reported reason: the first broken limit in code order.
+#[inline]
 pub fn classify(c: Checks) -> Status {
     if c.out_of_stroke {
         Status::OutOfStroke
@@ -142,6 +143,23 @@ pub fn large_deflection(
     reach_mm: f64,
 ) -> bool {
     let moved = dx_mm.hypot(dy_mm);
+    !(max_abs_dalpha_deg <= MAX_DALPHA_DEG)
+        || !(moved <= MAX_DEFLECTION_OF_REACH * reach_mm)
+        || (payload_down && dy_mm > MAX_RISE_OF_REACH * reach_mm)
+}
+
+/// [`large_deflection`] with the displacement's length as `√(dx² + dy²)` instead of
+/// `hypot` (no libm call, for the lanes of the block kernel): the same answer except where
+/// the length is within rounding (≈ 1e-16 relative) of its limit.
+#[inline(always)]
+pub fn large_deflection_sq(
+    max_abs_dalpha_deg: f64,
+    dx_mm: f64,
+    dy_mm: f64,
+    payload_down: bool,
+    reach_mm: f64,
+) -> bool {
+    let moved = (dx_mm * dx_mm + dy_mm * dy_mm).sqrt();
     !(max_abs_dalpha_deg <= MAX_DALPHA_DEG)
         || !(moved <= MAX_DEFLECTION_OF_REACH * reach_mm)
         || (payload_down && dy_mm > MAX_RISE_OF_REACH * reach_mm)

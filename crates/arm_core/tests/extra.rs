@@ -3,6 +3,10 @@
 //! cause gives that effect's result; zero extras change nothing; bad extras are refused naming
 //! the array and row; the batch statics are the solver's; a taken-up gap gives no deflection
 //! at zero payload, is bounded by twice the gap, and is the centred gap without self-weight.
+//!
+//! Extras always take the general path (`Workspace::solve_extra`); the solves they are
+//! compared with here take it too (`solve_batch_general`), so that the comparison is of the
+//! extras alone. tests/solve_fast.rs compares the block kernel with the general path.
 
 #![allow(clippy::unwrap_used, clippy::needless_range_loop)] // test code: a failure should panic
 use arm_core::effects::{
@@ -13,8 +17,9 @@ use arm_core::fem::{FemModel, FemOptions};
 use arm_core::geometry::cross;
 use arm_core::sensitivity::{jacobian_batch, n_channels, Place};
 use arm_core::{
-    solve_batch, solve_batch_extra, statics_batch, Arm, ArmError, BatchBuffers, BatchInput, Effect,
-    EffectSet, ExtraDeformations, Mechanism, SolveOptions, StaticsBuffers, Workspace, V2,
+    solve_batch, solve_batch_extra, solve_batch_general, statics_batch, Arm, ArmError,
+    BatchBuffers, BatchInput, Effect, EffectSet, ExtraDeformations, Mechanism, SolveOptions,
+    StaticsBuffers, Workspace, V2,
 };
 use proptest::prelude::*;
 
@@ -42,7 +47,19 @@ fn run(
         alpha_deg: input.0,
         payload_n: input.1,
     };
-    solve_batch_extra(arm, &set, input, extra, SolveOptions::default(), b.out()).unwrap();
+    let mut status = vec![0; rows];
+    let opts = SolveOptions::default();
+    solve_batch_general(arm, &set, input, extra, opts, b.out(), &mut status).unwrap();
+    b
+}
+
+/// `solve_batch` through the general path.
+fn general(arm: &Arm, set: &EffectSet, input: BatchInput<'_>, opts: SolveOptions) -> BatchBuffers {
+    let rows = input.payload_n.len() / 2;
+    let mut b = BatchBuffers::new(rows, arm.n());
+    let mut status = vec![0; rows];
+    let none = ExtraDeformations::none();
+    solve_batch_general(arm, set, input, none, opts, b.out(), &mut status).unwrap();
     b
 }
 
@@ -223,15 +240,18 @@ fn zero_extras_change_nothing() {
     let with = run(&arm, effects(), input, zeros);
     let without = run(&arm, effects(), input, ExtraDeformations::none());
     assert_eq!(with, without);
-    // And `solve_batch` is `solve_batch_extra` without extras.
+    // And `solve_batch` is `solve_batch_extra` without extras (both on the block kernel).
     let set = EffectSet::new(&arm, effects()).unwrap();
-    let mut b = BatchBuffers::new(3, n);
     let input = BatchInput {
         alpha_deg: &alpha,
         payload_n: &payload,
     };
+    let mut b = BatchBuffers::new(3, n);
     solve_batch(&arm, &set, input, SolveOptions::default(), b.out()).unwrap();
-    assert_eq!(b, without);
+    let mut e = BatchBuffers::new(3, n);
+    let none = ExtraDeformations::none();
+    solve_batch_extra(&arm, &set, input, none, SolveOptions::default(), e.out()).unwrap();
+    assert_eq!(b, e);
 }
 
 /// A wrong size names the array; a NaN names the array and its row.
@@ -318,14 +338,12 @@ fn statics_batch_is_the_solvers_statics() {
             payload_n: &payload,
         };
         statics_batch(&arm, input, self_weight, st.out()).unwrap();
-        let mut loaded = BatchBuffers::new(rows, n);
-        solve_batch(&arm, &EffectSet::empty(), input, opts, loaded.out()).unwrap();
-        let mut unloaded = BatchBuffers::new(rows, n);
+        let loaded = general(&arm, &EffectSet::empty(), input, opts);
         let input0 = BatchInput {
             alpha_deg: &alpha,
             payload_n: &zero,
         };
-        solve_batch(&arm, &EffectSet::empty(), input0, opts, unloaded.out()).unwrap();
+        let unloaded = general(&arm, &EffectSet::empty(), input0, opts);
         assert_eq!(st.force_n, loaded.force_n);
         assert_eq!(st.reaction_n, loaded.reaction_n);
         assert_eq!(st.force0_n, unloaded.force_n);

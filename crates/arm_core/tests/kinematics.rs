@@ -97,3 +97,53 @@ fn bad_batches_are_errors_naming_the_row() {
         "{e}"
     );
 }
+
+/// `forward_batch` (parallel chunks) gives each row's `Frames::fill`, bit for bit, and names
+/// the first row with a non-finite angle, also beyond the first chunk.
+#[test]
+fn forward_batch_is_frames_fill_per_row() {
+    use arm_core::kinematics::{forward_batch, ForwardOutput};
+    let arm = example_arm();
+    let (n, rows) = (arm.n(), 3000);
+    let alpha: Vec<f64> = (0..rows * n)
+        .map(|k| [80.0, 10.0, -5.0][k % n] + (k as f64 * 0.37).sin() * 20.0)
+        .collect();
+    let mut o = vec![0.0; rows * (n + 1) * 2];
+    let mut a = vec![0.0; rows * n * 2];
+    let mut b = vec![0.0; rows * n * 2];
+    let mut c = vec![0.0; rows * n * 2];
+    let mut m = vec![0.0; rows * 2];
+    let mut len = vec![0.0; rows * n];
+    let mut run = |alpha: &[f64]| {
+        let out = ForwardOutput {
+            o: &mut o,
+            a: &mut a,
+            b: &mut b,
+            c: &mut c,
+            measure: &mut m,
+            length: &mut len,
+        };
+        forward_batch(&arm, alpha, out)
+    };
+    let mut bad = alpha.clone();
+    bad[2500 * n + 1] = f64::NAN;
+    let err = run(&bad).unwrap_err();
+    assert!(err.to_string().contains("row 2500"), "{err}");
+    run(&alpha).unwrap();
+    let mut fr = Frames::new(n);
+    for row in [0, 1, 1023, 1024, 2999] {
+        let rad: Vec<f64> = alpha[row * n..(row + 1) * n]
+            .iter()
+            .map(|d| d.to_radians())
+            .collect();
+        fr.fill(&arm, &rad);
+        for i in 0..n {
+            assert_eq!(a[2 * (row * n + i)], fr.a[i].x);
+            assert_eq!(b[2 * (row * n + i) + 1], fr.b[i].y);
+            assert_eq!(c[2 * (row * n + i)], fr.c[i].x);
+            assert_eq!(len[row * n + i], fr.length(i));
+        }
+        assert_eq!(o[2 * (row * (n + 1) + n)], fr.joint[n].x);
+        assert_eq!(m[2 * row + 1], fr.measure.y);
+    }
+}

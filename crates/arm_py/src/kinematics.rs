@@ -2,13 +2,14 @@
 
 use crate::convert::{matrix, CoreArm};
 use crate::errors::{value_error, PyArmError};
-use arm_core::kinematics::{inverse_kinematics, Frames};
-use arm_core::{ArmError, V2};
-use numpy::{IntoPyArray, PyArray1, PyArrayMethods, PyReadonlyArray2};
+use arm_core::kinematics::{forward_batch, inverse_kinematics, ForwardOutput};
+use arm_core::ArmError;
+use numpy::{IntoPyArray, PyArray1, PyArrayDyn, PyArrayMethods, PyReadonlyArray2};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-/// Global points of N poses: O (N, n+1, 2), A, B, C (N, n, 2), measure (N, 2), length_mm (N, n).
+/// Global points of N poses: O (N, n+1, 2), A, B, C (N, n, 2), measure (N, 2), length_mm (N, n)
+/// (`arm_core::kinematics::forward_batch`, into numpy-allocated arrays).
 #[pyfunction]
 pub(crate) fn forward<'py>(
     py: Python<'py>,
@@ -18,52 +19,40 @@ pub(crate) fn forward<'py>(
     let arm = &arm.inner;
     let n = arm.n();
     let (alpha, rows) = matrix(&alpha_deg, "alpha_deg", n)?;
-    let mut o = vec![0.0; rows * (n + 1) * 2];
-    let mut a = vec![0.0; rows * n * 2];
-    let mut b = vec![0.0; rows * n * 2];
-    let mut c = vec![0.0; rows * n * 2];
-    let mut m = vec![0.0; rows * 2];
-    let mut len = vec![0.0; rows * n];
-    py.detach(|| -> Result<(), ArmError> {
-        let mut fr = Frames::new(n);
-        let mut rad = vec![0.0; n];
-        for row in 0..rows {
-            let src = &alpha[row * n..(row + 1) * n];
-            if !src.iter().all(|v| v.is_finite()) {
-                return Err(ArmError::NonFinite {
-                    row,
-                    what: "alpha_deg",
-                });
-            }
-            for (r, d) in rad.iter_mut().zip(src) {
-                *r = d.to_radians();
-            }
-            fr.fill(arm, &rad);
-            let put = |dst: &mut [f64], k: usize, p: V2| {
-                dst[2 * k] = p.x;
-                dst[2 * k + 1] = p.y;
-            };
-            for i in 0..=n {
-                put(&mut o, row * (n + 1) + i, fr.joint[i]);
-            }
-            for i in 0..n {
-                put(&mut a, row * n + i, fr.a[i]);
-                put(&mut b, row * n + i, fr.b[i]);
-                put(&mut c, row * n + i, fr.c[i]);
-                len[row * n + i] = fr.length(i);
-            }
-            put(&mut m, row, fr.measure);
-        }
-        Ok(())
-    })
-    .map_err(PyArmError)?;
+    let shapes: [(&str, Vec<usize>); 6] = [
+        ("O", vec![rows, n + 1, 2]),
+        ("A", vec![rows, n, 2]),
+        ("B", vec![rows, n, 2]),
+        ("C", vec![rows, n, 2]),
+        ("measure", vec![rows, 2]),
+        ("length_mm", vec![rows, n]),
+    ];
     let out = PyDict::new(py);
-    out.set_item("O", o.into_pyarray(py).reshape([rows, n + 1, 2])?)?;
-    out.set_item("A", a.into_pyarray(py).reshape([rows, n, 2])?)?;
-    out.set_item("B", b.into_pyarray(py).reshape([rows, n, 2])?)?;
-    out.set_item("C", c.into_pyarray(py).reshape([rows, n, 2])?)?;
-    out.set_item("measure", m.into_pyarray(py).reshape([rows, 2])?)?;
-    out.set_item("length_mm", len.into_pyarray(py).reshape([rows, n])?)?;
+    let mut arrays = Vec::with_capacity(shapes.len());
+    for (key, shape) in shapes {
+        let a = PyArrayDyn::<f64>::zeros(py, shape, false);
+        out.set_item(key, &a)?;
+        arrays.push(a.readwrite());
+    }
+    let mut slices = Vec::with_capacity(arrays.len());
+    for a in arrays.iter_mut() {
+        slices.push(
+            a.as_slice_mut()
+                .map_err(|e| value_error(format!("forward: {e}")))?,
+        );
+    }
+    let mut it = slices.into_iter();
+    let mut next = || it.next().unwrap_or_default();
+    let dst = ForwardOutput {
+        o: next(),
+        a: next(),
+        b: next(),
+        c: next(),
+        measure: next(),
+        length: next(),
+    };
+    py.detach(|| forward_batch(arm, alpha, dst))
+        .map_err(PyArmError)?;
     Ok(out)
 }
 

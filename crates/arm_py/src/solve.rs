@@ -1,14 +1,82 @@
 //! `solve`: the analytic model over N poses (with the extra deformations of user effects), and
 //! `statics`: the forces of both states that those effects read.
 
-use crate::convert::{effect_set, optional, poses_and_payloads, solve_dict, CoreArm};
-use crate::errors::PyArmError;
-use arm_core::{BatchBuffers, ExtraDeformations, SolveOptions, StaticsBuffers};
-use numpy::{IntoPyArray, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyReadonlyArrayDyn};
+use crate::convert::{effect_set, optional, poses_and_payloads, CoreArm};
+use crate::errors::{value_error, PyArmError};
+use arm_core::{BatchOutput, ExtraDeformations, SolveOptions, StaticsBuffers};
+use numpy::{
+    IntoPyArray, PyArrayDyn, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2,
+    PyReadonlyArrayDyn, PyReadwriteArrayDyn, PyUntypedArrayMethods,
+};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-/// Solves N poses; returns a dict of float64 arrays (see `eodarm.solve`).
+/// The float64 outputs of `solve` and their shapes in rows N and links n (`0` = N, `1` = n,
+/// `2` = 2).
+const OUT_KEYS: [(&str, &[u8]); 9] = [
+    ("force_n", &[0, 1]),
+    ("reaction_n", &[0, 1, 2]),
+    ("dforce_n", &[0, 1]),
+    ("dx_mm", &[0]),
+    ("dy_mm", &[0]),
+    ("dalpha_deg", &[0, 1]),
+    ("dl_mm", &[0, 1]),
+    ("dlength_mm", &[0, 1]),
+    ("length_mm", &[0, 1]),
+];
+
+/// The caller's output arrays, borrowed writeable after their keys, dtypes and shapes were
+/// checked (a one-line error naming the key otherwise).
+fn borrow_out<'py>(
+    out: &Bound<'py, PyDict>,
+    rows: usize,
+    n: usize,
+) -> PyResult<(
+    Vec<PyReadwriteArrayDyn<'py, f64>>,
+    PyReadwriteArrayDyn<'py, u8>,
+)> {
+    let get = |key: &str| -> PyResult<Bound<'py, PyAny>> {
+        out.get_item(key)?
+            .ok_or_else(|| value_error(format!("out: missing key {key:?}")))
+    };
+    let mut arrays = Vec::with_capacity(OUT_KEYS.len());
+    for (key, code) in OUT_KEYS {
+        let want = dims(code, rows, n);
+        let a = get(key)?
+            .extract::<PyReadwriteArrayDyn<'py, f64>>()
+            .map_err(|_| {
+                value_error(format!(
+                    "out[{key:?}]: expected a writeable float64 array of shape {want:?} \
+                     (not shared with another key)"
+                ))
+            })?;
+        if a.shape() != want.as_slice() || !a.is_c_contiguous() {
+            return Err(value_error(format!(
+                "out[{key:?}]: expected a C-contiguous array of shape {want:?}, got {:?}",
+                a.shape()
+            )));
+        }
+        arrays.push(a);
+    }
+    let status = get("status")?
+        .extract::<PyReadwriteArrayDyn<'py, u8>>()
+        .map_err(|_| {
+            value_error(format!(
+                "out[\"status\"]: expected a writeable uint8 array of shape [{rows}]"
+            ))
+        })?;
+    if status.shape() != [rows] || !status.is_c_contiguous() {
+        return Err(value_error(format!(
+            "out[\"status\"]: expected a C-contiguous array of shape [{rows}], got {:?}",
+            status.shape()
+        )));
+    }
+    Ok((arrays, status))
+}
+
+/// Solves N poses; returns a dict of float64 arrays and the uint8 `status` per pose (see
+/// `eodarm.solve`). With `out` (a dict of C-contiguous writeable arrays of those keys, shapes
+/// and dtypes) the results are written into the caller's arrays, and that dict is returned.
 ///
 /// The keyword-only `extra_*` arrays (float64, C-contiguous, each optional) are deformations
 /// of user-written effects added to the built-in effects' (global frame, see
@@ -17,7 +85,7 @@ use pyo3::types::PyDict;
 /// (N, n, 2) offset of link i's pin centre at O_i, `extra_tilt_rad` (N,) chassis tilt about
 /// the base pivot, `extra_measure_mm` (N, 2) displacement of the measure point.
 #[pyfunction]
-#[pyo3(signature = (arm, alpha_deg, payload_n, codes, places, values, self_weight, nan_on_failure=false, *, extra_seen_mm=None, extra_unseen_mm=None, extra_joint_mm=None, extra_tilt_rad=None, extra_measure_mm=None))]
+#[pyo3(signature = (arm, alpha_deg, payload_n, codes, places, values, self_weight, nan_on_failure=false, *, extra_seen_mm=None, extra_unseen_mm=None, extra_joint_mm=None, extra_tilt_rad=None, extra_measure_mm=None, out=None))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn solve<'py>(
     py: Python<'py>,
@@ -34,6 +102,7 @@ pub(crate) fn solve<'py>(
     extra_joint_mm: Option<PyReadonlyArrayDyn<'py, f64>>,
     extra_tilt_rad: Option<PyReadonlyArrayDyn<'py, f64>>,
     extra_measure_mm: Option<PyReadonlyArrayDyn<'py, f64>>,
+    out: Option<Bound<'py, PyDict>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let arm = &arm.inner;
     let n = arm.n();
@@ -52,22 +121,70 @@ pub(crate) fn solve<'py>(
         tilt_rad: optional(&extra_tilt_rad, "extra_tilt_rad", &[rows], "(N,)")?,
         measure_mm: optional(&extra_measure_mm, "extra_measure_mm", &[rows, 2], "(N, 2)")?,
     };
-    let mut arrays = BatchBuffers::new(rows, n);
-    py.detach(|| {
-        arm_core::solve_batch_extra(
-            arm,
-            &effects,
-            input,
-            extra,
-            SolveOptions {
-                self_weight,
-                nan_on_failure,
-            },
-            arrays.out(),
-        )
-    })
-    .map_err(PyArmError)?;
-    solve_dict(py, arrays, rows, n)
+    let opts = SolveOptions {
+        self_weight,
+        nan_on_failure,
+    };
+    // Without `out`, numpy allocates the outputs (it asks the kernel for huge pages for large
+    // arrays: a million poses fault in 100 pages rather than 50 000), and they are filled as
+    // the caller's would be.
+    let dict = match out {
+        Some(dict) => dict,
+        None => new_out(py, rows, n)?,
+    };
+    {
+        let (mut arrays, mut status) = borrow_out(&dict, rows, n)?;
+        let mut slices = Vec::with_capacity(arrays.len());
+        for a in arrays.iter_mut() {
+            slices.push(
+                a.as_slice_mut()
+                    .map_err(|e| value_error(format!("out: {e}")))?,
+            );
+        }
+        let st = status
+            .as_slice_mut()
+            .map_err(|e| value_error(format!("out: {e}")))?;
+        let mut it = slices.into_iter();
+        let mut next = || it.next().unwrap_or_default();
+        let batch = BatchOutput {
+            force_n: next(),
+            reaction_n: next(),
+            dforce_n: next(),
+            dx_mm: next(),
+            dy_mm: next(),
+            dalpha_deg: next(),
+            dl_mm: next(),
+            dlength_mm: next(),
+            length_mm: next(),
+        };
+        py.detach(|| arm_core::solve_batch_status(arm, &effects, input, extra, opts, batch, st))
+            .map_err(PyArmError)?;
+    }
+    Ok(dict)
+}
+
+/// Zeroed numpy output arrays of `solve` for `rows` poses of an `n`-link arm.
+fn new_out(py: Python<'_>, rows: usize, n: usize) -> PyResult<Bound<'_, PyDict>> {
+    let d = PyDict::new(py);
+    for (key, code) in OUT_KEYS {
+        d.set_item(
+            key,
+            PyArrayDyn::<f64>::zeros(py, dims(code, rows, n), false),
+        )?;
+    }
+    d.set_item("status", PyArrayDyn::<u8>::zeros(py, vec![rows], false))?;
+    Ok(d)
+}
+
+/// The shape of an output from its code in [`OUT_KEYS`].
+fn dims(code: &[u8], rows: usize, n: usize) -> Vec<usize> {
+    code.iter()
+        .map(|c| match c {
+            0 => rows,
+            1 => n,
+            _ => 2,
+        })
+        .collect()
 }
 
 /// Statics of N poses on the undeformed geometry (see `arm_core::statics_batch`): a dict of

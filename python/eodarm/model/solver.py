@@ -46,6 +46,7 @@ def solve(
     fem_options: Mapping[str, Any] | None = None,
     extra: Mapping[str, npt.ArrayLike | None] | None = None,
     uncertainty: bool = False,
+    out: Mapping[str, npt.NDArray[Any]] | None = None,
 ) -> Arrays:
     """Loaded minus unloaded state of N poses under a payload mass at the load point.
 
@@ -74,6 +75,12 @@ def solve(
         (N, n), the standard deviations of those outputs from the covariance of the arm's
         fitted parameters (an arm file written by ``eodarm fit -o``; linear propagation
         through the compiled core's sensitivities, :mod:`eodarm.model.uncertainty`).
+    out : arrays to write the results into, for repeated calls without allocating: a dict
+        with every key of the analytic results below (``status`` included), each a writeable
+        C-contiguous array of that shape and dtype (e.g. ``{k: np.empty_like(v) for k, v in
+        solve(...).items()}``). The returned dict holds these arrays. ``backend="rust"``,
+        ``model="analytic"`` only; a missing key or a wrong shape, dtype or layout is an
+        :class:`~eodarm.errors.InputError` naming the key.
 
     Returns
     -------
@@ -107,8 +114,18 @@ def solve(
         raise InputError(f"pose row {bad[0]}: mass_kg is negative ({mass[bad[0]]})")
     payload = np.zeros((alpha.shape[0], 2))
     payload[:, 1] = -mass * arm.g
-    return solve_payload(
-        arm, alpha, payload, effects, backend, self_weight, model, fem_options, extra, uncertainty
+    return _solve_payload(
+        arm,
+        alpha,
+        payload,
+        effects,
+        backend,
+        self_weight,
+        model,
+        fem_options,
+        extra,
+        uncertainty,
+        out,
     )
 
 
@@ -123,10 +140,41 @@ def solve_payload(
     fem_options: Mapping[str, Any] | None = None,
     extra: Mapping[str, npt.ArrayLike | None] | None = None,
     uncertainty: bool = False,
+    out: Mapping[str, npt.NDArray[Any]] | None = None,
 ) -> Arrays:
     """Like :func:`solve`, with any payload force vector (N, 2) in N at the load point."""
     check_arm(arm, "solve_payload")
     _check_memory(alpha_deg, arm.n)
+    return _solve_payload(
+        arm,
+        alpha_deg,
+        payload_n,
+        effects,
+        backend,
+        self_weight,
+        model,
+        fem_options,
+        extra,
+        uncertainty,
+        out,
+    )
+
+
+def _solve_payload(
+    arm: Arm,
+    alpha_deg: npt.ArrayLike,
+    payload_n: npt.ArrayLike,
+    effects: Effect | list[Effect] | tuple[Effect, ...] | None,
+    backend: Backend,
+    self_weight: bool,
+    model: str,
+    fem_options: Mapping[str, Any] | None,
+    extra: Mapping[str, npt.ArrayLike | None] | None,
+    uncertainty: bool,
+    out: Mapping[str, npt.NDArray[Any]] | None,
+) -> Arrays:
+    """:func:`solve_payload` once the arm and the memory the outputs need are checked (the
+    memory check reads /proc: once per call, not once per layer)."""
     from eodarm.model import fem
 
     alpha = _poses(alpha_deg, arm.n, "alpha_deg")
@@ -149,6 +197,10 @@ def solve_payload(
             f"custom effect {custom_effs[0].key}: the finite-element model cannot include "
             "user-written effects; use model='analytic'"
         )
+    if out is not None:
+        if backend != "rust" or model != "analytic" or uncertainty:
+            raise InputError("out= is for backend='rust', model='analytic', no uncertainty")
+        out = check_out(out, alpha.shape[0], arm.n)
     if model == "fem":
         if uncertainty:
             raise InputError("uncertainty is propagated with model='analytic'")
@@ -171,7 +223,7 @@ def solve_payload(
             st = _core.statics(_core_arm(arm), alpha, payload, self_weight)
             state = custom.EffectState.from_statics(arm, alpha, payload, st, self_weight)
             extras = custom.add_extras(extras, custom.extras_of(custom_effs, state))
-        out: Arrays = _core.solve(
+        res: Arrays = _core.solve(
             _core_arm(arm),
             alpha,
             payload,
@@ -184,22 +236,23 @@ def solve_payload(
             extra_joint_mm=extras.get("extra_joint_mm"),
             extra_tilt_rad=extras.get("extra_tilt_rad"),
             extra_measure_mm=extras.get("extra_measure_mm"),
+            out=out,
         )
     else:
         _check_backend(backend)
         from eodarm.model import reference
 
-        out = dict(
+        res = dict(
             reference.solve_payload(
                 arm, alpha, payload, effs, self_weight=self_weight, extra=extras
             )
         )
-    out["status"] = status(arm, alpha, payload, out)
+        res["status"] = status(arm, alpha, payload, res)
     if uncertainty:
         from eodarm.model.uncertainty import prediction_sigma
 
-        out.update(prediction_sigma(arm, alpha, payload, effs, self_weight))
-    return out
+        res.update(prediction_sigma(arm, alpha, payload, effs, self_weight))
+    return res
 
 
 def statics(
@@ -344,6 +397,50 @@ def _check_memory(alpha_deg: npt.ArrayLike, n: int) -> None:
         check_output_memory(2 * rows * (8 * (8 * n + 2) + 1), f"solve of {rows:,} poses")
 
 
+#: The outputs of the analytic solve: dtype and shape in rows N and links n.
+_OUT_SHAPES: dict[str, tuple[type, tuple[str, ...]]] = {
+    "force_n": (np.float64, ("N", "n")),
+    "reaction_n": (np.float64, ("N", "n", "2")),
+    "dforce_n": (np.float64, ("N", "n")),
+    "dx_mm": (np.float64, ("N",)),
+    "dy_mm": (np.float64, ("N",)),
+    "dalpha_deg": (np.float64, ("N", "n")),
+    "dl_mm": (np.float64, ("N", "n")),
+    "dlength_mm": (np.float64, ("N", "n")),
+    "length_mm": (np.float64, ("N", "n")),
+    "status": (np.uint8, ("N",)),
+}
+
+
+def check_out(out: Mapping[str, Any], rows: int, n: int) -> dict[str, npt.NDArray[Any]]:
+    """The caller's output arrays of :func:`solve` (``out=``) as a dict, or an InputError
+    naming the first missing or unknown key, or the first array of the wrong type, dtype,
+    shape or layout (or not writeable, or shared with another key)."""
+    if not isinstance(out, Mapping):
+        raise InputError(f"out: expected a dict of arrays, got {type(out).__name__}")
+    unknown = sorted(set(out) - set(_OUT_SHAPES))
+    if unknown:
+        raise InputError(f"out: unknown key {unknown[0]!r}; expected {', '.join(_OUT_SHAPES)}")
+    checked: dict[str, npt.NDArray[Any]] = {}
+    for key, (dtype, dims) in _OUT_SHAPES.items():
+        if key not in out:
+            raise InputError(f"out: missing key {key!r}")
+        a = out[key]
+        shape = tuple(rows if d == "N" else n if d == "n" else int(d) for d in dims)
+        want = f"a writeable C-contiguous {np.dtype(dtype).name} array of shape {shape}"
+        if not isinstance(a, np.ndarray):
+            raise InputError(f"out[{key!r}]: expected {want}, got {type(a).__name__}")
+        if a.dtype != dtype or a.shape != shape:
+            raise InputError(f"out[{key!r}]: expected {want}, got {a.dtype} {a.shape}")
+        if not a.flags.c_contiguous or not a.flags.writeable:
+            raise InputError(f"out[{key!r}]: expected {want}, got a view that is not")
+        for other, b in checked.items():
+            if np.shares_memory(a, b):
+                raise InputError(f"out[{key!r}]: shares memory with out[{other!r}]")
+        checked[key] = a
+    return checked
+
+
 def _check_backend(backend: str) -> None:
     if backend not in ("rust", "numpy"):
         raise InputError(f"backend must be 'rust' or 'numpy', got {backend!r}")
@@ -359,9 +456,13 @@ def _poses(values: npt.ArrayLike, n: int, name: str) -> npt.NDArray[np.float64]:
         a = a[None, :]
     if a.ndim != 2 or a.shape[1] != n:
         raise InputError(f"{name}: expected shape (N, {n}), got {a.shape}")
-    bad = ~np.isfinite(a).all(axis=1)
-    if bad.any():
-        raise InputError(f"pose row {int(np.flatnonzero(bad)[0])}: {name} has a non-finite value")
+    # The sum is finite when every value is (one pass, no temporary); only when it is not
+    # (a NaN or ±inf, or an overflow of huge values) are the rows looked at one by one.
+    if not np.isfinite(np.sum(a)):
+        bad = ~np.isfinite(a).all(axis=1)
+        if bad.any():
+            row = int(np.flatnonzero(bad)[0])
+            raise InputError(f"pose row {row}: {name} has a non-finite value")
     return np.ascontiguousarray(a)
 
 

@@ -97,6 +97,34 @@ impl LinkBending {
     }
 }
 
+/// How a bent link's points move per unit force on it: `[point][load][component]`, the
+/// displacement (mm, link frame) of point q ∈ (A_i, B_i, next_i, measure) under a unit force
+/// (N, link frame) along x (component 0) or y (1) at load point p ∈ (O_i, A_i, B_i, next_i).
+/// The field of §4 is linear in the loads, so any load case is the sum of these.
+pub(crate) type BendInfluence = [[[V2; 2]; 4]; 4];
+
+impl LinkBending {
+    /// This link's [`BendInfluence`] (by superposition of [`Beam`]s with one unit load).
+    pub(crate) fn influence(&self, arm: &Arm) -> BendInfluence {
+        let link = &arm.links[self.link];
+        let at = [V2::zeros(), link.a, link.b, link.next];
+        let points = [link.a, link.b, link.next, arm.measure];
+        let mut out = [[[V2::zeros(); 2]; 4]; 4];
+        for (p, at_p) in at.iter().enumerate() {
+            // A force (f_x, f_y) at (x_p, y_p) is a transverse force f_y and a couple −y_p·f_x.
+            for (j, (f, c)) in [(0.0, -at_p.y), (1.0, 0.0)].into_iter().enumerate() {
+                let mut loads = [AxisLoad::default(); 4];
+                loads[0] = AxisLoad { x: at_p.x, f, c };
+                let beam = Beam::new(loads, 1, self.ei, link.a.x);
+                for (q, point) in points.iter().enumerate() {
+                    out[q][p][j] = beam.shift(*point);
+                }
+            }
+        }
+        out
+    }
+}
+
 impl Mechanism for LinkBending {
     fn label(&self) -> String {
         format!("link_bending@L{}", self.link + 1)

@@ -18,6 +18,7 @@ pub use actuator_play::ActuatorPlay;
 pub use base_compliance::BaseCompliance;
 pub use extra::ExtraDeformations;
 pub use joint_clearance::JointClearance;
+pub(crate) use link_bending::BendInfluence;
 pub use link_bending::LinkBending;
 pub use mount_compliance::MountCompliance;
 

@@ -27,6 +27,10 @@
 //!   cell. The closure keeps each triangle's side by construction (`s′ ≥ 0`), so no cell of
 //!   this kernel flips branch; a triangle that cannot close counts as a large deflection.
 //!
+//! The pose stage ([`FastArm::poses_sc_impl`], with a payload per lane), [`Turn`] and
+//! [`compose`] are shared with the block kernel of `solve` (`crate::solve::fast`), which adds
+//! the effects that move pins and the status of each pose.
+//!
 //! The results agree with `Workspace::solve` to rounding (≈ 1e-13 relative on the deflections,
 //! whose magnitude is small against the positions they are differences of; the scalar core is
 //! the less accurate of the two there).
@@ -48,28 +52,31 @@ pub const L: usize = 16;
 /// Per-arm constants of the kernel, for an arm of `N` links.
 #[derive(Debug, Clone)]
 pub struct FastArm<const N: usize> {
-    o1: [f64; 2],
+    pub(crate) o1: [f64; 2],
     /// D_1 = B_0 − O_1 (global, fixed).
-    d0: [f64; 2],
-    a: [[f64; 2]; N],
+    pub(crate) d0: [f64; 2],
+    pub(crate) a: [[f64; 2]; N],
     c: [[f64; 2]; N],
-    next: [[f64; 2]; N],
+    pub(crate) next: [[f64; 2]; N],
     /// `b_i` in link i's frame.
-    b: [[f64; 2]; N],
-    measure: [f64; 2],
+    pub(crate) b: [[f64; 2]; N],
+    pub(crate) measure: [f64; 2],
+    /// ρ_i = |a_i| and |D_i| (the pin's and the base pin's distances from O_i).
+    pub(crate) rho: [f64; N],
+    pub(crate) dlen: [f64; N],
     /// Zero-length threshold `1e-12·(1 + ρ)` and singular threshold `1e-9·ρ` (as the core).
     len_tol: [f64; N],
     arm_tol: [f64; N],
     /// 1/(ρ|D|).
     inv_rd: [f64; N],
     /// 1/(2ρ|D|).
-    half_inv_rd: [f64; N],
+    pub(crate) half_inv_rd: [f64; N],
     /// Link weights and half actuator weights (N), zero without self-weight.
     w_link: [f64; N],
     w_half: [f64; N],
     g: f64,
     /// Body compliance (mm/N), series mount compliance (mm/N), play (mm).
-    body_c: [f64; N],
+    pub(crate) body_c: [f64; N],
     mount_c: [f64; N],
     /// Body plus mount compliance: the pin-to-pin length per unit force change (mm/N).
     len_c: [f64; N],
@@ -78,9 +85,9 @@ pub struct FastArm<const N: usize> {
     /// `−p·(sign F − sign F_w)` instead of `−p·sign F`.
     play_up: [f64; N],
     /// Some actuator has play (the cell loop then needs the sign of the loaded force).
-    any_play: bool,
+    pub(crate) any_play: bool,
     /// Some play is taken up (the cell loop then needs the sign of the unloaded force too).
-    any_up: bool,
+    pub(crate) any_up: bool,
     /// Stroke limits (mm), ±∞ when absent.
     lo: [f64; N],
     hi: [f64; N],
@@ -99,6 +106,23 @@ fn p2(v: crate::V2) -> [f64; 2] {
 impl<const N: usize> FastArm<N> {
     /// The kernel's constants, or `None` when an effect is not length-only or `arm.n() != N`.
     pub fn new(arm: &Arm, effects: &EffectSet, self_weight: bool) -> Option<Self> {
+        let length_only = effects.effects().iter().all(|e| {
+            matches!(
+                e,
+                Effect::ActuatorCompliance(_)
+                    | Effect::MountCompliance(_)
+                    | Effect::ActuatorPlay(_)
+            )
+        });
+        if !length_only {
+            return None;
+        }
+        Self::with_lengths(arm, effects, self_weight)
+    }
+
+    /// The kernel's constants with the length-only effects of `effects` (the others are left
+    /// to the caller: the solve kernel adds them), or `None` when `arm.n() != N`.
+    pub(crate) fn with_lengths(arm: &Arm, effects: &EffectSet, self_weight: bool) -> Option<Self> {
         if arm.n() != N {
             return None;
         }
@@ -112,6 +136,8 @@ impl<const N: usize> FastArm<N> {
             next: z2,
             b: z2,
             measure: p2(arm.measure),
+            rho: z,
+            dlen: z,
             len_tol: z,
             arm_tol: z,
             inv_rd: z,
@@ -149,6 +175,8 @@ impl<const N: usize> FastArm<N> {
             } else {
                 (arm.links[i - 1].b - arm.links[i - 1].next).norm()
             };
+            k.rho[i] = rho;
+            k.dlen[i] = dn;
             k.len_tol[i] = 1e-12 * (1.0 + rho);
             k.arm_tol[i] = SINGULAR_TOL * rho;
             k.inv_rd[i] = 1.0 / (rho * dn);
@@ -173,7 +201,7 @@ impl<const N: usize> FastArm<N> {
                         k.play_up[x.actuator] += x.play;
                     }
                 }
-                _ => return None,
+                _ => {}
             }
         }
         for i in 0..N {
@@ -191,18 +219,29 @@ pub struct PoseBlock<const N: usize> {
     /// Unloaded pin-to-pin lengths ℓ_i (mm).
     pub len: [[f64; L]; N],
     /// cos and |sin| of the angle at O_i between D_i and A_i − O_i.
-    c: [[f64; L]; N],
-    s: [[f64; L]; N],
+    pub(crate) c: [[f64; L]; N],
+    pub(crate) s: [[f64; L]; N],
     /// Side of the triangle (±1).
-    side: [[f64; L]; N],
-    /// Forces (N) of the self-weight case and of a unit payload mass (per kg).
-    fw: [[f64; L]; N],
-    fu: [[f64; L]; N],
+    pub(crate) side: [[f64; L]; N],
+    /// Forces (N) of the self-weight case and of the payload (per kg of a unit payload mass
+    /// for the sweep, for each lane's own payload for the solve).
+    pub(crate) fw: [[f64; L]; N],
+    pub(crate) fu: [[f64; L]; N],
+    /// Joint reactions R_i (N, global) of the same two cases.
+    pub(crate) rw: [[[f64; L]; N]; 2],
+    pub(crate) ru: [[[f64; L]; N]; 2],
+    /// Unit vector e_i of actuator i (global) and D_i = B_{i−1} − O_i (global).
+    pub(crate) e: [[[f64; L]; N]; 2],
+    pub(crate) d: [[[f64; L]; N]; 2],
     /// Global levers whose rotation moves the measure point: R(α_i)·next_i, last R(α_n)·m.
-    gx: [[f64; L]; N],
-    gy: [[f64; L]; N],
+    pub(crate) gx: [[f64; L]; N],
+    pub(crate) gy: [[f64; L]; N],
     /// The pose is singular (an actuator through its joint, or coincident pins).
     pub singular: [bool; L],
+    /// Some actuator's moment arm below [`crate::validity::MIN_MOMENT_ARM`] of |A_i − O_i|.
+    pub near_singular: [bool; L],
+    /// Some unloaded length outside its stroke.
+    pub out_of_stroke: [bool; L],
     /// Within every stroke limit (and not singular).
     pub reachable: [bool; L],
     /// The pose's own status: out of stroke, near singular, else ok (code).
@@ -224,9 +263,15 @@ impl<const N: usize> PoseBlock<N> {
             side: z,
             fw: z,
             fu: z,
+            rw: [z; 2],
+            ru: [z; 2],
+            e: [z; 2],
+            d: [z; 2],
             gx: z,
             gy: z,
             singular: [false; L],
+            near_singular: [false; L],
+            out_of_stroke: [false; L],
             reachable: [false; L],
             code: [0; L],
             ex: [0.0; L],
@@ -290,16 +335,58 @@ impl<const N: usize> CellBlock<N> {
     }
 }
 
+/// The turn δ = acos c′ − acos c of an actuator triangle whose cosine at O_i changes by
+/// `dc` from `c` (|sin| `s`), as (sin δ, cos δ, cos δ − 1), written so that nothing cancels
+/// for small δ (see the module documentation). `closes` is false where |c + dc| > 1.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Turn {
+    pub(crate) closes: bool,
+    pub(crate) sin: f64,
+    pub(crate) cos: f64,
+    pub(crate) cos_m1: f64,
+}
+
+impl Turn {
+    #[inline(always)]
+    pub(crate) fn of(c: f64, s: f64, dc: f64) -> Self {
+        let t = 2.0 * c + dc;
+        let s2 = s * s - dc * t;
+        let s1 = s2.max(0.0).sqrt();
+        let cosd = c * (c + dc) + s * s1;
+        // One division for 1/(s + s′) and 1/(1 + |cos δ|) (≥ 1, used where cos δ > 0).
+        let den = 1.0 + cosd.abs();
+        let q = 1.0 / ((s + s1) * den);
+        let sind = -dc * (s + c * t * (den * q));
+        let cos_m1 = if cosd > 0.0 {
+            -sind * sind * ((s + s1) * q)
+        } else {
+            cosd - 1.0
+        };
+        Self {
+            closes: s2 >= 0.0,
+            sin: sind,
+            cos: cosd,
+            cos_m1,
+        }
+    }
+}
+
+/// Rotation (sin a, cos a − 1) followed by (sin b, cos b − 1): (sin(a+b), cos(a+b) − 1).
+#[inline(always)]
+pub(crate) fn compose(sa: f64, ca: f64, sb: f64, cb: f64) -> (f64, f64) {
+    (sa + sb + (sa * cb + ca * sb), ca + cb + (ca * cb - sa * sb))
+}
+
 /// `sign(f)`, 0 below [`FORCE_ZERO_N`] (the scalar core's `sign0`), branch-free.
 #[inline(always)]
-fn sign0(f: f64) -> f64 {
+pub(crate) fn sign0(f: f64) -> f64 {
     let pos = if f >= FORCE_ZERO_N { 1.0 } else { 0.0 };
     let neg = if f <= -FORCE_ZERO_N { 1.0 } else { 0.0 };
     pos - neg
 }
 
 #[inline(always)]
-fn rot(s: f64, c: f64, v: [f64; 2]) -> (f64, f64) {
+pub(crate) fn rot(s: f64, c: f64, v: [f64; 2]) -> (f64, f64) {
     (c * v[0] - s * v[1], s * v[0] + c * v[1])
 }
 
@@ -319,12 +406,25 @@ impl<const N: usize> FastArm<N> {
         for i in 0..N {
             sincos_deg(&x[i], &mut sn[i], &mut cs[i]);
         }
-        self.poses_sc_impl(&sn, &cs, out);
+        self.poses_sc_impl(&sn, &cs, &self.unit_payload(), out);
     }
 
-    /// The body of [`Self::poses_trig`]: everything after the sines and cosines.
+    /// The payload of a unit mass, (0, −g) N, in every lane.
     #[inline(always)]
-    fn poses_sc_impl(&self, sn: &[[f64; L]; N], cs: &[[f64; L]; N], out: &mut PoseBlock<N>) {
+    fn unit_payload(&self) -> [[f64; L]; 2] {
+        [[0.0; L], [-self.g; L]]
+    }
+
+    /// The body of [`Self::poses_trig`]: everything after the sines and cosines, with the
+    /// payload force `pay` (N, global, `[x or y][lane]`) at the load point.
+    #[inline(always)]
+    pub(crate) fn poses_sc_impl(
+        &self,
+        sn: &[[f64; L]; N],
+        cs: &[[f64; L]; N],
+        pay: &[[f64; L]; 2],
+        out: &mut PoseBlock<N>,
+    ) {
         let pb = out;
         let this = self;
         // Link by link from the tip: geometry of link i (it needs the angles of links i and
@@ -334,9 +434,9 @@ impl<const N: usize> FastArm<N> {
         let mut reach = [true; L];
         let mut px = [0.0; L];
         let mut py = [0.0; L];
-        // Actuator line of link i+1 and the forces of the self-weight case (w) and of a unit
-        // payload mass (u) from link i+1. Beyond the tip: no actuator, and a "reaction"
-        // −P = (0, g) so that −R_{n+1} is the payload (0, −g) at the load point.
+        // Actuator line of link i+1 and the forces of the self-weight case (w) and of the
+        // payload (u) from link i+1. Beyond the tip: no actuator, and a "reaction" −P so that
+        // −R_{n+1} is the payload P at the load point.
         let mut e0n = [0.0; L];
         let mut e1n = [0.0; L];
         let mut fw1 = [0.0; L];
@@ -344,7 +444,11 @@ impl<const N: usize> FastArm<N> {
         let mut rwy1 = [0.0; L];
         let mut fu1 = [0.0; L];
         let mut rux1 = [0.0; L];
-        let mut ruy1 = [this.g; L];
+        let mut ruy1 = [0.0; L];
+        for k in 0..L {
+            rux1[k] = 0.0 - pay[0][k];
+            ruy1[k] = 0.0 - pay[1][k];
+        }
         // R(α_i)·next_i and R(α_i)·b_i of the link being processed: computed for the last link
         // here (its b is unused), for the others while their distal link was processed.
         let mut rnx = [0.0; L];
@@ -397,6 +501,10 @@ impl<const N: usize> FastArm<N> {
                     // `|`/`&` keep the lane loop branch-free.
                     singular[k] |= !(l > len_tol) | !(hv.abs() >= arm_tol * l);
                     near[k] |= !(hv.abs() >= near_tol * l);
+                    pb.e[0][i][k] = e0;
+                    pb.e[1][i][k] = e1;
+                    pb.d[0][i][k] = dx[k];
+                    pb.d[1][i][k] = dy[k];
                     reach[k] &= (l >= lo) & (l <= hi);
                     pb.len[i][k] = l;
                     let sg = (dx[k] * ay - dy[k] * ax) * inv_rd;
@@ -439,12 +547,18 @@ impl<const N: usize> FastArm<N> {
                     e1n[k] = e1;
                     pb.fw[i][k] = f;
                     pb.fu[i][k] = fu;
+                    pb.rw[0][i][k] = rwx1[k];
+                    pb.rw[1][i][k] = rwy1[k];
+                    pb.ru[0][i][k] = rux1[k];
+                    pb.ru[1][i][k] = ruy1[k];
                 }
             }
             (rnx, rny, rbx, rby) = (pnx, pny, pbx, pby);
         }
         for k in 0..L {
             pb.singular[k] = singular[k];
+            pb.near_singular[k] = near[k];
+            pb.out_of_stroke[k] = !reach[k];
             pb.reachable[k] = reach[k] & !singular[k];
             pb.code[k] = if !reach[k] {
                 Status::OutOfStroke.code()
@@ -471,7 +585,13 @@ impl<const N: usize> FastArm<N> {
     /// The pin-to-pin length change of actuator `i` under the force change `du` (loaded
     /// force `f`, unloaded `fw`): compliance and play (`UP`: some play is taken up).
     #[inline(always)]
-    fn dlen<const PLAY: bool, const UP: bool>(&self, i: usize, du: f64, f: f64, fw: f64) -> f64 {
+    pub(crate) fn dlen<const PLAY: bool, const UP: bool>(
+        &self,
+        i: usize,
+        du: f64,
+        f: f64,
+        fw: f64,
+    ) -> f64 {
         let elastic = -du * self.len_c[i];
         if UP {
             elastic - self.play[i] * sign0(f) + self.play_up[i] * sign0(fw)
@@ -510,23 +630,11 @@ impl<const N: usize> FastArm<N> {
                 let l = pb.len[i][k];
                 let dc = -dlen * (2.0 * l + dlen) * hr;
                 let (c, s, side) = (pb.c[i][k], pb.s[i][k], pb.side[i][k]);
-                let t = 2.0 * c + dc;
-                let s2 = s * s - dc * t;
-                fail[k] |= !(s2 >= 0.0);
-                let s1 = s2.max(0.0).sqrt();
-                let cosd = c * (c + dc) + s * s1;
-                // One division for 1/(s + s′) and 1/(1 + |cos δ|) (≥ 1, used where cos δ > 0).
-                let den = 1.0 + cosd.abs();
-                let q = 1.0 / ((s + s1) * den);
-                let sind = -dc * (s + c * t * (den * q));
-                let rs = side * sind;
-                let rc = if cosd > 0.0 {
-                    -sind * sind * ((s + s1) * q)
-                } else {
-                    cosd - 1.0
-                };
-                let ns = sr[k] + rs + (sr[k] * rc + cm[k] * rs);
-                let nc = cm[k] + rc + (cm[k] * rc - sr[k] * rs);
+                let tr = Turn::of(c, s, dc);
+                fail[k] |= !tr.closes;
+                let (sind, cosd) = (tr.sin, tr.cos);
+                let (rs, rc) = (side * sind, tr.cos_m1);
+                let (ns, nc) = compose(sr[k], cm[k], rs, rc);
                 sr[k] = ns;
                 cm[k] = nc;
                 dx[k] += nc * pb.gx[i][k] - ns * pb.gy[i][k];
@@ -623,7 +731,8 @@ impl<const N: usize> FastArm<N> {
             type Output = ();
             #[inline(always)]
             fn with_simd<S: pulp::Simd>(self, _simd: S) {
-                self.0.poses_sc_impl(self.1, self.2, self.3);
+                self.0
+                    .poses_sc_impl(self.1, self.2, &self.0.unit_payload(), self.3);
             }
         }
         match simd {
@@ -635,7 +744,7 @@ impl<const N: usize> FastArm<N> {
     /// [`Self::poses_sc_impl`] compiled for baseline x86-64 (see [`Self::poses_baseline`]).
     #[inline(never)]
     fn poses_sc_baseline(&self, sn: &[[f64; L]; N], cs: &[[f64; L]; N], out: &mut PoseBlock<N>) {
-        self.poses_sc_impl(sn, cs, out);
+        self.poses_sc_impl(sn, cs, &self.unit_payload(), out);
     }
 
     /// [`Self::poses_impl`] compiled for baseline x86-64 (out of line, so it keeps its own

@@ -1,0 +1,596 @@
+//! The block kernel of `solve`: [`L`] poses at once in structure-of-arrays form, every
+//! built-in effect, each pose with its own payload, and the status of every pose in the same
+//! pass (docs/architecture.md, "Where the general path is used").
+//!
+//! The unloaded geometry and both load cases come from the sweep kernel's pose stage
+//! ([`FastArm`], with the lane's own payload instead of a unit mass); the length-only effects
+//! (compliances, play) are the sweep's too. The closure generalises the sweep's: with joint
+//! clearance and link bending, body i−1's vector D_i = B_{i−1} − O_i and link i's pin a_i
+//! change as well as the length, so link i turns relative to body i−1 by
+//!
+//! ```text
+//! ∠(D_i + δ_i) − ∠D_i  +  s_i·(acos c′_i − acos c_i)  −  (∠a′_i − ∠a_i)
+//! ```
+//!
+//! with `δ_i = R(α_{i−1})·(Δb − Δnext)_{i−1} − R(−Δα_{i−1})·u_i` (bending shifts of body
+//! i−1's pins, the clearance offset u_i of joint i) and `c′_i` from the changed ρ′, |D′|, ℓ′
+//! (docs/model.md §5). A base tilt Δφ is the turn of body 0. The turns are kept as rotations
+//! (sin, cos − 1) and composed without cancellation; the measure point moves by
+//! `Σ_i (R(Δα_i) − I)·g_i + R(α′_i)·Δnext_i + u_{i+1}` plus the tilt of O_1 about the pivot.
+//!
+//! A lane that does not solve (singular, or a triangle that cannot close) is solved again by
+//! [`Workspace::solve`], which gives its error (or its NaN row with `nan_on_failure`), so
+//! errors name the same row and actuator as the general path's.
+
+// Lane loops index several `[link][lane]` arrays in step; `!(x >= t)` is meant: NaN fails.
+#![allow(clippy::needless_range_loop, clippy::neg_cmp_op_on_partial_ord)]
+
+mod base;
+mod bending;
+mod clearance;
+
+use base::Base;
+use bending::{Bending, Shifts};
+use clearance::Clearance;
+
+use super::status::pose_status;
+use super::{write_row, BatchInput, BatchOutput, SolveOptions, Workspace};
+use crate::arm::Arm;
+use crate::effects::{Effect, EffectSet};
+use crate::error::Result;
+use crate::geometry::V2;
+use crate::sweep::fast::{compose, rot, FastArm, PoseBlock, Turn, L};
+use crate::sweep::transpose_into;
+use crate::sweep::trig::{asin_small, sincos_deg, ASIN_SERIES_MAX};
+use crate::validity::{self, Checks};
+
+/// `cos a − 1` from `sin a` and `cos a`, without cancellation where cos a > 0.
+#[inline(always)]
+pub(crate) fn cos_m1(s: f64, c: f64) -> f64 {
+    if c > 0.0 {
+        -s * s / (1.0 + c)
+    } else {
+        c - 1.0
+    }
+}
+
+/// Per-arm constants of the solve kernel for an arm of `N` links.
+#[derive(Debug, Clone)]
+pub(crate) struct SolveKernel<const N: usize> {
+    fa: FastArm<N>,
+    clear: Clearance<N>,
+    bend: Bending<N>,
+    base: Base,
+    /// The arm's reach Σ|next_i| (validity).
+    reach: f64,
+    /// Force limits (N), +∞ where none.
+    fmax: [f64; N],
+}
+
+/// Per-pose results of a block (`[link][lane]`).
+#[derive(Debug, Clone)]
+pub(crate) struct SolveBlock<const N: usize> {
+    force: [[f64; L]; N],
+    dforce: [[f64; L]; N],
+    /// Loaded joint reactions, x and y.
+    reaction: [[[f64; L]; N]; 2],
+    /// Change of absolute angles (deg).
+    dalpha: [[f64; L]; N],
+    dl: [[f64; L]; N],
+    dlength: [[f64; L]; N],
+    dx: [f64; L],
+    dy: [f64; L],
+    /// Singular or a triangle that cannot close.
+    fail: [bool; L],
+    /// Status codes (docs/model.md §7).
+    status: [u8; L],
+}
+
+impl<const N: usize> SolveBlock<N> {
+    fn new() -> Self {
+        let z = [[0.0; L]; N];
+        Self {
+            force: z,
+            dforce: z,
+            reaction: [z; 2],
+            dalpha: z,
+            dl: z,
+            dlength: z,
+            dx: [0.0; L],
+            dy: [0.0; L],
+            fail: [false; L],
+            status: [0; L],
+        }
+    }
+}
+
+impl<const N: usize> SolveKernel<N> {
+    /// The kernel of `arm` (with `N` links) and `effects`, or `None` for another `N`.
+    pub(crate) fn new(arm: &Arm, effects: &EffectSet, self_weight: bool) -> Option<Self> {
+        // Every effect the kernel computes, listed without a wildcard: a new kind of the
+        // catalogue does not compile until it is added here (and to the lanes).
+        for e in effects.effects() {
+            match e {
+                Effect::ActuatorCompliance(_)
+                | Effect::MountCompliance(_)
+                | Effect::ActuatorPlay(_)
+                | Effect::JointClearance(_)
+                | Effect::LinkBending(_)
+                | Effect::BaseCompliance(_) => {}
+            }
+        }
+        Some(Self {
+            fa: FastArm::with_lengths(arm, effects, self_weight)?,
+            clear: Clearance::new(effects),
+            bend: Bending::new(arm, effects),
+            base: Base::new(arm, effects),
+            reach: validity::reach(arm),
+            fmax: std::array::from_fn(|i| arm.actuators[i].max_force.unwrap_or(f64::INFINITY)),
+        })
+    }
+
+    /// Unloaded geometry and statics of a block: `alpha_deg` holds `count` rows of `N`
+    /// angles, `pay` the lanes' payloads; missing lanes repeat the last pose.
+    #[inline(always)]
+    fn poses_impl(
+        &self,
+        alpha_deg: &[f64],
+        count: usize,
+        trig: &mut ([[f64; L]; N], [[f64; L]; N]),
+        pay: &[[f64; L]; 2],
+        pb: &mut PoseBlock<N>,
+    ) {
+        let mut x = [[0.0; L]; N];
+        for k in 0..L {
+            let row = &alpha_deg[k.min(count - 1) * N..][..N];
+            for i in 0..N {
+                x[i][k] = row[i];
+            }
+        }
+        for i in 0..N {
+            sincos_deg(&x[i], &mut trig.0[i], &mut trig.1[i]);
+        }
+        self.fa.poses_sc_impl(&trig.0, &trig.1, pay, pb);
+    }
+
+    /// [`Self::poses_impl`] compiled for baseline x86-64 (out of line: LLVM vectorises the
+    /// pose stage 2 wide there and leaves it scalar with AVX2, as in the sweep).
+    #[inline(never)]
+    fn poses_baseline(
+        &self,
+        alpha_deg: &[f64],
+        count: usize,
+        trig: &mut ([[f64; L]; N], [[f64; L]; N]),
+        pay: &[[f64; L]; 2],
+        pb: &mut PoseBlock<N>,
+    ) {
+        self.poses_impl(alpha_deg, count, trig, pay, pb);
+    }
+
+    /// Solves a block of up to [`L`] poses: unloaded stage, then the closure.
+    #[allow(clippy::too_many_arguments)]
+    fn block(
+        &self,
+        simd: pulp::Arch,
+        alpha_deg: &[f64],
+        payload: &[f64],
+        count: usize,
+        pb: &mut PoseBlock<N>,
+        sb: &mut SolveBlock<N>,
+    ) {
+        let mut pay = [[0.0; L]; 2];
+        for k in 0..L {
+            let q = k.min(count - 1);
+            pay[0][k] = payload[2 * q];
+            pay[1][k] = payload[2 * q + 1];
+        }
+        let mut trig = ([[0.0; L]; N], [[0.0; L]; N]);
+        struct Poses<'a, const N: usize>(
+            &'a SolveKernel<N>,
+            &'a [f64],
+            usize,
+            &'a mut ([[f64; L]; N], [[f64; L]; N]),
+            &'a [[f64; L]; 2],
+            &'a mut PoseBlock<N>,
+        );
+        impl<const N: usize> pulp::WithSimd for Poses<'_, N> {
+            type Output = ();
+            #[inline(always)]
+            fn with_simd<S: pulp::Simd>(self, _simd: S) {
+                self.0.poses_impl(self.1, self.2, self.3, self.4, self.5);
+            }
+        }
+        match simd {
+            pulp::Arch::V4(_) => {
+                simd.dispatch(Poses(self, alpha_deg, count, &mut trig, &pay, pb));
+            }
+            _ => self.poses_baseline(alpha_deg, count, &mut trig, &pay, pb),
+        }
+        struct Close<'a, const N: usize>(
+            &'a SolveKernel<N>,
+            &'a ([[f64; L]; N], [[f64; L]; N]),
+            &'a [[f64; L]; 2],
+            &'a PoseBlock<N>,
+            &'a mut SolveBlock<N>,
+        );
+        impl<const N: usize> pulp::WithSimd for Close<'_, N> {
+            type Output = ();
+            #[inline(always)]
+            fn with_simd<S: pulp::Simd>(self, _simd: S) {
+                self.0.close_any(self.1, self.2, self.3, self.4);
+            }
+        }
+        simd.dispatch(Close(self, &trig, &pay, pb, sb));
+    }
+
+    /// [`Self::close`] for every combination of play and geometric effects.
+    #[inline(always)]
+    fn close_any(
+        &self,
+        trig: &([[f64; L]; N], [[f64; L]; N]),
+        pay: &[[f64; L]; 2],
+        pb: &PoseBlock<N>,
+        sb: &mut SolveBlock<N>,
+    ) {
+        let geom = self.clear.any || self.bend.any;
+        match (self.fa.any_play, self.fa.any_up, geom) {
+            (_, true, true) => self.close::<true, true, true>(trig, pay, pb, sb),
+            (_, true, false) => self.close::<true, true, false>(trig, pay, pb, sb),
+            (true, false, true) => self.close::<true, false, true>(trig, pay, pb, sb),
+            (true, false, false) => self.close::<true, false, false>(trig, pay, pb, sb),
+            (false, false, true) => self.close::<false, false, true>(trig, pay, pb, sb),
+            (false, false, false) => self.close::<false, false, false>(trig, pay, pb, sb),
+        }
+    }
+
+    /// The loaded pose of a block (see the module documentation); `GEOM`: some joint has
+    /// clearance or some link bends.
+    #[inline(always)]
+    fn close<const PLAY: bool, const UP: bool, const GEOM: bool>(
+        &self,
+        trig: &([[f64; L]; N], [[f64; L]; N]),
+        pay: &[[f64; L]; 2],
+        pb: &PoseBlock<N>,
+        sb: &mut SolveBlock<N>,
+    ) {
+        let (sn, cs) = (&trig.0, &trig.1);
+        let fa = &self.fa;
+        let mut phi = [0.0; L]; // the base tilt (rad)
+        let mut sr = [0.0; L]; // sin Δα_{i−1}
+        let mut cm = [0.0; L]; // cos Δα_{i−1} − 1
+        let mut dx = [0.0; L];
+        let mut dy = [0.0; L];
+        if self.base.on() {
+            self.base
+                .tilt(pb, pay, &mut phi, &mut sr, &mut cm, &mut dx, &mut dy);
+        }
+        let mut u = [[[0.0; L]; N]; 2];
+        let mut sh = Shifts::<N>::new();
+        if GEOM {
+            if self.clear.any {
+                self.clear.offsets(pb, &mut u);
+            }
+            if self.bend.any {
+                self.bend.shifts(pb, sn, cs, pay, &mut sh);
+            }
+            for k in 0..L {
+                dx[k] += u[0][0][k];
+                dy[k] += u[1][0][k];
+            }
+        }
+        let mut fail = pb.singular;
+        let mut flip = [false; L];
+        let mut turn = [[[0.0; L]; N]; 2];
+        let mut dth = [[0.0; L]; N];
+        let mut far = false;
+        for i in 0..N {
+            let hr = fa.half_inv_rd[i];
+            let (bc, rho, dl0) = (fa.body_c[i], fa.rho[i], fa.dlen[i]);
+            let [ax, ay] = fa.a[i];
+            for k in 0..L {
+                let du = pb.fu[i][k];
+                let fw = pb.fw[i][k];
+                let f = fw + du;
+                let dlen = fa.dlen::<PLAY, UP>(i, du, f, fw);
+                let l = pb.len[i][k];
+                let (c, s, side) = (pb.c[i][k], pb.s[i][k], pb.side[i][k]);
+                let (dc, rd, ra) = if GEOM {
+                    // D′ = R(Δα_{i−1})·(D + δ): δ from body i−1's bending and joint i's offset.
+                    let (ux, uy) = (u[0][i][k], u[1][i][k]);
+                    let cc = 1.0 + cm[k];
+                    let mut ddx = -(cc * ux + sr[k] * uy);
+                    let mut ddy = sr[k] * ux - cc * uy;
+                    if i > 0 {
+                        let lx = sh.b[0][i - 1][k] - sh.next[0][i - 1][k];
+                        let ly = sh.b[1][i - 1][k] - sh.next[1][i - 1][k];
+                        let (gx, gy) = rot(sn[i - 1][k], cs[i - 1][k], [lx, ly]);
+                        ddx += gx;
+                        ddy += gy;
+                    }
+                    let (vx, vy) = (pb.d[0][i][k], pb.d[1][i][k]);
+                    let (nx, ny) = (vx + ddx, vy + ddy);
+                    let dn2 = nx * nx + ny * ny;
+                    let dn = dn2.sqrt();
+                    let inv = 1.0 / (dl0 * dn);
+                    let rds = (vx * ddy - vy * ddx) * inv;
+                    let rdc = cos_m1(rds, (dl0 * dl0 + vx * ddx + vy * ddy) * inv);
+                    // a′ = a + Δa, in link i's frame.
+                    let (sx, sy) = (sh.a[0][i][k], sh.a[1][i][k]);
+                    let (px, py) = (ax + sx, ay + sy);
+                    let rp2 = px * px + py * py;
+                    let rp = rp2.sqrt();
+                    let inva = 1.0 / (rho * rp);
+                    let ras = (ax * sy - ay * sx) * inva;
+                    let rac = cos_m1(ras, (rho * rho + ax * sx + ay * sy) * inva);
+                    let lp = l + dlen;
+                    let cp = (rp2 + dn2 - lp * lp) / (2.0 * rp * dn);
+                    (cp - c, (rds, rdc), (ras, rac))
+                } else {
+                    (-dlen * (2.0 * l + dlen) * hr, (0.0, 0.0), (0.0, 0.0))
+                };
+                let tr = Turn::of(c, s, dc);
+                fail[k] |= !tr.closes;
+                let (mut ts, mut tc) = (side * tr.sin, tr.cos_m1);
+                if GEOM {
+                    (ts, tc) = compose(rd.0, rd.1, ts, tc);
+                    (ts, tc) = compose(ts, tc, -ra.0, ra.1);
+                }
+                let (ns, nc) = compose(sr[k], cm[k], ts, tc);
+                // The rigid loaded triangle (docs/model.md §7) turned by the relative turn of
+                // link i against body i−1 (against the fixed chassis for link 1).
+                let (rs, rc) = if i == 0 { (ns, nc) } else { (ts, tc) };
+                let sg = side * s;
+                flip[k] |= sg * (sg * (1.0 + rc) + c * rs) < 0.0;
+                sr[k] = ns;
+                cm[k] = nc;
+                let (gx, gy) = (pb.gx[i][k], pb.gy[i][k]);
+                dx[k] += nc * gx - ns * gy;
+                dy[k] += ns * gx + nc * gy;
+                if GEOM {
+                    let (qx, qy) = if i + 1 < N {
+                        (sh.next[0][i][k], sh.next[1][i][k])
+                    } else {
+                        (sh.measure[0][k], sh.measure[1][k])
+                    };
+                    let g = rot(sn[i][k], cs[i][k], [qx, qy]);
+                    let (hx, hy) = rot(ns, 1.0 + nc, [g.0, g.1]);
+                    dx[k] += hx;
+                    dy[k] += hy;
+                    if i + 1 < N {
+                        dx[k] += u[0][i + 1][k];
+                        dy[k] += u[1][i + 1][k];
+                    }
+                }
+                far |= !(ts.abs() <= ASIN_SERIES_MAX && 1.0 + tc > 0.0);
+                turn[0][i][k] = ts;
+                turn[1][i][k] = tc;
+                dth[i][k] = asin_small(ts);
+                sb.force[i][k] = f;
+                sb.dforce[i][k] = du;
+                sb.reaction[0][i][k] = pb.rw[0][i][k] + pb.ru[0][i][k];
+                sb.reaction[1][i][k] = pb.rw[1][i][k] + pb.ru[1][i][k];
+                sb.dl[i][k] = -du * bc;
+                sb.dlength[i][k] = dlen;
+            }
+        }
+        if far {
+            large_turns(&turn, &mut dth);
+        }
+        let deg = 180.0f64 / std::f64::consts::PI;
+        let mut da = phi;
+        let mut max_da = [0.0f64; L];
+        let mut over = [false; L];
+        for i in 0..N {
+            let fmax = self.fmax[i];
+            for k in 0..L {
+                let a = da[k] + dth[i][k];
+                // The loaded angle nearest the unloaded one (wrap into [−π, π)).
+                let a = if a >= std::f64::consts::PI {
+                    a - std::f64::consts::TAU
+                } else if a < -std::f64::consts::PI {
+                    a + std::f64::consts::TAU
+                } else {
+                    a
+                };
+                da[k] = a;
+                sb.dalpha[i][k] = a * deg;
+                max_da[k] = max_da[k].max(sb.dalpha[i][k].abs());
+                over[k] |= sb.force[i][k].abs() > fmax;
+            }
+        }
+        for k in 0..L {
+            let checks = Checks {
+                out_of_stroke: pb.out_of_stroke[k],
+                near_singular: pb.near_singular[k],
+                branch_flip: flip[k],
+                over_force: over[k],
+                large_deflection: validity::large_deflection_sq(
+                    max_da[k],
+                    dx[k],
+                    dy[k],
+                    pay[1][k] < 0.0,
+                    self.reach,
+                ),
+            };
+            sb.status[k] = validity::classify(checks).code();
+        }
+        sb.dx = dx;
+        sb.dy = dy;
+        sb.fail = fail;
+    }
+}
+
+/// The angle of the turns the series does not cover, with `atan2`.
+#[cold]
+fn large_turns<const N: usize>(turn: &[[[f64; L]; N]; 2], dth: &mut [[f64; L]; N]) {
+    for i in 0..N {
+        for k in 0..L {
+            let (s, cm) = (turn[0][i][k], turn[1][i][k]);
+            if !(s.abs() <= ASIN_SERIES_MAX && 1.0 + cm > 0.0) {
+                dth[i][k] = s.atan2(1.0 + cm);
+            }
+        }
+    }
+}
+
+/// The solve kernel of an arm of 1–6 links (one per call: the variants' sizes do not matter).
+#[allow(clippy::large_enum_variant)]
+pub(crate) enum Kernel {
+    F1(SolveKernel<1>),
+    F2(SolveKernel<2>),
+    F3(SolveKernel<3>),
+    F4(SolveKernel<4>),
+    F5(SolveKernel<5>),
+    F6(SolveKernel<6>),
+}
+
+impl Kernel {
+    /// The kernel of `arm`, or `None` beyond 6 links (the general path solves those).
+    pub(crate) fn new(arm: &Arm, effects: &EffectSet, self_weight: bool) -> Option<Self> {
+        let sw = self_weight;
+        match arm.n() {
+            1 => SolveKernel::new(arm, effects, sw).map(Self::F1),
+            2 => SolveKernel::new(arm, effects, sw).map(Self::F2),
+            3 => SolveKernel::new(arm, effects, sw).map(Self::F3),
+            4 => SolveKernel::new(arm, effects, sw).map(Self::F4),
+            5 => SolveKernel::new(arm, effects, sw).map(Self::F5),
+            6 => SolveKernel::new(arm, effects, sw).map(Self::F6),
+            _ => None,
+        }
+    }
+
+    /// Solves the rows of one chunk (`first_row` is the batch row of its first pose).
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn chunk(
+        &self,
+        simd: pulp::Arch,
+        ctx: &Ctx<'_>,
+        input: BatchInput<'_>,
+        out: BatchOutput<'_>,
+        status: &mut [u8],
+        first_row: usize,
+    ) -> Result<()> {
+        match self {
+            Self::F1(k) => k.chunk(simd, ctx, input, out, status, first_row),
+            Self::F2(k) => k.chunk(simd, ctx, input, out, status, first_row),
+            Self::F3(k) => k.chunk(simd, ctx, input, out, status, first_row),
+            Self::F4(k) => k.chunk(simd, ctx, input, out, status, first_row),
+            Self::F5(k) => k.chunk(simd, ctx, input, out, status, first_row),
+            Self::F6(k) => k.chunk(simd, ctx, input, out, status, first_row),
+        }
+    }
+}
+
+/// What a chunk needs besides its rows: the model, for the lanes the kernel hands back.
+pub(crate) struct Ctx<'a> {
+    pub(crate) arm: &'a Arm,
+    pub(crate) effects: &'a EffectSet,
+    pub(crate) opts: SolveOptions,
+}
+
+impl<const N: usize> SolveKernel<N> {
+    fn chunk(
+        &self,
+        simd: pulp::Arch,
+        ctx: &Ctx<'_>,
+        input: BatchInput<'_>,
+        mut out: BatchOutput<'_>,
+        status: &mut [u8],
+        first_row: usize,
+    ) -> Result<()> {
+        let rows = out.dx_mm.len();
+        let mut pb = PoseBlock::<N>::new();
+        let mut sb = SolveBlock::<N>::new();
+        let mut general: Option<General> = None;
+        let mut p = 0;
+        while p < rows {
+            let count = (rows - p).min(L);
+            let alpha = &input.alpha_deg[p * N..(p + count) * N];
+            let payload = &input.payload_n[2 * p..2 * (p + count)];
+            self.block(simd, alpha, payload, count, &mut pb, &mut sb);
+            let span = p * N..(p + count) * N;
+            transpose_into(&sb.force, &mut out.force_n[span.clone()]);
+            transpose_into(&sb.dforce, &mut out.dforce_n[span.clone()]);
+            transpose_into(&sb.dalpha, &mut out.dalpha_deg[span.clone()]);
+            transpose_into(&sb.dl, &mut out.dl_mm[span.clone()]);
+            transpose_into(&sb.dlength, &mut out.dlength_mm[span.clone()]);
+            transpose_into(&pb.len, &mut out.length_mm[span]);
+            let reaction = &mut out.reaction_n[2 * p * N..2 * (p + count) * N];
+            for (q, row) in reaction.chunks_exact_mut(2 * N).enumerate() {
+                for i in 0..N {
+                    row[2 * i] = sb.reaction[0][i][q];
+                    row[2 * i + 1] = sb.reaction[1][i][q];
+                }
+            }
+            out.dx_mm[p..p + count].copy_from_slice(&sb.dx[..count]);
+            out.dy_mm[p..p + count].copy_from_slice(&sb.dy[..count]);
+            status[p..p + count].copy_from_slice(&sb.status[..count]);
+            for q in 0..count {
+                if sb.fail[q] {
+                    let r = p + q;
+                    let g = general.get_or_insert_with(|| General::new(ctx.arm));
+                    status[r] = g.solve(ctx, alpha, payload, q, &mut out, r, first_row + r)?;
+                }
+            }
+            p += count;
+        }
+        Ok(())
+    }
+}
+
+/// The general path for the lanes the kernel cannot solve.
+struct General {
+    ws: Workspace,
+    alpha: Vec<f64>,
+    loaded: crate::kinematics::Frames,
+    reach: f64,
+}
+
+impl General {
+    fn new(arm: &Arm) -> Self {
+        Self {
+            ws: Workspace::new(arm),
+            alpha: vec![0.0; arm.n()],
+            loaded: crate::kinematics::Frames::new(arm.n()),
+            reach: validity::reach(arm),
+        }
+    }
+
+    /// Solves lane `q` of a block into output row `r` (batch row `row`); its status.
+    #[allow(clippy::too_many_arguments)]
+    fn solve(
+        &mut self,
+        ctx: &Ctx<'_>,
+        alpha_deg: &[f64],
+        payload: &[f64],
+        q: usize,
+        out: &mut BatchOutput<'_>,
+        r: usize,
+        row: usize,
+    ) -> Result<u8> {
+        let n = ctx.arm.n();
+        for (a, d) in self.alpha.iter_mut().zip(&alpha_deg[q * n..(q + 1) * n]) {
+            *a = d.to_radians();
+        }
+        let pay = V2::new(payload[2 * q], payload[2 * q + 1]);
+        let solved = self
+            .ws
+            .solve(ctx.arm, ctx.effects, &self.alpha, pay, ctx.opts, row);
+        match solved {
+            Ok(()) => write_row(&self.ws, &self.alpha, out, r, n),
+            Err(e) if ctx.opts.nan_on_failure && e.is_pose_failure() => {
+                super::fill_nan(out, r, n);
+            }
+            Err(e) => return Err(e),
+        }
+        Ok(pose_status(
+            ctx.arm,
+            &self.ws.frames,
+            &mut self.loaded,
+            out,
+            r,
+            pay.y < 0.0,
+            self.reach,
+        ))
+    }
+}

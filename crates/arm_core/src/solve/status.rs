@@ -1,0 +1,59 @@
+//! The status of one pose solved by the general path (docs/model.md §7), from its unloaded
+//! frames and its row of the outputs; the block kernel computes the same checks in its lanes.
+
+use super::BatchOutput;
+use crate::arm::Arm;
+use crate::kinematics::Frames;
+use crate::validity::{self, Checks};
+
+/// The status code of output row `r`, whose unloaded pose is `fr`; `loaded` is scratch space
+/// for the rigid loaded pose (the unloaded angles plus `dalpha_deg`).
+pub(crate) fn pose_status(
+    arm: &Arm,
+    fr: &Frames,
+    loaded: &mut Frames,
+    out: &BatchOutput<'_>,
+    r: usize,
+    payload_down: bool,
+    reach: f64,
+) -> u8 {
+    let n = arm.n();
+    let span = r * n..(r + 1) * n;
+    let dalpha = &out.dalpha_deg[span.clone()];
+    let near = (0..n).any(|i| validity::near_singular(fr.joint[i], fr.a[i], fr.b[i]));
+    let mut flip = false;
+    if dalpha.iter().all(|d| d.is_finite()) {
+        let alpha: Vec<f64> = fr
+            .alpha
+            .iter()
+            .zip(dalpha)
+            .map(|(a, d)| a + d.to_radians())
+            .collect();
+        loaded.fill(arm, &alpha);
+        flip = (0..n).any(|i| {
+            let before = validity::triangle_side(fr.joint[i], fr.a[i], fr.b[i]);
+            let after = validity::triangle_side(loaded.joint[i], loaded.a[i], loaded.b[i]);
+            before * after < 0.0
+        });
+    }
+    let max_da = if dalpha.iter().any(|d| d.is_nan()) {
+        f64::NAN
+    } else {
+        dalpha.iter().fold(0.0f64, |m, d| m.max(d.abs()))
+    };
+    let lengths: Vec<f64> = (0..n).map(|i| fr.length(i)).collect();
+    let checks = Checks {
+        out_of_stroke: validity::out_of_stroke(arm, &lengths),
+        near_singular: near,
+        branch_flip: flip,
+        over_force: validity::over_force(arm, &out.force_n[span]),
+        large_deflection: validity::large_deflection(
+            max_da,
+            out.dx_mm[r],
+            out.dy_mm[r],
+            payload_down,
+            reach,
+        ),
+    };
+    validity::classify(checks).code()
+}
