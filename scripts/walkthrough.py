@@ -36,7 +36,8 @@ def _env() -> dict[str, str]:
     return env
 
 
-def run(cmd: str, cwd: Path) -> str:
+def run(cmd: str, cwd: Path, stderr: bool = True) -> str:
+    """The command's stdout, and its stderr lines marked (not with ``stderr=False``: JSON)."""
     args = shlex.split(cmd)
     assert args[0] == "eodarm"
     out = subprocess.run(
@@ -55,7 +56,7 @@ def run(cmd: str, cwd: Path) -> str:
     if out.returncode != 0:
         raise SystemExit(f"{cmd} failed ({out.returncode}):\n{out.stderr}")
     text = out.stdout.rstrip()
-    if out.stderr.strip():
+    if stderr and out.stderr.strip():
         text += "\n" + "\n".join(f"[stderr] {line}" for line in out.stderr.strip().splitlines())
     return text
 
@@ -132,7 +133,7 @@ def main() -> None:
         cmd = f"eodarm diagnose meas.csv --arm {ARM}"
         out = run(cmd, work)
         w(f"```\n$ {cmd}\n{out}\n```\n")
-        doc_json = json.loads(run(f"eodarm diagnose meas.csv --arm {ARM} --json", work))
+        doc_json = json.loads(run(f"eodarm diagnose meas.csv --arm {ARM} --json", work, stderr=False))
         hidden = {"joint_clearance@O2", "mount_compliance@M1"}
         top = doc_json["ranking"][0]
         top_key = f"{top['effect']}@{top['at']}"
