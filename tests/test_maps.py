@@ -210,13 +210,14 @@ def test_force_maps_have_one_panel_per_actuator_with_its_limit(ds: xr.Dataset) -
 
 def test_capacity_and_dominant_maps_name_what_they_show(arm: eodarm.Arm) -> None:
     fig = draw.capacity_map(arm, GRID, effects=MODEL)
-    legend = [
-        t.get_text() for ax in fig.axes if ax.get_legend() for t in ax.get_legend().get_texts()
-    ]
+    legend = [t.get_text() for leg in fig.legends for t in leg.get_texts()]
     assert any(t.startswith("F") and "force" in t for t in legend)
     assert "stroke 250–370 mm" in fig.get_suptitle()
     fig = draw.dominant_effect_map(arm, GRID, MODEL, 6.5)
-    texts = [t.get_text() for leg in fig.legends for t in leg.get_texts()]
+    # the effects' legend (titled), not the key to the arm drawing beside it
+    texts = [
+        t.get_text() for leg in fig.legends if leg.get_title().get_text() for t in leg.get_texts()
+    ]
     assert [t.split(" (")[0] for t in texts] == [e.key for e in MODEL]
 
 

@@ -17,6 +17,7 @@ from eodarm.cli._common import (
     _load_arm,
     _note,
     _one_line,
+    _say,
     _valued_effect,
 )
 from eodarm.cli._help import HELP
@@ -452,7 +453,7 @@ SUMMARY_QUANTILES_MAX = 10**8
 def _summary(ds: xr.Dataset) -> None:
     """A few lines on stdout: the sweep's shape, reachable share, extreme sag and forces."""
     dims = ", ".join(f"{d} {s}" for d, s in ds.sizes.items())
-    print(f"arm '{ds.attrs['arm']}', model {ds.attrs['model']}, reduce: {ds.attrs['reduce']}")
+    _say(f"arm '{ds.attrs['arm']}', model {ds.attrs['model']}, reduce: {ds.attrs['reduce']}")
     print(f"dimensions: {dims}")
     reach = float(ds["reachable"].mean())
     ok = float(ds["ok"].mean())
@@ -465,7 +466,7 @@ def _summary(ds: xr.Dataset) -> None:
         if dy_all.size > SUMMARY_QUANTILES_MAX:
             lo, hi = float(dy_all.min()), float(dy_all.max())
             if math.isfinite(lo):
-                print(f"dy over reachable poses: {lo:.4g} … {hi:.4g} mm")
+                print(f"dy over the ok cells: {lo:.4g} … {hi:.4g} mm")
             dy = np.empty(0)
         else:
             dy = dy_all.values
@@ -473,7 +474,7 @@ def _summary(ds: xr.Dataset) -> None:
         if dy.size:
             q = np.quantile(dy, [0.02, 0.5, 0.98])
             print(
-                f"dy over reachable poses: {dy.min():.4g} … {dy.max():.4g} mm "
+                f"dy over the ok cells: {dy.min():.4g} … {dy.max():.4g} mm "
                 f"(2 %, 50 %, 98 %: {q[0]:.4g}, {q[1]:.4g}, {q[2]:.4g} mm)"
             )
         f = abs(ds["force_n"].where(ds["reachable"]))

@@ -37,9 +37,9 @@ try:
     from matplotlib.axes import Axes
     from matplotlib.colors import BoundaryNorm, ListedColormap, LogNorm, Normalize
     from matplotlib.figure import Figure
-    from matplotlib.legend import Legend
     from matplotlib.lines import Line2D
     from matplotlib.patches import Patch
+    from matplotlib.ticker import MaxNLocator
 except ImportError as exc:  # pragma: no cover - depends on the environment
     raise ImportError(
         "eodarm.maps needs matplotlib: pip install 'eodarm[plot]' (or matplotlib>=3.8)"
@@ -186,8 +186,8 @@ class _Canvas:
         ax.pcolormesh(
             xe, ye, img, shading="flat", rasterized=True, cmap=grey, zorder=0.9, gid="not_ok"
         )
-        why = ", ".join(f"{k:,} {name}" for name, k in counts.items())
-        self.not_ok = "\n".join(textwrap.wrap(f"not ok: {why}", 44))
+        # one reason per line: the legend stands in a narrow column at the figure's right
+        self.not_ok = "\n".join(["poses not ok:", *(f"{k:,} {name}" for name, k in counts.items())])
 
     def frame(self, ax: Axes) -> None:
         """Equal axes in mm, the chassis pins and the arm drawn thin at its middle pose."""
@@ -227,15 +227,16 @@ class _Canvas:
         ]
         if self.not_ok:
             handles.append(Patch(fc=NOT_OK_GREY, label=self.not_ok))
-        leg = Legend(
-            ax,
-            handles,
-            [str(h.get_label()) for h in handles],
-            loc="upper left",
+        # Outside the axes, at the figure's right, so that it never covers the map (the
+        # figures' own legends take the bottom; two outside legends in one place overlap).
+        fig = ax.get_figure()
+        assert isinstance(fig, Figure)
+        fig.legend(
+            handles=handles,
+            loc="outside right upper",
             fontsize=7,
-            framealpha=0.9,
+            frameon=False,
         )
-        ax.add_artist(leg)
 
     def note(self, ax: Axes | Figure, ds: xr.Dataset, shown: int, worst: str) -> None:
         """Say how many poses are drawn and what a pixel shows (in an axes, or under a figure)."""
@@ -412,6 +413,7 @@ def force_maps(
                 mesh, ax=ax, orientation="horizontal", shrink=0.85, pad=0.02, extend=extend
             )
             cb.set_label(f"F{i + 1} (N), 2–98 % of poses", fontsize=8)
+            cb.ax.xaxis.set_major_locator(MaxNLocator(5))  # a narrow bar: few labels
             if lim is not None:
                 for v in (-lim, lim):
                     if (
@@ -477,12 +479,12 @@ def capacity_map(
             Patch(color=col, label=f"{labels[k]} ({100 * np.mean(lim == k):.0f} % of poses)")
             for k, col in zip(used, colours, strict=True)
         ]
-        ax2.legend(
+        fig.legend(
             handles=handles,
-            loc="best",
+            loc="outside lower center",
+            ncols=min(len(handles), 3),
             fontsize=8,
-            framealpha=0.9,
-            title="binding limit",
+            title="binding limit (right map)",
             title_fontsize=8,
         )
     else:

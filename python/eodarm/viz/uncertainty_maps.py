@@ -64,6 +64,10 @@ def _panel(
         mesh = cv.draw(ax, x, y, v, v, cmap="magma_r", norm=LogNorm(v.min(), v.max()))
         cb = fig.colorbar(mesh, ax=ax, **_CBAR)
         cb.set_label(label + "; log scale", fontsize=8)
+        # less than two decades get labelled minor ticks, which collide on a horizontal bar
+        from matplotlib.ticker import NullFormatter
+
+        cb.ax.xaxis.set_minor_formatter(NullFormatter())
     else:
         lo, hi, extend = _robust(v, 0.0, 0.98)
         mesh = cv.draw(ax, x, y, v, v, cmap="magma_r", norm=Normalize(min(lo, 0.0), hi))
