@@ -431,7 +431,7 @@ def main() -> None:
     w("![sag budget](figures/seed-deflection-share.png)\n")
     from eodarm.viz.budget_plot import budget_at
 
-    bud, bmass, bmeas, _ = budget_at(arm, meas, best_r.effects)
+    bud, bmass, _bmeas, _ = budget_at(arm, meas, best_r.effects)
     bodies = sum(bud.shares[i] for i, lb in enumerate(bud.labels) if lb.endswith("body"))
     mounts = sum(bud.shares[i] for i, k in enumerate(bud.keys) if k[0].startswith("mount"))
     w(

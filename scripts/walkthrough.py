@@ -133,7 +133,9 @@ def main() -> None:
         cmd = f"eodarm diagnose meas.csv --arm {ARM}"
         out = run(cmd, work)
         w(f"```\n$ {cmd}\n{out}\n```\n")
-        doc_json = json.loads(run(f"eodarm diagnose meas.csv --arm {ARM} --json", work, stderr=False))
+        doc_json = json.loads(
+            run(f"eodarm diagnose meas.csv --arm {ARM} --json", work, stderr=False)
+        )
         hidden = {"joint_clearance@O2", "mount_compliance@M1"}
         top = doc_json["ranking"][0]
         top_key = f"{top['effect']}@{top['at']}"
