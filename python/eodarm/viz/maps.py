@@ -233,7 +233,7 @@ class _Canvas:
         assert isinstance(fig, Figure)
         fig.legend(
             handles=handles,
-            loc="outside right upper",
+            loc="outside right center",
             fontsize=7,
             frameon=False,
         )
