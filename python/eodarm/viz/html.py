@@ -14,6 +14,7 @@ import os
 import re
 import select
 import signal
+import warnings
 from collections.abc import Callable, Iterator, Sequence
 from typing import Any
 
@@ -195,7 +196,11 @@ class Aside:
             return
         try:
             fd, wfd = os.pipe()
-            pid = os.fork()
+            with warnings.catch_warnings():
+                # Python ≥ 3.12 warns on fork() in a process with threads (the core's rayon
+                # pool); the child only draws finished figures and never touches the core.
+                warnings.filterwarnings("ignore", category=DeprecationWarning, message=".*fork")
+                pid = os.fork()
         except OSError:
             return
         if pid == 0:  # the child: do the work, send it, leave without any cleanup
