@@ -131,13 +131,10 @@ def test_a_user_function_that_fails_is_an_error_not_a_status() -> None:
         custom.unregister("broken_eff")
 
 
-def test_the_command_line_compensates_with_an_effects_file(
-    tmp_path: Any, capsys: pytest.CaptureFixture[str]
-) -> None:
-    import json
-
-    from eodarm.cli import main
-
+def _hook_command(tmp_path: Any) -> list[str]:
+    """``eodarm compensate`` on the example arm with a user-written effect file that drops the
+    measure point by ``mm_per_kg`` per kg of payload, up to ``--add`` (the caller adds the
+    effect and the poses)."""
     custom.unregister("hook_drop")  # the file registers it again
     (tmp_path / "hook.py").write_text(
         "import numpy as np\nimport eodarm\n\n"
@@ -148,7 +145,17 @@ def test_the_command_line_compensates_with_an_effects_file(
         '    return {"measure_mm": drop}\n'
     )
     args = ["compensate", "--arm", str(EXAMPLES / "example_arm.toml")]
-    args += ["--effects", str(tmp_path / "hook.py"), "--add"]
+    return [*args, "--effects", str(tmp_path / "hook.py"), "--add"]
+
+
+def test_the_command_line_compensates_with_an_effects_file(
+    tmp_path: Any, capsys: pytest.CaptureFixture[str]
+) -> None:
+    import json
+
+    from eodarm.cli import main
+
+    args = _hook_command(tmp_path)
     args += ["hook_drop@base=0.4", "--alpha", "90,10,0", "--mass", "5", "--json"]
     assert main(args) == 0
     doc = json.loads(capsys.readouterr().out)
@@ -166,17 +173,7 @@ def test_the_table_s_uncompensated_miss_includes_the_user_effect(
     effect (here it adds 0.4 mm/kg · 5 kg downward), not to the catalogue part alone."""
     from eodarm.cli import main
 
-    custom.unregister("hook_drop")
-    (tmp_path / "hook.py").write_text(
-        "import numpy as np\nimport eodarm\n\n"
-        '@eodarm.custom_effect("hook_drop", places="base", parameter="mm_per_kg", start=0.1)\n'
-        "def hook_drop(state, i, mm_per_kg):\n"
-        "    drop = np.zeros((state.n_states, 2))\n"
-        "    drop[:, 1] = -mm_per_kg * state.mass_kg\n"
-        '    return {"measure_mm": drop}\n'
-    )
-    args = ["compensate", "--arm", str(EXAMPLES / "example_arm.toml")]
-    args += ["--effects", str(tmp_path / "hook.py"), "--add"]
+    args = _hook_command(tmp_path)
     args += ["hook_drop@base=0.4", "--alpha", "90,10,0", "--mass", "5"]
     assert main(args) == 0
     lines = capsys.readouterr().out.splitlines()

@@ -41,7 +41,7 @@ use crate::error::Result;
 use crate::geometry::V2;
 use crate::sweep::fast::{compose, rot, FastArm, PoseBlock, Turn, L};
 use crate::sweep::transpose_into;
-use crate::sweep::trig::{asin_small, sincos_deg, ASIN_SERIES_MAX};
+use crate::sweep::trig::{asin_small, sincos_deg, wrap_once, ASIN_SERIES_MAX};
 use crate::validity::{self, Checks};
 
 /// `cos a − 1` from `sin a` and `cos a`, without cancellation where cos a > 0.
@@ -384,14 +384,8 @@ impl<const N: usize> SolveKernel<N> {
             let fmax = self.fmax[i];
             for k in 0..L {
                 let a = da[k] + dth[i][k];
-                // The loaded angle nearest the unloaded one (wrap into [−π, π)).
-                let a = if a >= std::f64::consts::PI {
-                    a - std::f64::consts::TAU
-                } else if a < -std::f64::consts::PI {
-                    a + std::f64::consts::TAU
-                } else {
-                    a
-                };
+                // The loaded angle nearest the unloaded one.
+                let a = wrap_once(a);
                 da[k] = a;
                 sb.dalpha[i][k] = a * deg;
                 max_da[k] = max_da[k].max(sb.dalpha[i][k].abs());

@@ -38,7 +38,7 @@
 // Lane loops index several `[link][lane]` arrays in step; `!(x >= t)` is meant: NaN fails.
 #![allow(clippy::needless_range_loop, clippy::neg_cmp_op_on_partial_ord)]
 
-use super::trig::{asin_small, sincos_deg, ASIN_SERIES_MAX};
+use super::trig::{asin_small, sincos_deg, wrap_once, ASIN_SERIES_MAX};
 use crate::arm::Arm;
 use crate::effects::{Effect, EffectSet, Unloaded, FORCE_ZERO_N};
 use crate::statics::SINGULAR_TOL;
@@ -655,14 +655,8 @@ impl<const N: usize> FastArm<N> {
         for i in 0..N {
             for k in 0..L {
                 let a = da[k] + dth[i][k];
-                // The loaded angle nearest the unloaded one (wrap into [−π, π)).
-                let a = if a >= std::f64::consts::PI {
-                    a - std::f64::consts::TAU
-                } else if a < -std::f64::consts::PI {
-                    a + std::f64::consts::TAU
-                } else {
-                    a
-                };
+                // The loaded angle nearest the unloaded one.
+                let a = wrap_once(a);
                 da[k] = a;
                 cb.dalpha[i][k] = a * deg;
                 big[k] |= !((a * deg).abs() <= MAX_DALPHA_DEG);

@@ -90,6 +90,21 @@ const A4: f64 = 35.0 / 1152.0;
 const A5: f64 = 63.0 / 2816.0;
 const A6: f64 = 231.0 / 13312.0;
 
+/// `a` moved by one turn into [−π, π) when it is just outside (the loaded angle nearest the
+/// unloaded one: the sum of an angle in [−π, π) and a rotation of at most π). A select, not
+/// [`crate::geometry::wrap_pi`]'s remainder, so that lane loops stay branch-free.
+#[inline(always)]
+pub fn wrap_once(a: f64) -> f64 {
+    use std::f64::consts::{PI, TAU};
+    if a >= PI {
+        a - TAU
+    } else if a < -PI {
+        a + TAU
+    } else {
+        a
+    }
+}
+
 /// `asin x` for |x| ≤ [`ASIN_SERIES_MAX`] (Taylor series to x¹³); larger |x| is inaccurate.
 #[inline(always)]
 pub fn asin_small(x: f64) -> f64 {
