@@ -317,6 +317,16 @@ pub fn check_input(arm: &Arm, input: &BatchInput<'_>) -> Result<usize> {
             got: input.payload_n.len(),
         });
     }
+    // One branch-free pass (vectorised) over each array; the rows only when it finds one.
+    let finite = |v: &[f64]| {
+        let exp = f64::INFINITY.to_bits();
+        v.iter()
+            .fold(0u64, |bad, x| bad | u64::from(x.to_bits() & exp == exp))
+            == 0
+    };
+    if finite(input.alpha_deg) && finite(input.payload_n) {
+        return Ok(rows);
+    }
     for row in 0..rows {
         if !input.alpha_deg[row * n..(row + 1) * n]
             .iter()

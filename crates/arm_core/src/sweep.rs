@@ -40,6 +40,7 @@
 
 mod fallback;
 pub(crate) mod fast;
+mod lanes;
 mod reduce;
 pub mod trig;
 
@@ -1088,6 +1089,16 @@ fn run_fast<const N: usize>(
 /// Writes the first `out.len() / N` lanes of a `[link][lane]` block as rows of `N`.
 #[inline(always)]
 pub(crate) fn transpose_into<const N: usize>(block: &[[f64; L]; N], out: &mut [f64]) {
+    if out.len() == L * N {
+        let mut t = [[0.0; N]; L];
+        for q in 0..L {
+            for i in 0..N {
+                t[q][i] = block[i][q];
+            }
+        }
+        out.copy_from_slice(t.as_flattened());
+        return;
+    }
     for (q, row) in out.chunks_exact_mut(N).enumerate() {
         for i in 0..N {
             row[i] = block[i][q];

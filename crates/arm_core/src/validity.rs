@@ -107,6 +107,22 @@ pub fn classify(c: Checks) -> Status {
     }
 }
 
+/// [`classify`]'s code, written with selects instead of branches (the same answer), so that
+/// the block kernels' lane loops that call it stay vectorised.
+#[inline(always)]
+pub fn code_of(c: Checks) -> u8 {
+    let pick = |broken: bool, code: Status, later: u8| if broken { code.code() } else { later };
+    let code = pick(
+        c.large_deflection,
+        Status::LargeDeflection,
+        Status::Ok.code(),
+    );
+    let code = pick(c.over_force, Status::OverForce, code);
+    let code = pick(c.branch_flip, Status::BranchFlip, code);
+    let code = pick(c.near_singular, Status::NearSingular, code);
+    pick(c.out_of_stroke, Status::OutOfStroke, code)
+}
+
 /// The arm's reach Σ|next_i| (mm), floored at 1e-9, the length the deflection limits scale by.
 pub fn reach(arm: &Arm) -> f64 {
     arm.links
@@ -160,9 +176,10 @@ pub fn large_deflection_sq(
     reach_mm: f64,
 ) -> bool {
     let moved = (dx_mm * dx_mm + dy_mm * dy_mm).sqrt();
+    // `|` and `&`, not `||` and `&&`: no branches in the lane loops (the same answer).
     !(max_abs_dalpha_deg <= MAX_DALPHA_DEG)
-        || !(moved <= MAX_DEFLECTION_OF_REACH * reach_mm)
-        || (payload_down && dy_mm > MAX_RISE_OF_REACH * reach_mm)
+        | !(moved <= MAX_DEFLECTION_OF_REACH * reach_mm)
+        | (payload_down & (dy_mm > MAX_RISE_OF_REACH * reach_mm))
 }
 
 /// Some |force_i| above its actuator's `max_force` (actuators without one never are).
@@ -187,6 +204,16 @@ mod tests {
     #[test]
     fn classify_reports_the_first_broken_limit() {
         assert_eq!(classify(Checks::default()), Status::Ok);
+        for bits in 0..32u8 {
+            let c = Checks {
+                out_of_stroke: bits & 1 != 0,
+                near_singular: bits & 2 != 0,
+                branch_flip: bits & 4 != 0,
+                over_force: bits & 8 != 0,
+                large_deflection: bits & 16 != 0,
+            };
+            assert_eq!(code_of(c), classify(c).code(), "{c:?}");
+        }
         let all = Checks {
             out_of_stroke: true,
             near_singular: true,

@@ -108,12 +108,7 @@ def solve(
     check_arm(arm, "solve")
     _check_memory(alpha_deg, arm.n)
     alpha = _poses(alpha_deg, arm.n, "alpha_deg")
-    mass = _per_row(mass_kg, alpha.shape[0], "mass_kg")
-    bad = np.flatnonzero(mass < 0)
-    if bad.size:
-        raise InputError(f"pose row {bad[0]}: mass_kg is negative ({mass[bad[0]]})")
-    payload = np.zeros((alpha.shape[0], 2))
-    payload[:, 1] = -mass * arm.g
+    payload = _payload_of(mass_kg, alpha.shape[0], arm.g)
     return _solve_payload(
         arm,
         alpha,
@@ -126,7 +121,21 @@ def solve(
         extra,
         uncertainty,
         out,
+        checked=True,
     )
+
+
+def _payload_of(mass_kg: npt.ArrayLike, rows: int, g: float) -> npt.NDArray[np.float64]:
+    """The (N, 2) payload force (0, −m·g) of per-row masses, or an InputError naming the row
+    of a non-finite or negative mass."""
+    mass = _per_row(mass_kg, rows, "mass_kg")
+    if not (mass >= 0).all():
+        row = int(np.flatnonzero(mass < 0)[0])
+        raise InputError(f"pose row {row}: mass_kg is negative ({mass[row]})")
+    payload = np.empty((rows, 2))
+    payload[:, 0] = 0.0
+    np.multiply(mass, -g, out=payload[:, 1])
+    return payload
 
 
 def solve_payload(
@@ -172,13 +181,19 @@ def _solve_payload(
     extra: Mapping[str, npt.ArrayLike | None] | None,
     uncertainty: bool,
     out: Mapping[str, npt.NDArray[Any]] | None,
+    checked: bool = False,
 ) -> Arrays:
     """:func:`solve_payload` once the arm and the memory the outputs need are checked (the
-    memory check reads /proc: once per call, not once per layer)."""
+    memory check reads /proc: once per call, not once per layer). ``checked``: ``alpha_deg``
+    and ``payload_n`` are already (N, n) and (N, 2) finite contiguous float64 arrays."""
     from eodarm.model import fem
 
-    alpha = _poses(alpha_deg, arm.n, "alpha_deg")
-    payload = _poses(payload_n, 2, "payload_n")
+    if checked:
+        alpha = np.asarray(alpha_deg, dtype=np.float64)
+        payload = np.asarray(payload_n, dtype=np.float64)
+    else:
+        alpha = _poses(alpha_deg, arm.n, "alpha_deg")
+        payload = _poses(payload_n, 2, "payload_n")
     if payload.shape[0] == 1 and alpha.shape[0] != 1:
         payload = np.ascontiguousarray(np.broadcast_to(payload, (alpha.shape[0], 2)))
     if payload.shape[0] != alpha.shape[0]:
@@ -273,12 +288,7 @@ def statics(
     """
     check_arm(arm, "statics")
     alpha = _poses(alpha_deg, arm.n, "alpha_deg")
-    mass = _per_row(mass_kg, alpha.shape[0], "mass_kg")
-    bad = np.flatnonzero(mass < 0)
-    if bad.size:
-        raise InputError(f"pose row {bad[0]}: mass_kg is negative ({mass[bad[0]]})")
-    payload = np.zeros((alpha.shape[0], 2))
-    payload[:, 1] = -mass * arm.g
+    payload = _payload_of(mass_kg, alpha.shape[0], arm.g)
     _check_backend(backend)
     if backend == "rust":
         from eodarm.model import native as _core

@@ -153,21 +153,10 @@ impl<const N: usize> SolveKernel<N> {
         self.fa.poses_sc_impl(&trig.0, &trig.1, pay, pb);
     }
 
-    /// [`Self::poses_impl`] compiled for baseline x86-64 (out of line: LLVM vectorises the
-    /// pose stage 2 wide there and leaves it scalar with AVX2, as in the sweep).
-    #[inline(never)]
-    fn poses_baseline(
-        &self,
-        alpha_deg: &[f64],
-        count: usize,
-        trig: &mut ([[f64; L]; N], [[f64; L]; N]),
-        pay: &[[f64; L]; 2],
-        pb: &mut PoseBlock<N>,
-    ) {
-        self.poses_impl(alpha_deg, count, trig, pay, pb);
-    }
-
-    /// Solves a block of up to [`L`] poses: unloaded stage, then the closure.
+    /// Solves a block of up to [`L`] poses (unloaded stage, then the closure) and writes
+    /// its rows `p..p + count` of `out` and `status`: one function compiled for the best
+    /// instruction set of this CPU (AVX-512, AVX2 + FMA, else x86-64's SSE2; `pulp`), every
+    /// stage inlined into it.
     #[allow(clippy::too_many_arguments)]
     fn block(
         &self,
@@ -177,50 +166,59 @@ impl<const N: usize> SolveKernel<N> {
         count: usize,
         pb: &mut PoseBlock<N>,
         sb: &mut SolveBlock<N>,
+        out: &mut BatchOutput<'_>,
+        status: &mut [u8],
+        p: usize,
     ) {
-        let mut pay = [[0.0; L]; 2];
-        for k in 0..L {
-            let q = k.min(count - 1);
-            pay[0][k] = payload[2 * q];
-            pay[1][k] = payload[2 * q + 1];
+        struct Op<'a, 'o, const N: usize> {
+            k: &'a SolveKernel<N>,
+            alpha_deg: &'a [f64],
+            payload: &'a [f64],
+            count: usize,
+            pb: &'a mut PoseBlock<N>,
+            sb: &'a mut SolveBlock<N>,
+            out: &'a mut BatchOutput<'o>,
+            status: &'a mut [u8],
+            p: usize,
         }
-        let mut trig = ([[0.0; L]; N], [[0.0; L]; N]);
-        struct Poses<'a, const N: usize>(
-            &'a SolveKernel<N>,
-            &'a [f64],
-            usize,
-            &'a mut ([[f64; L]; N], [[f64; L]; N]),
-            &'a [[f64; L]; 2],
-            &'a mut PoseBlock<N>,
-        );
-        impl<const N: usize> pulp::WithSimd for Poses<'_, N> {
+        impl<const N: usize> pulp::WithSimd for Op<'_, '_, N> {
             type Output = ();
             #[inline(always)]
             fn with_simd<S: pulp::Simd>(self, _simd: S) {
-                self.0.poses_impl(self.1, self.2, self.3, self.4, self.5);
+                let Self {
+                    k,
+                    alpha_deg,
+                    payload,
+                    count,
+                    pb,
+                    sb,
+                    out,
+                    status,
+                    p,
+                } = self;
+                let mut pay = [[0.0; L]; 2];
+                for q in 0..L {
+                    let r = q.min(count - 1);
+                    pay[0][q] = payload[2 * r];
+                    pay[1][q] = payload[2 * r + 1];
+                }
+                let mut trig = ([[0.0; L]; N], [[0.0; L]; N]);
+                k.poses_impl(alpha_deg, count, &mut trig, &pay, pb);
+                k.close_any(&trig, &pay, pb, sb);
+                write_block(pb, sb, out, status, p, count);
             }
         }
-        match simd {
-            pulp::Arch::V4(_) => {
-                simd.dispatch(Poses(self, alpha_deg, count, &mut trig, &pay, pb));
-            }
-            _ => self.poses_baseline(alpha_deg, count, &mut trig, &pay, pb),
-        }
-        struct Close<'a, const N: usize>(
-            &'a SolveKernel<N>,
-            &'a ([[f64; L]; N], [[f64; L]; N]),
-            &'a [[f64; L]; 2],
-            &'a PoseBlock<N>,
-            &'a mut SolveBlock<N>,
-        );
-        impl<const N: usize> pulp::WithSimd for Close<'_, N> {
-            type Output = ();
-            #[inline(always)]
-            fn with_simd<S: pulp::Simd>(self, _simd: S) {
-                self.0.close_any(self.1, self.2, self.3, self.4);
-            }
-        }
-        simd.dispatch(Close(self, &trig, &pay, pb, sb));
+        simd.dispatch(Op {
+            k: self,
+            alpha_deg,
+            payload,
+            count,
+            pb,
+            sb,
+            out,
+            status,
+            p,
+        });
     }
 
     /// [`Self::close`] for every combination of play and geometric effects.
@@ -278,8 +276,9 @@ impl<const N: usize> SolveKernel<N> {
                 dy[k] += u[1][0][k];
             }
         }
-        let mut fail = pb.singular;
-        let mut flip = [false; L];
+        // Flags as 0/1 lane integers: bool lanes are packed to bytes in the vector loop.
+        let mut fail: [u64; L] = std::array::from_fn(|k| u64::from(pb.singular[k]));
+        let mut flip = [0u64; L];
         let mut turn = [[[0.0; L]; N]; 2];
         let mut dth = [[0.0; L]; N];
         let mut far = false;
@@ -329,7 +328,7 @@ impl<const N: usize> SolveKernel<N> {
                     (-dlen * (2.0 * l + dlen) * hr, (0.0, 0.0), (0.0, 0.0))
                 };
                 let tr = Turn::of(c, s, dc);
-                fail[k] |= !tr.closes;
+                fail[k] |= u64::from(!tr.closes);
                 let (mut ts, mut tc) = (side * tr.sin, tr.cos_m1);
                 if GEOM {
                     (ts, tc) = compose(rd.0, rd.1, ts, tc);
@@ -340,7 +339,7 @@ impl<const N: usize> SolveKernel<N> {
                 // link i against body i−1 (against the fixed chassis for link 1).
                 let (rs, rc) = if i == 0 { (ns, nc) } else { (ts, tc) };
                 let sg = side * s;
-                flip[k] |= sg * (sg * (1.0 + rc) + c * rs) < 0.0;
+                flip[k] |= u64::from(sg * (sg * (1.0 + rc) + c * rs) < 0.0);
                 sr[k] = ns;
                 cm[k] = nc;
                 let (gx, gy) = (pb.gx[i][k], pb.gy[i][k]);
@@ -379,7 +378,7 @@ impl<const N: usize> SolveKernel<N> {
         let deg = 180.0f64 / std::f64::consts::PI;
         let mut da = phi;
         let mut max_da = [0.0f64; L];
-        let mut over = [false; L];
+        let mut over = [0u64; L];
         for i in 0..N {
             let fmax = self.fmax[i];
             for k in 0..L {
@@ -389,15 +388,15 @@ impl<const N: usize> SolveKernel<N> {
                 da[k] = a;
                 sb.dalpha[i][k] = a * deg;
                 max_da[k] = max_da[k].max(sb.dalpha[i][k].abs());
-                over[k] |= sb.force[i][k].abs() > fmax;
+                over[k] |= u64::from(sb.force[i][k].abs() > fmax);
             }
         }
         for k in 0..L {
             let checks = Checks {
                 out_of_stroke: pb.out_of_stroke[k],
                 near_singular: pb.near_singular[k],
-                branch_flip: flip[k],
-                over_force: over[k],
+                branch_flip: flip[k] != 0,
+                over_force: over[k] != 0,
                 large_deflection: validity::large_deflection_sq(
                     max_da[k],
                     dx[k],
@@ -406,12 +405,42 @@ impl<const N: usize> SolveKernel<N> {
                     self.reach,
                 ),
             };
-            sb.status[k] = validity::classify(checks).code();
+            sb.status[k] = validity::code_of(checks);
         }
         sb.dx = dx;
         sb.dy = dy;
-        sb.fail = fail;
+        sb.fail = fail.map(|f| f != 0);
     }
+}
+
+/// Writes a solved block to rows `p..p + count` of the outputs (inlined into the block's
+/// instruction-set variant, so that the transposes are vectorised with it).
+#[inline(always)]
+fn write_block<const N: usize>(
+    pb: &PoseBlock<N>,
+    sb: &SolveBlock<N>,
+    out: &mut BatchOutput<'_>,
+    status: &mut [u8],
+    p: usize,
+    count: usize,
+) {
+    let span = p * N..(p + count) * N;
+    transpose_into(&sb.force, &mut out.force_n[span.clone()]);
+    transpose_into(&sb.dforce, &mut out.dforce_n[span.clone()]);
+    transpose_into(&sb.dalpha, &mut out.dalpha_deg[span.clone()]);
+    transpose_into(&sb.dl, &mut out.dl_mm[span.clone()]);
+    transpose_into(&sb.dlength, &mut out.dlength_mm[span.clone()]);
+    transpose_into(&pb.len, &mut out.length_mm[span]);
+    let reaction = &mut out.reaction_n[2 * p * N..2 * (p + count) * N];
+    for (q, row) in reaction.chunks_exact_mut(2 * N).enumerate() {
+        for i in 0..N {
+            row[2 * i] = sb.reaction[0][i][q];
+            row[2 * i + 1] = sb.reaction[1][i][q];
+        }
+    }
+    out.dx_mm[p..p + count].copy_from_slice(&sb.dx[..count]);
+    out.dy_mm[p..p + count].copy_from_slice(&sb.dy[..count]);
+    status[p..p + count].copy_from_slice(&sb.status[..count]);
 }
 
 /// The angle of the turns the series does not cover, with `atan2`.
@@ -501,24 +530,9 @@ impl<const N: usize> SolveKernel<N> {
             let count = (rows - p).min(L);
             let alpha = &input.alpha_deg[p * N..(p + count) * N];
             let payload = &input.payload_n[2 * p..2 * (p + count)];
-            self.block(simd, alpha, payload, count, &mut pb, &mut sb);
-            let span = p * N..(p + count) * N;
-            transpose_into(&sb.force, &mut out.force_n[span.clone()]);
-            transpose_into(&sb.dforce, &mut out.dforce_n[span.clone()]);
-            transpose_into(&sb.dalpha, &mut out.dalpha_deg[span.clone()]);
-            transpose_into(&sb.dl, &mut out.dl_mm[span.clone()]);
-            transpose_into(&sb.dlength, &mut out.dlength_mm[span.clone()]);
-            transpose_into(&pb.len, &mut out.length_mm[span]);
-            let reaction = &mut out.reaction_n[2 * p * N..2 * (p + count) * N];
-            for (q, row) in reaction.chunks_exact_mut(2 * N).enumerate() {
-                for i in 0..N {
-                    row[2 * i] = sb.reaction[0][i][q];
-                    row[2 * i + 1] = sb.reaction[1][i][q];
-                }
-            }
-            out.dx_mm[p..p + count].copy_from_slice(&sb.dx[..count]);
-            out.dy_mm[p..p + count].copy_from_slice(&sb.dy[..count]);
-            status[p..p + count].copy_from_slice(&sb.status[..count]);
+            self.block(
+                simd, alpha, payload, count, &mut pb, &mut sb, &mut out, status, p,
+            );
             for q in 0..count {
                 if sb.fail[q] {
                     let r = p + q;

@@ -38,6 +38,7 @@
 // Lane loops index several `[link][lane]` arrays in step; `!(x >= t)` is meant: NaN fails.
 #![allow(clippy::needless_range_loop, clippy::neg_cmp_op_on_partial_ord)]
 
+use super::lanes::{rot4, F4, M4, W};
 use super::trig::{asin_small, sincos_deg, wrap_once, ASIN_SERIES_MAX};
 use crate::arm::Arm;
 use crate::effects::{Effect, EffectSet, Unloaded, FORCE_ZERO_N};
@@ -416,7 +417,8 @@ impl<const N: usize> FastArm<N> {
     }
 
     /// The body of [`Self::poses_trig`]: everything after the sines and cosines, with the
-    /// payload force `pay` (N, global, `[x or y][lane]`) at the load point.
+    /// payload force `pay` (N, global, `[x or y][lane]`) at the load point. The lanes go in
+    /// packs of four ([`F4`]), each pack link by link from the tip with its state in registers.
     #[inline(always)]
     pub(crate) fn poses_sc_impl(
         &self,
@@ -425,150 +427,139 @@ impl<const N: usize> FastArm<N> {
         pay: &[[f64; L]; 2],
         out: &mut PoseBlock<N>,
     ) {
-        let pb = out;
+        for at in (0..L).step_by(W) {
+            self.poses_pack(at, sn, cs, pay, out);
+        }
+    }
+
+    /// [`Self::poses_sc_impl`] for lanes `at..at + 4`.
+    #[inline(always)]
+    fn poses_pack(
+        &self,
+        at: usize,
+        sn: &[[f64; L]; N],
+        cs: &[[f64; L]; N],
+        pay: &[[f64; L]; 2],
+        pb: &mut PoseBlock<N>,
+    ) {
         let this = self;
+        let ld = |a: &[f64; L]| F4::load(a, at);
         // Link by link from the tip: geometry of link i (it needs the angles of links i and
         // i−1 only), then its statics, which need the actuator line of link i+1.
-        let mut singular = [false; L];
-        let mut near = [false; L];
-        let mut reach = [true; L];
-        let mut px = [0.0; L];
-        let mut py = [0.0; L];
+        let mut singular = M4::FALSE;
+        let mut near = M4::FALSE;
+        let mut reach = M4::TRUE;
+        let (mut px, mut py) = (F4::ZERO, F4::ZERO);
         // Actuator line of link i+1 and the forces of the self-weight case (w) and of the
         // payload (u) from link i+1. Beyond the tip: no actuator, and a "reaction" −P so that
         // −R_{n+1} is the payload P at the load point.
-        let mut e0n = [0.0; L];
-        let mut e1n = [0.0; L];
-        let mut fw1 = [0.0; L];
-        let mut rwx1 = [0.0; L];
-        let mut rwy1 = [0.0; L];
-        let mut fu1 = [0.0; L];
-        let mut rux1 = [0.0; L];
-        let mut ruy1 = [0.0; L];
-        for k in 0..L {
-            rux1[k] = 0.0 - pay[0][k];
-            ruy1[k] = 0.0 - pay[1][k];
-        }
+        let (mut e0n, mut e1n) = (F4::ZERO, F4::ZERO);
+        let (mut fw1, mut rwx1, mut rwy1) = (F4::ZERO, F4::ZERO, F4::ZERO);
+        let mut fu1 = F4::ZERO;
+        let mut rux1 = F4::ZERO - ld(&pay[0]);
+        let mut ruy1 = F4::ZERO - ld(&pay[1]);
         // R(α_i)·next_i and R(α_i)·b_i of the link being processed: computed for the last link
         // here (its b is unused), for the others while their distal link was processed.
-        let mut rnx = [0.0; L];
-        let mut rny = [0.0; L];
-        let mut rbx = [0.0; L];
-        let mut rby = [0.0; L];
-        for k in 0..L {
-            (rnx[k], rny[k]) = rot(sn[N - 1][k], cs[N - 1][k], this.next[N - 1]);
-        }
+        let (mut rnx, mut rny) = rot4(ld(&sn[N - 1]), ld(&cs[N - 1]), this.next[N - 1]);
+        let (mut rbx, mut rby) = (F4::ZERO, F4::ZERO);
         for i in (0..N).rev() {
             // D_i = B_{i−1} − O_i: fixed on the chassis, else R(α_{i−1})·(b − next)_{i−1},
             // taken as the difference of the two vectors that link i−1 needs anyway.
-            let mut dx = [this.d0[0]; L];
-            let mut dy = [this.d0[1]; L];
-            let mut pnx = [0.0; L];
-            let mut pny = [0.0; L];
-            let mut pbx = [0.0; L];
-            let mut pby = [0.0; L];
+            let (mut dx, mut dy) = (F4::splat(this.d0[0]), F4::splat(this.d0[1]));
+            let (mut pnx, mut pny) = (F4::ZERO, F4::ZERO);
+            let (mut pbx, mut pby) = (F4::ZERO, F4::ZERO);
             if i > 0 {
-                for k in 0..L {
-                    let (s, c) = (sn[i - 1][k], cs[i - 1][k]);
-                    (pnx[k], pny[k]) = rot(s, c, this.next[i - 1]);
-                    (pbx[k], pby[k]) = rot(s, c, this.b[i - 1]);
-                    dx[k] = pbx[k] - pnx[k];
-                    dy[k] = pby[k] - pny[k];
-                }
+                let (s, c) = (ld(&sn[i - 1]), ld(&cs[i - 1]));
+                (pnx, pny) = rot4(s, c, this.next[i - 1]);
+                (pbx, pby) = rot4(s, c, this.b[i - 1]);
+                dx = pbx - pnx;
+                dy = pby - pny;
             }
             let wb = if i + 1 < N { this.w_half[i + 1] } else { 0.0 };
             let (wl, wa) = (this.w_link[i], this.w_half[i]);
-            let (len_tol, arm_tol, inv_rd) = (this.len_tol[i], this.arm_tol[i], this.inv_rd[i]);
-            let (lo, hi) = (this.lo[i], this.hi[i]);
-            let near_tol = this.near_tol[i];
-            // Lanes in groups of eight (one AVX-512 vector): two independent dependency chains
-            // per link, which the CPU overlaps (the square root and division are slow).
-            for k0 in (0..L).step_by(8) {
-                for k in k0..k0 + 8 {
-                    let (s, c) = (sn[i][k], cs[i][k]);
-                    let (ax, ay) = rot(s, c, this.a[i]);
-                    let (vx, vy) = (ax - dx[k], ay - dy[k]);
-                    let l2 = vx * vx + vy * vy;
-                    let l = l2.sqrt();
-                    // h = (A − O) × e = hv / ℓ. One division, which does not wait for the square
-                    // root, gives both 1/ℓ = ℓ·hv/(ℓ²·hv) and 1/h = ℓ·ℓ²/(ℓ²·hv).
-                    let hv = ax * vy - ay * vx;
-                    let q = 1.0 / (l2 * hv);
-                    let inv_l = l * (hv * q);
-                    let inv_h = l * (l2 * q);
-                    let (e0, e1) = (vx * inv_l, vy * inv_l);
-                    // `!(x > t)`: NaN counts as singular, as in the scalar core. Non-short-circuit
-                    // `|`/`&` keep the lane loop branch-free.
-                    singular[k] |= !(l > len_tol) | !(hv.abs() >= arm_tol * l);
-                    near[k] |= !(hv.abs() >= near_tol * l);
-                    pb.e[0][i][k] = e0;
-                    pb.e[1][i][k] = e1;
-                    pb.d[0][i][k] = dx[k];
-                    pb.d[1][i][k] = dy[k];
-                    reach[k] &= (l >= lo) & (l <= hi);
-                    pb.len[i][k] = l;
-                    let sg = (dx[k] * ay - dy[k] * ax) * inv_rd;
-                    pb.c[i][k] = (dx[k] * ax + dy[k] * ay) * inv_rd;
-                    pb.s[i][k] = sg.abs();
-                    pb.side[i][k] = 1.0f64.copysign(sg);
-                    // Lever of the measure point's displacement, and the load point.
-                    let (nx, ny) = (rnx[k], rny[k]);
-                    let (gx, gy) = if i + 1 < N {
-                        (nx, ny)
-                    } else {
-                        rot(s, c, this.measure)
-                    };
-                    pb.gx[i][k] = gx;
-                    pb.gy[i][k] = gy;
-                    px[k] += nx;
-                    py[k] += ny;
-                    // Statics of link i: weights at C_i, A_i and B_i, actuator i+1's force −F·e
-                    // at B_i, the distal reaction −R at O_{i+1}; moments about O_i.
-                    let cx = c * this.c[i][0] - s * this.c[i][1];
-                    let (bx, by) = (rbx[k], rby[k]);
-                    let (fx, fy) = (-fw1[k] * e0n[k], -fw1[k] * e1n[k]);
-                    let qx = fx - rwx1[k];
-                    let qy = fy - rwy1[k] - (wl + wa + wb);
-                    let t = -wl * cx - wa * ax - wb * bx + (bx * fy - by * fx)
-                        - (nx * rwy1[k] - ny * rwx1[k]);
-                    let (gx, gy) = (-fu1[k] * e0n[k], -fu1[k] * e1n[k]);
-                    let qux = gx - rux1[k];
-                    let quy = gy - ruy1[k];
-                    let tu = (bx * gy - by * gx) - (nx * ruy1[k] - ny * rux1[k]);
-                    let f = -t * inv_h;
-                    let fu = -tu * inv_h;
-                    fw1[k] = f;
-                    rwx1[k] = -qx - f * e0;
-                    rwy1[k] = -qy - f * e1;
-                    fu1[k] = fu;
-                    rux1[k] = -qux - fu * e0;
-                    ruy1[k] = -quy - fu * e1;
-                    e0n[k] = e0;
-                    e1n[k] = e1;
-                    pb.fw[i][k] = f;
-                    pb.fu[i][k] = fu;
-                    pb.rw[0][i][k] = rwx1[k];
-                    pb.rw[1][i][k] = rwy1[k];
-                    pb.ru[0][i][k] = rux1[k];
-                    pb.ru[1][i][k] = ruy1[k];
-                }
-            }
+            let (s, c) = (ld(&sn[i]), ld(&cs[i]));
+            let (ax, ay) = rot4(s, c, this.a[i]);
+            let (vx, vy) = (ax - dx, ay - dy);
+            let l2 = vx * vx + vy * vy;
+            let l = l2.sqrt();
+            // h = (A − O) × e = hv / ℓ. One division, which does not wait for the square
+            // root, gives both 1/ℓ = ℓ·hv/(ℓ²·hv) and 1/h = ℓ·ℓ²/(ℓ²·hv).
+            let hv = ax * vy - ay * vx;
+            let q = 1.0 / (l2 * hv);
+            let inv_l = l * (hv * q);
+            let inv_h = l * (l2 * q);
+            let (e0, e1) = (vx * inv_l, vy * inv_l);
+            // `!(x > t)`: NaN counts as singular, as in the scalar core.
+            let habs = hv.abs();
+            singular = singular | !l.gt(F4::splat(this.len_tol[i])) | !habs.ge(this.arm_tol[i] * l);
+            near = near | !habs.ge(this.near_tol[i] * l);
+            reach = reach & l.ge(F4::splat(this.lo[i])) & l.le(F4::splat(this.hi[i]));
+            e0.store(&mut pb.e[0][i], at);
+            e1.store(&mut pb.e[1][i], at);
+            dx.store(&mut pb.d[0][i], at);
+            dy.store(&mut pb.d[1][i], at);
+            l.store(&mut pb.len[i], at);
+            let sg = (dx * ay - dy * ax) * this.inv_rd[i];
+            ((dx * ax + dy * ay) * this.inv_rd[i]).store(&mut pb.c[i], at);
+            sg.abs().store(&mut pb.s[i], at);
+            sg.sign_one().store(&mut pb.side[i], at);
+            // Lever of the measure point's displacement, and the load point.
+            let (nx, ny) = (rnx, rny);
+            let (gx, gy) = if i + 1 < N {
+                (nx, ny)
+            } else {
+                rot4(s, c, this.measure)
+            };
+            gx.store(&mut pb.gx[i], at);
+            gy.store(&mut pb.gy[i], at);
+            px = px + nx;
+            py = py + ny;
+            // Statics of link i: weights at C_i, A_i and B_i, actuator i+1's force −F·e at
+            // B_i, the distal reaction −R at O_{i+1}; moments about O_i.
+            let cx = c * this.c[i][0] - s * this.c[i][1];
+            let (bx, by) = (rbx, rby);
+            let (fx, fy) = (-fw1 * e0n, -fw1 * e1n);
+            let qx = fx - rwx1;
+            let qy = fy - rwy1 - (wl + wa + wb);
+            let t = -wl * cx - wa * ax - wb * bx + (bx * fy - by * fx) - (nx * rwy1 - ny * rwx1);
+            let (gx, gy) = (-fu1 * e0n, -fu1 * e1n);
+            let qux = gx - rux1;
+            let quy = gy - ruy1;
+            let tu = (bx * gy - by * gx) - (nx * ruy1 - ny * rux1);
+            let f = -t * inv_h;
+            let fu = -tu * inv_h;
+            fw1 = f;
+            rwx1 = -qx - f * e0;
+            rwy1 = -qy - f * e1;
+            fu1 = fu;
+            rux1 = -qux - fu * e0;
+            ruy1 = -quy - fu * e1;
+            e0n = e0;
+            e1n = e1;
+            f.store(&mut pb.fw[i], at);
+            fu.store(&mut pb.fu[i], at);
+            rwx1.store(&mut pb.rw[0][i], at);
+            rwy1.store(&mut pb.rw[1][i], at);
+            rux1.store(&mut pb.ru[0][i], at);
+            ruy1.store(&mut pb.ru[1][i], at);
             (rnx, rny, rbx, rby) = (pnx, pny, pbx, pby);
         }
-        for k in 0..L {
-            pb.singular[k] = singular[k];
-            pb.near_singular[k] = near[k];
-            pb.out_of_stroke[k] = !reach[k];
-            pb.reachable[k] = reach[k] & !singular[k];
-            pb.code[k] = if !reach[k] {
+        (px + this.o1[0]).store(&mut pb.ex, at);
+        (py + this.o1[1]).store(&mut pb.ey, at);
+        for j in 0..W {
+            let k = at + j;
+            let (singular, near, reach) = (singular.get(j), near.get(j), reach.get(j));
+            pb.singular[k] = singular;
+            pb.near_singular[k] = near;
+            pb.out_of_stroke[k] = !reach;
+            pb.reachable[k] = reach & !singular;
+            pb.code[k] = if !reach {
                 Status::OutOfStroke.code()
-            } else if near[k] | singular[k] {
+            } else if near | singular {
                 Status::NearSingular.code()
             } else {
                 Status::Ok.code()
             };
-            pb.ex[k] = this.o1[0] + px[k];
-            pb.ey[k] = this.o1[1] + py[k];
         }
     }
 
@@ -685,8 +676,8 @@ impl<const N: usize> FastArm<N> {
     }
 
     /// Unloaded geometry and statics of up to `L` poses: `alpha_deg` holds `count` rows of
-    /// `N` angles (deg); missing lanes repeat the last pose and are to be ignored. Runs with
-    /// AVX-512 where the CPU has it, else as baseline x86-64 code (see [`Self::cells`]).
+    /// `N` angles (deg); missing lanes repeat the last pose and are to be ignored. Compiled
+    /// for the best instruction set of this CPU, as [`Self::cells`].
     pub fn poses(&self, simd: pulp::Arch, alpha_deg: &[f64], count: usize, out: &mut PoseBlock<N>) {
         struct Op<'a, const N: usize>(&'a FastArm<N>, &'a [f64], usize, &'a mut PoseBlock<N>);
         impl<const N: usize> pulp::WithSimd for Op<'_, N> {
@@ -696,13 +687,7 @@ impl<const N: usize> FastArm<N> {
                 self.0.poses_impl(self.1, self.2, self.3);
             }
         }
-        match simd {
-            // AVX-512: LLVM vectorises this loop 8 wide.
-            pulp::Arch::V4(_) => simd.dispatch(Op(self, alpha_deg, count, out)),
-            // With AVX2 and generic tuning LLVM leaves it scalar; the baseline SSE2 build of
-            // the out-of-line copy is vectorised 2 wide, which is faster.
-            _ => self.poses_baseline(alpha_deg, count, out),
-        }
+        simd.dispatch(Op(self, alpha_deg, count, out));
     }
 
     /// [`Self::poses`] from the sines and cosines of the angles (`[link][lane]`, as
@@ -729,23 +714,7 @@ impl<const N: usize> FastArm<N> {
                     .poses_sc_impl(self.1, self.2, &self.0.unit_payload(), self.3);
             }
         }
-        match simd {
-            pulp::Arch::V4(_) => simd.dispatch(Op(self, sn, cs, out)),
-            _ => self.poses_sc_baseline(sn, cs, out),
-        }
-    }
-
-    /// [`Self::poses_sc_impl`] compiled for baseline x86-64 (see [`Self::poses_baseline`]).
-    #[inline(never)]
-    fn poses_sc_baseline(&self, sn: &[[f64; L]; N], cs: &[[f64; L]; N], out: &mut PoseBlock<N>) {
-        self.poses_sc_impl(sn, cs, &self.unit_payload(), out);
-    }
-
-    /// [`Self::poses_impl`] compiled for baseline x86-64 (out of line, so it keeps its own
-    /// vectorisation).
-    #[inline(never)]
-    fn poses_baseline(&self, alpha_deg: &[f64], count: usize, out: &mut PoseBlock<N>) {
-        self.poses_impl(alpha_deg, count, out);
+        simd.dispatch(Op(self, sn, cs, out));
     }
 
     /// Loaded minus unloaded state of the block's poses under a payload mass `m` (kg).
