@@ -40,8 +40,8 @@ use crate::effects::{Effect, EffectSet};
 use crate::error::Result;
 use crate::geometry::V2;
 use crate::sweep::fast::{compose, rot, FastArm, PoseBlock, Turn, L};
-use crate::sweep::transpose_into;
 use crate::sweep::trig::{asin_small, sincos_deg, wrap_once, ASIN_SERIES_MAX};
+use crate::sweep::{transpose_into, transpose_xy_into};
 use crate::validity::{self, Checks};
 
 /// `cos a − 1` from `sin a` and `cos a`, without cancellation where cos a > 0.
@@ -431,13 +431,10 @@ fn write_block<const N: usize>(
     transpose_into(&sb.dl, &mut out.dl_mm[span.clone()]);
     transpose_into(&sb.dlength, &mut out.dlength_mm[span.clone()]);
     transpose_into(&pb.len, &mut out.length_mm[span]);
-    let reaction = &mut out.reaction_n[2 * p * N..2 * (p + count) * N];
-    for (q, row) in reaction.chunks_exact_mut(2 * N).enumerate() {
-        for i in 0..N {
-            row[2 * i] = sb.reaction[0][i][q];
-            row[2 * i + 1] = sb.reaction[1][i][q];
-        }
-    }
+    transpose_xy_into(
+        &sb.reaction,
+        &mut out.reaction_n[2 * p * N..2 * (p + count) * N],
+    );
     out.dx_mm[p..p + count].copy_from_slice(&sb.dx[..count]);
     out.dy_mm[p..p + count].copy_from_slice(&sb.dy[..count]);
     status[p..p + count].copy_from_slice(&sb.status[..count]);
