@@ -40,7 +40,7 @@
 
 mod fallback;
 pub(crate) mod fast;
-mod lanes;
+pub mod lanes;
 mod reduce;
 pub mod trig;
 

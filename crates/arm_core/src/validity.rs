@@ -23,6 +23,7 @@
 
 use crate::arm::Arm;
 use crate::geometry::{cross, V2};
+use crate::sweep::lanes::Lane;
 
 /// Moment arm of an actuator about its joint, as a fraction of |A_i − O_i|, below which the
 /// pose is near singular (forces amplified more than 20×).
@@ -166,20 +167,19 @@ pub fn large_deflection(
 
 /// [`large_deflection`] with the displacement's length as `√(dx² + dy²)` instead of
 /// `hypot` (no libm call, for the lanes of the block kernel): the same answer except where
-/// the length is within rounding (≈ 1e-16 relative) of its limit.
+/// the length is within rounding (≈ 1e-16 relative) of its limit. Per lane for a pack.
 #[inline(always)]
-pub fn large_deflection_sq(
-    max_abs_dalpha_deg: f64,
-    dx_mm: f64,
-    dy_mm: f64,
-    payload_down: bool,
+pub fn large_deflection_sq<T: Lane>(
+    max_abs_dalpha_deg: T,
+    dx_mm: T,
+    dy_mm: T,
+    payload_down: T::Mask,
     reach_mm: f64,
-) -> bool {
+) -> T::Mask {
     let moved = (dx_mm * dx_mm + dy_mm * dy_mm).sqrt();
-    // `|` and `&`, not `||` and `&&`: no branches in the lane loops (the same answer).
-    !(max_abs_dalpha_deg <= MAX_DALPHA_DEG)
-        | !(moved <= MAX_DEFLECTION_OF_REACH * reach_mm)
-        | (payload_down & (dy_mm > MAX_RISE_OF_REACH * reach_mm))
+    !max_abs_dalpha_deg.le(MAX_DALPHA_DEG)
+        | !moved.le(MAX_DEFLECTION_OF_REACH * reach_mm)
+        | (payload_down & dy_mm.gt(MAX_RISE_OF_REACH * reach_mm))
 }
 
 /// Some |force_i| above its actuator's `max_force` (actuators without one never are).

@@ -40,18 +40,15 @@ use crate::effects::{Effect, EffectSet};
 use crate::error::Result;
 use crate::geometry::V2;
 use crate::sweep::fast::{compose, rot, FastArm, PoseBlock, Turn, L};
+use crate::sweep::lanes::{Lane, F4, M4, W};
 use crate::sweep::trig::{asin_small, sincos_deg, wrap_once, ASIN_SERIES_MAX};
 use crate::sweep::{transpose_into, transpose_xy_into};
 use crate::validity::{self, Checks};
 
 /// `cos a − 1` from `sin a` and `cos a`, without cancellation where cos a > 0.
 #[inline(always)]
-pub(crate) fn cos_m1(s: f64, c: f64) -> f64 {
-    if c > 0.0 {
-        -s * s / (1.0 + c)
-    } else {
-        c - 1.0
-    }
+pub(crate) fn cos_m1<T: Lane>(s: T, c: T) -> T {
+    T::select(c.gt(0.0), -s * s / (c + 1.0), c - 1.0)
 }
 
 /// Per-arm constants of the solve kernel for an arm of `N` links.
@@ -242,7 +239,8 @@ impl<const N: usize> SolveKernel<N> {
     }
 
     /// The loaded pose of a block (see the module documentation); `GEOM`: some joint has
-    /// clearance or some link bends.
+    /// clearance or some link bends. The lanes go in packs of four ([`F4`]), each pack link
+    /// by link from the base with its state in registers.
     #[inline(always)]
     fn close<const PLAY: bool, const UP: bool, const GEOM: bool>(
         &self,
@@ -252,15 +250,11 @@ impl<const N: usize> SolveKernel<N> {
         sb: &mut SolveBlock<N>,
     ) {
         let (sn, cs) = (&trig.0, &trig.1);
-        let fa = &self.fa;
-        let mut phi = [0.0; L]; // the base tilt (rad)
-        let mut sr = [0.0; L]; // sin Δα_{i−1}
-        let mut cm = [0.0; L]; // cos Δα_{i−1} − 1
-        let mut dx = [0.0; L];
-        let mut dy = [0.0; L];
+        // The base tilt (rad), its rotation (sin, cos − 1) and the displacement it gives.
+        let mut tilt = [[0.0; L]; 5];
         if self.base.on() {
-            self.base
-                .tilt(pb, pay, &mut phi, &mut sr, &mut cm, &mut dx, &mut dy);
+            let [phi, sr, cm, dx, dy] = &mut tilt;
+            self.base.tilt(pb, pay, phi, sr, cm, dx, dy);
         }
         let mut u = [[[0.0; L]; N]; 2];
         let mut sh = Shifts::<N>::new();
@@ -271,145 +265,187 @@ impl<const N: usize> SolveKernel<N> {
             if self.bend.any {
                 self.bend.shifts(pb, sn, cs, pay, &mut sh);
             }
-            for k in 0..L {
-                dx[k] += u[0][0][k];
-                dy[k] += u[1][0][k];
-            }
         }
-        // Flags as 0/1 lane integers: bool lanes are packed to bytes in the vector loop.
-        let mut fail: [u64; L] = std::array::from_fn(|k| u64::from(pb.singular[k]));
-        let mut flip = [0u64; L];
-        let mut turn = [[[0.0; L]; N]; 2];
-        let mut dth = [[0.0; L]; N];
-        let mut far = false;
+        let geo = Geo {
+            sn,
+            cs,
+            u: &u,
+            sh: &sh,
+        };
+        for at in (0..L).step_by(W) {
+            self.close_pack::<PLAY, UP, GEOM>(at, &geo, &tilt, pay, pb, sb);
+        }
+    }
+
+    /// [`Self::close`] for lanes `at..at + 4`.
+    #[inline(always)]
+    fn close_pack<const PLAY: bool, const UP: bool, const GEOM: bool>(
+        &self,
+        at: usize,
+        geo: &Geo<'_, N>,
+        tilt: &[[f64; L]; 5],
+        pay: &[[f64; L]; 2],
+        pb: &PoseBlock<N>,
+        sb: &mut SolveBlock<N>,
+    ) {
+        let ld = |a: &[f64; L]| F4::load(a, at);
+        let (sn, cs, u, sh) = (geo.sn, geo.cs, geo.u, geo.sh);
+        let fa = &self.fa;
+        let [phi, sr, cm, dx, dy] = tilt;
+        let (mut sr, mut cm) = (ld(sr), ld(cm)); // sin Δα_{i−1}, cos Δα_{i−1} − 1
+        let (mut dx, mut dy) = (ld(dx), ld(dy));
+        if GEOM {
+            dx = dx + ld(&u[0][0]);
+            dy = dy + ld(&u[1][0]);
+        }
+        let mut fail = M4::load(&pb.singular, at);
+        let mut flip = M4::FALSE;
+        let mut over = M4::FALSE;
+        let mut far = M4::FALSE;
+        let mut turn = [[F4::ZERO; N]; 2];
+        let mut dth = [F4::ZERO; N];
         for i in 0..N {
             let hr = fa.half_inv_rd[i];
             let (bc, rho, dl0) = (fa.body_c[i], fa.rho[i], fa.dlen[i]);
             let [ax, ay] = fa.a[i];
-            for k in 0..L {
-                let du = pb.fu[i][k];
-                let fw = pb.fw[i][k];
-                let f = fw + du;
-                let dlen = fa.dlen::<PLAY, UP>(i, du, f, fw);
-                let l = pb.len[i][k];
-                let (c, s, side) = (pb.c[i][k], pb.s[i][k], pb.side[i][k]);
-                let (dc, rd, ra) = if GEOM {
-                    // D′ = R(Δα_{i−1})·(D + δ): δ from body i−1's bending and joint i's offset.
-                    let (ux, uy) = (u[0][i][k], u[1][i][k]);
-                    let cc = 1.0 + cm[k];
-                    let mut ddx = -(cc * ux + sr[k] * uy);
-                    let mut ddy = sr[k] * ux - cc * uy;
-                    if i > 0 {
-                        let lx = sh.b[0][i - 1][k] - sh.next[0][i - 1][k];
-                        let ly = sh.b[1][i - 1][k] - sh.next[1][i - 1][k];
-                        let (gx, gy) = rot(sn[i - 1][k], cs[i - 1][k], [lx, ly]);
-                        ddx += gx;
-                        ddy += gy;
-                    }
-                    let (vx, vy) = (pb.d[0][i][k], pb.d[1][i][k]);
-                    let (nx, ny) = (vx + ddx, vy + ddy);
-                    let dn2 = nx * nx + ny * ny;
-                    let dn = dn2.sqrt();
-                    let inv = 1.0 / (dl0 * dn);
-                    let rds = (vx * ddy - vy * ddx) * inv;
-                    let rdc = cos_m1(rds, (dl0 * dl0 + vx * ddx + vy * ddy) * inv);
-                    // a′ = a + Δa, in link i's frame.
-                    let (sx, sy) = (sh.a[0][i][k], sh.a[1][i][k]);
-                    let (px, py) = (ax + sx, ay + sy);
-                    let rp2 = px * px + py * py;
-                    let rp = rp2.sqrt();
-                    let inva = 1.0 / (rho * rp);
-                    let ras = (ax * sy - ay * sx) * inva;
-                    let rac = cos_m1(ras, (rho * rho + ax * sx + ay * sy) * inva);
-                    let lp = l + dlen;
-                    let cp = (rp2 + dn2 - lp * lp) / (2.0 * rp * dn);
-                    (cp - c, (rds, rdc), (ras, rac))
-                } else {
-                    (-dlen * (2.0 * l + dlen) * hr, (0.0, 0.0), (0.0, 0.0))
-                };
-                let tr = Turn::of(c, s, dc);
-                fail[k] |= u64::from(!tr.closes);
-                let (mut ts, mut tc) = (side * tr.sin, tr.cos_m1);
-                if GEOM {
-                    (ts, tc) = compose(rd.0, rd.1, ts, tc);
-                    (ts, tc) = compose(ts, tc, -ra.0, ra.1);
+            let du = ld(&pb.fu[i]);
+            let fw = ld(&pb.fw[i]);
+            let f = fw + du;
+            let dlen = fa.dlen::<PLAY, UP, F4>(i, du, f, fw);
+            let l = ld(&pb.len[i]);
+            let (c, s, side) = (ld(&pb.c[i]), ld(&pb.s[i]), ld(&pb.side[i]));
+            let (dc, rd, ra) = if GEOM {
+                // D′ = R(Δα_{i−1})·(D + δ): δ from body i−1's bending and joint i's offset.
+                let (ux, uy) = (ld(&u[0][i]), ld(&u[1][i]));
+                let cc = 1.0 + cm;
+                let mut ddx = -(cc * ux + sr * uy);
+                let mut ddy = sr * ux - cc * uy;
+                if i > 0 {
+                    let lx = ld(&sh.b[0][i - 1]) - ld(&sh.next[0][i - 1]);
+                    let ly = ld(&sh.b[1][i - 1]) - ld(&sh.next[1][i - 1]);
+                    let (gx, gy) = rot(ld(&sn[i - 1]), ld(&cs[i - 1]), [lx, ly]);
+                    ddx = ddx + gx;
+                    ddy = ddy + gy;
                 }
-                let (ns, nc) = compose(sr[k], cm[k], ts, tc);
-                // The rigid loaded triangle (docs/model.md §7) turned by the relative turn of
-                // link i against body i−1 (against the fixed chassis for link 1).
-                let (rs, rc) = if i == 0 { (ns, nc) } else { (ts, tc) };
-                let sg = side * s;
-                flip[k] |= u64::from(sg * (sg * (1.0 + rc) + c * rs) < 0.0);
-                sr[k] = ns;
-                cm[k] = nc;
-                let (gx, gy) = (pb.gx[i][k], pb.gy[i][k]);
-                dx[k] += nc * gx - ns * gy;
-                dy[k] += ns * gx + nc * gy;
-                if GEOM {
-                    let (qx, qy) = if i + 1 < N {
-                        (sh.next[0][i][k], sh.next[1][i][k])
-                    } else {
-                        (sh.measure[0][k], sh.measure[1][k])
-                    };
-                    let g = rot(sn[i][k], cs[i][k], [qx, qy]);
-                    let (hx, hy) = rot(ns, 1.0 + nc, [g.0, g.1]);
-                    dx[k] += hx;
-                    dy[k] += hy;
-                    if i + 1 < N {
-                        dx[k] += u[0][i + 1][k];
-                        dy[k] += u[1][i + 1][k];
-                    }
-                }
-                far |= !(ts.abs() <= ASIN_SERIES_MAX && 1.0 + tc > 0.0);
-                turn[0][i][k] = ts;
-                turn[1][i][k] = tc;
-                dth[i][k] = asin_small(ts);
-                sb.force[i][k] = f;
-                sb.dforce[i][k] = du;
-                sb.reaction[0][i][k] = pb.rw[0][i][k] + pb.ru[0][i][k];
-                sb.reaction[1][i][k] = pb.rw[1][i][k] + pb.ru[1][i][k];
-                sb.dl[i][k] = -du * bc;
-                sb.dlength[i][k] = dlen;
+                let (vx, vy) = (ld(&pb.d[0][i]), ld(&pb.d[1][i]));
+                let (nx, ny) = (vx + ddx, vy + ddy);
+                let dn2 = nx * nx + ny * ny;
+                let dn = dn2.sqrt();
+                let inv = 1.0 / (dl0 * dn);
+                let rds = (vx * ddy - vy * ddx) * inv;
+                let rdc = cos_m1(rds, (dl0 * dl0 + vx * ddx + vy * ddy) * inv);
+                // a′ = a + Δa, in link i's frame.
+                let (sx, sy) = (ld(&sh.a[0][i]), ld(&sh.a[1][i]));
+                let (px, py) = (ax + sx, ay + sy);
+                let rp2 = px * px + py * py;
+                let rp = rp2.sqrt();
+                let inva = 1.0 / (rho * rp);
+                let ras = (ax * sy - ay * sx) * inva;
+                let rac = cos_m1(ras, (rho * rho + ax * sx + ay * sy) * inva);
+                let lp = l + dlen;
+                let cp = (rp2 + dn2 - lp * lp) / (2.0 * rp * dn);
+                (cp - c, (rds, rdc), (ras, rac))
+            } else {
+                (
+                    -dlen * (2.0 * l + dlen) * hr,
+                    (F4::ZERO, F4::ZERO),
+                    (F4::ZERO, F4::ZERO),
+                )
+            };
+            let tr = Turn::of(c, s, dc);
+            fail = fail | !tr.closes;
+            let (mut ts, mut tc) = (side * tr.sin, tr.cos_m1);
+            if GEOM {
+                (ts, tc) = compose(rd.0, rd.1, ts, tc);
+                (ts, tc) = compose(ts, tc, -ra.0, ra.1);
             }
+            let (ns, nc) = compose(sr, cm, ts, tc);
+            // The rigid loaded triangle (docs/model.md §7) turned by the relative turn of
+            // link i against body i−1 (against the fixed chassis for link 1).
+            let (rs, rc) = if i == 0 { (ns, nc) } else { (ts, tc) };
+            let sg = side * s;
+            flip = flip | Lane::lt(sg * (sg * (1.0 + rc) + c * rs), 0.0);
+            sr = ns;
+            cm = nc;
+            let (gx, gy) = (ld(&pb.gx[i]), ld(&pb.gy[i]));
+            dx = dx + (nc * gx - ns * gy);
+            dy = dy + (ns * gx + nc * gy);
+            if GEOM {
+                let (qx, qy) = if i + 1 < N {
+                    (ld(&sh.next[0][i]), ld(&sh.next[1][i]))
+                } else {
+                    (ld(&sh.measure[0]), ld(&sh.measure[1]))
+                };
+                let g = rot(ld(&sn[i]), ld(&cs[i]), [qx, qy]);
+                let (hx, hy) = rot(ns, 1.0 + nc, [g.0, g.1]);
+                dx = dx + hx;
+                dy = dy + hy;
+                if i + 1 < N {
+                    dx = dx + ld(&u[0][i + 1]);
+                    dy = dy + ld(&u[1][i + 1]);
+                }
+            }
+            far = far | !(Lane::le(ts.abs(), ASIN_SERIES_MAX) & Lane::gt(1.0 + tc, 0.0));
+            turn[0][i] = ts;
+            turn[1][i] = tc;
+            dth[i] = asin_small(ts);
+            over = over | Lane::gt(f.abs(), self.fmax[i]);
+            f.store(&mut sb.force[i], at);
+            du.store(&mut sb.dforce[i], at);
+            (ld(&pb.rw[0][i]) + ld(&pb.ru[0][i])).store(&mut sb.reaction[0][i], at);
+            (ld(&pb.rw[1][i]) + ld(&pb.ru[1][i])).store(&mut sb.reaction[1][i], at);
+            (-du * bc).store(&mut sb.dl[i], at);
+            dlen.store(&mut sb.dlength[i], at);
         }
-        if far {
-            large_turns(&turn, &mut dth);
+        if far.any() {
+            large_turns(&turn, far, &mut dth);
         }
         let deg = 180.0f64 / std::f64::consts::PI;
-        let mut da = phi;
-        let mut max_da = [0.0f64; L];
-        let mut over = [0u64; L];
+        let mut da = ld(phi);
+        let mut max_da = F4::ZERO;
         for i in 0..N {
-            let fmax = self.fmax[i];
-            for k in 0..L {
-                let a = da[k] + dth[i][k];
-                // The loaded angle nearest the unloaded one.
-                let a = wrap_once(a);
-                da[k] = a;
-                sb.dalpha[i][k] = a * deg;
-                max_da[k] = max_da[k].max(sb.dalpha[i][k].abs());
-                over[k] |= u64::from(sb.force[i][k].abs() > fmax);
-            }
+            // The loaded angle nearest the unloaded one.
+            da = wrap_once(da + dth[i]);
+            let d = da * deg;
+            d.store(&mut sb.dalpha[i], at);
+            max_da = Lane::max(max_da, d.abs());
         }
-        for k in 0..L {
-            let checks = Checks {
+        let down = Lane::lt(ld(&pay[1]), 0.0);
+        let large = validity::large_deflection_sq(max_da, dx, dy, down, self.reach);
+        for j in 0..W {
+            let k = at + j;
+            sb.status[k] = validity::code_of(Checks {
                 out_of_stroke: pb.out_of_stroke[k],
                 near_singular: pb.near_singular[k],
-                branch_flip: flip[k] != 0,
-                over_force: over[k] != 0,
-                large_deflection: validity::large_deflection_sq(
-                    max_da[k],
-                    dx[k],
-                    dy[k],
-                    pay[1][k] < 0.0,
-                    self.reach,
-                ),
-            };
-            sb.status[k] = validity::code_of(checks);
+                branch_flip: flip.get(j),
+                over_force: over.get(j),
+                large_deflection: large.get(j),
+            });
+            sb.fail[k] = fail.get(j);
         }
-        sb.dx = dx;
-        sb.dy = dy;
-        sb.fail = fail.map(|f| f != 0);
+        dx.store(&mut sb.dx, at);
+        dy.store(&mut sb.dy, at);
+    }
+}
+
+/// The trigonometry and the geometric effects' offsets of a block, read by every pack.
+struct Geo<'a, const N: usize> {
+    sn: &'a [[f64; L]; N],
+    cs: &'a [[f64; L]; N],
+    u: &'a [[[f64; L]; N]; 2],
+    sh: &'a Shifts<N>,
+}
+
+/// The angle of the turns the series does not cover (lanes of `far`), with `atan2`.
+#[cold]
+fn large_turns<const N: usize>(turn: &[[F4; N]; 2], far: M4, dth: &mut [F4; N]) {
+    for i in 0..N {
+        for j in 0..W {
+            let (s, cm) = (turn[0][i].0[j], turn[1][i].0[j]);
+            if far.get(j) && !(s.abs() <= ASIN_SERIES_MAX && 1.0 + cm > 0.0) {
+                dth[i].0[j] = s.atan2(1.0 + cm);
+            }
+        }
     }
 }
 
@@ -438,19 +474,6 @@ fn write_block<const N: usize>(
     out.dx_mm[p..p + count].copy_from_slice(&sb.dx[..count]);
     out.dy_mm[p..p + count].copy_from_slice(&sb.dy[..count]);
     status[p..p + count].copy_from_slice(&sb.status[..count]);
-}
-
-/// The angle of the turns the series does not cover, with `atan2`.
-#[cold]
-fn large_turns<const N: usize>(turn: &[[[f64; L]; N]; 2], dth: &mut [[f64; L]; N]) {
-    for i in 0..N {
-        for k in 0..L {
-            let (s, cm) = (turn[0][i][k], turn[1][i][k]);
-            if !(s.abs() <= ASIN_SERIES_MAX && 1.0 + cm > 0.0) {
-                dth[i][k] = s.atan2(1.0 + cm);
-            }
-        }
-    }
 }
 
 /// The solve kernel of an arm of 1–6 links (one per call: the variants' sizes do not matter).

@@ -38,7 +38,7 @@
 // Lane loops index several `[link][lane]` arrays in step; `!(x >= t)` is meant: NaN fails.
 #![allow(clippy::needless_range_loop, clippy::neg_cmp_op_on_partial_ord)]
 
-use super::lanes::{rot4, F4, M4, W};
+use super::lanes::{rot4, Lane, F4, M4, W};
 use super::trig::{asin_small, sincos_deg, wrap_once, ASIN_SERIES_MAX};
 use crate::arm::Arm;
 use crate::effects::{Effect, EffectSet, Unloaded, FORCE_ZERO_N};
@@ -340,31 +340,27 @@ impl<const N: usize> CellBlock<N> {
 /// `dc` from `c` (|sin| `s`), as (sin δ, cos δ, cos δ − 1), written so that nothing cancels
 /// for small δ (see the module documentation). `closes` is false where |c + dc| > 1.
 #[derive(Debug, Clone, Copy)]
-pub(crate) struct Turn {
-    pub(crate) closes: bool,
-    pub(crate) sin: f64,
-    pub(crate) cos: f64,
-    pub(crate) cos_m1: f64,
+pub(crate) struct Turn<T: Lane> {
+    pub(crate) closes: T::Mask,
+    pub(crate) sin: T,
+    pub(crate) cos: T,
+    pub(crate) cos_m1: T,
 }
 
-impl Turn {
+impl<T: Lane> Turn<T> {
     #[inline(always)]
-    pub(crate) fn of(c: f64, s: f64, dc: f64) -> Self {
-        let t = 2.0 * c + dc;
+    pub(crate) fn of(c: T, s: T, dc: T) -> Self {
+        let t = c * 2.0 + dc;
         let s2 = s * s - dc * t;
-        let s1 = s2.max(0.0).sqrt();
+        let s1 = s2.max(T::splat(0.0)).sqrt();
         let cosd = c * (c + dc) + s * s1;
         // One division for 1/(s + s′) and 1/(1 + |cos δ|) (≥ 1, used where cos δ > 0).
-        let den = 1.0 + cosd.abs();
-        let q = 1.0 / ((s + s1) * den);
+        let den = cosd.abs() + 1.0;
+        let q = T::splat(1.0) / ((s + s1) * den);
         let sind = -dc * (s + c * t * (den * q));
-        let cos_m1 = if cosd > 0.0 {
-            -sind * sind * ((s + s1) * q)
-        } else {
-            cosd - 1.0
-        };
+        let cos_m1 = T::select(cosd.gt(0.0), -sind * sind * ((s + s1) * q), cosd - 1.0);
         Self {
-            closes: s2 >= 0.0,
+            closes: s2.ge(0.0),
             sin: sind,
             cos: cosd,
             cos_m1,
@@ -374,20 +370,20 @@ impl Turn {
 
 /// Rotation (sin a, cos a − 1) followed by (sin b, cos b − 1): (sin(a+b), cos(a+b) − 1).
 #[inline(always)]
-pub(crate) fn compose(sa: f64, ca: f64, sb: f64, cb: f64) -> (f64, f64) {
+pub(crate) fn compose<T: Lane>(sa: T, ca: T, sb: T, cb: T) -> (T, T) {
     (sa + sb + (sa * cb + ca * sb), ca + cb + (ca * cb - sa * sb))
 }
 
 /// `sign(f)`, 0 below [`FORCE_ZERO_N`] (the scalar core's `sign0`), branch-free.
 #[inline(always)]
-pub(crate) fn sign0(f: f64) -> f64 {
-    let pos = if f >= FORCE_ZERO_N { 1.0 } else { 0.0 };
-    let neg = if f <= -FORCE_ZERO_N { 1.0 } else { 0.0 };
-    pos - neg
+pub(crate) fn sign0<T: Lane>(f: T) -> T {
+    let (one, zero) = (T::splat(1.0), T::splat(0.0));
+    T::select(f.ge(FORCE_ZERO_N), one, zero) - T::select(f.le(-FORCE_ZERO_N), one, zero)
 }
 
+/// `R(s, c)·v`.
 #[inline(always)]
-pub(crate) fn rot(s: f64, c: f64, v: [f64; 2]) -> (f64, f64) {
+pub(crate) fn rot<T: Lane>(s: T, c: T, v: [T; 2]) -> (T, T) {
     (c * v[0] - s * v[1], s * v[0] + c * v[1])
 }
 
@@ -576,18 +572,18 @@ impl<const N: usize> FastArm<N> {
     /// The pin-to-pin length change of actuator `i` under the force change `du` (loaded
     /// force `f`, unloaded `fw`): compliance and play (`UP`: some play is taken up).
     #[inline(always)]
-    pub(crate) fn dlen<const PLAY: bool, const UP: bool>(
+    pub(crate) fn dlen<const PLAY: bool, const UP: bool, T: Lane>(
         &self,
         i: usize,
-        du: f64,
-        f: f64,
-        fw: f64,
-    ) -> f64 {
+        du: T,
+        f: T,
+        fw: T,
+    ) -> T {
         let elastic = -du * self.len_c[i];
         if UP {
-            elastic - self.play[i] * sign0(f) + self.play_up[i] * sign0(fw)
+            elastic - sign0(f) * self.play[i] + sign0(fw) * self.play_up[i]
         } else if PLAY {
-            elastic - self.play[i] * sign0(f)
+            elastic - sign0(f) * self.play[i]
         } else {
             elastic
         }
@@ -617,7 +613,7 @@ impl<const N: usize> FastArm<N> {
                 let fw = pb.fw[i][k];
                 let f = fw + du;
                 let body = -du * bc;
-                let dlen = self.dlen::<PLAY, UP>(i, du, f, fw);
+                let dlen = self.dlen::<PLAY, UP, f64>(i, du, f, fw);
                 let l = pb.len[i][k];
                 let dc = -dlen * (2.0 * l + dlen) * hr;
                 let (c, s, side) = (pb.c[i][k], pb.s[i][k], pb.side[i][k]);
@@ -744,9 +740,9 @@ impl<const N: usize> FastArm<N> {
                 let fw = pb.fw[i][k];
                 let f = fw + du;
                 let dlen = match (self.any_play, self.any_up) {
-                    (_, true) => self.dlen::<true, true>(i, du, f, fw),
-                    (true, false) => self.dlen::<true, false>(i, du, f, fw),
-                    (false, false) => self.dlen::<false, false>(i, du, f, fw),
+                    (_, true) => self.dlen::<true, true, f64>(i, du, f, fw),
+                    (true, false) => self.dlen::<true, false, f64>(i, du, f, fw),
+                    (false, false) => self.dlen::<false, false, f64>(i, du, f, fw),
                 };
                 let l = pb.len[i][k];
                 let dc = -dlen * (2.0 * l + dlen) * self.half_inv_rd[i];

@@ -175,10 +175,153 @@ impl Not for M4 {
     }
 }
 
+impl M4 {
+    /// Some lane is true.
+    #[inline(always)]
+    pub(crate) fn any(self) -> bool {
+        self.0.iter().fold(0, |a, &b| a | b) != 0
+    }
+
+    /// The mask of a lane array of bools, lanes `at..at + 4`.
+    #[inline(always)]
+    pub(crate) fn load<const L: usize>(a: &[bool; L], at: usize) -> Self {
+        Self(std::array::from_fn(|k| {
+            0u64.wrapping_sub(u64::from(a[at + k]))
+        }))
+    }
+}
+
 /// `R(s, c)·v` for lanes of sines and cosines and a constant vector.
 #[inline(always)]
 pub(crate) fn rot4(s: F4, c: F4, v: [f64; 2]) -> (F4, F4) {
     (c * v[0] - s * v[1], s * v[0] + c * v[1])
+}
+
+/// A lane type of the block kernels: one `f64` (the lane loops, which LLVM vectorises
+/// itself) or a pack of four ([`F4`]). The small functions of the kernels (a triangle's
+/// turn, composing rotations, the angle series) are written once over it, so the scalar
+/// and the packed code give the same bits. Only `Self op f64` and `Self op Self` are used
+/// in generic code (IEEE addition and multiplication commute exactly).
+pub trait Lane:
+    Copy
+    + Add<Output = Self>
+    + Sub<Output = Self>
+    + Mul<Output = Self>
+    + Div<Output = Self>
+    + Neg<Output = Self>
+    + Add<f64, Output = Self>
+    + Sub<f64, Output = Self>
+    + Mul<f64, Output = Self>
+{
+    /// The lanes' truth values.
+    type Mask: Copy
+        + BitOr<Output = Self::Mask>
+        + BitAnd<Output = Self::Mask>
+        + Not<Output = Self::Mask>;
+    /// `x` in every lane.
+    fn splat(x: f64) -> Self;
+    /// Square root.
+    fn sqrt(self) -> Self;
+    /// Absolute value.
+    fn abs(self) -> Self;
+    /// `f64::max` (a NaN lane gives the other operand).
+    fn max(self, o: Self) -> Self;
+    /// `self > o` (false for NaN).
+    fn gt(self, o: f64) -> Self::Mask;
+    /// `self >= o` (false for NaN).
+    fn ge(self, o: f64) -> Self::Mask;
+    /// `self < o` (false for NaN).
+    fn lt(self, o: f64) -> Self::Mask;
+    /// `self <= o` (false for NaN).
+    fn le(self, o: f64) -> Self::Mask;
+    /// `a` where `m`, else `b`.
+    fn select(m: Self::Mask, a: Self, b: Self) -> Self;
+}
+
+impl Lane for f64 {
+    type Mask = bool;
+    #[inline(always)]
+    fn splat(x: f64) -> Self {
+        x
+    }
+    #[inline(always)]
+    fn sqrt(self) -> Self {
+        f64::sqrt(self)
+    }
+    #[inline(always)]
+    fn abs(self) -> Self {
+        f64::abs(self)
+    }
+    #[inline(always)]
+    fn max(self, o: Self) -> Self {
+        f64::max(self, o)
+    }
+    #[inline(always)]
+    fn gt(self, o: f64) -> bool {
+        self > o
+    }
+    #[inline(always)]
+    fn ge(self, o: f64) -> bool {
+        self >= o
+    }
+    #[inline(always)]
+    fn lt(self, o: f64) -> bool {
+        self < o
+    }
+    #[inline(always)]
+    fn le(self, o: f64) -> bool {
+        self <= o
+    }
+    #[inline(always)]
+    fn select(m: bool, a: Self, b: Self) -> Self {
+        if m {
+            a
+        } else {
+            b
+        }
+    }
+}
+
+impl Lane for F4 {
+    type Mask = M4;
+    #[inline(always)]
+    fn splat(x: f64) -> Self {
+        F4::splat(x)
+    }
+    #[inline(always)]
+    fn sqrt(self) -> Self {
+        F4::sqrt(self)
+    }
+    #[inline(always)]
+    fn abs(self) -> Self {
+        F4::abs(self)
+    }
+    #[inline(always)]
+    fn max(self, o: Self) -> Self {
+        self.zip(o, f64::max)
+    }
+    #[inline(always)]
+    fn gt(self, o: f64) -> M4 {
+        F4::gt(self, F4::splat(o))
+    }
+    #[inline(always)]
+    fn ge(self, o: f64) -> M4 {
+        F4::ge(self, F4::splat(o))
+    }
+    #[inline(always)]
+    fn lt(self, o: f64) -> M4 {
+        self.cmp(F4::splat(o), |a, b| a < b)
+    }
+    #[inline(always)]
+    fn le(self, o: f64) -> M4 {
+        F4::le(self, F4::splat(o))
+    }
+    #[inline(always)]
+    fn select(m: M4, a: Self, b: Self) -> Self {
+        Self(std::array::from_fn(|k| {
+            f64::from_bits((a.0[k].to_bits() & m.0[k]) | (b.0[k].to_bits() & !m.0[k]))
+        }))
+    }
 }
 
 #[cfg(test)]

@@ -15,6 +15,8 @@
 // The kernels' coefficients as fdlibm publishes them (they round to its exact doubles).
 #![allow(clippy::excessive_precision)]
 
+pub use super::lanes::Lane;
+
 /// Above this magnitude (degrees) [`sincos_deg`] hands the lane to libm.
 pub const FAST_TRIG_LIMIT_DEG: f64 = 1e5;
 /// Largest |x| for which [`asin_small`] is accurate to 1 ulp.
@@ -94,24 +96,18 @@ const A6: f64 = 231.0 / 13312.0;
 /// unloaded one: the sum of an angle in [−π, π) and a rotation of at most π). A select, not
 /// [`crate::geometry::wrap_pi`]'s remainder, so that lane loops stay branch-free.
 #[inline(always)]
-pub fn wrap_once(a: f64) -> f64 {
+pub fn wrap_once<T: Lane>(a: T) -> T {
     use std::f64::consts::{PI, TAU};
-    if a >= PI {
-        a - TAU
-    } else if a < -PI {
-        a + TAU
-    } else {
-        a
-    }
+    T::select(a.ge(PI), a - TAU, T::select(a.lt(-PI), a + TAU, a))
 }
 
 /// `asin x` for |x| ≤ [`ASIN_SERIES_MAX`] (Taylor series to x¹³); larger |x| is inaccurate.
 #[inline(always)]
-pub fn asin_small(x: f64) -> f64 {
+pub fn asin_small<T: Lane>(x: T) -> T {
     // Estrin's scheme: a short dependency chain (the lanes of the sweep are latency-bound).
     let z = x * x;
     let z2 = z * z;
-    let p = (A1 + z * A2) + z2 * ((A3 + z * A4) + z2 * (A5 + z * A6));
+    let p = (z * A2 + A1) + z2 * ((z * A4 + A3) + z2 * (z * A6 + A5));
     x + x * z * p
 }
 
