@@ -66,7 +66,9 @@ def jacobian(
 
 def channels(arm: eodarm.Arm, alpha: np.ndarray, mass: np.ndarray, thetas: list[float]):
     """dx, dy, dα (deg), dl (mm) of ``eodarm.solve`` with the model at ``thetas``."""
-    effects = [s.effect(param_from_theta(s.name, t)) for (s, _), t in zip(MODEL, thetas)]
+    effects = [
+        s.effect(param_from_theta(s.name, t)) for (s, _), t in zip(MODEL, thetas, strict=True)
+    ]
     out = eodarm.solve(arm, alpha, mass, effects)
     return np.column_stack([out["dx_mm"], out["dy_mm"], out["dalpha_deg"], out["dl_mm"]])
 
