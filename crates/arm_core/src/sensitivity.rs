@@ -176,6 +176,30 @@ pub fn jacobian_batch_general(
     general::run(arm, &sets, input, opts, y, jac)
 }
 
+/// Cuts `y` (N × C) and `jac` (N × C × P) into chunks of `rows` rows: (first row, its rows of
+/// `y`, its rows of `jac`, empty when P = 0).
+fn row_chunks<'a>(
+    y: &'a mut [f64],
+    jac: &'a mut [f64],
+    rows: usize,
+    c: usize,
+    p: usize,
+) -> Vec<(usize, &'a mut [f64], &'a mut [f64])> {
+    let mut chunks = Vec::new();
+    let mut jac_rest = jac;
+    for (k, yc) in y.chunks_mut(rows * c).enumerate() {
+        let (jc, rest) = std::mem::take(&mut jac_rest).split_at_mut(yc.len() * p);
+        jac_rest = rest;
+        chunks.push((k * rows, yc, jc));
+    }
+    chunks
+}
+
+/// The first of the chunks' errors, which come back in order: the lowest failing row's.
+fn first_error(errors: Vec<ArmError>) -> Result<()> {
+    errors.into_iter().next().map_or(Ok(()), Err)
+}
+
 /// The checked batch and its effect sets: the model, then for every probe the model with
 /// θ_j + h_j and with θ_j − h_j.
 struct Sets {

@@ -12,7 +12,7 @@
 use rayon::prelude::*;
 
 use super::general::Rows;
-use super::Sets;
+use super::{first_error, row_chunks, Sets};
 use crate::arm::Arm;
 use crate::error::{ArmError, Result};
 use crate::solve::fast::{Ctx, Kernel};
@@ -44,14 +44,7 @@ pub(super) fn run(
         opts,
         simd,
     };
-    // Pair each chunk of rows of y with its rows of the Jacobian (empty when P = 0).
-    let mut chunks: Vec<(usize, &mut [f64], &mut [f64])> = Vec::new();
-    let mut jac_rest = jac;
-    for (k, yc) in y.chunks_mut(rows_per * c).enumerate() {
-        let (jc, rest) = std::mem::take(&mut jac_rest).split_at_mut(yc.len() * p);
-        jac_rest = rest;
-        chunks.push((k * rows_per, yc, jc));
-    }
+    let chunks = row_chunks(y, jac, rows_per, c, p);
     if chunks.len() == 1 || sets.rows * n_sets < KERNEL_PARALLEL_THRESHOLD {
         let mut scratch = Scratch::new(rows_per, arm.n());
         for (first, yc, jc) in chunks {
@@ -67,11 +60,7 @@ pub(super) fn run(
         )
         .flatten()
         .collect();
-    // Chunks come back in order, so the first error is the lowest failing row's.
-    match errors.into_iter().next() {
-        Some(e) => Err(e),
-        None => Ok(()),
-    }
+    first_error(errors)
 }
 
 /// What every chunk shares.

@@ -4,7 +4,7 @@
 
 use rayon::prelude::*;
 
-use super::Sets;
+use super::{first_error, row_chunks, Sets};
 use crate::arm::Arm;
 use crate::error::{ArmError, Result};
 use crate::geometry::V2;
@@ -36,23 +36,11 @@ pub(super) fn run(
         return work(0, y, jac);
     }
     let rows_per = (CHUNK / n_sets).max(16);
-    // Pair each block of rows of y with its block of the Jacobian (empty when P = 0).
-    let mut blocks: Vec<(usize, &mut [f64], &mut [f64])> = Vec::new();
-    let mut jac_rest = jac;
-    for (k, yc) in y.chunks_mut(rows_per * c).enumerate() {
-        let (jc, rest) = std::mem::take(&mut jac_rest).split_at_mut(yc.len() * p);
-        jac_rest = rest;
-        blocks.push((k * rows_per, yc, jc));
-    }
-    let errors: Vec<ArmError> = blocks
+    let errors: Vec<ArmError> = row_chunks(y, jac, rows_per, c, p)
         .into_par_iter()
         .filter_map(|(first, yc, jc)| work(first, yc, jc).err())
         .collect();
-    // Blocks come back in order, so the first error is the lowest failing row's.
-    match errors.into_iter().next() {
-        Some(e) => Err(e),
-        None => Ok(()),
-    }
+    first_error(errors)
 }
 
 /// Scratch space to solve one row for every effect set.
