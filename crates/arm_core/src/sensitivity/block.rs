@@ -1,7 +1,8 @@
 //! The Jacobian on the block kernel of `solve` (arms of 1–6 links).
 //!
 //! The batch is cut into chunks of rows; each chunk is solved by the kernel of every one of the
-//! 2P + 1 effect sets in turn, into scratch outputs allocated once per thread, and its channels
+//! 2P + 1 effect sets in turn, into scratch outputs allocated once per rayon work split (a few
+//! per thread, reused by every set and chunk the split solves), and its channels
 //! and central differences are written from them. The kernel runs with `nan_on_failure`, so a
 //! row that fails for some set comes back as NaN; such rows (and every row of a chunk whose
 //! kernel returned an error) are solved again by the general path ([`general::Rows`]), which
