@@ -1,11 +1,13 @@
 """How the cost of the analysis grows, and where the time goes at each size.
 
-Usage: python benches/bench_scaling.py [--quick] [--only links|states|candidates] [--markdown FILE]
+Usage: python benches/bench_scaling.py [--quick] [--only links|states|jacobian|candidates]
+       [--markdown FILE]
 
 (``OPENBLAS_NUM_THREADS=1`` as the command line sets it; unset, numpy's BLAS uses every core.)
 
-Three studies, each a table (wall time of one call, the median of ``--repeat`` runs after a
-warm-up; then one run under cProfile whose own time is split by where it is spent):
+Four studies, each a table (wall time of one call, the median of ``--repeat`` runs after a
+warm-up; in all but the Jacobian's, then one run under cProfile whose own time is split by
+where it is spent):
 
 1. **links**: arms of 1–6 links (:func:`chain_arm`, a regular chain in the proportions of
    the seed arm), 16 configurations × 4 payloads with a mount spring hidden in actuator 1,
@@ -17,7 +19,10 @@ warm-up; then one run under cProfile whose own time is split by where it is spen
    a set fits it once per left-out configuration, so with configurations growing as the states
    the cost would grow as their square (1 500 states in 500 configurations: 78 s, 87 % of it
    in that cross-validation);
-3. **candidates**: ``diagnose`` of the seed2022 arm on 48 states with the first 4, 8, 16 and
+3. **jacobian**: on the states of study 2, the core's Jacobian alone (``Problem.evaluate``
+   with the 6 body and mount springs as probes, what ``fit`` and ``diagnose`` call), in µs
+   per state, and a ``fit`` of the two hidden effects;
+4. **candidates**: ``diagnose`` of the seed2022 arm on 48 states with the first 4, 8, 16 and
    all 22 catalogue candidates, then the 22 plus the 3 of a user-written effect
    (``examples/friction.py``, whose Jacobian columns are forward differences).
 
@@ -47,7 +52,7 @@ import numpy as np
 import eodarm
 from bench_diagnose import cpu_model  # benches/ is the script's directory
 from eodarm.analysis.diagnose import all_slots, diagnose
-from eodarm.analysis.fit import fit
+from eodarm.analysis.fit import Problem, fit
 from eodarm.analysis.synth import random_configs, synth
 from eodarm.data.datasets import bundled_arm
 
@@ -60,6 +65,7 @@ HIDDEN = [
     eodarm.Effect("mount_compliance", "M1", stiffness_n_per_mm=2000.0),
     eodarm.Effect("joint_clearance", "O2", clearance_mm=0.15),
 ]
+HIDDEN_KEYS = ["mount_compliance@M1", "joint_clearance@O2"]
 
 
 def chain_arm(n: int) -> eodarm.Arm:
@@ -186,23 +192,48 @@ def study_states(repeat: int, quick: bool) -> list[str]:
         "| states | values | diagnose s | per state ms | " + SHARE_HEAD + " |",
         "|---:|---:|---:|---:|" + "---:|" * 5 + "---|",
     ]
-    channels = ["dy", "dalpha", "dl"]
     for states in (15, 150, 1500) if quick else (15, 150, 1500, 10_000):
-        # configurations × payloads; at most 100 configurations (see the docstring)
-        k = min(-(-states // 3), MAX_CONFIGS)
-        masses = np.linspace(1.0, 7.0, -(-states // k)) if states > 3 * k else [1.5, 5.0, 6.5]
-        cfg = configs(arm, k, states)
-        meas = synth(arm, cfg, masses, hidden=HIDDEN, channels=channels, seed=1)
-        if meas.n_rows > states:
-            meas = meas.subset(np.arange(meas.n_rows) < states)
+        meas = seed_states(arm, states)
         reps = repeat if states <= 1500 else 1
-        print(f"  {meas.n_rows} states in {k} configurations × {len(masses)} payloads", flush=True)
         t = timed(lambda: diagnose(arm, meas), reps)  # noqa: B023
         p = where(lambda: diagnose(arm, meas))  # noqa: B023
         out.append(
             f"| {meas.n_rows} | {meas.n_values} | {t:.3f} | {1e3 * t / meas.n_rows:.2f} | "
             f"{shares(p)} |"
         )
+        print(out[-1], flush=True)
+    return out
+
+
+def seed_states(arm: eodarm.Arm, states: int) -> Any:
+    """Synthetic states of the seed arm with :data:`HIDDEN`, the seed's 7 channels:
+    configurations × 3 payloads up to :data:`MAX_CONFIGS` configurations, then more
+    payloads per configuration (see the docstring)."""
+    k = min(-(-states // 3), MAX_CONFIGS)
+    masses = np.linspace(1.0, 7.0, -(-states // k)) if states > 3 * k else [1.5, 5.0, 6.5]
+    cfg = configs(arm, k, states)
+    meas = synth(arm, cfg, masses, hidden=HIDDEN, channels=["dy", "dalpha", "dl"], seed=1)
+    if meas.n_rows > states:
+        meas = meas.subset(np.arange(meas.n_rows) < states)
+    print(f"  {meas.n_rows} states in {k} configurations × {len(masses)} payloads", flush=True)
+    return meas
+
+
+def study_jacobian(repeat: int, quick: bool) -> list[str]:
+    """The Jacobian alone and a fit, on the states of :func:`study_states`."""
+    arm = bundled_arm("seed2022")
+    probes = all_slots(arm.n, custom=False)[:6]  # body and mount springs of the 3 actuators
+    out = [
+        "| states | Jacobian, 6 probes, µs per state | fit of the 2 hidden effects s |",
+        "|---:|---:|---:|",
+    ]
+    for states in (15, 150, 1500) if quick else (15, 150, 1500, 10_000):
+        meas = seed_states(arm, states)
+        prob = Problem(arm, meas)
+        reps = max(repeat, 3 if states >= 1500 else 20)
+        t_jac = timed(lambda: prob.evaluate([], probes), reps)  # noqa: B023
+        t_fit = timed(lambda: fit(arm, meas, HIDDEN_KEYS), repeat)  # noqa: B023
+        out.append(f"| {meas.n_rows} | {1e6 * t_jac / meas.n_rows:.2f} | {t_fit:.3f} |")
         print(out[-1], flush=True)
     return out
 
@@ -238,7 +269,9 @@ def main() -> None:
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--quick", action="store_true", help="fewer sizes")
     ap.add_argument("--markdown", type=Path)
-    ap.add_argument("--only", choices=("links", "states", "candidates"), help="one study")
+    ap.add_argument(
+        "--only", choices=("links", "states", "jacobian", "candidates"), help="one study"
+    )
     args = ap.parse_args()
     load0 = os.getloadavg()[0]
     parts: list[str] = []
@@ -246,6 +279,8 @@ def main() -> None:
         parts += ["### Links", *study_links(args.repeat, args.quick), ""]
     if args.only in (None, "states"):
         parts += ["### States", *study_states(args.repeat, args.quick), ""]
+    if args.only in (None, "jacobian"):
+        parts += ["### Jacobian and fit", *study_jacobian(args.repeat, args.quick), ""]
     if args.only in (None, "candidates"):
         parts += ["### Candidates", *study_candidates(args.repeat)]
     head = (

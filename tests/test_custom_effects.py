@@ -311,7 +311,9 @@ def test_user_probe_columns_match_the_core_jacobian() -> None:
     y_core, j_core = prob.evaluate(
         [(Slot("mount_compliance", "M1"), 1.0 / k)], [Slot("mount_compliance", "M1"), *probes]
     )
-    np.testing.assert_allclose(y_user, y_core, rtol=0.0, atol=1e-12)
+    # the user effect's model goes through the general path (extras), the core's Jacobian
+    # through the block kernel: equal to rounding (~1e-13 relative), 1e-9 mm as test_solve_kernel
+    np.testing.assert_allclose(y_user, y_core, rtol=0.0, atol=1e-9)
     scale = np.abs(j_core).max(axis=(0, 1))
     np.testing.assert_allclose(j_user[..., 0], -j_core[..., 0] / k**2, atol=1e-4 * scale[0] / k**2)
     for p in range(1, len(probes) + 1):

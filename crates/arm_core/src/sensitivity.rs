@@ -9,8 +9,14 @@
 //! taken inside the core in one pass over the poses. The response is linear in θ up to the
 //! geometric nonlinearity of the pose closure, so the central difference is exact to ~1e-9
 //! relative, whatever the step.
+//!
+//! The 2P + 1 effect sets (the model, then the model with θ_j ± h_j for every probe) are solved
+//! by the block kernel of `solve` for arms of 1–6 links ([`block`]), chunk by chunk in
+//! parallel; longer arms, and the rows the kernel cannot solve, go through the general path
+//! pose by pose ([`general`], also the reference [`jacobian_batch_general`]).
 
-use rayon::prelude::*;
+mod block;
+mod general;
 
 use crate::arm::Arm;
 use crate::effects::{
@@ -18,8 +24,8 @@ use crate::effects::{
     LinkBending, MountCompliance, Unloaded, CODE_CLEARANCE_TAKEN_UP, CODE_PLAY_TAKEN_UP,
 };
 use crate::error::{ArmError, Result};
-use crate::geometry::V2;
-use crate::solve::{check_input, BatchInput, SolveOptions, Workspace, CHUNK, PARALLEL_THRESHOLD};
+use crate::solve::fast::Kernel;
+use crate::solve::{check_input, BatchInput, SolveOptions};
 
 /// An effect kind and place, by the catalogue code (as in `Effect::from_code`) and 0-based index.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -103,6 +109,16 @@ fn typical_theta(arm: &Arm, place: Place) -> f64 {
     }
 }
 
+/// The θ at which `probe` is differentiated (its θ in `model`, else its neutral θ) and the
+/// step h of the central difference: 10⁻³ of the larger of |θ| and a typical θ of the place.
+pub fn step(arm: &Arm, model: &[(Place, f64)], probe: Place) -> (f64, f64) {
+    let at = model
+        .iter()
+        .find(|(pl, _)| *pl == probe)
+        .map_or_else(|| neutral_theta(arm, probe), |m| m.1);
+    (at, 1e-3 * at.abs().max(typical_theta(arm, probe)))
+}
+
 /// Number of channels of an `n`-link arm: dx, dy, dα₁…dαₙ, dl₁…dlₙ.
 pub fn n_channels(n: usize) -> usize {
     2 + 2 * n
@@ -112,7 +128,11 @@ pub fn n_channels(n: usize) -> usize {
 ///
 /// `model` holds the model's effects with their θ; a probe that is in the model is
 /// differentiated at its θ, any other at its neutral θ (the model without it).
-/// Channels: dx, dy (mm), dα (deg), dl (mm) as the `dlK_mm` sensor sees it.
+/// Channels: dx, dy (mm), dα (deg), dl (mm) as the `dlK_mm` sensor sees it. Row `r`, channel
+/// `k`, probe `j` is `jac[(r·C + k)·P + j]`.
+///
+/// With `opts.nan_on_failure`, a row that cannot be solved for the model or for any of the
+/// stepped models gets NaN in all its `y` and `jac` entries.
 ///
 /// # Errors
 /// Shape or non-finite input, duplicate or misplaced effects, singular or unreachable poses
@@ -126,130 +146,142 @@ pub fn jacobian_batch(
     y: &mut [f64],
     jac: &mut [f64],
 ) -> Result<()> {
-    let n = arm.n();
-    let rows = check_input(arm, &input)?;
-    let c = n_channels(n);
-    let p = probes.len();
-    if y.len() != rows * c {
-        return Err(ArmError::Shape {
-            what: "y",
-            expected: rows * c,
-            got: y.len(),
-        });
-    }
-    if jac.len() != rows * c * p {
-        return Err(ArmError::Shape {
-            what: "jac",
-            expected: rows * c * p,
-            got: jac.len(),
-        });
-    }
-    // Effect sets: the model, then for every probe the model with θ_j ± h_j.
-    let build = |over: Option<(Place, f64)>| -> Result<EffectSet> {
-        let mut effects = Vec::with_capacity(model.len() + 1);
-        let mut seen = false;
-        for &(pl, th) in model {
-            let th = match over {
-                Some((q, t)) if q == pl => {
-                    seen = true;
-                    t
-                }
-                _ => th,
-            };
-            effects.push(effect_from_theta(pl, th)?);
-        }
-        if let (Some((q, t)), false) = (over, seen) {
-            effects.push(effect_from_theta(q, t)?);
-        }
-        EffectSet::new_unchecked(arm, effects)
-    };
-    let base = build(None)?;
-    let mut sets = Vec::with_capacity(2 * p);
-    let mut steps = Vec::with_capacity(p);
-    for &q in probes {
-        if q.index >= arm.n() || !(0..=CODE_CLEARANCE_TAKEN_UP).contains(&q.code) {
-            return Err(ArmError::InvalidEffect {
-                effect: format!("code {} at index {}", q.code, q.index),
-                reason: format!("no such place on a {}-link arm", arm.n()),
-            });
-        }
-        let at = model
-            .iter()
-            .find(|(pl, _)| *pl == q)
-            .map_or_else(|| neutral_theta(arm, q), |m| m.1);
-        let h = 1e-3 * at.abs().max(typical_theta(arm, q));
-        sets.push(build(Some((q, at + h)))?);
-        sets.push(build(Some((q, at - h)))?);
-        steps.push(h);
-    }
-    let work = |first: usize, y: &mut [f64], jac: &mut [f64]| -> Result<()> {
-        let m = y.len() / c;
-        let mut ws = Workspace::new(arm);
-        let mut alpha = vec![0.0; n];
-        let mut plus = vec![0.0; c];
-        let mut minus = vec![0.0; c];
-        for r in 0..m {
-            let row = first + r;
-            for (a, d) in alpha
-                .iter_mut()
-                .zip(&input.alpha_deg[row * n..(row + 1) * n])
-            {
-                *a = d.to_radians();
-            }
-            let load = V2::new(input.payload_n[2 * row], input.payload_n[2 * row + 1]);
-            let solved = (|| -> Result<()> {
-                ws.solve(arm, &base, &alpha, load, opts, row)?;
-                channels(&ws, &alpha, &mut y[r * c..(r + 1) * c]);
-                for (j, h) in steps.iter().enumerate() {
-                    ws.solve(arm, &sets[2 * j], &alpha, load, opts, row)?;
-                    channels(&ws, &alpha, &mut plus);
-                    ws.solve(arm, &sets[2 * j + 1], &alpha, load, opts, row)?;
-                    channels(&ws, &alpha, &mut minus);
-                    for k in 0..c {
-                        jac[(r * c + k) * p + j] = (plus[k] - minus[k]) / (2.0 * h);
-                    }
-                }
-                Ok(())
-            })();
-            if let Err(e) = solved {
-                if !opts.nan_on_failure || !e.is_pose_failure() {
-                    return Err(e);
-                }
-                y[r * c..(r + 1) * c].fill(f64::NAN);
-                jac[r * c * p..(r + 1) * c * p].fill(f64::NAN);
-            }
-        }
-        Ok(())
-    };
-    if rows < PARALLEL_THRESHOLD / (2 * p + 1).max(1) {
-        return work(0, y, jac);
-    }
-    let rows_per = (CHUNK / (2 * p + 1)).max(16);
-    // Pair each block of rows of y with its block of the Jacobian (empty when P = 0).
-    let mut blocks: Vec<(usize, &mut [f64], &mut [f64])> = Vec::new();
-    let mut jac_rest = jac;
-    for (k, yc) in y.chunks_mut(rows_per * c).enumerate() {
-        let (jc, rest) = std::mem::take(&mut jac_rest).split_at_mut(yc.len() * p);
-        jac_rest = rest;
-        blocks.push((k * rows_per, yc, jc));
-    }
-    let errors: Vec<ArmError> = blocks
-        .into_par_iter()
-        .filter_map(|(first, yc, jc)| work(first, yc, jc).err())
+    let sets = Sets::new(arm, model, probes, &input, y, jac)?;
+    let kernels: Option<Vec<Kernel>> = sets
+        .sets
+        .iter()
+        .map(|s| Kernel::new(arm, s, opts.self_weight))
         .collect();
-    match errors.into_iter().next() {
-        Some(e) => Err(e),
-        None => Ok(()),
+    match kernels {
+        Some(kernels) => block::run(arm, &sets, &kernels, input, opts, y, jac),
+        None => general::run(arm, &sets, input, opts, y, jac),
     }
 }
 
-/// Writes the channels of a solved workspace: dx, dy, dα (deg), dl (mm).
-fn channels(ws: &Workspace, alpha: &[f64], out: &mut [f64]) {
-    let n = alpha.len();
-    out[0] = ws.dmeasure.x;
-    out[1] = ws.dmeasure.y;
-    for i in 0..n {
-        out[2 + i] = (ws.new_alpha[i] - alpha[i]).to_degrees();
-        out[2 + n + i] = ws.body_dl[i];
+/// [`jacobian_batch`] through the general path only ([`crate::solve::Workspace::solve`] pose by
+/// pose for every effect set): the reference the block kernel's Jacobian is tested against.
+///
+/// # Errors
+/// As [`jacobian_batch`].
+pub fn jacobian_batch_general(
+    arm: &Arm,
+    model: &[(Place, f64)],
+    probes: &[Place],
+    input: BatchInput<'_>,
+    opts: SolveOptions,
+    y: &mut [f64],
+    jac: &mut [f64],
+) -> Result<()> {
+    let sets = Sets::new(arm, model, probes, &input, y, jac)?;
+    general::run(arm, &sets, input, opts, y, jac)
+}
+
+/// Cuts `y` (N × C) and `jac` (N × C × P) into chunks of `rows` rows: (first row, its rows of
+/// `y`, its rows of `jac`, empty when P = 0).
+fn row_chunks<'a>(
+    y: &'a mut [f64],
+    jac: &'a mut [f64],
+    rows: usize,
+    c: usize,
+    p: usize,
+) -> Vec<(usize, &'a mut [f64], &'a mut [f64])> {
+    let mut chunks = Vec::new();
+    let mut jac_rest = jac;
+    for (k, yc) in y.chunks_mut(rows * c).enumerate() {
+        let (jc, rest) = std::mem::take(&mut jac_rest).split_at_mut(yc.len() * p);
+        jac_rest = rest;
+        chunks.push((k * rows, yc, jc));
+    }
+    chunks
+}
+
+/// The first of the chunks' errors, which come back in order: the lowest failing row's.
+fn first_error(errors: Vec<ArmError>) -> Result<()> {
+    errors.into_iter().next().map_or(Ok(()), Err)
+}
+
+/// The checked batch and its effect sets: the model, then for every probe the model with
+/// θ_j + h_j and with θ_j − h_j.
+struct Sets {
+    /// `N`, the rows of the batch.
+    rows: usize,
+    /// `C`, the channels.
+    channels: usize,
+    /// `[model, plus_0, minus_0, plus_1, …]`: 2P + 1 sets.
+    sets: Vec<EffectSet>,
+    /// The step h_j of every probe.
+    steps: Vec<f64>,
+}
+
+impl Sets {
+    fn new(
+        arm: &Arm,
+        model: &[(Place, f64)],
+        probes: &[Place],
+        input: &BatchInput<'_>,
+        y: &[f64],
+        jac: &[f64],
+    ) -> Result<Self> {
+        let rows = check_input(arm, input)?;
+        let c = n_channels(arm.n());
+        let p = probes.len();
+        if y.len() != rows * c {
+            return Err(ArmError::Shape {
+                what: "y",
+                expected: rows * c,
+                got: y.len(),
+            });
+        }
+        if jac.len() != rows * c * p {
+            return Err(ArmError::Shape {
+                what: "jac",
+                expected: rows * c * p,
+                got: jac.len(),
+            });
+        }
+        let build = |over: Option<(Place, f64)>| -> Result<EffectSet> {
+            let mut effects = Vec::with_capacity(model.len() + 1);
+            let mut seen = false;
+            for &(pl, th) in model {
+                let th = match over {
+                    Some((q, t)) if q == pl => {
+                        seen = true;
+                        t
+                    }
+                    _ => th,
+                };
+                effects.push(effect_from_theta(pl, th)?);
+            }
+            if let (Some((q, t)), false) = (over, seen) {
+                effects.push(effect_from_theta(q, t)?);
+            }
+            EffectSet::new_unchecked(arm, effects)
+        };
+        let mut sets = Vec::with_capacity(2 * p + 1);
+        sets.push(build(None)?);
+        let mut steps = Vec::with_capacity(p);
+        for &q in probes {
+            if q.index >= arm.n() || !(0..=CODE_CLEARANCE_TAKEN_UP).contains(&q.code) {
+                return Err(ArmError::InvalidEffect {
+                    effect: format!("code {} at index {}", q.code, q.index),
+                    reason: format!("no such place on a {}-link arm", arm.n()),
+                });
+            }
+            let (at, h) = step(arm, model, q);
+            sets.push(build(Some((q, at + h)))?);
+            sets.push(build(Some((q, at - h)))?);
+            steps.push(h);
+        }
+        Ok(Self {
+            rows,
+            channels: c,
+            sets,
+            steps,
+        })
+    }
+
+    /// `P`, the probes.
+    fn probes(&self) -> usize {
+        self.steps.len()
     }
 }

@@ -6,7 +6,7 @@
 //! and longer arms go through the general path, one [`Workspace`] per chunk (nothing is
 //! allocated per pose). Both give the status of every pose ([`solve_batch_status`]).
 
-mod fast;
+pub(crate) mod fast;
 mod status;
 
 use rayon::prelude::*;
