@@ -26,8 +26,8 @@ pub const CHUNK: usize = 1024;
 /// Below this many poses the block kernel runs on the calling thread (it is ~5× faster per
 /// pose than the general path, so it pays to split smaller batches).
 pub const KERNEL_PARALLEL_THRESHOLD: usize = 512;
-/// Poses per parallel work item of the block kernel (16 blocks).
-pub const KERNEL_CHUNK: usize = 256;
+/// Poses per parallel work item of the block kernel (64 blocks).
+pub const KERNEL_CHUNK: usize = 1024;
 
 /// Options of a solve.
 #[derive(Debug, Clone, Copy)]

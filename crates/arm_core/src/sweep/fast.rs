@@ -440,41 +440,39 @@ impl<const N: usize> FastArm<N> {
     ) {
         let this = self;
         let ld = |a: &[f64; L]| F4::load(a, at);
-        // Link by link from the tip: geometry of link i (it needs the angles of links i and
-        // i−1 only), then its statics, which need the actuator line of link i+1.
+        // First the geometry of every link (independent of each other, so that the square
+        // roots and divisions of all links overlap), then the statics from the tip, which
+        // need the actuator line of link i+1.
         let mut singular = M4::FALSE;
         let mut near = M4::FALSE;
         let mut reach = M4::TRUE;
         let (mut px, mut py) = (F4::ZERO, F4::ZERO);
-        // Actuator line of link i+1 and the forces of the self-weight case (w) and of the
-        // payload (u) from link i+1. Beyond the tip: no actuator, and a "reaction" −P so that
-        // −R_{n+1} is the payload P at the load point.
-        let (mut e0n, mut e1n) = (F4::ZERO, F4::ZERO);
-        let (mut fw1, mut rwx1, mut rwy1) = (F4::ZERO, F4::ZERO, F4::ZERO);
-        let mut fu1 = F4::ZERO;
-        let mut rux1 = F4::ZERO - ld(&pay[0]);
-        let mut ruy1 = F4::ZERO - ld(&pay[1]);
-        // R(α_i)·next_i and R(α_i)·b_i of the link being processed: computed for the last link
-        // here (its b is unused), for the others while their distal link was processed.
-        let (mut rnx, mut rny) = rot4(ld(&sn[N - 1]), ld(&cs[N - 1]), this.next[N - 1]);
-        let (mut rbx, mut rby) = (F4::ZERO, F4::ZERO);
-        for i in (0..N).rev() {
-            // D_i = B_{i−1} − O_i: fixed on the chassis, else R(α_{i−1})·(b − next)_{i−1},
-            // taken as the difference of the two vectors that link i−1 needs anyway.
-            let (mut dx, mut dy) = (F4::splat(this.d0[0]), F4::splat(this.d0[1]));
-            let (mut pnx, mut pny) = (F4::ZERO, F4::ZERO);
-            let (mut pbx, mut pby) = (F4::ZERO, F4::ZERO);
-            if i > 0 {
-                let (s, c) = (ld(&sn[i - 1]), ld(&cs[i - 1]));
-                (pnx, pny) = rot4(s, c, this.next[i - 1]);
-                (pbx, pby) = rot4(s, c, this.b[i - 1]);
-                dx = pbx - pnx;
-                dy = pby - pny;
-            }
-            let wb = if i + 1 < N { this.w_half[i + 1] } else { 0.0 };
-            let (wl, wa) = (this.w_link[i], this.w_half[i]);
+        // Per link: R(α_i)·a_i, R(α_i)·next_i, R(α_i)·b_i, R(α_i)·c_i (x), e_i and 1/h_i.
+        let mut rax = [F4::ZERO; N];
+        let mut ray = [F4::ZERO; N];
+        let mut rnx = [F4::ZERO; N];
+        let mut rny = [F4::ZERO; N];
+        let mut rbx = [F4::ZERO; N];
+        let mut rby = [F4::ZERO; N];
+        let mut rcx = [F4::ZERO; N];
+        let mut e0 = [F4::ZERO; N];
+        let mut e1 = [F4::ZERO; N];
+        let mut inv_h = [F4::ZERO; N];
+        for i in 0..N {
             let (s, c) = (ld(&sn[i]), ld(&cs[i]));
-            let (ax, ay) = rot4(s, c, this.a[i]);
+            (rax[i], ray[i]) = rot4(s, c, this.a[i]);
+            (rnx[i], rny[i]) = rot4(s, c, this.next[i]);
+            (rbx[i], rby[i]) = rot4(s, c, this.b[i]);
+            rcx[i] = c * this.c[i][0] - s * this.c[i][1];
+        }
+        for i in 0..N {
+            // D_i = B_{i−1} − O_i: fixed on the chassis, else R(α_{i−1})·(b − next)_{i−1}.
+            let (dx, dy) = if i > 0 {
+                (rbx[i - 1] - rnx[i - 1], rby[i - 1] - rny[i - 1])
+            } else {
+                (F4::splat(this.d0[0]), F4::splat(this.d0[1]))
+            };
+            let (ax, ay) = (rax[i], ray[i]);
             let (vx, vy) = (ax - dx, ay - dy);
             let l2 = vx * vx + vy * vy;
             let l = l2.sqrt();
@@ -483,15 +481,15 @@ impl<const N: usize> FastArm<N> {
             let hv = ax * vy - ay * vx;
             let q = 1.0 / (l2 * hv);
             let inv_l = l * (hv * q);
-            let inv_h = l * (l2 * q);
-            let (e0, e1) = (vx * inv_l, vy * inv_l);
+            inv_h[i] = l * (l2 * q);
+            (e0[i], e1[i]) = (vx * inv_l, vy * inv_l);
             // `!(x > t)`: NaN counts as singular, as in the scalar core.
             let habs = hv.abs();
             singular = singular | !l.gt(F4::splat(this.len_tol[i])) | !habs.ge(this.arm_tol[i] * l);
             near = near | !habs.ge(this.near_tol[i] * l);
             reach = reach & l.ge(F4::splat(this.lo[i])) & l.le(F4::splat(this.hi[i]));
-            e0.store(&mut pb.e[0][i], at);
-            e1.store(&mut pb.e[1][i], at);
+            e0[i].store(&mut pb.e[0][i], at);
+            e1[i].store(&mut pb.e[1][i], at);
             dx.store(&mut pb.d[0][i], at);
             dy.store(&mut pb.d[1][i], at);
             l.store(&mut pb.len[i], at);
@@ -500,45 +498,60 @@ impl<const N: usize> FastArm<N> {
             sg.abs().store(&mut pb.s[i], at);
             sg.sign_one().store(&mut pb.side[i], at);
             // Lever of the measure point's displacement, and the load point.
-            let (nx, ny) = (rnx, rny);
             let (gx, gy) = if i + 1 < N {
-                (nx, ny)
+                (rnx[i], rny[i])
             } else {
-                rot4(s, c, this.measure)
+                rot4(ld(&sn[i]), ld(&cs[i]), this.measure)
             };
             gx.store(&mut pb.gx[i], at);
             gy.store(&mut pb.gy[i], at);
-            px = px + nx;
-            py = py + ny;
-            // Statics of link i: weights at C_i, A_i and B_i, actuator i+1's force −F·e at
-            // B_i, the distal reaction −R at O_{i+1}; moments about O_i.
-            let cx = c * this.c[i][0] - s * this.c[i][1];
-            let (bx, by) = (rbx, rby);
+            px = px + rnx[i];
+            py = py + rny[i];
+        }
+        // Statics, link by link from the tip: actuator i+1's force −F·e at B_i and the distal
+        // reaction −R at O_{i+1}, for the self-weight case (w) and the payload (u). Beyond the
+        // tip: no actuator, and a "reaction" −P so that −R_{n+1} is the payload P at the load
+        // point.
+        let (mut e0n, mut e1n) = (F4::ZERO, F4::ZERO);
+        let (mut fw1, mut rwx1, mut rwy1) = (F4::ZERO, F4::ZERO, F4::ZERO);
+        let mut fu1 = F4::ZERO;
+        let mut rux1 = F4::ZERO - ld(&pay[0]);
+        let mut ruy1 = F4::ZERO - ld(&pay[1]);
+        for i in (0..N).rev() {
+            let wb = if i + 1 < N { this.w_half[i + 1] } else { 0.0 };
+            let (wl, wa) = (this.w_link[i], this.w_half[i]);
+            // Weights at C_i, A_i and B_i; moments about O_i. B_i is unused for the last link.
+            let (ax, nx, ny) = (rax[i], rnx[i], rny[i]);
+            let (bx, by) = if i + 1 < N {
+                (rbx[i], rby[i])
+            } else {
+                (F4::ZERO, F4::ZERO)
+            };
             let (fx, fy) = (-fw1 * e0n, -fw1 * e1n);
             let qx = fx - rwx1;
             let qy = fy - rwy1 - (wl + wa + wb);
-            let t = -wl * cx - wa * ax - wb * bx + (bx * fy - by * fx) - (nx * rwy1 - ny * rwx1);
+            let t =
+                -wl * rcx[i] - wa * ax - wb * bx + (bx * fy - by * fx) - (nx * rwy1 - ny * rwx1);
             let (gx, gy) = (-fu1 * e0n, -fu1 * e1n);
             let qux = gx - rux1;
             let quy = gy - ruy1;
             let tu = (bx * gy - by * gx) - (nx * ruy1 - ny * rux1);
-            let f = -t * inv_h;
-            let fu = -tu * inv_h;
+            let f = -t * inv_h[i];
+            let fu = -tu * inv_h[i];
             fw1 = f;
-            rwx1 = -qx - f * e0;
-            rwy1 = -qy - f * e1;
+            rwx1 = -qx - f * e0[i];
+            rwy1 = -qy - f * e1[i];
             fu1 = fu;
-            rux1 = -qux - fu * e0;
-            ruy1 = -quy - fu * e1;
-            e0n = e0;
-            e1n = e1;
+            rux1 = -qux - fu * e0[i];
+            ruy1 = -quy - fu * e1[i];
+            e0n = e0[i];
+            e1n = e1[i];
             f.store(&mut pb.fw[i], at);
             fu.store(&mut pb.fu[i], at);
             rwx1.store(&mut pb.rw[0][i], at);
             rwy1.store(&mut pb.rw[1][i], at);
             rux1.store(&mut pb.ru[0][i], at);
             ruy1.store(&mut pb.ru[1][i], at);
-            (rnx, rny, rbx, rby) = (pnx, pny, pbx, pby);
         }
         (px + this.o1[0]).store(&mut pb.ex, at);
         (py + this.o1[1]).store(&mut pb.ey, at);
