@@ -1,7 +1,9 @@
 //! The block kernel of the sweep: the baseline model and the effects that only change
 //! actuator lengths (`actuator_compliance`, `mount_compliance`, `actuator_play` centred or
 //! taken up when unloaded), for
-//! [`L`] poses at once in structure-of-arrays form so that LLVM vectorises the lane loops.
+//! [`L`] poses at once in structure-of-arrays form, vectorised: the pose stage in packs of four
+//! lanes ([`super::lanes::F4`], one AVX2 register), the cell loops as lane loops that LLVM
+//! vectorises itself.
 //!
 //! It computes what [`crate::Workspace::solve`] computes (docs/model.md §2–§5), rearranged:
 //!
@@ -47,7 +49,7 @@ use crate::validity::{
     self, Status, MAX_DALPHA_DEG, MAX_DEFLECTION_OF_REACH, MAX_RISE_OF_REACH, MIN_MOMENT_ARM,
 };
 
-/// Poses per block (lanes): two AVX-512 vectors, so that two independent chains overlap.
+/// Poses per block (lanes): four packs of four, or two AVX-512 vectors.
 pub const L: usize = 16;
 
 /// Per-arm constants of the kernel, for an arm of `N` links.
