@@ -8,7 +8,9 @@ vectorised numpy version (whole arrays, one loop over the links) and a plain-Pyt
 loop (floats and :mod:`math`). Every figure is the best of k calls, k growing until the calls
 have taken about a second. The pure-Python loop is timed at 1e3 and 1e4 poses only; larger
 sizes use its per-pose cost at the largest timed size (marked as extrapolated). ``--parts``
-also splits one call at 1e6 poses into its parts (input checks, allocation, kernel).
+also splits one call at 1e6 poses into its parts (input checks, allocation, kernel). The
+``out=`` column times the same call writing into arrays allocated once by the caller (what a
+loop of repeated calls does).
 
 Run from the repository root (``docs/benchmarks.md`` has the results)::
 
@@ -446,11 +448,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"pure Python, {rows:>9,} poses: {py_rate[rows]:>12,.0f} poses/s")
 
     header = (
-        "| model | poses | rust (poses/s) | numpy reference (poses/s) "
+        "| model | poses | rust (poses/s) | rust, out= (poses/s) | numpy reference (poses/s) "
         "| vectorised numpy (poses/s) | pure Python (poses/s) "
         "| rust/numpy ref. | rust/vectorised | rust/pure Python |"
     )
-    table = [header, "|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
+    table = [header, "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
     for model, effects in MODELS.items():
         eodarm.solve(arm, poses(10)[0], 1.0, effects=effects)  # build the cached core arm
         for rows in sizes:
@@ -460,6 +462,12 @@ def main(argv: Sequence[str] | None = None) -> int:
                 call = partial(eodarm.solve, arm, alpha, mass, effects=effects, backend=backend)
                 t = best_time(call, budget, min_repeats)
                 rate[backend] = rows / t
+            # Repeated calls into the caller's arrays (no allocation): the rate of a sweep
+            # that reuses its outputs.
+            out = {k: np.empty_like(v) for k, v in eodarm.solve(arm, alpha, mass).items()}
+            call = partial(eodarm.solve, arm, alpha, mass, effects=effects, out=out)
+            rate["out"] = rows / best_time(call, budget, min_repeats)
+            del out
             vec = None
             if not effects:
                 call = partial(solve_numpy, parm, alpha, mass)
@@ -467,7 +475,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             extra = rows not in py_rate  # extrapolated from the largest timed size
             py = None if effects else py_rate.get(rows, py_rate[py_sizes[-1]])
             row = (
-                f"| {model} | {rows:,} | {fmt_rate(rate['rust'])} | {fmt_rate(rate['numpy'])} "
+                f"| {model} | {rows:,} | {fmt_rate(rate['rust'])} | {fmt_rate(rate['out'])} "
+                f"| {fmt_rate(rate['numpy'])} "
                 f"| {fmt_rate(vec)} | {fmt_rate(py, extra)} "
                 f"| {fmt_ratio(rate['rust'] / rate['numpy'])} "
                 f"| {fmt_ratio(rate['rust'] / vec if vec else None)} "
@@ -488,7 +497,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         "(it counts this run too)",
         others(cpu0, cpu1),
         f"- best of k calls, k ≥ {min_repeats}, until ~{budget:g} s per figure; "
-        "each call is `eodarm.solve` (input checks, effects, output dict included)",
+        "each call is `eodarm.solve` (input checks, effects, output dict included); "
+        "`out=`: the same call writing into arrays the caller allocated once",
         f"- pure Python: baseline model only, timed at {', '.join(f'{s:,}' for s in py_sizes)} "
         "poses; * = extrapolated from the per-pose cost at the largest timed size",
     ]

@@ -182,27 +182,17 @@ impl<const N: usize> SolveKernel<N> {
             type Output = ();
             #[inline(always)]
             fn with_simd<S: pulp::Simd>(self, _simd: S) {
-                let Self {
-                    k,
-                    alpha_deg,
-                    payload,
-                    count,
-                    pb,
-                    sb,
-                    out,
-                    status,
-                    p,
-                } = self;
                 let mut pay = [[0.0; L]; 2];
                 for q in 0..L {
-                    let r = q.min(count - 1);
-                    pay[0][q] = payload[2 * r];
-                    pay[1][q] = payload[2 * r + 1];
+                    let r = q.min(self.count - 1);
+                    pay[0][q] = self.payload[2 * r];
+                    pay[1][q] = self.payload[2 * r + 1];
                 }
                 let mut trig = ([[0.0; L]; N], [[0.0; L]; N]);
-                k.poses_impl(alpha_deg, count, &mut trig, &pay, pb);
-                k.close_any(&trig, &pay, pb, sb);
-                write_block(pb, sb, out, status, p, count);
+                let k = self.k;
+                k.poses_impl(self.alpha_deg, self.count, &mut trig, &pay, self.pb);
+                k.close_any(&trig, &pay, self.pb, self.sb);
+                write_block(self.pb, self.sb, self.out, self.status, self.p, self.count);
             }
         }
         simd.dispatch(Op {
