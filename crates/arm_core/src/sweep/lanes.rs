@@ -1,11 +1,12 @@
 //! Four lanes of `f64` ([`F4`]) and their masks ([`M4`]): element-wise operations written so
 //! that LLVM turns each into one vector instruction (one AVX2 `ymm` register, two SSE2 `xmm`).
 //!
-//! The block kernels' pose stage is written with them instead of `for k in 0..L` lane loops:
-//! with AVX2 and generic tuning LLVM's loop vectoriser left that loop (square root, division,
-//! sixteen stores per lane) scalar, which made the pose stage the kernel's largest cost. Each
-//! operation here rounds exactly as the scalar one (no fused multiply–add: Rust never
-//! contracts), so the results are the same bits on every instruction set.
+//! The block kernels' pose stage and the solve kernel's closure are written with them instead
+//! of `for k in 0..L` lane loops: with AVX2 and generic tuning LLVM's loop vectoriser left the
+//! pose stage's loop (square root, division, sixteen stores per lane) scalar, which made it
+//! the kernel's largest cost. Each operation here rounds exactly as the scalar one (no fused
+//! multiply–add: Rust never contracts), so the results are the same bits on every instruction
+//! set.
 
 use std::ops::{Add, BitAnd, BitOr, Div, Mul, Neg, Not, Sub};
 
