@@ -34,6 +34,7 @@ from eodarm.errors import EffectError
 from eodarm.model.arm import Arm
 from eodarm.model.effects import Effect
 from eodarm.model.solver import forward, solve, stroke_violations
+from eodarm.model.validity import arm_reach
 
 __all__ = ["refine"]
 
@@ -187,7 +188,7 @@ def _smallest_change(
     """For n > 3: move converged poses along the solutions towards the nominal ones."""
     alpha = alpha.copy()
     live = np.arange(rows.size)
-    reach = float(sum(np.hypot(*lk.next) for lk in model.arm.links))
+    reach = arm_reach(model.arm)
     for _ in range(PHASE2_STEPS):
         if live.size == 0:
             break

@@ -42,6 +42,7 @@ __all__ = [
     "MAX_RISE_OF_REACH",
     "MIN_MOMENT_ARM",
     "STATUS",
+    "arm_reach",
     "status",
     "status_counts",
 ]
@@ -99,7 +100,7 @@ def status(
     mark((turn0 * turn1 < 0).any(axis=1), 3)
     fmax = np.array([x.max_force_n or math.inf for x in arm.actuators])
     mark((np.abs(np.asarray(out["force_n"], dtype=float)) > fmax).any(axis=1), 4)
-    reach = max(sum(math.hypot(*lk.next) for lk in arm.links), 1e-9)
+    reach = arm_reach(arm)
     dx, dy = np.asarray(out["dx_mm"], dtype=float), np.asarray(out["dy_mm"], dtype=float)
     moved = np.hypot(dx, dy)
     rise = (dy > MAX_RISE_OF_REACH * reach) & (np.asarray(payload_n)[:, 1] < 0)
@@ -112,3 +113,9 @@ def status_counts(codes: npt.ArrayLike) -> dict[str, int]:
     """How many poses have each status (only those that occur)."""
     c = np.bincount(np.asarray(codes, dtype=np.int64).ravel(), minlength=len(STATUS))
     return {STATUS[i]: int(k) for i, k in enumerate(c) if k}
+
+
+def arm_reach(arm: Arm) -> float:
+    """The arm's reach Σ|next_i| (mm), floored at 1e-9: the length the deflection limits scale
+    by (the core's ``validity::reach``)."""
+    return max(sum(math.hypot(*lk.next) for lk in arm.links), 1e-9)

@@ -39,9 +39,9 @@ use crate::arm::Arm;
 use crate::effects::{Effect, EffectSet};
 use crate::error::Result;
 use crate::geometry::V2;
-use crate::sweep::fast::{compose, rot, FastArm, PoseBlock, Turn, L};
+use crate::sweep::fast::{block_trig, compose, lanes_of_rows, rot, FastArm, PoseBlock, Turn, L};
 use crate::sweep::lanes::{Lane, F4, M4, W};
-use crate::sweep::trig::{asin_small, sincos_deg, wrap_once, ASIN_SERIES_MAX};
+use crate::sweep::trig::{asin_small, wrap_once, ASIN_SERIES_MAX};
 use crate::sweep::{transpose_into, transpose_xy_into};
 use crate::validity::{self, Checks};
 
@@ -126,30 +126,6 @@ impl<const N: usize> SolveKernel<N> {
         })
     }
 
-    /// Unloaded geometry and statics of a block: `alpha_deg` holds `count` rows of `N`
-    /// angles, `pay` the lanes' payloads; missing lanes repeat the last pose.
-    #[inline(always)]
-    fn poses_impl(
-        &self,
-        alpha_deg: &[f64],
-        count: usize,
-        trig: &mut ([[f64; L]; N], [[f64; L]; N]),
-        pay: &[[f64; L]; 2],
-        pb: &mut PoseBlock<N>,
-    ) {
-        let mut x = [[0.0; L]; N];
-        for k in 0..L {
-            let row = &alpha_deg[k.min(count - 1) * N..][..N];
-            for i in 0..N {
-                x[i][k] = row[i];
-            }
-        }
-        for i in 0..N {
-            sincos_deg(&x[i], &mut trig.0[i], &mut trig.1[i]);
-        }
-        self.fa.poses_sc_impl(&trig.0, &trig.1, pay, pb);
-    }
-
     /// Solves a block of up to [`L`] poses (unloaded stage, then the closure) and writes
     /// its rows `p..p + count` of `out` and `status`: one function compiled for the best
     /// instruction set of this CPU (AVX-512, AVX2 + FMA, else x86-64's SSE2; `pulp`), every
@@ -182,15 +158,11 @@ impl<const N: usize> SolveKernel<N> {
             type Output = ();
             #[inline(always)]
             fn with_simd<S: pulp::Simd>(self, _simd: S) {
-                let mut pay = [[0.0; L]; 2];
-                for q in 0..L {
-                    let r = q.min(self.count - 1);
-                    pay[0][q] = self.payload[2 * r];
-                    pay[1][q] = self.payload[2 * r + 1];
-                }
-                let mut trig = ([[0.0; L]; N], [[0.0; L]; N]);
+                // Missing lanes repeat the last pose.
+                let pay = lanes_of_rows::<2>(self.payload, self.count);
+                let trig = block_trig::<N>(self.alpha_deg, self.count);
                 let k = self.k;
-                k.poses_impl(self.alpha_deg, self.count, &mut trig, &pay, self.pb);
+                k.fa.poses_sc_impl(&trig.0, &trig.1, &pay, self.pb);
                 k.close_any(&trig, &pay, self.pb, self.sb);
                 write_block(self.pb, self.sb, self.out, self.status, self.p, self.count);
             }

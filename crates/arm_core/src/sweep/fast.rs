@@ -370,6 +370,35 @@ impl<T: Lane> Turn<T> {
     }
 }
 
+/// `count` rows of `M` values (row-major) as `[column][lane]`; the lanes beyond `count`
+/// repeat the last row.
+#[inline(always)]
+pub(crate) fn lanes_of_rows<const M: usize>(rows: &[f64], count: usize) -> [[f64; L]; M] {
+    let mut x = [[0.0; L]; M];
+    for k in 0..L {
+        let row = &rows[k.min(count - 1) * M..][..M];
+        for i in 0..M {
+            x[i][k] = row[i];
+        }
+    }
+    x
+}
+
+/// Sines and cosines ([`sincos_deg`]) of a block's `count` rows of `N` angles (deg), as
+/// `[link][lane]` (see [`lanes_of_rows`]).
+#[inline(always)]
+pub(crate) fn block_trig<const N: usize>(
+    alpha_deg: &[f64],
+    count: usize,
+) -> ([[f64; L]; N], [[f64; L]; N]) {
+    let x = lanes_of_rows::<N>(alpha_deg, count);
+    let (mut sn, mut cs) = ([[0.0; L]; N], [[0.0; L]; N]);
+    for i in 0..N {
+        sincos_deg(&x[i], &mut sn[i], &mut cs[i]);
+    }
+    (sn, cs)
+}
+
 /// Rotation (sin a, cos a − 1) followed by (sin b, cos b − 1): (sin(a+b), cos(a+b) − 1).
 #[inline(always)]
 pub(crate) fn compose<T: Lane>(sa: T, ca: T, sb: T, cb: T) -> (T, T) {
@@ -393,18 +422,7 @@ impl<const N: usize> FastArm<N> {
     /// The body of [`Self::poses`], inlined into each instruction-set variant.
     #[inline(always)]
     fn poses_impl(&self, alpha_deg: &[f64], count: usize, out: &mut PoseBlock<N>) {
-        let mut sn = [[0.0; L]; N];
-        let mut cs = [[0.0; L]; N];
-        let mut x = [[0.0; L]; N];
-        for k in 0..L {
-            let row = &alpha_deg[k.min(count - 1) * N..][..N];
-            for i in 0..N {
-                x[i][k] = row[i];
-            }
-        }
-        for i in 0..N {
-            sincos_deg(&x[i], &mut sn[i], &mut cs[i]);
-        }
+        let (sn, cs) = block_trig::<N>(alpha_deg, count);
         self.poses_sc_impl(&sn, &cs, &self.unit_payload(), out);
     }
 
