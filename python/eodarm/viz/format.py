@@ -5,6 +5,8 @@
   (``"1290 ± 300 N/mm"``, ``"0.151 ± 0.0020 mm"``, ``"(4.4 ± 3.3)×10⁵ N/mm"``);
 * :func:`value`: a value alone, to a few significant digits, the unit once;
 * :func:`interval95`: the 95 % interval of a normal estimate;
+* :func:`bounded_interval`: a 95 % interval given by its ends (from the fit's own
+  parameterisation, so that it never crosses a physical bound), ``≥ lo`` when it reaches ∞;
 * :func:`parameter_name`: a parameter in words (``"actuator 1 body stiffness"``), for the
   identifier ``mount_compliance@M1`` shown alongside.
 
@@ -16,6 +18,7 @@ from __future__ import annotations
 import math
 
 __all__ = [
+    "bounded_interval",
     "interval95",
     "p_value",
     "parameter_name",
@@ -111,6 +114,17 @@ def interval95(x: float, err: float, unit: str = "", digits: int = 2) -> str:
         lo, hi = round(lo / q) * q, round(hi / q) * q
     d = max(decimals, 0)
     return _with_unit(f"[{lo:.{d}f}, {hi:.{d}f}]".replace("-", "−"), unit)
+
+
+def bounded_interval(lo: float, hi: float, unit: str = "", digits: int = 3) -> str:
+    """A 95 % interval ``[lo, hi]`` given by its ends, each to ``digits`` significant digits;
+    an interval that reaches +∞ (a stiffness that may be rigid) reads ``≥ lo`` and one
+    that has no finite end reads ``—``."""
+    if math.isnan(lo) or math.isnan(hi) or (math.isinf(hi) and lo <= 0):
+        return "—"
+    if math.isinf(hi):
+        return f"≥ {value(lo, unit, digits)} (up to rigid)"
+    return _with_unit(f"[{value(lo, digits=digits)}, {value(hi, digits=digits)}]", unit)
 
 
 def parameter_name(effect: str, at: str) -> str:
