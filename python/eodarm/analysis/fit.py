@@ -599,6 +599,8 @@ def settle(result: FitResult, exclude: npt.NDArray[np.bool_] | None = None) -> F
         loose = {i for i, _why in res.undetermined()}
         pinned = []
         for i, s in enumerate(res.slots):
+            if s.kind.custom:
+                continue  # a user's effect has its own neutral value and bounds
             lo_b = res.problem.bounds(s)[0]
             t_lo, t_hi = res.theta_interval(i)
             at_low = res.at_bound[i] and float(res.theta[i]) <= lo_b + 1e-15

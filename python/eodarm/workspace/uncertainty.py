@@ -233,20 +233,25 @@ def add_outputs(
 
 
 def _provenance(job: _Job) -> str:
-    """Where the covariance came from, one line."""
+    """Where the σ came from, one short line (a figure's title shows it)."""
     rec = job.arm.fit
     assert rec is not None  # check() made sure
-    parts = [f"linear propagation of the [fit] covariance of {', '.join(rec.parameters)}"]
-    if rec.explained is False:
-        parts.append(
-            "plus the model's inadequacy "
-            + ", ".join(f"{ch} {v:.3g}" for ch, v in rec.sigma_model)
-            + f" (χ²/dof {rec.chi2_per_dof:.3g})"
-        )
+    k, b = len(rec.parameters), len(job.arm.bounded())
+    parts = [
+        f"σ: linear propagation of the [fit] covariance of {k} parameter{'s' * (k != 1)}"
+        + (f" and {b} bound{'s' * (b != 1)}" if b else "")
+    ]
     if rec.data:
         parts.append(f"fitted to {rec.data}")
     if rec.date:
-        parts.append(rec.date)
+        parts.append(rec.date[:10])
+    if rec.explained is False:
+        dy = dict(rec.sigma_model).get("dy_mm")
+        parts.append(
+            f"plus the model's inadequacy (χ²/dof {rec.chi2_per_dof:.3g}"
+            + (f", dy {dy:.2g} mm" if dy is not None else "")
+            + ")"
+        )
     return "; ".join(parts)
 
 
