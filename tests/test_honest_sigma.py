@@ -237,3 +237,42 @@ def test_solve_says_in_one_line_that_the_model_does_not_explain_its_data(
     miss = abs(-11.43 - pose["dy_mm"])
     assert miss > 2 * Z95 * pose["sigma_param_dy_mm"]  # the parameters alone: far outside
     assert miss <= Z95 * math.hypot(pose["sigma_dy_mm"], 0.25)  # the total covers it
+
+
+def test_compensate_predicts_a_miss_no_smaller_than_the_models_inadequacy(
+    seed_fitted: tuple[Path, str],
+) -> None:
+    import json
+
+    seed, _ = seed_fitted
+    r = run_cli(
+        "compensate", "--arm", "fitted.toml", "--alpha", "58.6,6.0,0.4", "--alpha",
+        "90,10,0", "--mass", "6.5", "--json", cwd=seed,
+    )  # fmt: skip
+    assert r.returncode == 0, r.stderr
+    doc = json.loads(r.stdout)
+    fitted = eodarm.Arm.from_toml(seed / "fitted.toml")
+    assert fitted.fit is not None
+    model_dy = dict(fitted.fit.sigma_model)["dy_mm"]
+    # 2σ of the point's miss: at least twice the held-out sag miss the model cannot explain
+    # (1.9 mm on the seed), which compensation with this model cannot remove
+    for miss, status in zip(doc["predicted_miss_mm"], doc["status"], strict=True):
+        assert status == "ok" and miss >= 2 * model_dy
+    assert sum("does not explain its data" in ln for ln in r.stderr.splitlines()) == 1
+
+
+def test_a_sweep_carries_both_parts_and_their_total(seed_fitted: tuple[Path, str]) -> None:
+    seed, _ = seed_fitted
+    fitted = eodarm.Arm.from_toml(seed / "fitted.toml")
+    grid = {"alpha1": [60.0, 90.0], "alpha2": [0.0, 10.0], "alpha3": [0.0]}
+    ds = eodarm.sweep(fitted, alpha_deg=grid, mass_kg=[1.5, 6.5], uncertainty=True)
+    ok = np.isfinite(ds["sigma_dy_mm"].values)
+    assert ok.any()
+    total, param, model = (ds[f"sigma{p}_dy_mm"].values[ok] for p in ("", "_param", "_model"))
+    np.testing.assert_allclose(total**2, param**2 + model**2, rtol=1e-12)  # rounding
+    assert fitted.fit is not None
+    np.testing.assert_allclose(model, dict(fitted.fit.sigma_model)["dy_mm"], rtol=0)
+    # the sweep's σ is solve's σ at the same pose (one function computes both)
+    out = eodarm.solve(fitted, np.array([[90.0, 10.0, 0.0]]), 6.5, uncertainty=True)
+    cell = ds["sigma_dy_mm"].sel(alpha1=90.0, alpha2=10.0, alpha3=0.0, mass_kg=6.5)
+    np.testing.assert_allclose(float(cell), out["sigma_dy_mm"][0], rtol=1e-9)
