@@ -276,3 +276,23 @@ def test_a_sweep_carries_both_parts_and_their_total(seed_fitted: tuple[Path, str
     out = eodarm.solve(fitted, np.array([[90.0, 10.0, 0.0]]), 6.5, uncertainty=True)
     cell = ds["sigma_dy_mm"].sel(alpha1=90.0, alpha2=10.0, alpha3=0.0, mass_kg=6.5)
     np.testing.assert_allclose(float(cell), out["sigma_dy_mm"][0], rtol=1e-9)
+
+
+def test_a_parameter_known_only_by_a_bound_widens_the_predictions(
+    seed_fitted: tuple[Path, str],
+) -> None:
+    seed, _ = seed_fitted
+    fitted = eodarm.Arm.from_toml(seed / "fitted.toml")
+    d = fitted.to_dict()
+    for t in d["effect"]:  # the same model, its bodies 2 and 3 claimed rigid as if known
+        for key in ("determined", "bound", "limit"):
+            t.pop(key, None)
+    claimed = eodarm.Arm.from_dict(d)
+    alpha = np.array([[58.6, 6.0, 0.4], [115.6, 15.4, 0.2], [90.0, 10.0, 0.0]])
+    honest = eodarm.solve(fitted, alpha, 6.5, uncertainty=True)
+    sure = eodarm.solve(claimed, alpha, 6.5, uncertainty=True)
+    np.testing.assert_allclose(honest["dy_mm"], sure["dy_mm"], rtol=0, atol=1e-12)  # same model
+    # "stiffer than 19 300 N/mm" lets actuators 2 and 3 shorten a little under 6.5 kg: that
+    # spread adds to the parameters' σ wherever their forces move the point
+    assert np.all(honest["sigma_param_dalpha_deg"] >= sure["sigma_param_dalpha_deg"] - 1e-15)
+    assert np.any(honest["sigma_param_dalpha_deg"] > 1.01 * sure["sigma_param_dalpha_deg"])
