@@ -135,7 +135,7 @@ def _print_fit(
             [
                 f"{parameter_name(s.name, s.at)} ({s.spec})",
                 value_error(est, err, unit) + mark,
-                bounded_interval(lo, hi, unit) if not res.at_bound[i] else "—",
+                bounded_interval(lo, hi, unit, err) if not res.at_bound[i] else "—",
             ]
         )
     _print_table(["parameter", "estimate ± standard error", "95 % interval"], rows)

@@ -333,6 +333,7 @@ def parameter_section(fit: FitResult, meas: Measurements) -> list[str]:
         kind = s.kind
         est, err = fit.estimate(i), fit.stderr(i)
         rel = err / abs(est) if math.isfinite(est) and est and math.isfinite(err) else math.nan
+        span = bounded_interval(*fit.interval(i), kind.unit, err)
         note = ""
         if fit.at_bound[i]:
             note = "at its bound"
@@ -352,10 +353,7 @@ def parameter_section(fit: FitResult, meas: Measurements) -> list[str]:
                 f"#{i + 1} {parameter_name(s.name, s.at)}",
                 page.Raw(f"<code>{page.esc(s.key)}</code>"),
                 page.Raw(f'<span class="num">{page.esc(value_error(est, err, kind.unit))}</span>'),
-                page.Raw(
-                    f'<span class="num">{page.esc(bounded_interval(*fit.interval(i), kind.unit))}'
-                    "</span>"
-                ),
+                page.Raw(f'<span class="num">{page.esc(span)}</span>'),
                 page.Raw(f'<span class="num">{_percent(rel)}</span>'),
                 note,
             ]
