@@ -261,3 +261,47 @@ def test_predicted_sigma_matches_monte_carlo_sampling_of_the_parameters(fitted: 
 def test_uncertainty_needs_a_fitted_file(arm: eodarm.Arm) -> None:
     with pytest.raises(eodarm.InputError, match=r"no fit.*eodarm fit .* -o"):
         eodarm.solve(arm, POSES, 5.0, uncertainty=True)
+
+
+@pytest.mark.parametrize(
+    ("keys", "where"),
+    [
+        ('determined = false\nbound = "sideways"\nlimit = 100.0\n', "effect[1].bound"),
+        ('determined = false\nbound = "lower"\n', "effect[1].limit"),
+        ('bound = "lower"\nlimit = 100.0\n', "effect[1].determined"),
+        ("determined = 0\n", "effect[1].determined"),
+    ],
+)
+def test_a_bad_mark_of_an_undetermined_effect_is_refused_naming_the_key(
+    arm: eodarm.Arm, tmp_path: Path, keys: str, where: str
+) -> None:
+    path = tmp_path / "fitted.toml"
+    path.write_text(
+        arm.to_toml()
+        + '\n[[effect]]\neffect = "mount_compliance"\nat = "M2"\nstiffness_n_per_mm = 1e20\n'
+        + keys
+    )
+    with pytest.raises(ArmFileError, match=re.escape(f"key '{where}'")):
+        eodarm.Arm.from_toml(path)
+
+
+def test_a_bounded_effect_reads_back_marked_and_round_trips(arm: eodarm.Arm) -> None:
+    from eodarm.model.arm import EffectMark
+
+    rigid = MOUNT.with_value(1e20)
+    mark = EffectMark(determined=False, bound="lower", limit=20000.0)
+    fitted = arm.with_effects([rigid, CLEAR], [None, 0.002], marks=[mark, None])
+    back = eodarm.Arm.from_dict(tomllib.loads(fitted.to_toml()))
+    assert back == fitted
+    assert back.bounded() == [(rigid, mark)]
+
+
+def test_a_template_of_another_arm_is_not_used(arm: eodarm.Arm) -> None:
+    # the comments of an arm file are kept only when the file describes the same arm
+    other = "# another arm\n" + arm.replace(B0=(240.0, -35.0)).to_toml()
+    fitted = arm.with_effects([MOUNT], [35.0])
+    assert fitted.to_toml(other) == fitted.to_toml()
+    same = "# Masses are ASSUMED\n" + arm.to_toml()
+    kept = fitted.to_toml(same)
+    assert kept.startswith("# Masses are ASSUMED\n")
+    assert eodarm.Arm.from_dict(tomllib.loads(kept)) == fitted

@@ -7,7 +7,7 @@ import math
 
 import pytest
 
-from eodarm.viz.format import interval95, parameter_name, value, value_error
+from eodarm.viz.format import bounded_interval, interval95, parameter_name, value, value_error
 
 
 @pytest.mark.parametrize(
@@ -42,3 +42,10 @@ def test_parameters_have_names_and_unknown_effects_still_read() -> None:
     assert parameter_name("joint_clearance", "O3") == "joint O3 clearance"
     assert parameter_name("base_compliance", "base") == "chassis tilt stiffness"
     assert parameter_name("actuator_friction", "M2") == "actuator friction at M2"
+
+
+def test_an_interval_that_reaches_infinity_reads_as_a_lower_bound() -> None:
+    # a stiffness whose θ = 1/k interval reaches 0: "at least", never a negative stiffness
+    assert bounded_interval(19295.4, math.inf, "N/mm") == "≥ 19300 N/mm (up to rigid)"
+    assert bounded_interval(0.0, 0.0312, "mm") == "[0, 0.0312] mm"
+    assert bounded_interval(0.0, math.inf) == "—"  # nothing known

@@ -113,6 +113,30 @@ def test_the_seed_parameters_flag_the_undetermined_body_stiffnesses(
     assert "12900 ± 3000 N/mm" in text_of(by_key["actuator_compliance@M1"])
     # the correlation heat map is there
     assert "correlation of the fitted parameters" in params
+    # no 95 % interval crosses a physical bound: a stiffness is never below zero; the
+    # undetermined bodies read as lower bounds, up to rigid (docs/model.md)
+    for row in rows:
+        cells = re.findall(r"<td[^>]*>(.*?)</td>", row, flags=re.S)
+        interval = text_of(cells[3])
+        assert "−" not in interval and "-" not in interval, interval
+    for key in ("actuator_compliance@M2", "actuator_compliance@M3"):
+        assert "up to rigid" in text_of(by_key[key])
+
+
+def test_the_seed_hand_over_file_treats_the_undetermined_bodies_as_rigid(
+    seed_report: tuple[str, str],
+) -> None:
+    import base64
+    import tomllib
+
+    text, _ = seed_report
+    uri = re.search(r"data:application/toml;base64,([A-Za-z0-9+/=]+)", text)
+    assert uri is not None
+    raw = tomllib.loads(base64.b64decode(uri[1]).decode("utf-8"))
+    bodies = {t["at"]: t for t in raw["effect"] if t["effect"] == "actuator_compliance"}
+    for at in ("M2", "M3"):  # not the (0.7 ± 1.0)×10⁵ of the fit as if it were known
+        assert bodies[at]["determined"] is False and bodies[at]["bound"] == "lower"
+    assert raw["fit"]["explained"] is False and raw["fit"]["sigma_model"]["dy_mm"] > 0.5
 
 
 def test_the_seed_terminal_ends_with_the_same_summary_within_100_columns(

@@ -147,6 +147,33 @@ def _write_csv(
             w.writerow(row)
 
 
+def _predicted_miss(
+    arm: Arm,
+    out: dict[str, npt.NDArray[Any]],
+    mass: npt.NDArray[np.float64],
+    effects: list[Effect],
+    self_weight: bool,
+) -> npt.NDArray[np.float64] | None:
+    """How far the real arm may still miss at the commanded poses: 2·√(σ_dx² + σ_dy²), the
+    total σ of the fitted model (parameters and inadequacy, docs/model.md), mm; NaN where
+    not compensated. ``None`` when the arm carries no ``[fit]`` (nothing to propagate) or
+    the model holds a user-written effect."""
+    from eodarm.model.effects import split_effects
+    from eodarm.model.solver import solve
+    from eodarm.workspace.compensated import K_SIGMA
+
+    if arm.fit is None or split_effects(with_arm_effects(arm.effects, effects))[1]:
+        return None
+    miss = np.full(mass.shape[0], np.nan)
+    ok = np.asarray(out["status"]) == "ok"
+    if ok.any():
+        got = solve(
+            arm, out["alpha_deg"][ok], mass[ok], effects, self_weight=self_weight, uncertainty=True
+        )
+        miss[ok] = K_SIGMA * np.hypot(got["sigma_dx_mm"], got["sigma_dy_mm"])
+    return miss
+
+
 def run(args: argparse.Namespace) -> int:
     arm = _load_arm(args.arm)
     effects = [_valued_effect(s) for s in args.add or []]
@@ -164,6 +191,13 @@ def run(args: argparse.Namespace) -> int:
     if args.output:
         _write_csv(args.output, arm, alpha, mass, config, out)
         _note(f"wrote {args.output}")
+    predicted = _predicted_miss(arm, out, mass, effects, self_weight)
+    if predicted is not None:
+        from eodarm.model.uncertainty import inadequacy_note
+
+        line = inadequacy_note(arm)
+        if line:
+            _note(line)
     if args.json:
         doc = {
             "alpha_deg": _json_list(out["alpha_deg"]),
@@ -171,6 +205,8 @@ def run(args: argparse.Namespace) -> int:
             "residual_mm": _json_list(out["residual_mm"]),
             "status": [str(s) for s in out["status"]],
         }
+        if predicted is not None:
+            doc["predicted_miss_mm"] = _json_list(predicted)
         json.dump(doc, sys.stdout)
         sys.stdout.write("\n")
         return 0
@@ -185,27 +221,36 @@ def run(args: argparse.Namespace) -> int:
         + ("" if self_weight else ", self-weight off")
     )
     head = ["pose", "kg", "nominal α deg", "command α deg", "length mm", "miss mm", "left mm"]
+    if predicted is not None:
+        head += ["2σ miss mm"]
     head += ["status"]
     rows = []
     for i in range(alpha.shape[0]):
         ok = out["status"][i] == "ok"
-        rows.append(
-            [
-                str(i + 1),
-                f"{mass[i]:g}",
-                "/".join(f"{a:g}" for a in alpha[i]),
-                "/".join(f"{a:.4f}" for a in out["alpha_deg"][i]) if ok else "—",
-                "/".join(f"{x:.2f}" for x in out["length_mm"][i]) if ok else "—",
-                "—" if math.isnan(miss[i]) else f"{miss[i]:.3f}",
-                "—" if math.isnan(out["residual_mm"][i]) else f"{out['residual_mm'][i]:.0e}",
-                str(out["status"][i]),
-            ]
-        )
+        row = [
+            str(i + 1),
+            f"{mass[i]:g}",
+            "/".join(f"{a:g}" for a in alpha[i]),
+            "/".join(f"{a:.4f}" for a in out["alpha_deg"][i]) if ok else "—",
+            "/".join(f"{x:.2f}" for x in out["length_mm"][i]) if ok else "—",
+            "—" if math.isnan(miss[i]) else f"{miss[i]:.3f}",
+            "—" if math.isnan(out["residual_mm"][i]) else f"{out['residual_mm'][i]:.0e}",
+        ]
+        if predicted is not None:
+            row.append("—" if math.isnan(predicted[i]) else f"{predicted[i]:.2g}")
+        rows.append([*row, str(out["status"][i])])
     _print_table(head, [[c.replace("-", "−") for c in r] for r in rows])
     _say(
         "command: the unloaded angles to command; length: the actuator lengths that give them; "
         "miss: how far the payload moves the point without compensation; left: what the model "
-        "leaves with it (--json or -o: full precision)"
+        "leaves with it"
+        + (
+            "; 2σ miss: how far the real arm may still miss, from the fitted model's σ "
+            "(parameters and inadequacy)"
+            if predicted is not None
+            else ""
+        )
+        + " (--json or -o: full precision)"
     )
     first = next((i for i in range(alpha.shape[0]) if out["status"][i] == "ok"), None)
     if first is not None:  # check: solve at the command, the point lands on the nominal

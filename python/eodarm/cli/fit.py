@@ -34,8 +34,10 @@ def run(args: argparse.Namespace) -> int:
         check_validity,
         compare,
         cross_validate,
+        model_inadequacy,
         outlier_table,
         robust_fit,
+        settle,
     )
 
     arm = _load_arm(args.arm, args.measurements)
@@ -75,7 +77,9 @@ def run(args: argparse.Namespace) -> int:
         for i, why in undetermined
     ]
     if args.output:
-        _write_fitted(res, args.output, args.measurements)
+        final = settle(res, exclude=flagged if flagged.any() else None)
+        inad = model_inadequacy(final)
+        doc["fitted_file"] = _write_fitted(final, inad, args.output, args.measurements)
     if args.json:
         print(json.dumps(doc, allow_nan=False))
     else:
@@ -117,7 +121,7 @@ def _print_fit(
     """The parameter table (value ± error to the error's two digits, 95 % interval, a
     footnote mark on what the data do not determine), then χ² and RMS before and after."""
     from eodarm.analysis.fit import determining_channel
-    from eodarm.viz.format import interval95, parameter_name, value_error
+    from eodarm.viz.format import bounded_interval, parameter_name, value_error
 
     _say(f"fit {meas.source} with arm '{res.problem.arm.name}'")
     _say(_describe_data(meas))
@@ -125,12 +129,13 @@ def _print_fit(
     rows = []
     for i, s in enumerate(res.slots):
         est, err, unit = res.estimate(i), res.stderr(i), s.kind.unit
+        lo, hi = res.interval(i)
         mark = " (at its bound)" if res.at_bound[i] else (" *" if i in flags else "")
         rows.append(
             [
                 f"{parameter_name(s.name, s.at)} ({s.spec})",
                 value_error(est, err, unit) + mark,
-                interval95(est, err) if not res.at_bound[i] else "—",
+                bounded_interval(lo, hi, unit, err) if not res.at_bound[i] else "—",
             ]
         )
     _print_table(["parameter", "estimate ± standard error", "95 % interval"], rows)
@@ -139,8 +144,8 @@ def _print_fit(
     for i, why in undetermined:
         s = res.slots[i]
         _say(
-            f"{s.spec} ({why}): fix or drop it, or "
-            f"{determining_channel(s, meas.measured_channels)}",
+            f"{s.spec} ({why}): fix or drop it (-o fixes a stiffness whose interval reaches "
+            f"∞ as rigid), or {determining_channel(s, meas.measured_channels)}",
             "  ",
         )
     print()
@@ -156,19 +161,56 @@ def _print_fit(
         )
 
 
-def _write_fitted(res: Any, path: str, data: str) -> None:
-    """The fitted arm file: written whole to a sibling, then renamed into place."""
+def _write_fitted(res: Any, inad: Any, path: str, data: str) -> dict[str, Any]:
+    """The fitted arm file: written whole to a sibling, then renamed into place. The input
+    arm file's text is the template, so its comments and layout survive. Says in a line
+    each what was fixed at a bound and when the model does not explain its data; returns
+    that for the JSON output (``bounded``, ``explained``, ``sigma_model``)."""
     import hashlib
     import os
     from pathlib import Path
 
+    from eodarm.model.uncertainty import inadequacy_note
+    from eodarm.viz.format import value
+
     digest = hashlib.sha256(Path(data).read_bytes()).hexdigest()
-    text = res.fitted_arm(data=Path(data).name, data_sha256=digest).to_toml()
+    fitted = res.fitted_arm(data=Path(data).name, data_sha256=digest, inadequacy=inad)
+    source = Path(res.problem.arm.source)
+    template = None
+    if source.suffix == ".toml" and source.is_file():
+        template = source.read_text(encoding="utf-8-sig")
+    text = fitted.to_toml(template)
     out = Path(path)
     tmp = out.with_name(f".{out.name}.part")
     tmp.write_text(text, encoding="utf-8")
     os.replace(tmp, out)
     _note(f"wrote the fitted arm to {out}")
+    bounded = []
+    for e, mark in fitted.bounded():
+        unit = e.kind.unit
+        if mark.bound == "lower":
+            what = f"stiffer than {value(mark.limit, unit, 3)} (95 %): treated as rigid"
+        else:
+            what = f"at most {value(mark.limit, unit, 3)} (95 %): treated as absent"
+        _note(f"{e.key} not determined: {what} in {out}")
+        bounded.append(
+            {
+                "effect": e.name,
+                "at": e.at,
+                "bound": mark.bound,
+                "limit": {e.kind.param: mark.limit},
+                "treated_as": "rigid" if mark.bound == "lower" else "absent",
+            }
+        )
+    line = inadequacy_note(fitted)
+    if line:
+        _note(line)
+    return {
+        "path": str(out),
+        "bounded": bounded,
+        "explained": inad.explained,
+        "sigma_model": inad.sigma_model,
+    }
 
 
 def add_parser(sub: Any) -> argparse.ArgumentParser:
@@ -190,7 +232,8 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
         "-o",
         "--output",
         metavar="FITTED.toml",
-        help="write the arm with the fitted effects, their errors and covariance (CONTRACT §7)",
+        help="write the arm with the fitted effects, their errors, covariance and the model's "
+        "inadequacy (docs/model.md); the input arm file's comments are kept",
     )
     c.set_defaults(func=run)
     return c

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 from pathlib import Path
 from typing import Any
@@ -66,6 +67,20 @@ def _fem_plots(
     _note("wrote " + ", ".join(str(p) for p in paths))
 
 
+def _json_safe(v: Any) -> Any:
+    """NaN (an unknown σ) as JSON null, inside lists too."""
+    if isinstance(v, list):
+        return [_json_safe(x) for x in v]
+    if isinstance(v, float) and not math.isfinite(v):
+        return None
+    return v
+
+
+def _sd(x: float) -> str:
+    """A standard deviation to two significant digits; ``—`` when unknown."""
+    return f"{x:.2g}" if math.isfinite(x) else "—"
+
+
 def run(args: argparse.Namespace) -> int:
     arm = _load_arm(args.arm)
     alphas = [_floats(a, "--alpha") for a in (args.alpha or [])]
@@ -102,6 +117,12 @@ def run(args: argparse.Namespace) -> int:
             + ", ".join(f"{k} {v}" for k, v in counts.items() if k != "ok")
             + f" of {len(out['status'])} poses"
         )
+    if args.uncertainty:
+        from eodarm.model.uncertainty import inadequacy_note
+
+        line = inadequacy_note(arm)
+        if line:
+            _note(line)
     if args.json:
         doc = {
             "arm": arm.name,
@@ -112,7 +133,7 @@ def run(args: argparse.Namespace) -> int:
                 {
                     "alpha_deg": alpha[i].tolist(),
                     "mass_kg": float(mass[i]),
-                    **{k: np.asarray(v[i]).tolist() for k, v in out.items()},
+                    **{k: _json_safe(np.asarray(v[i]).tolist()) for k, v in out.items()},
                 }
                 for i in range(len(rows_in))
             ],
@@ -143,7 +164,7 @@ def run(args: argparse.Namespace) -> int:
             "/".join(f"{d:.3f}" for d in out["dl_mm"][i]),
         ]
         if args.uncertainty:
-            cells += [f"{out['sigma_dx_mm'][i]:.2g}", f"{out['sigma_dy_mm'][i]:.2g}"]
+            cells += [_sd(out["sigma_dx_mm"][i]), _sd(out["sigma_dy_mm"][i])]
         cells += [STATUS[int(out["status"][i])]]
         rows.append([c.replace("-", "−") for c in cells])
     _print_table(head, rows)
@@ -195,8 +216,9 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     s.add_argument(
         "--uncertainty",
         action="store_true",
-        help="standard deviations of dx, dy and the angle changes from the arm file's fitted "
-        "covariance (an arm written by 'eodarm fit -o')",
+        help="standard deviations of dx, dy and the angle changes (an arm written by 'eodarm "
+        "fit -o'): sigma_* the total, sigma_param_* from the fitted parameters' covariance, "
+        "sigma_model_* the model's own inadequacy (docs/model.md, Prediction errors)",
     )
     s.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     s.add_argument("--compact", action="store_true", help="with --json: no indentation")

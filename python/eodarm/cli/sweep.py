@@ -192,8 +192,9 @@ def _uncertainty_args(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--uncertainty",
         action="store_true",
-        help="add sigma_dx_mm, sigma_dy_mm, sigma_dalpha_deg from the arm file's [fit] "
-        "covariance (an arm written by 'eodarm fit -o'); with --plot, sag_uncertainty.png",
+        help="add sigma_dx_mm, sigma_dy_mm, sigma_dalpha_deg (the total σ) and their parts "
+        "sigma_param_* and sigma_model_* from the arm file's [fit] table (an arm written by "
+        "'eodarm fit -o'; docs/model.md); with --plot, sag_uncertainty.png",
     )
     p.add_argument(
         "--compensated-miss",
@@ -310,6 +311,11 @@ def run(args: argparse.Namespace) -> int:
     )
     if args.uncertainty or args.compensated_miss:
         kwargs.update(uncertainty=args.uncertainty, compensated_miss=args.compensated_miss)
+        from eodarm.model.uncertainty import inadequacy_note
+
+        line = inadequacy_note(arm)
+        if line:
+            _note(line)
     t0 = time.perf_counter()
     try:
         try:

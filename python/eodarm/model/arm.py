@@ -25,7 +25,7 @@ import numpy as np
 from eodarm.errors import ArgumentTypeError, ArmFileError, EffectError
 from eodarm.model.effects import Effect, effect_from_table
 
-__all__ = ["Actuator", "Arm", "FitRecord", "Link", "check_arm"]
+__all__ = ["Actuator", "Arm", "EffectMark", "FitRecord", "Link", "check_arm"]
 
 Point = tuple[float, float]
 
@@ -42,7 +42,25 @@ MAX_MASS_KG = 1e6
 MAX_STIFFNESS = 1e20  # N/mm, N·mm² and N: "rigid" (tests use 1e18), not an overflow
 MAX_G = 100.0  # m/s², ten times Earth's
 
-_FIT_KEYS = {"parameters", "covariance", "data", "data_sha256", "chi2_per_dof", "date", "n_values"}
+_FIT_KEYS = {
+    "parameters",
+    "covariance",
+    "data",
+    "data_sha256",
+    "chi2_per_dof",
+    "date",
+    "n_values",
+    "explained",
+    "sigma_model",
+    "heldout_rms",
+    "noise_rms",
+}
+#: Keys of an ``[[effect]]`` table that mark a parameter the data did not determine
+#: (docs/model.md, "Undetermined parameters"): they describe the value, not the effect.
+_MARK_KEYS = ("determined", "bound", "limit")
+#: Where a bounded parameter's 95 % interval reaches: "lower" (a stiffness of at least
+#: ``limit``, treated as rigid) or "upper" (a gap of at most ``limit``, treated as absent).
+BOUNDS = ("lower", "upper")
 
 
 @dataclass(frozen=True)
@@ -93,6 +111,13 @@ class FitRecord:
     data : the measurement file's name; ``data_sha256`` its SHA-256 (hex).
     chi2_per_dof : χ²/dof of the fit; ``n_values`` the number of measured values it used.
     date : when it was fitted (ISO 8601).
+    explained : whether the fitted model explained its data within their noise (the χ²
+        test, docs/model.md, "Prediction errors"); ``None`` when the file does not say.
+    sigma_model : per measured channel (``dy_mm``, ``dalpha1_deg``, …), the model's own
+        inadequacy, a standard deviation in the channel's unit that every prediction adds
+        in quadrature to the parameters' part; all zero when ``explained``.
+    heldout_rms : per channel, the RMS of the leave-one-configuration-out residuals it
+        came from; ``noise_rms`` the RMS of the measurements' own σ over the same cells.
     """
 
     parameters: tuple[str, ...]
@@ -102,6 +127,28 @@ class FitRecord:
     chi2_per_dof: float = math.nan
     n_values: int = 0
     date: str = ""
+    explained: bool | None = None
+    sigma_model: tuple[tuple[str, float], ...] = ()
+    heldout_rms: tuple[tuple[str, float], ...] = ()
+    noise_rms: tuple[tuple[str, float], ...] = ()
+
+    def model_sigma(self, channel: str) -> float:
+        """The model part of a prediction's σ in ``channel`` (its unit): 0 when the model
+        explained its data (or the file predates the key), the stored value for a measured
+        channel; for one the fit never saw, the largest of the measured channels of its kind
+        (``dx_mm`` ↔ ``dy_mm``; ``dalphaK_deg``), else NaN (unknown)."""
+        if self.explained is not False:
+            return 0.0
+        known = dict(self.sigma_model)
+        if channel in known:
+            return known[channel]
+        # A component the fit never saw: the measured one of the same kind stands in (the
+        # measure point's miss is one vector; the links' angle misses are of one order).
+        if channel in ("dx_mm", "dy_mm"):
+            kin = [known[c] for c in ("dx_mm", "dy_mm") if c in known]
+        else:
+            kin = [v for c, v in known.items() if c[:6] == channel[:6] and c.endswith("_deg")]
+        return max(kin) if kin else math.nan
 
     def matrix(self) -> np.ndarray:
         """The covariance as a (P, P) float array."""
@@ -120,6 +167,41 @@ class FitRecord:
             d["chi2_per_dof"] = self.chi2_per_dof
         if self.n_values:
             d["n_values"] = self.n_values
+        if self.explained is not None:
+            d["explained"] = self.explained
+        for key in ("sigma_model", "heldout_rms", "noise_rms"):
+            if getattr(self, key):
+                d[key] = dict(getattr(self, key))
+        return d
+
+
+@dataclass(frozen=True)
+class EffectMark:
+    """How far the data determined an ``[[effect]]``'s parameter (docs/model.md).
+
+    Attributes
+    ----------
+    determined : False when the fit could not pin the value down (relative error above
+        100 % or a correlation beyond ±0.95 with another parameter).
+    bound : ``"lower"`` or ``"upper"`` when only a bound is known and the effect is fixed
+        at its physical end (a stiffness treated as rigid, a gap as absent); ``None`` when
+        the value is an estimate (then the ``[fit]`` covariance carries its spread).
+    limit : the 95 % bound in the parameter's unit (a stiffness of at least ``limit``, a gap
+        of at most ``limit``); ``None`` without a bound.
+    """
+
+    determined: bool = True
+    bound: str | None = None
+    limit: float | None = None
+
+    def to_table(self) -> dict[str, Any]:
+        """The marking keys of an ``[[effect]]`` table (none for a determined value)."""
+        if self.determined:
+            return {}
+        d: dict[str, Any] = {"determined": False}
+        if self.bound is not None and self.limit is not None:
+            d["bound"] = self.bound
+            d["limit"] = self.limit
         return d
 
 
@@ -144,6 +226,8 @@ class Arm:
     effect_stderr: tuple[float | None, ...] = ()
     #: The ``[fit]`` table: covariance and provenance of the fitted parameters.
     fit: FitRecord | None = None
+    #: How far the data determined each effect's value (same order; ``None``: determined).
+    effect_marks: tuple[EffectMark | None, ...] = ()
 
     # ------------------------------------------------------------------ loading
     @classmethod
@@ -256,7 +340,7 @@ class Arm:
             fmax = v.number(raw, "max_force_n", pre, default=None, positive=True)
             acts.append(Actuator(k, m, lo, hi, fmax))
 
-        effects, stderr = _effects(v, data.get("effect", []), n)
+        effects, stderr, marks = _effects(v, data.get("effect", []), n)
         fit = _fit_record(v, data["fit"], effects) if "fit" in data else None
         return cls(
             name=name,
@@ -270,6 +354,7 @@ class Arm:
             effects=effects,
             effect_stderr=stderr,
             fit=fit,
+            effect_marks=marks if any(m is not None for m in marks) else (),
         )
 
     # ------------------------------------------------------------------ views
@@ -334,8 +419,8 @@ class Arm:
         out["actuator"] = acts
         if self.effects:
             out["effect"] = [
-                e.to_table() | ({} if s is None else {"stderr": s})
-                for e, s in zip(self.effects, self.stderrs(), strict=True)
+                _effect_table(e, s, m)
+                for e, s, m in zip(self.effects, self.stderrs(), self.marks(), strict=True)
             ]
         if self.fit is not None:
             out["fit"] = self.fit.to_dict()
@@ -345,36 +430,63 @@ class Arm:
         """The standard error of each of :attr:`effects` (``None`` where unknown)."""
         return self.effect_stderr or (None,) * len(self.effects)
 
+    def marks(self) -> tuple[EffectMark | None, ...]:
+        """How far each of :attr:`effects` was determined (``None``: determined)."""
+        return self.effect_marks or (None,) * len(self.effects)
+
+    def bounded(self) -> list[tuple[Effect, EffectMark]]:
+        """The effects fixed at a physical end because the data gave only a bound."""
+        return [
+            (e, m)
+            for e, m in zip(self.effects, self.marks(), strict=True)
+            if m is not None and m.bound is not None
+        ]
+
     def with_effects(
         self,
         effects: Any,
         stderr: Any = None,
         fit: FitRecord | None = None,
+        marks: Any = None,
     ) -> Arm:
         """A copy carrying ``effects`` (replacing the same effect@place, appending others).
 
         ``stderr`` gives the new effects' standard errors (same order, ``None`` for unknown);
+        ``marks`` how far each was determined (:class:`EffectMark`, ``None``: determined);
         ``fit`` replaces the ``[fit]`` table (the old one is dropped whenever effects change,
         as its covariance no longer describes them).
         """
         new = list(effects)
         errs = list(stderr) if stderr is not None else [None] * len(new)
-        if len(errs) != len(new):
+        marks_new = list(marks) if marks is not None else [None] * len(new)
+        if len(errs) != len(new) or len(marks_new) != len(new):
             raise ArmFileError(f"{self.source}: {len(errs)} standard errors for {len(new)} effects")
         keys = {e.key for e in new}
         kept = [
-            (e, s) for e, s in zip(self.effects, self.stderrs(), strict=True) if e.key not in keys
+            (e, s, m)
+            for e, s, m in zip(self.effects, self.stderrs(), self.marks(), strict=True)
+            if e.key not in keys
         ]
-        pairs = kept + list(zip(new, errs, strict=True))
+        triples = kept + list(zip(new, errs, marks_new, strict=True))
         d = self.to_dict()
-        d["effect"] = [e.to_table() | ({} if s is None else {"stderr": s}) for e, s in pairs]
+        d["effect"] = [_effect_table(e, s, m) for e, s, m in triples]
         d.pop("fit", None)
         if fit is not None:
             d["fit"] = fit.to_dict()
         return Arm.from_dict(d, source=self.source)
 
-    def to_toml(self) -> str:
-        """Render the arm as an arm file (CONTRACT §2)."""
+    def to_toml(self, template: str | None = None) -> str:
+        """Render the arm as an arm file (docs/formats.md).
+
+        ``template``: the text of the arm file this arm came from (e.g. the input of a fit).
+        When its arm (name, base, links, actuators) is this arm's, the result is that text
+        with its ``[[effect]]`` tables and ``[fit]`` table brought up to date, so that the
+        user's comments and layout survive; otherwise the arm is rendered afresh.
+        """
+        if template is not None:
+            kept = _over_template(self, template)
+            if kept is not None:
+                return kept
         d = self.to_dict()
         lines = [f"name = {_toml_value(d['name'])}", f"g = {_toml_value(d['g'])}", "", "[base]"]
         lines += [f"{k} = {_toml_value(v)}" for k, v in d["base"].items()]
@@ -444,7 +556,68 @@ def _same(p: Point, q: Point) -> bool:
     return math.hypot(p[0] - q[0], p[1] - q[1]) <= 1e-9 * (1.0 + math.hypot(*p) + math.hypot(*q))
 
 
+def _effect_table(e: Effect, stderr: float | None, mark: EffectMark | None) -> dict[str, Any]:
+    """An ``[[effect]]`` table: the effect, its standard error and how far it is determined."""
+    table = e.to_table() | ({} if stderr is None else {"stderr": stderr})
+    return table | (mark.to_table() if mark is not None else {})
+
+
+def _over_template(arm: Arm, template: str) -> str | None:
+    """``template`` (an arm file's text) with ``arm``'s effects and ``[fit]`` written into it,
+    its comments and layout kept; ``None`` when the template describes another arm."""
+    import tomlkit
+    from tomlkit.exceptions import TOMLKitError
+
+    try:
+        doc = tomlkit.parse(template)
+        plain = doc.unwrap()
+        old = Arm.from_dict({k: v for k, v in plain.items() if k not in ("effect", "fit")})
+    except (TOMLKitError, ArmFileError, ValueError):
+        return None
+    mine = arm.to_dict()
+    theirs = old.to_dict()
+    if any(mine[k] != theirs[k] for k in ("name", "g", "base", "link", "actuator")):
+        return None
+    tables = mine.get("effect", [])
+    existing = doc.get("effect")
+    by_key: dict[str, Any] = {}
+    if isinstance(existing, tomlkit.items.AoT):
+        for t in existing:
+            by_key.setdefault(f"{t.get('effect')}@{t.get('at')}", t)
+    aot = tomlkit.aot()
+    for new in tables:
+        t = by_key.get(f"{new['effect']}@{new['at']}")
+        if t is None:
+            t = tomlkit.table()
+        for key in [k for k in t if k not in new]:
+            del t[key]  # a stale standard error or mark
+        for key, val in new.items():
+            t[key] = val
+        aot.append(t)
+    if "effect" in doc:
+        del doc["effect"]
+    if "fit" in doc:
+        del doc["fit"]
+    if tables:
+        doc["effect"] = aot
+    if "fit" in mine:
+        fit = tomlkit.table()
+        fit.comment("the fit that wrote the effects above")
+        for key, val in mine["fit"].items():
+            if isinstance(val, dict):
+                inline = tomlkit.inline_table()
+                inline.update(val)
+                fit[key] = inline
+            else:
+                fit[key] = val
+        doc["fit"] = fit
+    text = tomlkit.dumps(doc)
+    return text if text.endswith("\n") else text + "\n"
+
+
 def _toml_value(v: Any) -> str:
+    if isinstance(v, dict):
+        return "{ " + ", ".join(f"{k} = {_toml_value(x)}" for k, x in v.items()) + " }"
     if isinstance(v, str):
         return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
     if isinstance(v, list):
@@ -461,17 +634,19 @@ def _toml_value(v: Any) -> str:
 
 def _effects(
     v: _Validator, raw: Any, n: int
-) -> tuple[tuple[Effect, ...], tuple[float | None, ...]]:
-    """The ``[[effect]]`` tables: validated effects and their optional standard errors."""
+) -> tuple[tuple[Effect, ...], tuple[float | None, ...], tuple[EffectMark | None, ...]]:
+    """The ``[[effect]]`` tables: validated effects, their optional standard errors and
+    marks of what the data did not determine."""
     if not isinstance(raw, list):
         v.fail("effect", "must be [[effect]] tables")
     effects: list[Effect] = []
     errs: list[float | None] = []
+    marks: list[EffectMark | None] = []
     for i, table in enumerate(raw):
         pre = f"effect[{i + 1}]"
         if not isinstance(table, Mapping):
             v.fail(pre, "must be a table")
-        body = {k: val for k, val in table.items() if k != "stderr"}
+        body = {k: val for k, val in table.items() if k != "stderr" and k not in _MARK_KEYS}
         try:
             e = effect_from_table(body)
         except EffectError as exc:
@@ -484,7 +659,26 @@ def _effects(
             v.fail(f"{pre}.at", f"{e.key} is given twice")
         effects.append(e)
         errs.append(v.number(table, "stderr", pre + ".", default=None, nonneg=True))
-    return tuple(effects), tuple(errs)
+        marks.append(_mark(v, table, pre))
+    return tuple(effects), tuple(errs), tuple(marks)
+
+
+def _mark(v: _Validator, table: Mapping[str, Any], pre: str) -> EffectMark | None:
+    """An ``[[effect]]`` table's ``determined``, ``bound`` and ``limit`` keys."""
+    if not any(k in table for k in _MARK_KEYS):
+        return None
+    det = table.get("determined", True)
+    if not isinstance(det, bool):
+        v.fail(f"{pre}.determined", f"must be true or false, got {_short(det)}")
+    bound = table.get("bound")
+    if bound is not None and bound not in BOUNDS:
+        v.fail(f"{pre}.bound", f'must be "lower" or "upper", got {_short(bound)}')
+    limit = v.number(table, "limit", pre + ".", default=None, positive=True)
+    if (bound is None) != (limit is None):
+        v.fail(f"{pre}.{'limit' if limit is None else 'bound'}", "bound and limit go together")
+    if bound is not None and det:
+        v.fail(f"{pre}.determined", "a value given only by a bound is not determined")
+    return None if det else EffectMark(False, bound, limit)
 
 
 def _fit_record(v: _Validator, raw: Any, effects: tuple[Effect, ...]) -> FitRecord:
@@ -530,7 +724,30 @@ def _fit_record(v: _Validator, raw: Any, effects: tuple[Effect, ...]) -> FitReco
     nv = raw.get("n_values", 0)
     if isinstance(nv, bool) or not isinstance(nv, int) or nv < 0:
         v.fail("fit.n_values", f"must be a non-negative integer, got {_short(nv)}")
-    return FitRecord(tuple(names), tuple(rows), chi2_per_dof=chi, n_values=nv, **texts)
+    explained = raw.get("explained")
+    if explained is not None and not isinstance(explained, bool):
+        v.fail("fit.explained", f"must be true or false, got {_short(explained)}")
+    per: dict[str, tuple[tuple[str, float], ...]] = {}
+    for key in ("sigma_model", "heldout_rms", "noise_rms"):
+        table = raw.get(key, {})
+        if not isinstance(table, Mapping):
+            v.fail(f"fit.{key}", "must be a table of channel = value, e.g. { dy_mm = 1.9 }")
+        per[key] = tuple(
+            (str(ch), float(v.number(table, ch, f"fit.{key}.", nonneg=True))) for ch in table
+        )
+    return FitRecord(
+        tuple(names),
+        tuple(rows),
+        chi2_per_dof=chi,
+        n_values=nv,
+        explained=explained,
+        sigma_model=per["sigma_model"],
+        heldout_rms=per["heldout_rms"],
+        noise_rms=per["noise_rms"],
+        data=texts["data"],
+        data_sha256=texts["data_sha256"],
+        date=texts["date"],
+    )
 
 
 class _Validator:

@@ -72,9 +72,12 @@ def solve(
         (N,) chassis tilt about the base pivot, ``extra_measure_mm`` (N, 2) displacement of
         the measure point. Analytic model only (so are user-written effects).
     uncertainty : also return ``sigma_dx_mm``, ``sigma_dy_mm`` (N,) and ``sigma_dalpha_deg``
-        (N, n), the standard deviations of those outputs from the covariance of the arm's
-        fitted parameters (an arm file written by ``eodarm fit -o``; linear propagation
-        through the compiled core's sensitivities, :mod:`eodarm.model.uncertainty`).
+        (N, n), the total standard deviations of those outputs (mm, deg), and their two parts
+        ``sigma_param_*`` (the arm's fitted parameters' covariance, by linear propagation
+        through the compiled core's sensitivities) and ``sigma_model_*`` (the fitted model's
+        own inadequacy, zero where it explained its data); total² = param² + model². Needs
+        an arm file written by ``eodarm fit -o`` (:mod:`eodarm.model.uncertainty`,
+        docs/model.md, Prediction errors).
     out : arrays to write the results into, for repeated calls without allocating: a dict
         with every key of the analytic results below (``status`` included), each a writeable
         C-contiguous array of that shape and dtype (e.g. ``{k: np.empty_like(v) for k, v in

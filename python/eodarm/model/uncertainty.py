@@ -1,14 +1,24 @@
-"""The uncertainty of a prediction, carried from the fit that made the model (CONTRACT §7).
+"""The uncertainty of a prediction, carried from the fit that made the model (docs/model.md,
+"Prediction errors").
 
-A fitted arm file keeps the covariance C of its fitted parameters p (the ``[fit]`` table,
-:class:`~eodarm.model.arm.FitRecord`). A prediction y(p) — the measure point's displacement
-and the links' angle changes — then has the covariance J C Jᵀ to first order, with
-J = ∂y/∂p. The compiled core gives ∂y/∂θ in each effect's fitting parameter θ (1/stiffness
-for springs, the gap itself for play and clearance), so J = ∂y/∂θ · ∂θ/∂p with
-∂θ/∂k = −1/k² for a stiffness k. This is linear propagation: it holds while the parameters'
-errors are small against the range over which the deflections are linear in θ (they are
-nearly linear in θ by construction; docs/diagnosis.md), and it carries only the fitted
-parameters' uncertainty — not the model's missing physics, nor the geometry's.
+A prediction's standard deviation has two parts, added in quadrature:
+
+* the **parameters' part**. A fitted arm file keeps the covariance C of its fitted
+  parameters p (the ``[fit]`` table, :class:`~eodarm.model.arm.FitRecord`). A prediction
+  y(p) — the measure point's displacement and the links' angle changes — then has the
+  covariance J C Jᵀ to first order, with J = ∂y/∂p. The compiled core gives ∂y/∂θ in each
+  effect's fitting parameter θ (1/stiffness for springs, the gap itself for play and
+  clearance), so J = ∂y/∂θ · ∂θ/∂p with ∂θ/∂k = −1/k² for a stiffness k. A parameter the
+  data gave only a bound for (an ``[[effect]]`` with ``bound``, fixed at its physical end)
+  adds (∂y/∂θ · θ₉₅/1.96)², θ₉₅ the θ of its 95 % limit. Linear propagation holds while the
+  parameters' errors are small against the range over which the deflections are linear in
+  θ (they are nearly linear in θ by construction; docs/diagnosis.md).
+* the **model's part**: where the fitted model did not explain its data, the inadequacy
+  σ_model of each channel stored in ``[fit].sigma_model`` (from the leave-one-configuration-
+  out residuals), the same for every prediction; zero where the model explained its data.
+
+Neither part covers the noise of a future measurement: an interval for a measured value
+adds that measurement's own σ.
 """
 
 from __future__ import annotations
@@ -23,14 +33,21 @@ from eodarm.errors import InputError
 from eodarm.model.arm import Arm
 from eodarm.model.effects import CATALOGUE, Effect, Slot, theta_from_param
 
-__all__ = ["SIGMA_KEYS", "prediction_sigma", "require_fit"]
+#: z of a two-sided 95 % normal interval.
+Z95 = 1.959963984540054
+
+__all__ = ["PART_KEYS", "SIGMA_KEYS", "inadequacy_note", "prediction_sigma", "require_fit"]
 
 #: The outputs that get a standard deviation, and its key.
 SIGMA_KEYS = {"dx_mm": "sigma_dx_mm", "dy_mm": "sigma_dy_mm", "dalpha_deg": "sigma_dalpha_deg"}
+#: Every key :func:`prediction_sigma` returns: the totals, then the parameters' and the
+#: model's parts of each.
+PART_KEYS = tuple(f"sigma{part}_{out}" for part in ("", "_param", "_model") for out in SIGMA_KEYS)
 
 
 def _parameters(arm: Arm) -> tuple[list[Slot], npt.NDArray[np.float64]]:
-    """The fitted parameters as slots, and their covariance in θ."""
+    """The fitted parameters as slots, and their covariance in θ; the parameters known only
+    by a bound come last, with the variance (θ₉₅/1.96)² and no correlation."""
     rec = arm.fit
     if rec is None:
         raise InputError(
@@ -46,7 +63,35 @@ def _parameters(arm: Arm) -> tuple[list[Slot], npt.NDArray[np.float64]]:
         kind = CATALOGUE[e.name]
         dtheta.append(-1.0 / (e.value * e.value) if kind.compliance_like else 1.0)
     d = np.array(dtheta)
-    return slots, rec.matrix() * np.outer(d, d)
+    cov = rec.matrix() * np.outer(d, d)
+    extra = []
+    for e, mark in arm.bounded():
+        assert mark.limit is not None  # the reader pairs bound and limit
+        slots.append(Slot.of(e))
+        extra.append((theta_from_param(e.name, mark.limit) / Z95) ** 2)
+    if extra:
+        k = cov.shape[0]
+        full = np.zeros((k + len(extra), k + len(extra)))
+        full[:k, :k] = cov
+        full[k:, k:] = np.diag(extra)
+        cov = full
+    return slots, cov
+
+
+def inadequacy_note(arm: Arm) -> str | None:
+    """One line when the arm's fitted model did not explain its data: its χ²/dof and the
+    model part of the σ of the sag (or the first measured channel); ``None`` otherwise."""
+    rec = arm.fit
+    if rec is None or rec.explained is not False:
+        return None
+    known = dict(rec.sigma_model)
+    ch = next((c for c in ("dy_mm", "dx_mm") if c in known), next(iter(known), None))
+    part = "" if ch is None else f", {ch.rsplit('_', 1)[0]} {known[ch]:.2g} {ch.rsplit('_', 1)[1]}"
+    # short enough for one terminal line after "eodarm: " (the CLI wraps at 100 columns)
+    return (
+        f"the fitted model does not explain its data (χ²/dof {rec.chi2_per_dof:.2g}): "
+        f"σ adds its held-out miss{part}"
+    )
 
 
 def require_fit(arm: Arm) -> None:
@@ -62,10 +107,13 @@ def prediction_sigma(
     self_weight: bool,
     nan_on_failure: bool = False,
 ) -> dict[str, npt.NDArray[np.float64]]:
-    """Standard deviations of ``dx_mm``, ``dy_mm`` (N,) and ``dalpha_deg`` (N, n) from the
-    arm's fitted covariance, for the model ``effects`` (the arm's own, merged, included).
-    With ``nan_on_failure`` a row the core cannot solve gets NaN instead of an error (the
-    sweep's cells that are not ok).
+    """Standard deviations of ``dx_mm``, ``dy_mm`` (N,) and ``dalpha_deg`` (N, n), for the
+    model ``effects`` (the arm's own, merged, included): ``sigma_<out>`` the total,
+    ``sigma_param_<out>`` from the fitted parameters' covariance and ``sigma_model_<out>``
+    the model's inadequacy (module docstring); total² = param² + model². A channel the fit
+    never measured has a NaN model part (and total) when the model did not explain its
+    data. With ``nan_on_failure`` a row the core cannot solve gets NaN instead of an error
+    (the sweep's cells that are not ok).
 
     Raises
     ------
@@ -97,11 +145,19 @@ def prediction_sigma(
     # var_k = Σ_ij J_ki C_ij J_kj for every row and channel, without forming J C Jᵀ
     var = np.einsum("rci,ij,rcj->rc", jac, cov, jac)
     sd = np.sqrt(np.clip(var, 0.0, None))  # NaN rows stay NaN
-    out: dict[str, Any] = {
-        "sigma_dx_mm": sd[:, 0].copy(),
-        "sigma_dy_mm": sd[:, 1].copy(),
-        "sigma_dalpha_deg": sd[:, 2 : 2 + n].copy(),
-    }
+    rec = arm.fit
+    assert rec is not None  # _parameters made sure
+    channels = ["dx_mm", "dy_mm", *(f"dalpha{k + 1}_deg" for k in range(n))]
+    model = np.array([rec.model_sigma(ch) for ch in channels])
+    # the model part is the same for every solved row; an unsolved row stays NaN
+    sp = sd[:, : 2 + n]
+    sm = np.where(np.isfinite(sp), model[None, :], np.nan)
+    total = np.hypot(sp, sm)
+    out: dict[str, Any] = {}
+    for part, arr in (("", total), ("_param", sp), ("_model", sm)):
+        out[f"sigma{part}_dx_mm"] = arr[:, 0].copy()
+        out[f"sigma{part}_dy_mm"] = arr[:, 1].copy()
+        out[f"sigma{part}_dalpha_deg"] = arr[:, 2 : 2 + n].copy()
     if not all(math.isfinite(float(x)) for x in cov.ravel()):
         raise InputError(f"arm '{arm.name}': its [fit] covariance is not finite")
     return out

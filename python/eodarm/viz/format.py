@@ -5,6 +5,8 @@
   (``"1290 ± 300 N/mm"``, ``"0.151 ± 0.0020 mm"``, ``"(4.4 ± 3.3)×10⁵ N/mm"``);
 * :func:`value`: a value alone, to a few significant digits, the unit once;
 * :func:`interval95`: the 95 % interval of a normal estimate;
+* :func:`bounded_interval`: a 95 % interval given by its ends (from the fit's own
+  parameterisation, so that it never crosses a physical bound), ``≥ lo`` when it reaches ∞;
 * :func:`parameter_name`: a parameter in words (``"actuator 1 body stiffness"``), for the
   identifier ``mount_compliance@M1`` shown alongside.
 
@@ -16,6 +18,7 @@ from __future__ import annotations
 import math
 
 __all__ = [
+    "bounded_interval",
     "interval95",
     "p_value",
     "parameter_name",
@@ -100,7 +103,11 @@ def interval95(x: float, err: float, unit: str = "", digits: int = 2) -> str:
     """The 95 % interval ``[x − 1.96σ, x + 1.96σ]``, at the precision of :func:`value_error`."""
     if not (math.isfinite(x) and err is not None and math.isfinite(err) and err > 0):
         return "—"
-    lo, hi = x - Z95 * err, x + Z95 * err
+    return _pair(x - Z95 * err, x + Z95 * err, err, unit, digits)
+
+
+def _pair(lo: float, hi: float, err: float, unit: str, digits: int) -> str:
+    """``[lo, hi]`` rounded at the last of ``digits`` significant digits of ``err``."""
     decimals = digits - 1 - math.floor(math.log10(err))
     big = max(abs(lo), abs(hi))
     scale = math.floor(math.log10(big)) if big > 0 else 0
@@ -111,6 +118,26 @@ def interval95(x: float, err: float, unit: str = "", digits: int = 2) -> str:
         lo, hi = round(lo / q) * q, round(hi / q) * q
     d = max(decimals, 0)
     return _with_unit(f"[{lo:.{d}f}, {hi:.{d}f}]".replace("-", "−"), unit)
+
+
+def bounded_interval(
+    lo: float, hi: float, unit: str = "", err: float | None = None, digits: int = 3
+) -> str:
+    """A 95 % interval ``[lo, hi]`` given by its ends (which need not be symmetric about the
+    value: :meth:`eodarm.analysis.fit.FitResult.interval` maps it from the fit's θ).
+
+    With the value's standard error ``err`` the ends are rounded as :func:`interval95`
+    rounds them (at the error's second significant digit); otherwise each to ``digits``
+    significant digits. An interval that reaches +∞ (a stiffness that may be rigid) reads
+    ``≥ lo (up to rigid)``; one with no finite end reads ``—``.
+    """
+    if math.isnan(lo) or math.isnan(hi) or (math.isinf(hi) and lo <= 0):
+        return "—"
+    if math.isinf(hi):
+        return f"≥ {value(lo, unit, digits)} (up to rigid)"
+    if err is not None and math.isfinite(err) and err > 0:
+        return _pair(lo, hi, err, unit, 2)
+    return _with_unit(f"[{value(lo, digits=digits)}, {value(hi, digits=digits)}]", unit)
 
 
 def parameter_name(effect: str, at: str) -> str:

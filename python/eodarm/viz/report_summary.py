@@ -19,6 +19,7 @@ import re
 import textwrap
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -28,7 +29,7 @@ from eodarm.analysis.fit import FitResult, determining_channel
 from eodarm.data.measurements import Measurements
 from eodarm.model.arm import Arm
 from eodarm.viz import html as page
-from eodarm.viz.format import interval95, parameter_name, value, value_error
+from eodarm.viz.format import bounded_interval, parameter_name, value, value_error
 from eodarm.viz.style import channel_unit, short_channel
 
 __all__ = [
@@ -332,20 +333,27 @@ def parameter_section(fit: FitResult, meas: Measurements) -> list[str]:
         kind = s.kind
         est, err = fit.estimate(i), fit.stderr(i)
         rel = err / abs(est) if math.isfinite(est) and est and math.isfinite(err) else math.nan
+        span = bounded_interval(*fit.interval(i), kind.unit, err)
         note = ""
         if fit.at_bound[i]:
             note = "at its bound"
         elif i in flagged:
+            lo, hi = fit.interval(i)
+            fixed = (
+                f"the fitted file treats it as rigid (stiffer than {value(lo, kind.unit, 3)})"
+                if math.isinf(hi) and kind.compliance_like
+                else "the fitted file marks it 'determined = false'"
+            )
             note = (
-                f"NOT DETERMINED ({flagged[i]}): fix it or drop it; to determine it, "
-                f"{determining_channel(s, meas.measured_channels)}"
+                f"NOT DETERMINED ({flagged[i]}): fix it or drop it ({fixed}); to determine "
+                f"it, {determining_channel(s, meas.measured_channels)}"
             )
         rows.append(
             [
                 f"#{i + 1} {parameter_name(s.name, s.at)}",
                 page.Raw(f"<code>{page.esc(s.key)}</code>"),
                 page.Raw(f'<span class="num">{page.esc(value_error(est, err, kind.unit))}</span>'),
-                page.Raw(f'<span class="num">{page.esc(interval95(est, err, kind.unit))}</span>'),
+                page.Raw(f'<span class="num">{page.esc(span)}</span>'),
                 page.Raw(f'<span class="num">{_percent(rel)}</span>'),
                 note,
             ]
@@ -359,7 +367,10 @@ def parameter_section(fit: FitResult, meas: Measurements) -> list[str]:
     out = [
         "<h2>The fitted parameters</h2>",
         "<p>Each value is rounded to the second significant digit of its standard error; "
-        "the 95 % interval is value ± 1.96 standard errors (normal approximation). A "
+        "the 95 % interval is θ ± 1.96 standard errors in the parameter the fit works in "
+        "(1/stiffness for a spring, the gap itself for play and clearance), mapped back, so "
+        "that it never crosses a physical bound: a stiffness whose interval reaches θ = 0 "
+        "reads ≥ its lower end (up to rigid). A "
         "parameter is <b>not determined</b> when its relative error exceeds 100 % or its "
         "correlation with another parameter exceeds 0.95 in magnitude: the data then allow "
         "almost any value, and the model is better with it fixed or dropped.</p>",
@@ -407,8 +418,31 @@ def handover_section(
     setup: str | None = None,
 ) -> list[str]:
     """The fitted arm file as a download link and the commands that reproduce and use it."""
-    fitted = fit.fitted_arm(data=str(meas.source))
-    text = fitted.to_toml()
+    from eodarm.analysis.fit import settle
+
+    outliers = np.isfinite(meas.values) & ~fit.problem.use
+    final = settle(fit, exclude=outliers if outliers.any() else None)
+    fitted = final.fitted_arm(data=str(meas.source))
+    template = None
+    source = Path(arm.source)
+    if source.suffix == ".toml" and source.is_file():
+        template = source.read_text(encoding="utf-8-sig")  # the user's comments survive
+    text = fitted.to_toml(template)
+    bounded = "".join(
+        f"; {e.key} is not determined: {'stiffer than' if m.bound == 'lower' else 'at most'} "
+        f"{value(m.limit or 0.0, e.kind.unit, 3)}, treated as "
+        f"{'rigid' if m.bound == 'lower' else 'absent'}"
+        for e, m in fitted.bounded()
+    )
+    rec = fitted.fit
+    honest = (
+        " The model does not explain its data, so every σ predicted from the file includes its "
+        "held-out inadequacy ("
+        + ", ".join(f"{ch} {v:.2g}" for ch, v in rec.sigma_model)
+        + "; docs/model.md, Prediction errors)."
+        if rec is not None and rec.explained is False
+        else ""
+    )
     uri = "data:application/toml;base64," + base64.b64encode(text.encode("utf-8")).decode()
     adds = " ".join(f"--add {s.key}" for s in fit.slots)
     row0 = int(np.flatnonzero(np.asarray(meas.config) == meas.configs[0])[0])
@@ -444,8 +478,9 @@ def handover_section(
         f'<p><a download="fitted.toml" href="{uri}">Download the fitted arm file '
         "(fitted.toml)</a>: the arm with the final model's effects at their fitted values, "
         "each with its standard error, and a <code>[fit]</code> table with their covariance "
-        f"(χ²/dof {page.num(fit.chi2_per_dof, 3)}, {fit.problem.n_values} values). Solving it "
-        "gives exactly the final model of this report.</p>",
+        f"(χ²/dof {page.num(final.chi2_per_dof, 3)}, {final.problem.n_values} values). Solving "
+        "it gives exactly the final model of this report, with what the data do not determine "
+        f"fixed at its physical end{page.esc(bounded)}.{page.esc(honest)}</p>",
         f"<ul>{items}</ul>",
         f"<details><summary>The fitted file, as embedded ({value(len(text), digits=6)} "
         f"characters)</summary><pre>{page.esc(text)}</pre></details>",

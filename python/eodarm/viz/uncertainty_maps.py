@@ -91,8 +91,9 @@ def sag_uncertainty_map(
 ) -> Figure:
     """The sag's 2σ band over the reachable workspace, at one payload.
 
-    Two panels: 2σ of dy (mm), so that the real arm's sag lies in dy ± 2σ (to first order,
-    for the fitted parameters' error alone); and 2σ / |dy| (%), where the prediction is
+    Two panels: 2σ of dy (mm), the total σ (the fitted parameters' part and, where the
+    fitted model did not explain its data, its held-out inadequacy; docs/model.md), so that
+    the real arm's sag lies in dy ± 2σ; and 2σ / |dy| (%), where the prediction is
     relatively sure or not. ``ds``: a sweep with ``uncertainty=True``, not reduced.
     """
     _need(ds, "sigma_dy_mm", "uncertainty")
@@ -106,7 +107,12 @@ def sag_uncertainty_map(
     ax1, ax2 = fig.subplots(1, 2)
     _panel(fig, ax1, cv, band, "2σ of dy (mm)", log=True)
     _panel(fig, ax2, cv, rel, "2σ of dy / |dy| (%)", log=True, unit="%")
-    ax1.set_title("sag ± 2σ: the band's half-width 2σ_dy (mm)", fontsize=10)
+    model = float(np.nanmax(sel["sigma_model_dy_mm"])) if "sigma_model_dy_mm" in sel else 0.0
+    ax1.set_title(
+        "sag ± 2σ: the band's half-width 2σ_dy (mm)"
+        + (f"\nincl. the model's inadequacy σ = {model:.2g} mm" if model > 0 else ""),
+        fontsize=10,
+    )
     ax2.set_title("relative to the sag: 2σ_dy / |dy| (%)", fontsize=10)
     cv.legend(ax1)
     cv.note(fig, sel, band[2].size, "most uncertain")

@@ -10,8 +10,11 @@ with covariance Σ = J C Jᵀ (2 × 2). The reported miss is
     compensated_miss_mm = 2·√(trace Σ) = 2·√(σ_dx² + σ_dy²)   at the compensated pose,
 
 which, to first order and for normally distributed parameter errors, bounds |δ| for at least
-95.4 % of the arms the fit allows (98.2 % when Σ is isotropic). It leaves out the model's
-missing physics and the geometry's errors.
+95.4 % of the arms the fit allows (98.2 % when Σ is isotropic). σ is the total of
+:func:`~eodarm.model.uncertainty.prediction_sigma`: where the fitted model did not explain
+its data, the model's held-out inadequacy per channel adds to the diagonal of Σ (docs/model.md,
+Prediction errors), a miss that compensation with this model cannot remove. It leaves out
+the geometry's errors.
 """
 
 from __future__ import annotations

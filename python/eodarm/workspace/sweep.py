@@ -267,9 +267,10 @@ def sweep(
         so it agrees with the analytic model to first order in the load).
     fem_options : with ``model="fem"``, e.g. ``{"elements_per_link": 8}``.
     uncertainty : also give ``sigma_dx_mm``, ``sigma_dy_mm``, ``sigma_dalpha_deg`` per cell,
-        the standard deviations from the arm's fitted covariance (its ``[fit]`` table), as
-        :func:`eodarm.solve` does; a reduced sweep gives σ at the cell the reduction chose
-        (:mod:`eodarm.workspace.uncertainty`).
+        the total standard deviations from the arm's ``[fit]`` table, and their parts
+        ``sigma_param_*`` (the fitted covariance) and ``sigma_model_*`` (the model's
+        inadequacy), as :func:`eodarm.solve` does; a reduced sweep gives σ at the cell the
+        reduction chose (:mod:`eodarm.workspace.uncertainty`).
     compensated_miss : also compensate every solved cell with the fitted model and give
         ``compensated_miss_mm`` (2σ of the loaded measure point at the compensated pose),
         ``compensation_residual_mm`` and ``compensation_status`` (a reduced sweep: the largest

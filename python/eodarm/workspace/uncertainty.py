@@ -5,16 +5,19 @@ parameters (its ``[fit]`` table, written by ``eodarm fit -o``), computed in a pa
 grid after the sweep itself (docs/sweeps.md, "Uncertainty and the compensated miss"):
 
 * ``uncertainty=True``: ``sigma_dx_mm``, ``sigma_dy_mm`` and ``sigma_dalpha_deg``, the
-  standard deviations of ``dx_mm``, ``dy_mm`` and ``dalpha_deg`` of every cell, by linear
-  propagation as :func:`eodarm.solve` does (:func:`eodarm.model.uncertainty.prediction_sigma`).
+  standard deviations of ``dx_mm``, ``dy_mm`` and ``dalpha_deg`` of every cell, as
+  :func:`eodarm.solve` gives them (:func:`eodarm.model.uncertainty.prediction_sigma`): the
+  total, with its two parts ``sigma_param_*`` (linear propagation of the fitted parameters'
+  covariance) and ``sigma_model_*`` (the model's inadequacy; docs/model.md).
   A reduced sweep gives, for each reduced variable, the σ **of the cell the reduction chose**
   (the cell of the maximum or minimum; arg-reductions the same cell as max/min).
 * ``compensated_miss=True``: every solved cell is compensated with the fitted model
   (:func:`eodarm.compensate`); ``compensation_residual_mm`` is the model's own remaining miss
-  (numerical), ``compensated_miss_mm`` = 2·√(σ_dx² + σ_dy²) at the compensated pose: how far
-  the real arm's loaded measure point may still miss the nominal one because the fitted
-  parameters are uncertain (:mod:`eodarm.workspace.compensated`). A reduced sweep gives the
-  largest of each over the group.
+  (numerical), ``compensated_miss_mm`` = 2·√(σ_dx² + σ_dy²) (the total σ) at the compensated
+  pose: how far the real arm's loaded measure point may still miss the nominal one because
+  the fitted parameters are uncertain and the model does not explain everything
+  (:mod:`eodarm.workspace.compensated`). A reduced sweep gives the largest of each over the
+  group.
 
 Cells that are not ok (not solved, or masked as unreachable) are NaN.
 """
@@ -46,20 +49,28 @@ BoolArray = npt.NDArray[np.bool_]
 #: Cells per block of the pass (poses × payloads, rounded to whole reduction groups).
 CELLS_PER_BLOCK = 2**15
 
-SIGMA_ATTRS = {
-    "sigma_dx_mm": {
-        "units": "mm",
-        "long_name": "standard deviation of dx_mm from the fitted parameters' covariance",
-    },
-    "sigma_dy_mm": {
-        "units": "mm",
-        "long_name": "standard deviation of dy_mm from the fitted parameters' covariance",
-    },
-    "sigma_dalpha_deg": {
-        "units": "deg",
-        "long_name": "standard deviation of dalpha_deg from the fitted parameters' covariance",
-    },
-}
+
+def _attrs() -> dict[str, dict[str, str]]:
+    """Units and long names of the σ variables: the total and its two parts."""
+    what = {
+        "": "standard deviation of {out}: the fitted parameters' part and the model's "
+        "inadequacy together",
+        "_param": "standard deviation of {out} from the fitted parameters' covariance",
+        "_model": "standard deviation of {out} from the model's own inadequacy (its held-out "
+        "residuals beyond the noise; 0 where the model explained its data)",
+    }
+    return {
+        f"sigma{part}_{out}": {
+            "units": "deg" if out.endswith("deg") else "mm",
+            "long_name": text.format(out=out),
+        }
+        for part, text in what.items()
+        for out in ("dx_mm", "dy_mm", "dalpha_deg")
+    }
+
+
+#: The σ variables of a sweep with ``uncertainty=True`` (docs/model.md, Prediction errors).
+SIGMA_ATTRS = _attrs()
 
 
 def check(job: _Job, uncertainty: bool, compensated_miss: bool) -> None:
@@ -83,7 +94,7 @@ def extra_nbytes(setup: _Setup, uncertainty: bool, compensated_miss: bool) -> in
     cells = setup.shapes["dy_mm"][0] * (1 if setup.job.op else setup.job.mass.shape[0])
     per = 0
     if uncertainty:
-        per += 8 * (2 + setup.job.arm.n)
+        per += 3 * 8 * (2 + setup.job.arm.n)
     if compensated_miss:
         per += 16 + (0 if setup.job.op else 1)
     return cells * per
@@ -125,11 +136,7 @@ def _sigma(
     """σ of dx, dy (c,) and dalpha (c, n) of the ok cells; NaN elsewhere."""
     job = setup.job
     n = job.arm.n
-    out = {
-        "sigma_dx_mm": np.full(ok.shape[0], np.nan),
-        "sigma_dy_mm": np.full(ok.shape[0], np.nan),
-        "sigma_dalpha_deg": np.full((ok.shape[0], n), np.nan),
-    }
+    out = _empty(ok.shape[0], n)
     if ok.any():
         got = prediction_sigma(
             job.arm,
@@ -142,6 +149,13 @@ def _sigma(
         for k, v in got.items():
             out[k][ok] = v
     return out
+
+
+def _empty(rows: int, n: int) -> dict[str, FloatArray]:
+    """NaN arrays of every σ variable: (rows,) for dx and dy, (rows, n) for dalpha."""
+    return {
+        k: np.full((rows, n) if k.endswith("dalpha_deg") else rows, np.nan) for k in SIGMA_ATTRS
+    }
 
 
 def _pick(value: FloatArray, sigma: FloatArray, ok: BoolArray, op: str, group: int) -> FloatArray:
@@ -171,11 +185,7 @@ def add_outputs(
     n, m, op = job.arm.n, job.mass.shape[0], job.op
     group = job.block * m if op else 1
     rows = setup.shapes["dy_mm"][0] * (1 if op else m)  # output cells, flat
-    sig = {
-        "sigma_dx_mm": np.full(rows, np.nan),
-        "sigma_dy_mm": np.full(rows, np.nan),
-        "sigma_dalpha_deg": np.full((rows, n), np.nan),
-    }
+    sig = _empty(rows, n)
     comp = compensated.Outputs(rows, per_cell=op is None)
     for start, stop in _blocks(setup):
         alpha, payload, cells = _cells(setup, result, start, stop)
@@ -187,30 +197,34 @@ def add_outputs(
                 for k, v in got.items():
                     sig[k][a:b] = v
             else:
-                for key in ("dx_mm", "dy_mm"):
-                    sig[f"sigma_{key}"][a:b] = _pick(cells[key], got[f"sigma_{key}"], ok, op, group)
-                for i in range(n):
-                    sig["sigma_dalpha_deg"][a:b, i] = _pick(
-                        cells["dalpha_deg"][:, i], got["sigma_dalpha_deg"][:, i], ok, op, group
-                    )
+                for k in SIGMA_ATTRS:
+                    key = "_".join(k.split("_")[-2:])  # the output it is the σ of
+                    if key == "dalpha_deg":
+                        for i in range(n):
+                            sig[k][a:b, i] = _pick(cells[key][:, i], got[k][:, i], ok, op, group)
+                    else:
+                        sig[k][a:b] = _pick(cells[key], got[k], ok, op, group)
         if compensated_miss:
             comp.put(a, b, compensated.cells(job, alpha, payload, ok), group)
     dims = ds["dy_mm"].dims
     shape = tuple(ds.sizes[d] for d in dims)
     out = ds.copy()
     if uncertainty:
-        for key in ("sigma_dx_mm", "sigma_dy_mm"):
-            out[key] = (dims, sig[key].reshape(shape), dict(SIGMA_ATTRS[key]))
-        out["sigma_dalpha_deg"] = (
-            ds["dalpha_deg"].dims,
-            sig["sigma_dalpha_deg"].reshape(*shape, n),
-            dict(SIGMA_ATTRS["sigma_dalpha_deg"]),
-        )
+        for key in SIGMA_ATTRS:
+            if key.endswith("dalpha_deg"):
+                out[key] = (
+                    ds["dalpha_deg"].dims,
+                    sig[key].reshape(*shape, n),
+                    dict(SIGMA_ATTRS[key]),
+                )
+            else:
+                out[key] = (dims, sig[key].reshape(shape), dict(SIGMA_ATTRS[key]))
         if op:
             over = ", ".join(d for d in setup.rdims)
             for key in SIGMA_ATTRS:
+                chosen = "_".join(key.split("_")[-2:])
                 out[key].attrs["long_name"] += (
-                    f", at the cell over ({over}) that the {op} of {key[6:]} chose"
+                    f", at the cell over ({over}) that the {op} of {chosen} chose"
                 )
         out.attrs["uncertainty"] = _provenance(job)
     if compensated_miss:
@@ -219,14 +233,25 @@ def add_outputs(
 
 
 def _provenance(job: _Job) -> str:
-    """Where the covariance came from, one line."""
+    """Where the σ came from, one short line (a figure's title shows it)."""
     rec = job.arm.fit
     assert rec is not None  # check() made sure
-    parts = [f"linear propagation of the [fit] covariance of {', '.join(rec.parameters)}"]
+    k, b = len(rec.parameters), len(job.arm.bounded())
+    parts = [
+        f"σ: linear propagation of the [fit] covariance of {k} parameter{'s' * (k != 1)}"
+        + (f" and {b} bound{'s' * (b != 1)}" if b else "")
+    ]
     if rec.data:
         parts.append(f"fitted to {rec.data}")
     if rec.date:
-        parts.append(rec.date)
+        parts.append(rec.date[:10])
+    if rec.explained is False:
+        dy = dict(rec.sigma_model).get("dy_mm")
+        parts.append(
+            f"plus the model's inadequacy (χ²/dof {rec.chi2_per_dof:.3g}"
+            + (f", dy {dy:.2g} mm" if dy is not None else "")
+            + ")"
+        )
     return "; ".join(parts)
 
 
