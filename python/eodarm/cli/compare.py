@@ -20,7 +20,9 @@ from eodarm.cli._common import (
     _fmt,
     _load_arm,
     _model,
+    _model_keys,
     _model_kw,
+    _model_words,
     _next,
     _noise_json,
     _note,
@@ -86,7 +88,7 @@ def run(args: argparse.Namespace) -> int:
         _note(str(w.message))
     base = compare(arm, meas, [], self_weight=sw, **mk)
     doc: dict[str, Any] = {
-        "model": [m.key for m in model],
+        "model": _model_keys(arm, model),
         "solver_model": args.model,
         "rms": res.rms(),
         "chi2_per_dof": res.chi2_per_dof,
@@ -126,10 +128,7 @@ def _print_compare(
     from eodarm.analysis.consistency import fit_p_value
     from eodarm.viz.format import p_value
 
-    _say(
-        f"compare {meas.source} with arm '{arm.name}', model: baseline"
-        + "".join(f" + {m.key}" for m in model)
-    )
+    _say(f"compare {meas.source} with arm '{arm.name}', model: {_model_words(arm, model)}")
     _say(_describe_data(meas))
     fitted = f", {res.n_params} fitted parameters" if res.n_params else ""
     _say(

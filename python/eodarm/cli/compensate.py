@@ -27,6 +27,8 @@ from eodarm.cli._common import (
     _effects_args,
     _floats,
     _load_arm,
+    _model_keys,
+    _model_words,
     _next,
     _note,
     _print_table,
@@ -37,7 +39,7 @@ from eodarm.cli._common import (
 from eodarm.cli._help import HELP
 from eodarm.errors import EodarmError
 from eodarm.model.arm import Arm
-from eodarm.model.effects import Effect, with_arm_effects
+from eodarm.model.effects import Effect
 
 
 def _nominal_poses(
@@ -166,6 +168,7 @@ def run(args: argparse.Namespace) -> int:
         _note(f"wrote {args.output}")
     if args.json:
         doc = {
+            "model": _model_keys(arm, effects),
             "alpha_deg": _json_list(out["alpha_deg"]),
             "length_mm": _json_list(out["length_mm"]),
             "residual_mm": _json_list(out["residual_mm"]),
@@ -175,13 +178,8 @@ def run(args: argparse.Namespace) -> int:
         sys.stdout.write("\n")
         return 0
     miss = _uncompensated_miss(arm, alpha, mass, effects, self_weight)
-    model = [
-        e.key + (" (arm file)" if e in arm.effects else "")
-        for e in with_arm_effects(arm.effects, effects)
-    ]
     _say(
-        f"arm {arm.name!r} ({arm.n} links), model: baseline"
-        + "".join(f" + {m}" for m in model)
+        f"arm {arm.name!r} ({arm.n} links), model: {_model_words(arm, effects)}"
         + ("" if self_weight else ", self-weight off")
     )
     head = ["pose", "kg", "nominal α deg", "command α deg", "length mm", "miss mm", "left mm"]

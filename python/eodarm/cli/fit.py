@@ -11,7 +11,9 @@ from eodarm.cli._common import (
     _describe_data,
     _load_arm,
     _model,
+    _model_keys,
     _model_kw,
+    _model_words,
     _next,
     _note,
     _plots,
@@ -62,6 +64,7 @@ def run(args: argparse.Namespace) -> int:
     before = compare(arm, meas, [], self_weight=sw, **mk)
     summ = res.summary()
     doc: dict[str, Any] = {
+        "model": _model_keys(arm, res.slots),
         "effects": summ["effects"],
         "before": {"rms": before.rms(), "chi2_per_dof": before.chi2_per_dof},
         "after": {"rms": res.rms(), "chi2_per_dof": res.chi2_per_dof},
@@ -119,7 +122,8 @@ def _print_fit(
     from eodarm.analysis.fit import determining_channel
     from eodarm.viz.format import interval95, parameter_name, value_error
 
-    _say(f"fit {meas.source} with arm '{res.problem.arm.name}'")
+    arm = res.problem.arm
+    _say(f"fit {meas.source} with arm '{arm.name}', model: {_model_words(arm, res.slots)}")
     _say(_describe_data(meas))
     flags = dict(undetermined)
     rows = []

@@ -17,7 +17,9 @@ from eodarm.cli._common import (
     _floats,
     _load_arm,
     _model_args,
+    _model_keys,
     _model_kw,
+    _model_words,
     _next,
     _note,
     _print_table,
@@ -27,7 +29,6 @@ from eodarm.cli._common import (
 from eodarm.cli._help import HELP
 from eodarm.errors import EodarmError
 from eodarm.model.arm import Arm
-from eodarm.model.effects import with_arm_effects
 from eodarm.model.solver import solve
 
 _SOLVE_KEYS = (
@@ -105,7 +106,7 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         doc = {
             "arm": arm.name,
-            "model": [e.spec for e in with_arm_effects(arm.effects, effects)],
+            "model": _model_keys(arm, effects),
             "solver_model": args.model,
             "self_weight": not args.no_self_weight,
             "poses": [
@@ -122,8 +123,7 @@ def run(args: argparse.Namespace) -> int:
         return 0
     n = arm.n
     _say(
-        f"arm {arm.name!r} ({n} links), model: baseline"
-        + "".join(f" + {e.name}@{e.at}" for e in effects)
+        f"arm {arm.name!r} ({n} links), model: {_model_words(arm, effects)}"
         + ("" if not args.no_self_weight else ", self-weight off")
         + (f", finite-element model ({dofs} DOF)" if dofs else "")
     )
