@@ -27,7 +27,6 @@ from eodarm.cli._common import (
     _effects_args,
     _floats,
     _load_arm,
-    _model_keys,
     _model_words,
     _next,
     _note,
@@ -168,7 +167,6 @@ def run(args: argparse.Namespace) -> int:
         _note(f"wrote {args.output}")
     if args.json:
         doc = {
-            "model": _model_keys(arm, effects),
             "alpha_deg": _json_list(out["alpha_deg"]),
             "length_mm": _json_list(out["length_mm"]),
             "residual_mm": _json_list(out["residual_mm"]),
