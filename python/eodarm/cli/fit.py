@@ -11,7 +11,6 @@ from eodarm.cli._common import (
     _describe_data,
     _load_arm,
     _model,
-    _model_keys,
     _model_kw,
     _model_words,
     _next,
@@ -64,7 +63,6 @@ def run(args: argparse.Namespace) -> int:
     before = compare(arm, meas, [], self_weight=sw, **mk)
     summ = res.summary()
     doc: dict[str, Any] = {
-        "model": _model_keys(arm, res.slots),
         "effects": summ["effects"],
         "before": {"rms": before.rms(), "chi2_per_dof": before.chi2_per_dof},
         "after": {"rms": res.rms(), "chi2_per_dof": res.chi2_per_dof},
