@@ -385,22 +385,28 @@ def _plots(
     out = Path(dirname)
     out.mkdir(parents=True, exist_ok=True)
     written = []
-    p = out / "measured_vs_model.png"
-    plots.measured_vs_model(meas, {"before": before, "after": after}, path=p)
-    written.append(p)
-    p = out / "residual_vs_payload.png"
-    plots.residual_vs_payload(meas, before, after, path=p)
-    written.append(p)
-    if effects:
-        p = out / "deflection_share.png"
-        plots.deflection_share(
-            arm, meas, effects, self_weight=self_weight, path=p, **(model_kw or {})
-        )
+    names = ["measured vs model", "residuals", *(["sag budget"] if effects else [])]
+    with _stages([*names, *(["ladder"] if steps else [])], "--plot") as step:
+        step("measured vs model")
+        p = out / "measured_vs_model.png"
+        plots.measured_vs_model(meas, {"before": before, "after": after}, path=p)
         written.append(p)
-    if steps:
-        p = out / "ladder.png"
-        plots.ladder(steps, path=p)
+        step("residuals")
+        p = out / "residual_vs_payload.png"
+        plots.residual_vs_payload(meas, before, after, path=p)
         written.append(p)
+        if effects:
+            step("sag budget")
+            p = out / "deflection_share.png"
+            plots.deflection_share(
+                arm, meas, effects, self_weight=self_weight, path=p, **(model_kw or {})
+            )
+            written.append(p)
+        if steps:
+            step("ladder")
+            p = out / "ladder.png"
+            plots.ladder(steps, path=p)
+            written.append(p)
     _note("wrote " + ", ".join(str(w) for w in written))
 
 

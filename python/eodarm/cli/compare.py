@@ -31,6 +31,7 @@ from eodarm.cli._common import (
     _read,
     _rms_line,
     _say,
+    _stages,
     data_command,
 )
 
@@ -68,8 +69,9 @@ def run(args: argparse.Namespace) -> int:
     free = [m for m in model if not isinstance(m, Effect)]
     import warnings
 
-    with warnings.catch_warnings(record=True) as caught:
+    with warnings.catch_warnings(record=True) as caught, _stages(["comparing"], "compare") as step:
         warnings.simplefilter("always", FitWarning)
+        step("comparing")
         from eodarm.analysis.fit import compare
 
         mk = _model_kw(args)

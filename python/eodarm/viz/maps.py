@@ -585,6 +585,7 @@ def render_all(
     ds: xr.Dataset | None = None,
     note: Callable[[str], None] | None = None,
     prefix: str = "",
+    step: Callable[[str], None] | None = None,
 ) -> list[Path]:
     """Write the four maps into ``directory``: ``sag.png``, ``forces.png``, ``capacity.png``,
     ``dominant_effect.png`` (each name after ``prefix``).
@@ -592,16 +593,19 @@ def render_all(
     ``grid`` is :func:`eodarm.sweep` keyword arguments (``{"alpha_deg": {…}}``); ``ds`` a sweep
     of it that holds ``mass`` (else the grid is swept at ``mass``). Actuators without
     ``max_force_n`` get ``assumed_max_force_n`` for the capacity map (when given; ``note`` is
-    told).
+    told). ``step(name)`` is called before each map (a progress bar's stages).
     """
+    step = step or (lambda _name: None)
     out = Path(directory)
     out.mkdir(parents=True, exist_ok=True)
     if ds is None or "mass_kg" not in ds.dims:
         ds = sweep(arm, **grid, mass_kg=[mass], effects=effects, self_weight=self_weight)
     written = []
+    step("sag map")
     p = out / f"{prefix}sag.png"
     sag_map(ds, mass, path=p)
     written.append(p)
+    step("force maps")
     p = out / f"{prefix}forces.png"
     force_maps(ds, mass, path=p)
     written.append(p)
@@ -615,6 +619,7 @@ def render_all(
                     f"capacity map: actuator(s) {', '.join(missing)} have no max_force_n; "
                     f"assuming {assumed_max_force_n:g} N"
                 )
+    step("capacity map")
     p = out / f"{prefix}capacity.png"
     capacity_map(
         cap_arm,
@@ -625,6 +630,7 @@ def render_all(
         path=p,
     )
     written.append(p)
+    step("who makes the sag")
     p = out / f"{prefix}dominant_effect.png"
     dominant_effect_map(arm, grid, effects, mass, self_weight=self_weight, path=p)
     written.append(p)

@@ -77,16 +77,30 @@ def sag_word(meas: Measurements, base: FitResult) -> str | None:
 
 def model_words(fit: FitResult) -> str:
     """The effects of a model in words, the same kind at several places in one group:
-    ``"actuator 1/2/3 body, actuator 1/2/3 mount"``."""
-    names = [parameter_name(e.name, e.at) for e in fit.fixed]
-    names += [parameter_name(s.name, s.at) for s in fit.slots]
+    ``"actuator 1/2/3 body, actuator 1/2/3 mount"``; the arm file's own effects (those the fit
+    did not refit) first, marked ``(arm file)``."""
+    named = {e.key for e in fit.fixed} | {s.key for s in fit.slots}
+    own = [e for e in getattr(fit.problem.arm, "effects", ()) if e.key not in named]
+    added = _grouped_words(
+        [(e.name, e.at) for e in fit.fixed] + [(s.name, s.at) for s in fit.slots]
+    )
+    parts = ["baseline"]
+    if own:
+        parts.append(_grouped_words([(e.name, e.at) for e in own]) + " (arm file)")
+    if added:
+        parts.append(added)
+    return " + ".join(parts) if len(parts) > 1 else "the baseline (nothing added)"
+
+
+def _grouped_words(effects: Sequence[tuple[str, str]]) -> str:
+    """``[("mount_compliance", "M1"), ("mount_compliance", "M2")]`` → ``actuator 1/2 mount``."""
     groups: dict[tuple[str, str], list[str]] = {}
-    for n in names:
+    for name, at in effects:
+        n = parameter_name(name, at)
         m = re.fullmatch(r"(\D*?)(\d+)(.*)", n.replace(" stiffness", ""))
         key = (m[1], m[3]) if m else (n, "")
         groups.setdefault(key, []).append(m[2] if m else "")
-    words = [f"{pre}{'/'.join(nums)}{post}" for (pre, post), nums in groups.items()]
-    return "baseline + " + ", ".join(words) if words else "the baseline (nothing added)"
+    return ", ".join(f"{pre}{'/'.join(nums)}{post}" for (pre, post), nums in groups.items())
 
 
 def _typ_sigma(meas: Measurements, ch: str) -> float:

@@ -279,6 +279,7 @@ def effect_contributions(
     *,
     self_weight: bool = True,
     channel: str = "dy_mm",
+    progress: bool | None = None,
     **sweep_kw: Any,
 ) -> xr.Dataset:
     """Who makes the sag at each pose of a grid: the sag budget's Shapley shares, per pose.
@@ -290,6 +291,9 @@ def effect_contributions(
     each of the 2ⁿ sets of components. A component's contribution is its share of the sag
     taken in the direction of the sag (share × sign of the model's sag, mm): positive where it
     adds to the sag, and the contributions add up to |sag|.
+
+    ``progress`` shows a bar over the 2ⁿ sweeps on stderr (:mod:`eodarm.progress`: None, on a
+    terminal after 2 s).
 
     Returns
     -------
@@ -307,6 +311,7 @@ def effect_contributions(
         shapley_shares,
     )
     from eodarm.model.effects import with_arm_effects
+    from eodarm.progress import bar
 
     given = list(as_effects(effects))
     model = with_arm_effects(arm.effects, given)
@@ -319,6 +324,7 @@ def effect_contributions(
     values: dict[tuple[int, ...], FloatArray] = {}
     base: xr.Dataset | None = None
     ok: Any = None
+    b = bar(2**n, "eodarm: who makes the sag", progress=progress, unit="sweep")
     for size in range(n + 1):
         for members in itertools.combinations(range(n), size):
             on: dict[str, Effect] = dict(rigid)
@@ -330,6 +336,10 @@ def effect_contributions(
             ok = r["ok"].values if ok is None else ok & r["ok"].values
             if size == n:
                 base = r
+            if b is not None:
+                b.update(1)
+    if b is not None:
+        b.close()
     assert base is not None
     total = values[tuple(range(n))]
     sign = np.where(total < 0.0, -1.0, 1.0)
