@@ -77,3 +77,17 @@ def test_an_added_effect_replaces_the_files_at_the_same_place_in_the_model(
     )
     out, _ = _run([*args, "--json"], capsys)
     assert json.loads(out)["model"] == ["joint_clearance@O3", "mount_compliance@M2"]
+
+
+def test_the_reports_model_words_name_the_arm_files_effects(files: dict[str, str]) -> None:
+    from eodarm.analysis.fit import compare, fit
+    from eodarm.data.reader import read_measurements
+    from eodarm.viz.report_summary import model_words
+
+    arm = eodarm.Arm.from_toml(files["arm"])
+    meas = read_measurements(files["meas"], arm.n)
+    assert model_words(compare(arm, meas)) == (
+        "baseline + actuator 2 mount, joint O3 clearance (arm file)"
+    )
+    refit = fit(arm, meas, ["mount_compliance@M2"])
+    assert model_words(refit) == "baseline + joint O3 clearance (arm file) + actuator 2 mount"
