@@ -55,6 +55,8 @@ def test_every_header_names_the_arm_files_effects(
     want = "model: baseline + mount_compliance@M2, joint_clearance@O3 (arm file)"
     assert want in text
     assert "model: baseline\n" not in out + err
+    if name == "diagnose":  # the fit before any candidate is this model, not the baseline
+        assert "this model: χ²/dof" in text and "baseline: χ²/dof" not in text
 
 
 @pytest.mark.parametrize("name", ["solve", "compare", "diagnose"])  # fit, compensate: no model key

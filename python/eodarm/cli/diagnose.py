@@ -110,8 +110,9 @@ def _print_diagnosis(d: Any, arm: Arm, meas: Measurements) -> None:
 
     _say(f"diagnose {meas.source} with arm '{arm.name}', model: {_model_words(arm, d.model)}")
     _say(_describe_data(meas))
+    given = "baseline" if not (arm.effects or d.model) else "this model"  # before candidates
     _say(
-        f"baseline: χ²/dof {d.baseline.chi2_per_dof:.4g} ({p_value(d.p_baseline)}); "
+        f"{given}: χ²/dof {d.baseline.chi2_per_dof:.4g} ({p_value(d.p_baseline)}); "
         f"RMS {_rms_line(d.baseline.rms())}"
     )
     if d.verdict == "adequate":
