@@ -238,7 +238,9 @@ def answer_section(
         ],
         ["χ²/dof (1 = within the noise)", page.Num(a.base_chi2, 4), page.Num(a.final_chi2, 3), ""],
     ]
-    table = page.table([f"{ch}", "baseline", "final model", "final / typical σ"], rows)
+    # with an arm file that carries effects, the starting model is the file's, not the baseline
+    start = "arm file's model" if getattr(base.problem.arm, "effects", ()) else "baseline"
+    table = page.table([f"{ch}", start, "final model", "final / typical σ"], rows)
     pub = ""
     if a.published:
         pub = (
@@ -261,13 +263,13 @@ def answer_section(
         ["channel", "worst configuration", "its RMS residual", "in units of typical σ"],
         left_rows,
     )
-    fig = plots.measured_vs_model(meas, {"baseline": base, "final model": final})
+    fig = plots.measured_vs_model(meas, {start: base, "final model": final})
     img = page.img(
         fig,
-        "measured against model: baseline and final model",
-        "Measured (x, ±σ) against model (y), per channel: the baseline (open markers) and the "
+        f"measured against model: {start} and final model",
+        f"Measured (x, ±σ) against model (y), per channel: the {start} (open markers) and the "
         "final model (filled), coloured by configuration; on the dotted line y = x the model "
-        "is right. Each panel's axes fit the final model; baseline points beyond them are "
+        f"is right. Each panel's axes fit the final model; the {start}'s points beyond them are "
         "counted in the panel's title.",
     )
     return [
