@@ -124,8 +124,8 @@ def _run(args: argparse.Namespace, step: Any) -> int:
     base = inv.rounds[0].baseline
     if title is None and args.measurements is None:
         word = sag_word(meas, base) or "differently"
-        model = "its spring model" if args.arm is None else f"the model of {Path(args.arm).name}"
-        title = f"eodarm: why the seed paper's arm sags {word} than {model} says"
+        spring = "its spring model" if args.arm is None else f"the model of {Path(args.arm).name}"
+        title = f"eodarm: why the seed paper's arm sags {word} than {spring} says"
     out = Path(args.output)
     if out.parent and not out.parent.exists():
         out.parent.mkdir(parents=True, exist_ok=True)

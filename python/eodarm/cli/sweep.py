@@ -363,6 +363,7 @@ def run(args: argparse.Namespace) -> int:
                     note=_note,
                     prefix=args.plot_prefix,
                     step=step,
+                    progress=quiet,
                 )
                 if len(names) > 4:
                     step("uncertainty maps")

@@ -586,6 +586,7 @@ def render_all(
     note: Callable[[str], None] | None = None,
     prefix: str = "",
     step: Callable[[str], None] | None = None,
+    progress: bool | None = None,
 ) -> list[Path]:
     """Write the four maps into ``directory``: ``sag.png``, ``forces.png``, ``capacity.png``,
     ``dominant_effect.png`` (each name after ``prefix``).
@@ -593,7 +594,8 @@ def render_all(
     ``grid`` is :func:`eodarm.sweep` keyword arguments (``{"alpha_deg": {…}}``); ``ds`` a sweep
     of it that holds ``mass`` (else the grid is swept at ``mass``). Actuators without
     ``max_force_n`` get ``assumed_max_force_n`` for the capacity map (when given; ``note`` is
-    told). ``step(name)`` is called before each map (a progress bar's stages).
+    told). ``step(name)`` is called before each map (a progress bar's stages); ``progress``
+    is the dominant-effect map's bar over its sweeps (:mod:`eodarm.progress`).
     """
     step = step or (lambda _name: None)
     out = Path(directory)
@@ -632,6 +634,8 @@ def render_all(
     written.append(p)
     step("who makes the sag")
     p = out / f"{prefix}dominant_effect.png"
-    dominant_effect_map(arm, grid, effects, mass, self_weight=self_weight, path=p)
+    dominant_effect_map(
+        arm, grid, effects, mass, self_weight=self_weight, path=p, progress=progress
+    )
     written.append(p)
     return written

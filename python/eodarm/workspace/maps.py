@@ -331,7 +331,7 @@ def effect_contributions(
             for k in members:
                 for e in comps[k][2]:
                     on[e.key] = e
-            r = sweep(bare, effects=list(on.values()), **common).isel(mass_kg=0)
+            r = sweep(bare, effects=list(on.values()), progress=False, **common).isel(mass_kg=0)
             values[members] = np.asarray(r[channel].values, dtype=float)
             ok = r["ok"].values if ok is None else ok & r["ok"].values
             if size == n:
