@@ -24,6 +24,7 @@ from eodarm.cli._common import (
     _note,
     _print_table,
     _say,
+    _stages,
     _valued_effect,
 )
 from eodarm.cli._help import HELP
@@ -59,11 +60,16 @@ def _fem_plots(
     pose = ", ".join(f"{a:g}" for a in alpha[0])
     head = f"{arm.name}: α = {pose}°, {mass[0]:g} kg"
     paths = [d / f"fem-{k}.png" for k in ("deformed-shape", "moments", "pin-forces")]
-    fem_plots.deformed_shape(arm, out, title=f"{head} (FE, {out['n_dof']} DOF)", path=paths[0])
-    fem_plots.moment_diagrams(arm, out, title=f"{head}: bending moments (FE)", path=paths[1])
-    fem_plots.pin_forces(
-        arm, out, title=f"{head}: forces on the links at their pins", path=paths[2]
-    )
+    with _stages(["deformed shape", "moments", "pin forces"], "solve --plot") as step:
+        step("deformed shape")
+        title = f"{head} (FE, {out['n_dof']} DOF)"
+        fem_plots.deformed_shape(arm, out, title=title, path=paths[0])
+        step("moments")
+        fem_plots.moment_diagrams(arm, out, title=f"{head}: bending moments (FE)", path=paths[1])
+        step("pin forces")
+        fem_plots.pin_forces(
+            arm, out, title=f"{head}: forces on the links at their pins", path=paths[2]
+        )
     _note("wrote " + ", ".join(str(p) for p in paths))
 
 
