@@ -11,6 +11,7 @@ import pytest
 
 import eodarm
 from eodarm.cli import main
+from eodarm.model.arm import FitRecord
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "example_arm.toml"
 MOUNT = eodarm.Effect("mount_compliance", "M2", stiffness_n_per_mm=1512.0)
@@ -26,7 +27,12 @@ def files(tmp_path_factory: pytest.TempPathFactory) -> dict[str, str]:
     d = tmp_path_factory.mktemp("named")
     alpha = random_configs(arm, 6, np.random.default_rng(3))
     synth(arm, alpha, [1.5, 6.5], hidden=[MOUNT, CLEAR], seed=3).to_csv(d / "m.csv")
-    (d / "fitted.toml").write_text(arm.with_effects([MOUNT, CLEAR]).to_toml())
+    rec = FitRecord(
+        ("mount_compliance@M2:stiffness_n_per_mm", "joint_clearance@O3:clearance_mm"),
+        ((1225.0, 0.0), (0.0, 4e-6)),
+    )
+    fitted = arm.with_effects([MOUNT, CLEAR], [35.0, 0.002], fit=rec)
+    (d / "fitted.toml").write_text(fitted.to_toml())
     return {"meas": str(d / "m.csv"), "arm": str(d / "fitted.toml")}
 
 
@@ -93,3 +99,25 @@ def test_the_reports_model_words_name_the_arm_files_effects(files: dict[str, str
     )
     refit = fit(arm, meas, ["mount_compliance@M2"])
     assert model_words(refit) == "baseline + joint O3 clearance (arm file) + actuator 2 mount"
+
+
+FORMATS = Path(__file__).resolve().parents[1] / "docs" / "formats.md"
+
+
+@pytest.mark.parametrize("name", list(COMMANDS))
+def test_docs_formats_describes_every_json_key_a_command_prints(
+    name: str, files: dict[str, str], capsys: pytest.CaptureFixture[str]
+) -> None:
+    """docs/formats.md §7 names every key of every command's JSON (top level and per pose)."""
+    args = [files["meas"] if a == "MEAS" else a for a in COMMANDS[name]]
+    extra = ["--uncertainty"] if name == "solve" else []
+    if name == "fit":
+        args += ["--cv", "config"]
+    out, _ = _run([*args, "--arm", files["arm"], "--json", *extra], capsys)
+    doc = json.loads(out)
+    keys = set(doc) | {k for p in doc.get("poses", []) for k in p}
+    text = FORMATS.read_text(encoding="utf-8")
+    section = text[text.index(f"### `eodarm {name} --json`") :]
+    section = section[: section.index("\n### ", 1)]
+    missing = sorted(k for k in keys if f'"{k}"' not in section and f"`{k}`" not in section)
+    assert not missing, f"docs/formats.md, {name} --json: {missing} not described"
