@@ -3,8 +3,9 @@
 Promises tested here: the payload capacity is the payload at which the first actuator limit
 (force, either sign, or stroke) is reached, checked against ``eodarm.solve`` just below and
 just above it, and the binding limit is the one crossed; the dominant effect's numbers are
-``eodarm.solve`` differences; a map shows only reachable, solved poses and each pixel the
-worst pose that lands in it; one panel per actuator; nothing is written without a path.
+the report's sag budget of the same model (the arm file's effects included); a map shows
+only reachable, solved poses and each pixel the worst pose that lands in it; one panel per
+actuator; nothing is written without a path.
 """
 
 from __future__ import annotations
@@ -19,6 +20,7 @@ from matplotlib.figure import Figure
 
 import eodarm
 from arms import example_arm
+from eodarm.analysis.budget import sag_budget
 from eodarm.errors import EodarmError
 from eodarm.viz import maps as draw
 from eodarm.workspace import maps
@@ -123,33 +125,56 @@ def test_capacity_is_capped(arm: eodarm.Arm) -> None:
     assert labels[-1] == "cap" and (cap["limit"].values[c == 0.5] == len(labels) - 1).all()
 
 
-def test_effect_contributions_are_solve_differences(arm: eodarm.Arm) -> None:
+#: A fitted model as ``fit -o`` writes it: stiff bodies and soft mounts, in the arm file.
+FITTED = [
+    E("actuator_compliance", "M1", stiffness_n_per_mm=13000.0),
+    E("actuator_compliance", "M2", stiffness_n_per_mm=73000.0),
+    E("mount_compliance", "M1", stiffness_n_per_mm=1500.0),
+    E("mount_compliance", "M2", stiffness_n_per_mm=580.0),
+    E("mount_compliance", "M3", stiffness_n_per_mm=920.0),
+]
+
+
+def test_the_dominant_effect_map_splits_the_sag_as_the_budget_does(arm: eodarm.Arm) -> None:
+    """The map of an arm file that carries its fitted effects and the report's sag budget of
+    the same model give every component the same share at a pose, and the shares add up to
+    the model's own sag (eodarm.solve of the file)."""
+    fitted = arm.with_effects(FITTED)
     g = {"alpha1": [70.0, 100.0], "alpha2": [0.0, 30.0], "alpha3": [-10.0, 10.0]}
-    effects = [E("actuator_compliance", "M1", stiffness_n_per_mm=1500.0), *MODEL]
-    con = maps.effect_contributions(arm, g, effects, 5.0)
-    labels = [str(v) for v in con["effect"].values]
-    assert labels == [f"{e.key} ({e.value:g} {e.kind.unit})" for e in MODEL]
+    con = maps.effect_contributions(fitted, g, [], 6.5)
     alpha = np.stack(np.meshgrid(*g.values(), indexing="ij"), axis=-1).reshape(-1, 3)
-    base = eodarm.solve(arm, alpha, 5.0, effects=effects[:1])
-    for j, e in enumerate(MODEL):
-        one = eodarm.solve(arm, alpha, 5.0, effects=[effects[0], e])
-        want = np.hypot(one["dx_mm"] - base["dx_mm"], one["dy_mm"] - base["dy_mm"])
-        got = con["contribution_mm"].values.reshape(-1, len(MODEL))[:, j]
-        np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-12)
-    dom = con["dominant"].values.ravel()
-    np.testing.assert_array_equal(
-        dom, np.argmax(con["contribution_mm"].values.reshape(-1, len(MODEL)), axis=1)
-    )
+    budget = sag_budget(fitted, alpha, 6.5)
+    assert [str(v) for v in con["effect"].values] == budget.labels
+    assert budget.labels[3:] == [e.key for e in FITTED[2:]]  # the file's mounts are in
+    got = con["contribution_mm"].values.reshape(-1, len(budget.labels))
+    total = eodarm.solve(fitted, alpha, 6.5)["dy_mm"]
+    # sweep and solve run the same kernel: equal to rounding (1e-9 mm of a 10 mm sag)
+    np.testing.assert_allclose(got, (budget.shares * np.sign(total)).T, atol=1e-9)
+    np.testing.assert_allclose(got.sum(axis=1), np.abs(total), rtol=1e-9)
+    # on this arm the mounts make most of the sag, as in the report; not the springs
+    assert (np.isin(con["dominant"].values, [3, 4, 5])).all()
 
 
-def test_the_baseline_springs_compete_only_without_effects(arm: eodarm.Arm) -> None:
+def test_an_arm_files_effects_count_as_the_same_effects_given_by_add(arm: eodarm.Arm) -> None:
     g = {"alpha1": [90.0], "alpha2": [10.0], "alpha3": [0.0]}
-    con = maps.effect_contributions(arm, g, [], 5.0)
-    assert [str(v) for v in con["effect"].values] == [maps.SPRINGS]
-    out = eodarm.solve(arm, [90.0, 10.0, 0.0], 5.0)
-    assert float(con["contribution_mm"].values.ravel()[0]) == pytest.approx(
-        float(np.hypot(out["dx_mm"][0], out["dy_mm"][0])), rel=1e-12
+    in_file = maps.effect_contributions(arm.with_effects(FITTED), g, [], 6.5)
+    added = maps.effect_contributions(arm, g, FITTED, 6.5)
+    np.testing.assert_allclose(
+        in_file["contribution_mm"].values, added["contribution_mm"].values, rtol=1e-12
     )
+    assert in_file.attrs["model"] == added.attrs["model"]
+    assert "mount_compliance@M2=580" in in_file.attrs["model"]
+
+
+def test_the_budget_of_an_arm_file_with_effects_is_the_budget_of_its_model(
+    arm: eodarm.Arm,
+) -> None:
+    """The file's effects are components of the budget, not part of a rigid arm."""
+    alpha = [[90.0, 10.0, 0.0], [70.0, 20.0, -5.0]]
+    in_file = sag_budget(arm.with_effects(FITTED), alpha, 5.0)
+    added = sag_budget(arm, alpha, 5.0, FITTED)
+    np.testing.assert_allclose(in_file.rigid, 0.0, atol=1e-9)  # a rigid arm does not sag
+    np.testing.assert_allclose(in_file.shares, added.shares, rtol=1e-12, atol=1e-12)
 
 
 def _mesh(fig: Figure, k: int = 0) -> np.ma.MaskedArray:
@@ -218,7 +243,9 @@ def test_capacity_and_dominant_maps_name_what_they_show(arm: eodarm.Arm) -> None
     texts = [
         t.get_text() for leg in fig.legends if leg.get_title().get_text() for t in leg.get_texts()
     ]
-    assert [t.split(" (")[0] for t in texts] == [e.key for e in MODEL]
+    names = ["actuator 1 body", "actuator 2 body", "actuator 3 body"]
+    names += ["actuator 2 mount", "actuator 3 play", "joint O3 clearance"]
+    assert [t.split(":")[0] for t in texts] == names
 
 
 def test_maps_refuse_a_payload_not_swept_and_a_reduced_sweep(

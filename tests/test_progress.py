@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import io
 import sys
+from pathlib import Path
 
 import pytest
 
@@ -44,3 +45,46 @@ def test_stages_without_a_bar_is_a_no_op(monkeypatch: pytest.MonkeyPatch) -> Non
         step("a")
         step("b")
     assert err.getvalue() == ""
+
+
+def _bars_at_once(monkeypatch: pytest.MonkeyPatch) -> _Tty:
+    """stderr a terminal, and every automatic bar shown at once instead of after 2 s (the rule
+    itself is the one tested above)."""
+    import functools
+
+    from eodarm import progress
+
+    monkeypatch.setattr(progress, "bar", functools.partial(progress.bar, delay=0.0))
+    err = _Tty()
+    monkeypatch.setattr(sys, "stderr", err)
+    return err
+
+
+def test_sweep_plot_shows_its_maps_as_stages_on_a_terminal(
+    monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+) -> None:
+    from eodarm.cli import main
+
+    err = _bars_at_once(monkeypatch)
+    args = ["sweep", "--alpha1", "60:100:3", "--alpha2", "0:20:3", "--alpha3", "0:0:1"]
+    assert main([*args, "--mass", "5", "--add", "mount_compliance@M2=600"]) == 0
+    assert "sweep --plot" not in err.getvalue()  # no maps asked, no map bar
+    assert main([*args, "--mass", "5", "--plot", str(tmp_path)]) == 0
+    text = err.getvalue()
+    assert "eodarm sweep --plot" in text and "who makes the sag" in text
+
+
+def test_compare_plot_shows_progress_on_a_terminal_only(
+    monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+) -> None:
+    from eodarm.cli import main
+    from eodarm.data import datasets
+
+    meas = str(datasets.load("seed2022", tables=False).root / "measurements.csv")
+    err = _bars_at_once(monkeypatch)
+    assert main(["compare", meas, "--plot", str(tmp_path)]) == 0
+    assert "eodarm --plot" in err.getvalue() and "eodarm compare" in err.getvalue()
+    quiet = io.StringIO()
+    monkeypatch.setattr(sys, "stderr", quiet)
+    assert main(["compare", meas, "--plot", str(tmp_path)]) == 0
+    assert "eodarm --plot" not in quiet.getvalue()

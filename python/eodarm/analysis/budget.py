@@ -42,7 +42,16 @@ from eodarm.model.arm import Arm
 from eodarm.model.effects import Effect
 from eodarm.model.solver import solve
 
-__all__ = ["MAX_COMPONENTS", "RIGID_N_PER_MM", "SagBudget", "sag_budget"]
+__all__ = [
+    "MAX_COMPONENTS",
+    "RIGID_N_PER_MM",
+    "SagBudget",
+    "bare_arm",
+    "components",
+    "rigid_bodies",
+    "sag_budget",
+    "shapley_shares",
+]
 
 #: The largest number of components split one by one (2ⁿ solves).
 MAX_COMPONENTS = 10
@@ -75,17 +84,18 @@ class SagBudget:
         return float(np.max(np.abs(self.rigid + self.shares.sum(axis=0) - self.total)))
 
 
-def _bare(arm: Arm) -> Arm:
+def bare_arm(arm: Arm) -> Arm:
     """The arm without the effects of its file (they become components like the others)."""
     d = arm.to_dict()
-    d.pop("effects", None)
+    d.pop("effect", None)  # the [[effect]] tables' key
     d.pop("fit", None)
     return Arm.from_dict(d, source=arm.source)
 
 
-def _components(arm: Arm, effects: Sequence[Effect]) -> list[tuple[str, list[str], list[Effect]]]:
+def components(arm: Arm, effects: Sequence[Effect]) -> list[tuple[str, list[str], list[Effect]]]:
     """(label, keys, effects switched on) per component: every actuator body, then every
-    other effect of the model (the arm file's, then ``effects``, the later replacing)."""
+    other effect of the model (the arm file's, then ``effects``, the later replacing); grouped
+    by kind beyond :data:`MAX_COMPONENTS` components."""
     model: dict[str, Effect] = {e.key: e for e in arm.effects}
     for e in effects:
         model[e.key] = e
@@ -98,7 +108,7 @@ def _components(arm: Arm, effects: Sequence[Effect]) -> list[tuple[str, list[str
         out.append((f"actuator {i} body", [key], [body]))
     for key, e in model.items():
         out.append((key, [key], [e]))
-    return out
+    return _grouped(out) if len(out) > MAX_COMPONENTS else out
 
 
 def _grouped(
@@ -130,20 +140,13 @@ def sag_budget(
     the poses ``alpha_deg`` (P, n) and payload(s) ``mass_kg`` into Shapley shares of its
     components (module docstring). Returns a :class:`SagBudget`."""
     alpha = np.atleast_2d(np.asarray(alpha_deg, dtype=float))
-    bare = _bare(arm)
-    comps = _components(arm, effects)
-    if len(comps) > MAX_COMPONENTS:
-        comps = _grouped(comps)
+    bare = bare_arm(arm)
+    comps = components(arm, effects)
     n = len(comps)
     kw: dict[str, Any] = {"self_weight": self_weight, "model": model, "fem_options": fem_options}
 
     def values(rigid: float) -> dict[tuple[int, ...], npt.NDArray[np.float64]]:
-        bodies = {
-            f"actuator_compliance@M{i}": Effect(
-                "actuator_compliance", f"M{i}", stiffness_n_per_mm=rigid
-            )
-            for i in range(1, arm.n + 1)
-        }
+        bodies = rigid_bodies(arm.n, rigid)
         v = {}
         for size in range(n + 1):
             for members in itertools.combinations(range(n), size):
@@ -164,7 +167,33 @@ def sag_budget(
             if model != "fem" or stiff <= 1e6:
                 raise
             stiff /= 100.0
-    shares = np.zeros((n, alpha.shape[0]))
+    return SagBudget(
+        labels=[c[0] for c in comps],
+        keys=[c[1] for c in comps],
+        shares=shapley_shares(v, n),
+        rigid=v[()],
+        total=v[tuple(range(n))],
+        channel=channel,
+    )
+
+
+def rigid_bodies(n_links: int, stiffness_n_per_mm: float) -> dict[str, Effect]:
+    """Every actuator body at ``stiffness_n_per_mm`` (the rigid arm's), by effect key."""
+    return {
+        f"actuator_compliance@M{i}": Effect(
+            "actuator_compliance", f"M{i}", stiffness_n_per_mm=stiffness_n_per_mm
+        )
+        for i in range(1, n_links + 1)
+    }
+
+
+def shapley_shares(
+    v: Mapping[tuple[int, ...], npt.NDArray[np.float64]], n: int
+) -> npt.NDArray[np.float64]:
+    """The Shapley share (n, …) of each of ``n`` components from the values ``v[S]`` of every
+    sorted subset S of ``range(n)`` (arrays of one shape, in the unit of the values)."""
+    full = np.asarray(v[tuple(range(n))], dtype=float)
+    shares = np.zeros((n, *full.shape))
     for members, val in v.items():
         s = len(members)
         if s == n:
@@ -173,11 +202,4 @@ def sag_budget(
         for i in range(n):
             if i not in members:
                 shares[i] += weight * (v[tuple(sorted((*members, i)))] - val)
-    return SagBudget(
-        labels=[c[0] for c in comps],
-        keys=[c[1] for c in comps],
-        shares=shares,
-        rigid=v[()],
-        total=v[tuple(range(n))],
-        channel=channel,
-    )
+    return shares

@@ -385,22 +385,28 @@ def _plots(
     out = Path(dirname)
     out.mkdir(parents=True, exist_ok=True)
     written = []
-    p = out / "measured_vs_model.png"
-    plots.measured_vs_model(meas, {"before": before, "after": after}, path=p)
-    written.append(p)
-    p = out / "residual_vs_payload.png"
-    plots.residual_vs_payload(meas, before, after, path=p)
-    written.append(p)
-    if effects:
-        p = out / "deflection_share.png"
-        plots.deflection_share(
-            arm, meas, effects, self_weight=self_weight, path=p, **(model_kw or {})
-        )
+    names = ["measured vs model", "residuals", *(["sag budget"] if effects else [])]
+    with _stages([*names, *(["ladder"] if steps else [])], "--plot") as step:
+        step("measured vs model")
+        p = out / "measured_vs_model.png"
+        plots.measured_vs_model(meas, {"before": before, "after": after}, path=p)
         written.append(p)
-    if steps:
-        p = out / "ladder.png"
-        plots.ladder(steps, path=p)
+        step("residuals")
+        p = out / "residual_vs_payload.png"
+        plots.residual_vs_payload(meas, before, after, path=p)
         written.append(p)
+        if effects:
+            step("sag budget")
+            p = out / "deflection_share.png"
+            plots.deflection_share(
+                arm, meas, effects, self_weight=self_weight, path=p, **(model_kw or {})
+            )
+            written.append(p)
+        if steps:
+            step("ladder")
+            p = out / "ladder.png"
+            plots.ladder(steps, path=p)
+            written.append(p)
     _note("wrote " + ", ".join(str(w) for w in written))
 
 
@@ -423,3 +429,38 @@ def data_command(sub: Any, name: str, helptext: str, desc: str) -> argparse.Argu
     _model_args(c)
     _effects_args(c)
     return c
+
+
+# ---------------------------------------------------------------------------- the model named
+def _model_keys(arm: Arm, added: Any) -> list[str]:
+    """The model of a command as ``effect@place`` keys: the arm file's effects (those not given
+    again), then the added ones (``--add``: effects or fitted slots), in order, with
+    ``:taken_up`` where a gap is taken up. This is the
+    JSON ``model`` key of solve, compare, diagnose, fit and compensate (docs/formats.md)."""
+    keys = {m.key for m in added}
+    return [e.spec for e in arm.effects if e.key not in keys] + [m.spec for m in added]
+
+
+def _model_words(arm: Arm, added: Any) -> str:
+    """The model in a header: ``baseline + mount_compliance@M1, M2 (arm file) +
+    joint_clearance@O3``; places of one effect after the first are shortened to the place."""
+    keys = [m.spec for m in added]
+    given = {m.key for m in added}
+    file_keys = [e.spec for e in arm.effects if e.key not in given]
+    parts = ["baseline"]
+    if file_keys:
+        parts.append(f"{_grouped_keys(file_keys)} (arm file)")
+    if keys:
+        parts.append(_grouped_keys(keys))
+    return " + ".join(parts)
+
+
+def _grouped_keys(keys: list[str]) -> str:
+    """``a@M1, a@M2, b@O3`` → ``a@M1, M2, b@O3`` (consecutive keys of one effect)."""
+    out: list[str] = []
+    last = None
+    for k in keys:
+        name, _, at = k.partition("@")
+        out.append(at if name == last else k)
+        last = name
+    return ", ".join(out)

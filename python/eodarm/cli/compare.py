@@ -20,7 +20,9 @@ from eodarm.cli._common import (
     _fmt,
     _load_arm,
     _model,
+    _model_keys,
     _model_kw,
+    _model_words,
     _next,
     _noise_json,
     _note,
@@ -29,6 +31,7 @@ from eodarm.cli._common import (
     _read,
     _rms_line,
     _say,
+    _stages,
     data_command,
 )
 
@@ -66,8 +69,9 @@ def run(args: argparse.Namespace) -> int:
     free = [m for m in model if not isinstance(m, Effect)]
     import warnings
 
-    with warnings.catch_warnings(record=True) as caught:
+    with warnings.catch_warnings(record=True) as caught, _stages(["comparing"], "compare") as step:
         warnings.simplefilter("always", FitWarning)
+        step("comparing")
         from eodarm.analysis.fit import compare
 
         mk = _model_kw(args)
@@ -86,7 +90,7 @@ def run(args: argparse.Namespace) -> int:
         _note(str(w.message))
     base = compare(arm, meas, [], self_weight=sw, **mk)
     doc: dict[str, Any] = {
-        "model": [m.key for m in model],
+        "model": _model_keys(arm, model),
         "solver_model": args.model,
         "rms": res.rms(),
         "chi2_per_dof": res.chi2_per_dof,
@@ -126,10 +130,7 @@ def _print_compare(
     from eodarm.analysis.consistency import fit_p_value
     from eodarm.viz.format import p_value
 
-    _say(
-        f"compare {meas.source} with arm '{arm.name}', model: baseline"
-        + "".join(f" + {m.key}" for m in model)
-    )
+    _say(f"compare {meas.source} with arm '{arm.name}', model: {_model_words(arm, model)}")
     _say(_describe_data(meas))
     fitted = f", {res.n_params} fitted parameters" if res.n_params else ""
     _say(

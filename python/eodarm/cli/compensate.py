@@ -27,6 +27,7 @@ from eodarm.cli._common import (
     _effects_args,
     _floats,
     _load_arm,
+    _model_words,
     _next,
     _note,
     _print_table,
@@ -37,7 +38,7 @@ from eodarm.cli._common import (
 from eodarm.cli._help import HELP
 from eodarm.errors import EodarmError
 from eodarm.model.arm import Arm
-from eodarm.model.effects import Effect, with_arm_effects
+from eodarm.model.effects import Effect
 
 
 def _nominal_poses(
@@ -211,13 +212,8 @@ def run(args: argparse.Namespace) -> int:
         sys.stdout.write("\n")
         return 0
     miss = _uncompensated_miss(arm, alpha, mass, effects, self_weight)
-    model = [
-        e.key + (" (arm file)" if e in arm.effects else "")
-        for e in with_arm_effects(arm.effects, effects)
-    ]
     _say(
-        f"arm {arm.name!r} ({arm.n} links), model: baseline"
-        + "".join(f" + {m}" for m in model)
+        f"arm {arm.name!r} ({arm.n} links), model: {_model_words(arm, effects)}"
         + ("" if self_weight else ", self-weight off")
     )
     head = ["pose", "kg", "nominal α deg", "command α deg", "length mm", "miss mm", "left mm"]

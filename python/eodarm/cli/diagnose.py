@@ -22,7 +22,9 @@ from eodarm.cli._common import (
     _fmt,
     _load_arm,
     _model,
+    _model_keys,
     _model_kw,
+    _model_words,
     _next,
     _noise_json,
     _note,
@@ -65,7 +67,8 @@ def _output(args: argparse.Namespace, d: Any, arm: Arm, meas: Any, sw: bool, mk:
     """The text or JSON on stdout, and the figures."""
     if args.json:
         # the contract's keys, and where each channel's σ came from
-        print(json.dumps({**d.to_json(), "noise": _noise_json(meas)}, allow_nan=False))
+        doc = {**d.to_json(), "model": _model_keys(arm, d.model), "noise": _noise_json(meas)}
+        print(json.dumps(doc, allow_nan=False))
     else:
         _print_diagnosis(d, arm, meas)
     best = d.best_fit
@@ -105,13 +108,11 @@ def _candidate(slot: Any) -> str:
 def _print_diagnosis(d: Any, arm: Arm, meas: Measurements) -> None:
     from eodarm.viz.format import p_value
 
-    _say(
-        f"diagnose {meas.source} with arm '{arm.name}', model: baseline"
-        + "".join(f" + {s.key}" for s in d.model)
-    )
+    _say(f"diagnose {meas.source} with arm '{arm.name}', model: {_model_words(arm, d.model)}")
     _say(_describe_data(meas))
+    given = "baseline" if not (arm.effects or d.model) else "this model"  # before candidates
     _say(
-        f"baseline: χ²/dof {d.baseline.chi2_per_dof:.4g} ({p_value(d.p_baseline)}); "
+        f"{given}: χ²/dof {d.baseline.chi2_per_dof:.4g} ({p_value(d.p_baseline)}); "
         f"RMS {_rms_line(d.baseline.rms())}"
     )
     if d.verdict == "adequate":

@@ -12,6 +12,7 @@ from eodarm.cli._common import (
     _load_arm,
     _model,
     _model_kw,
+    _model_words,
     _next,
     _note,
     _plots,
@@ -123,7 +124,8 @@ def _print_fit(
     from eodarm.analysis.fit import determining_channel
     from eodarm.viz.format import bounded_interval, parameter_name, value_error
 
-    _say(f"fit {meas.source} with arm '{res.problem.arm.name}'")
+    arm = res.problem.arm
+    _say(f"fit {meas.source} with arm '{arm.name}', model: {_model_words(arm, res.slots)}")
     _say(_describe_data(meas))
     flags = dict(undetermined)
     rows = []

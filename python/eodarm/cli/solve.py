@@ -18,17 +18,19 @@ from eodarm.cli._common import (
     _floats,
     _load_arm,
     _model_args,
+    _model_keys,
     _model_kw,
+    _model_words,
     _next,
     _note,
     _print_table,
     _say,
+    _stages,
     _valued_effect,
 )
 from eodarm.cli._help import HELP
 from eodarm.errors import EodarmError
 from eodarm.model.arm import Arm
-from eodarm.model.effects import with_arm_effects
 from eodarm.model.solver import solve
 
 _SOLVE_KEYS = (
@@ -59,11 +61,16 @@ def _fem_plots(
     pose = ", ".join(f"{a:g}" for a in alpha[0])
     head = f"{arm.name}: α = {pose}°, {mass[0]:g} kg"
     paths = [d / f"fem-{k}.png" for k in ("deformed-shape", "moments", "pin-forces")]
-    fem_plots.deformed_shape(arm, out, title=f"{head} (FE, {out['n_dof']} DOF)", path=paths[0])
-    fem_plots.moment_diagrams(arm, out, title=f"{head}: bending moments (FE)", path=paths[1])
-    fem_plots.pin_forces(
-        arm, out, title=f"{head}: forces on the links at their pins", path=paths[2]
-    )
+    with _stages(["deformed shape", "moments", "pin forces"], "solve --plot") as step:
+        step("deformed shape")
+        title = f"{head} (FE, {out['n_dof']} DOF)"
+        fem_plots.deformed_shape(arm, out, title=title, path=paths[0])
+        step("moments")
+        fem_plots.moment_diagrams(arm, out, title=f"{head}: bending moments (FE)", path=paths[1])
+        step("pin forces")
+        fem_plots.pin_forces(
+            arm, out, title=f"{head}: forces on the links at their pins", path=paths[2]
+        )
     _note("wrote " + ", ".join(str(p) for p in paths))
 
 
@@ -126,7 +133,7 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         doc = {
             "arm": arm.name,
-            "model": [e.spec for e in with_arm_effects(arm.effects, effects)],
+            "model": _model_keys(arm, effects),
             "solver_model": args.model,
             "self_weight": not args.no_self_weight,
             "poses": [
@@ -143,8 +150,7 @@ def run(args: argparse.Namespace) -> int:
         return 0
     n = arm.n
     _say(
-        f"arm {arm.name!r} ({n} links), model: baseline"
-        + "".join(f" + {e.name}@{e.at}" for e in effects)
+        f"arm {arm.name!r} ({n} links), model: {_model_words(arm, effects)}"
         + ("" if not args.no_self_weight else ", self-weight off")
         + (f", finite-element model ({dofs} DOF)" if dofs else "")
     )

@@ -346,24 +346,34 @@ def run(args: argparse.Namespace) -> int:
     )
     _summary(ds)
     if args.plot:
+        from eodarm.progress import stages
         from eodarm.viz import maps
 
         plot_mass = args.plot_mass if args.plot_mass is not None else float(np.max(mass))
+        names = ["sag map", "force maps", "capacity map", "who makes the sag"]
+        if args.uncertainty or args.compensated_miss:
+            names.append("uncertainty maps")
         try:
-            written = maps.render_all(
-                arm,
-                grid,
-                effects,
-                plot_mass,
-                args.plot,
-                self_weight=not args.no_self_weight,
-                assumed_max_force_n=args.max_force,
-                max_payload_kg=args.max_payload,
-                ds=ds if reduce is None and plot_mass in mass else None,
-                note=_note,
-                prefix=args.plot_prefix,
-            )
-            written += _uncertainty_maps(args, arm, grid, effects, plot_mass, mass, reduce, ds)
+            quiet = False if args.no_progress else None
+            with stages(names, "eodarm sweep --plot", progress=quiet) as step:
+                written = maps.render_all(
+                    arm,
+                    grid,
+                    effects,
+                    plot_mass,
+                    args.plot,
+                    self_weight=not args.no_self_weight,
+                    assumed_max_force_n=args.max_force,
+                    max_payload_kg=args.max_payload,
+                    ds=ds if reduce is None and plot_mass in mass else None,
+                    note=_note,
+                    prefix=args.plot_prefix,
+                    step=step,
+                    progress=quiet,
+                )
+                if len(names) > 4:
+                    step("uncertainty maps")
+                written += _uncertainty_maps(args, arm, grid, effects, plot_mass, mass, reduce, ds)
         except KeyboardInterrupt:
             done = f": {out} is complete, the maps are not" if out else ""
             _one_line(f"interrupted while plotting into {args.plot}{done}")

@@ -27,7 +27,7 @@ except ImportError as exc:  # pragma: no cover - depends on the environment
         "eodarm.plots needs matplotlib: pip install 'eodarm[plot]' (or matplotlib>=3.8)"
     ) from exc
 
-__all__ = ["budget_at", "component_name", "deflection_share"]
+__all__ = ["budget_at", "component_colours", "component_name", "deflection_share"]
 
 
 def component_name(label: str) -> str:
@@ -68,7 +68,7 @@ def budget_at(
     return budget, m, measured, base
 
 
-def _colours(labels: Sequence[str]) -> list[str]:
+def component_colours(labels: Sequence[str]) -> list[str]:
     """Bodies in blues, mounts in oranges, the rest from the palette."""
     blues = ("#1f77b4", "#6baed6", "#08519c", "#9ecae1")
     oranges = ("#ff7f0e", "#fdae6b", "#a63603", "#fdd0a2")
@@ -129,7 +129,7 @@ def deflection_share(
     labels = list(meas.configs)
     k = len(labels)
     names = [component_name(lb) for lb in split.labels]
-    colours = _colours(split.labels)
+    colours = component_colours(split.labels)
     width = min(14.0, max(7.0, 0.75 * k + 4.5))
     fig = figure(width, 5.4)
     ax = fig.add_subplot()

@@ -51,7 +51,6 @@ from eodarm.model.effects import Effect
 from eodarm.model.solver import forward
 from eodarm.viz.style import PALETTE, PathLike, figure, finish
 from eodarm.workspace.maps import (
-    SPRINGS,
     arm_of,
     assume_max_force,
     effect_contributions,
@@ -517,25 +516,21 @@ def dominant_effect_map(
     mass: float,
     *,
     self_weight: bool = True,
-    include_baseline: bool | None = None,
     path: PathLike | None = None,
     **sweep_kw: Any,
 ) -> Figure:
-    """Which effect moves the measure point most, at each reachable pose (categorical).
+    """Which part of the model makes most of the sag, at each reachable pose (categorical).
 
-    Numbers from :func:`effect_contributions`; where poses overlap, the pose with the largest
-    dominant contribution is on top. The legend gives each effect's share of the poses.
+    Numbers from :func:`effect_contributions`: the sag budget's Shapley shares (the report's
+    "who makes the sag"), of the model the arm file's effects then ``effects``. Where poses
+    overlap, the pose with the largest dominant share is on top. The legend gives each
+    component's share of the poses it dominates and its mean share of the sag.
     """
-    con = effect_contributions(
-        arm,
-        grid,
-        effects,
-        mass,
-        self_weight=self_weight,
-        include_baseline=include_baseline,
-        **sweep_kw,
-    )
-    labels = [str(v) for v in con["effect"].values]
+    from eodarm.viz.budget_plot import component_colours, component_name
+
+    con = effect_contributions(arm, grid, effects, mass, self_weight=self_weight, **sweep_kw)
+    keys = [str(v) for v in con["effect"].values]
+    labels = [component_name(k) for k in keys]
     dom = con["dominant"].where(con["dominant"] >= 0)
     x, y, d = _points(con, dom)
     top = con["contribution_mm"].max("effect")
@@ -545,14 +540,17 @@ def dominant_effect_map(
     ax = fig.add_subplot()
     if d.size:
         k = len(labels)
-        colours = [
-            ("0.6" if lab == SPRINGS else PALETTE[j % len(PALETTE)]) for j, lab in enumerate(labels)
-        ]
+        colours = component_colours(keys)
+        mean = con["share"].mean([d for d in con["share"].dims if d != "effect"]).values
         cmap = ListedColormap(colours)
         norm = BoundaryNorm(np.arange(k + 1) - 0.5, k)
         cv.draw(ax, x, y, d, size, cmap=cmap, norm=norm)
         handles = [
-            Patch(color=colours[j], label=f"{labels[j]}: {100 * np.mean(d == j):.0f} % of poses")
+            Patch(
+                color=colours[j],
+                label=f"{labels[j]}: dominates {100 * np.mean(d == j):.0f} % of poses, "
+                f"{100 * mean[j]:.0f} % of the sag on average",
+            )
             for j in range(k)
         ]
         fig.legend(
@@ -560,17 +558,16 @@ def dominant_effect_map(
             loc="outside lower center",
             ncols=min(k, 2),
             fontsize=8,
-            title="the largest |Δ(dx, dy)| of the measure point, each effect alone",
+            title="the largest share of the sag dy (Shapley split from the rigid arm, "
+            "as the report's sag budget)",
             title_fontsize=8,
         )
     else:
         cv.frame(ax)
     cv.legend(ax)
     cv.note(ax, con, d.size, "most deflected")
-    title = _title(con, "Which effect dominates the deflection", mass, width=8.0).split("\n")[0]
-    lines = textwrap.wrap(f"baseline: {con.attrs['baseline_model']}", 90)
-    lines += textwrap.wrap(f"each added alone: {con.attrs['candidates'] or 'none'}", 90)
-    fig.suptitle("\n".join([title, *lines]), fontsize=10)
+    title = _title(con, "Who makes the sag", mass, width=8.0)
+    fig.suptitle(title, fontsize=10)
     return finish(fig, path)
 
 
@@ -588,6 +585,8 @@ def render_all(
     ds: xr.Dataset | None = None,
     note: Callable[[str], None] | None = None,
     prefix: str = "",
+    step: Callable[[str], None] | None = None,
+    progress: bool | None = None,
 ) -> list[Path]:
     """Write the four maps into ``directory``: ``sag.png``, ``forces.png``, ``capacity.png``,
     ``dominant_effect.png`` (each name after ``prefix``).
@@ -595,16 +594,20 @@ def render_all(
     ``grid`` is :func:`eodarm.sweep` keyword arguments (``{"alpha_deg": {…}}``); ``ds`` a sweep
     of it that holds ``mass`` (else the grid is swept at ``mass``). Actuators without
     ``max_force_n`` get ``assumed_max_force_n`` for the capacity map (when given; ``note`` is
-    told).
+    told). ``step(name)`` is called before each map (a progress bar's stages); ``progress``
+    is the dominant-effect map's bar over its sweeps (:mod:`eodarm.progress`).
     """
+    step = step or (lambda _name: None)
     out = Path(directory)
     out.mkdir(parents=True, exist_ok=True)
     if ds is None or "mass_kg" not in ds.dims:
         ds = sweep(arm, **grid, mass_kg=[mass], effects=effects, self_weight=self_weight)
     written = []
+    step("sag map")
     p = out / f"{prefix}sag.png"
     sag_map(ds, mass, path=p)
     written.append(p)
+    step("force maps")
     p = out / f"{prefix}forces.png"
     force_maps(ds, mass, path=p)
     written.append(p)
@@ -618,6 +621,7 @@ def render_all(
                     f"capacity map: actuator(s) {', '.join(missing)} have no max_force_n; "
                     f"assuming {assumed_max_force_n:g} N"
                 )
+    step("capacity map")
     p = out / f"{prefix}capacity.png"
     capacity_map(
         cap_arm,
@@ -628,7 +632,10 @@ def render_all(
         path=p,
     )
     written.append(p)
+    step("who makes the sag")
     p = out / f"{prefix}dominant_effect.png"
-    dominant_effect_map(arm, grid, effects, mass, self_weight=self_weight, path=p)
+    dominant_effect_map(
+        arm, grid, effects, mass, self_weight=self_weight, path=p, progress=progress
+    )
     written.append(p)
     return written

@@ -366,9 +366,11 @@ def compact_label(label: str) -> str:
 
 
 def _model_name(fit: FitResult) -> str:
-    """The effects a fit carries, or ``"baseline"``."""
+    """The effects a fit carries (the arm file's first, marked), or ``"baseline"``."""
     keys = [e.key for e in fit.fixed] + [s.key for s in fit.slots]
-    return "baseline" if not keys else "baseline + " + ", ".join(keys)
+    own = [e.key for e in getattr(fit.problem.arm, "effects", ()) if e.key not in keys]
+    parts = ([", ".join(own) + " (arm file)"] if own else []) + ([", ".join(keys)] if keys else [])
+    return " + ".join(["baseline", *parts])
 
 
 def ladder(

@@ -78,16 +78,30 @@ def sag_word(meas: Measurements, base: FitResult) -> str | None:
 
 def model_words(fit: FitResult) -> str:
     """The effects of a model in words, the same kind at several places in one group:
-    ``"actuator 1/2/3 body, actuator 1/2/3 mount"``."""
-    names = [parameter_name(e.name, e.at) for e in fit.fixed]
-    names += [parameter_name(s.name, s.at) for s in fit.slots]
+    ``"actuator 1/2/3 body, actuator 1/2/3 mount"``; the arm file's own effects (those the fit
+    did not refit) first, marked ``(arm file)``."""
+    named = {e.key for e in fit.fixed} | {s.key for s in fit.slots}
+    own = [e for e in getattr(fit.problem.arm, "effects", ()) if e.key not in named]
+    added = _grouped_words(
+        [(e.name, e.at) for e in fit.fixed] + [(s.name, s.at) for s in fit.slots]
+    )
+    parts = ["baseline"]
+    if own:
+        parts.append(_grouped_words([(e.name, e.at) for e in own]) + " (arm file)")
+    if added:
+        parts.append(added)
+    return " + ".join(parts) if len(parts) > 1 else "the baseline (nothing added)"
+
+
+def _grouped_words(effects: Sequence[tuple[str, str]]) -> str:
+    """``[("mount_compliance", "M1"), ("mount_compliance", "M2")]`` → ``actuator 1/2 mount``."""
     groups: dict[tuple[str, str], list[str]] = {}
-    for n in names:
+    for name, at in effects:
+        n = parameter_name(name, at)
         m = re.fullmatch(r"(\D*?)(\d+)(.*)", n.replace(" stiffness", ""))
         key = (m[1], m[3]) if m else (n, "")
         groups.setdefault(key, []).append(m[2] if m else "")
-    words = [f"{pre}{'/'.join(nums)}{post}" for (pre, post), nums in groups.items()]
-    return "baseline + " + ", ".join(words) if words else "the baseline (nothing added)"
+    return ", ".join(f"{pre}{'/'.join(nums)}{post}" for (pre, post), nums in groups.items())
 
 
 def _typ_sigma(meas: Measurements, ch: str) -> float:
@@ -225,7 +239,9 @@ def answer_section(
         ],
         ["χ²/dof (1 = within the noise)", page.Num(a.base_chi2, 4), page.Num(a.final_chi2, 3), ""],
     ]
-    table = page.table([f"{ch}", "baseline", "final model", "final / typical σ"], rows)
+    # with an arm file that carries effects, the starting model is the file's, not the baseline
+    start = "arm file's model" if getattr(base.problem.arm, "effects", ()) else "baseline"
+    table = page.table([f"{ch}", start, "final model", "final / typical σ"], rows)
     pub = ""
     if a.published:
         pub = (
@@ -248,13 +264,13 @@ def answer_section(
         ["channel", "worst configuration", "its RMS residual", "in units of typical σ"],
         left_rows,
     )
-    fig = plots.measured_vs_model(meas, {"baseline": base, "final model": final})
+    fig = plots.measured_vs_model(meas, {start: base, "final model": final})
     img = page.img(
         fig,
-        "measured against model: baseline and final model",
-        "Measured (x, ±σ) against model (y), per channel: the baseline (open markers) and the "
+        f"measured against model: {start} and final model",
+        f"Measured (x, ±σ) against model (y), per channel: the {start} (open markers) and the "
         "final model (filled), coloured by configuration; on the dotted line y = x the model "
-        "is right. Each panel's axes fit the final model; baseline points beyond them are "
+        f"is right. Each panel's axes fit the final model; the {start}'s points beyond them are "
         "counted in the panel's title.",
     )
     return [

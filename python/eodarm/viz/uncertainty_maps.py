@@ -14,6 +14,8 @@ unloaded load point; where poses overlap the worst is on top), from a sweep made
 
 from __future__ import annotations
 
+import re
+import textwrap
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -118,6 +120,11 @@ def sag_uncertainty_map(
     cv.note(fig, sel, band[2].size, "most uncertain")
     src = ds.attrs.get("uncertainty", "")
     title = _title(ds, "Uncertainty of the predicted sag", m, width=13.6)
+    # the model line names the parameters already: count them here, so the title fits
+    par = re.match(r"(.*covariance of )(.*?)(; .*)?$", str(src))
+    if par and par[2]:
+        src = f"{par[1]}its {len(par[2].split(', '))} fitted parameters{par[3] or ''}"
+    src = "\n".join(textwrap.wrap(str(src), int(11 * 13.6)))  # as _title wraps the model
     fig.suptitle(title + (f"\n{src}" if src else ""), fontsize=10)
     return finish(fig, path)
 

@@ -2,12 +2,14 @@
 
 :func:`payload_capacity` finds, for every pose of a grid, the largest payload before an
 actuator reaches its force limit or a stroke limit, and which limit it is;
-:func:`effect_contributions` solves each effect alone on top of the baseline. The maps that
+:func:`effect_contributions` splits the sag of every pose between the model's components, as
+the report's sag budget does. The maps that
 draw them are in :mod:`eodarm.viz.maps`.
 """
 
 from __future__ import annotations
 
+import itertools
 import math
 import tomllib
 import warnings
@@ -28,11 +30,11 @@ if TYPE_CHECKING:
 
 __all__ = [
     "F_EPS",
-    "SPRINGS",
     "arm_of",
     "as_sweep_kwargs",
     "assume_max_force",
     "effect_contributions",
+    "model_name",
     "not_ok_points",
     "payload_capacity",
 ]
@@ -41,10 +43,6 @@ FloatArray = npt.NDArray[np.float64]
 
 
 GridLike = "xr.Dataset | Mapping[str, npt.ArrayLike]"
-
-
-#: Label of the baseline's own deflection in the dominant-effect map.
-SPRINGS = "actuator springs (baseline)"
 
 
 #: Numerical zero of a force (N), as in the model (docs/model.md §4).
@@ -280,66 +278,102 @@ def effect_contributions(
     mass: float,
     *,
     self_weight: bool = True,
-    include_baseline: bool | None = None,
+    channel: str = "dy_mm",
+    progress: bool | None = None,
     **sweep_kw: Any,
 ) -> xr.Dataset:
-    """How far each effect alone moves the measure point, at each pose of a grid.
+    """Who makes the sag at each pose of a grid: the sag budget's Shapley shares, per pose.
 
-    The baseline is the arm's spring model: its actuator springs, replaced by any
-    ``actuator_compliance`` among ``effects`` (that effect changes the springs rather than
-    adding a mechanism). Every other effect e is added alone to it, and its contribution is
-    |d(baseline + e) − d(baseline)|, d = (dx, dy) the measure point's displacement (mm). With
-    ``include_baseline`` the baseline's own |d| is a contender too (:data:`SPRINGS`); by
-    default only when there is no other effect.
+    The model is the arm file's effects, then ``effects`` (the same effect@place replacing the
+    file's), as in every command. Its sag (``channel``, default ``dy_mm``) is split exactly as
+    :func:`eodarm.analysis.budget.sag_budget` splits it (the same components: each actuator's
+    body, then every other effect; the same rigid arm to start from), with the grid swept for
+    each of the 2ⁿ sets of components. A component's contribution is its share of the sag
+    taken in the direction of the sag (share × sign of the model's sag, mm): positive where it
+    adds to the sag, and the contributions add up to |sag|.
+
+    ``progress`` shows a bar over the 2ⁿ sweeps on stderr (:mod:`eodarm.progress`: None, on a
+    terminal after 2 s).
 
     Returns
     -------
     xarray.Dataset
-        ``contribution_mm`` (grid…, effect), ``dominant`` (grid…): index along ``effect`` of the
-        largest contribution, −1 where a pose is not reachable or not solved; the ``effect``
-        coordinate holds the labels; plus ``reachable``, ``effector_x_mm``, ``effector_y_mm``.
+        ``contribution_mm`` (grid…, effect), ``share`` (grid…, effect: the contribution over
+        |sag|), ``dominant`` (grid…): index along ``effect`` of the largest contribution, −1
+        where a pose is not reachable or not solved; the ``effect`` coordinate holds the
+        component labels; plus ``reachable``, ``effector_x_mm``, ``effector_y_mm``.
     """
+    from eodarm.analysis.budget import (
+        RIGID_N_PER_MM,
+        bare_arm,
+        components,
+        rigid_bodies,
+        shapley_shares,
+    )
+    from eodarm.model.effects import with_arm_effects
+    from eodarm.progress import bar
 
-    effs = list(as_effects(effects))
-    springs = [e for e in effs if e.name == "actuator_compliance"]
-    others = [e for e in effs if e.name != "actuator_compliance"]
-    if include_baseline is None:
-        include_baseline = not others
-    if not others and not include_baseline:
-        raise EodarmError("effect_contributions: no effect to compare")
+    given = list(as_effects(effects))
+    model = with_arm_effects(arm.effects, given)
+    comps = components(arm, given)
+    bare = bare_arm(arm)
+    n = len(comps)
     kw = {**as_sweep_kwargs(grid), **sweep_kw}
     common = {"mass_kg": [float(mass)], "self_weight": self_weight, **kw}
-    base = sweep(arm, effects=springs, **common).isel(mass_kg=0)
-    d0x, d0y = base["dx_mm"].values, base["dy_mm"].values
-    labels: list[str] = []
-    contrib: list[FloatArray] = []
-    ok = base["ok"].values & base["reachable"].values
-    if include_baseline:
-        labels.append(SPRINGS)
-        contrib.append(np.hypot(d0x, d0y))
-    for e in others:
-        r = sweep(arm, effects=[*springs, e], **common).isel(mass_kg=0)
-        ok &= r["ok"].values
-        labels.append(f"{e.key} ({e.value:g} {e.kind.unit})")
-        contrib.append(np.hypot(r["dx_mm"].values - d0x, r["dy_mm"].values - d0y))
-    c = np.stack(contrib, axis=-1)
+    rigid = rigid_bodies(arm.n, RIGID_N_PER_MM["analytic"])
+    values: dict[tuple[int, ...], FloatArray] = {}
+    base: xr.Dataset | None = None
+    ok: Any = None
+    b = bar(2**n, "eodarm: who makes the sag", progress=progress, unit="sweep")
+    for size in range(n + 1):
+        for members in itertools.combinations(range(n), size):
+            on: dict[str, Effect] = dict(rigid)
+            for k in members:
+                for e in comps[k][2]:
+                    on[e.key] = e
+            r = sweep(bare, effects=list(on.values()), progress=False, **common).isel(mass_kg=0)
+            values[members] = np.asarray(r[channel].values, dtype=float)
+            ok = r["ok"].values if ok is None else ok & r["ok"].values
+            if size == n:
+                base = r
+            if b is not None:
+                b.update(1)
+    if b is not None:
+        b.close()
+    assert base is not None
+    total = values[tuple(range(n))]
+    sign = np.where(total < 0.0, -1.0, 1.0)
+    c = np.moveaxis(shapley_shares(values, n), 0, -1) * sign[..., None]
+    ok = ok & base["reachable"].values
     good = ok & np.isfinite(c).all(axis=-1)
     dom = np.where(good, np.argmax(np.where(np.isfinite(c), c, -np.inf), axis=-1), -1)
     dims = list(base["reachable"].dims)
     out = base[["reachable", "effector_x_mm", "effector_y_mm"]].drop_vars("mass_kg")
-    out = out.assign_coords(effect=("effect", np.array(labels, dtype=object)))
+    out = out.assign_coords(effect=("effect", np.array([x[0] for x in comps], dtype=object)))
     out["contribution_mm"] = (
         [*dims, "effect"],
         np.where(good[..., None], c, np.nan),
-        {"units": "mm", "long_name": "displacement of the measure point by the effect alone"},
+        {"units": "mm", "long_name": f"Shapley share of the sag ({channel}), along the sag"},
     )
-    out["dominant"] = (dims, dom.astype(np.int64), {"long_name": "index of the largest effect"})
-    out["ok"] = (dims, good, {"long_name": "reachable and solved with every effect"})
+    with np.errstate(invalid="ignore", divide="ignore"):
+        frac = c / np.abs(total)[..., None]
+    out["share"] = (
+        [*dims, "effect"],
+        np.where(good[..., None], frac, np.nan),
+        {"units": "1", "long_name": "the component's fraction of |sag|"},
+    )
+    out["dominant"] = (dims, dom.astype(np.int64), {"long_name": "index of the largest share"})
+    out["ok"] = (dims, good, {"long_name": "reachable and solved with every set of components"})
     out.attrs.update(
         base.attrs,
         payload_kg=float(mass),
-        model=" + ".join(["baseline", *(f"{e.key}={e.value:g}" for e in effs)]),
-        baseline_model=" + ".join(["arm springs", *(f"{e.key}={e.value:g}" for e in springs)]),
-        candidates=", ".join(f"{e.key}={e.value:g}" for e in others),
+        channel=channel,
+        model=model_name(model),
+        components=", ".join(x[0] for x in comps),
     )
     return out
+
+
+def model_name(model: Iterable[Effect]) -> str:
+    """A model in one line: ``baseline + effect@place=value …`` (the arm file's effects first)."""
+    return " + ".join(["baseline", *(f"{e.key}={e.value:g}" for e in model)])
