@@ -38,7 +38,7 @@ from eodarm.cli._common import (
 from eodarm.cli._help import HELP
 from eodarm.errors import EodarmError
 from eodarm.model.arm import Arm
-from eodarm.model.effects import Effect
+from eodarm.model.effects import Effect, with_arm_effects
 
 
 def _nominal_poses(
