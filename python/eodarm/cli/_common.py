@@ -172,8 +172,12 @@ def _read(path: str, arm: Arm) -> Measurements:
     """Read the measurements and say on stderr where σ was not given: one line for the
     channels whose σ was pooled from the repeats, one for those that use the defaults."""
     from eodarm.data.reader import read_measurements
+    from eodarm.data.records import is_campaign
 
-    meas = read_measurements(path, arm.n)
+    if is_campaign(path):
+        meas = _read_campaign_as_measurements(path, arm)
+    else:
+        meas = read_measurements(path, arm.n)
     for line in _noise_notes(meas):
         _note(line)
     return meas
@@ -423,3 +427,81 @@ def data_command(sub: Any, name: str, helptext: str, desc: str) -> argparse.Argu
     _model_args(c)
     _effects_args(c)
     return c
+
+
+# ----------------------------------------------------------------------------- records
+def run_records(
+    campaign: str,
+    allow_drift: bool = False,
+    plot_dir: str | None = None,
+    min_duration_s: float = 2.0,
+) -> tuple[list[Any], Any]:
+    """Run the records of a campaign file (docs/records.md), one in memory at a time; draw
+    each into ``plot_dir`` when given (the refused one too, before the refusal is raised).
+
+    Returns the records' results and ``write(out)``, which writes the measurement file to a
+    path or an open text file. Nothing is written when a record is refused.
+    """
+    import math
+
+    from eodarm.analysis.records import analyse_campaign
+    from eodarm.data.records import read_campaign, write_rows
+
+    if not (math.isfinite(min_duration_s) and min_duration_s > 0):
+        raise EodarmError(f"--min-duration must be > 0 s, got {min_duration_s}")
+    camp = read_campaign(campaign)
+    drawn: list[str] = []
+    draw = None
+    if plot_dir:
+        from eodarm.viz.records_plot import record_figure
+
+        out = Path(plot_dir)
+        out.mkdir(parents=True, exist_ok=True)
+
+        def draw(record: Any, result: Any) -> None:
+            p = out / f"record_{result.spec.config}.png"
+            record_figure(record, result, path=p)
+            drawn.append(str(p))
+
+    try:
+        results = analyse_campaign(camp, allow_drift, min_duration_s, on_record=draw)
+    finally:
+        if drawn:
+            _held_note(f"drew {len(drawn)} records into {plot_dir}")
+    channels = list(dict.fromkeys(c for r in results for c in r.channels))
+    rows = [row for r in results for row in r.rows]
+
+    def write(target: Any) -> None:
+        write_rows(target, camp.n, rows, channels)
+
+    if any(r.spec.masses_kg[0] != 0 for r in results):
+        _held_note(
+            "a record's reference carries a payload (masses_kg[0] > 0): its rows are relative "
+            "to that loaded reference"
+        )
+    return results, write
+
+
+def _read_campaign_as_measurements(path: str, arm: Arm) -> Measurements:
+    """A campaign file given where a measurement file goes: run ``eodarm records`` on it
+    (saying so on stderr) and read the rows it would write."""
+    import io
+
+    from eodarm.data.reader import read_measurements
+
+    results, write = run_records(path)
+    buf = io.StringIO()
+    write(buf)
+    buf.seek(0)
+    buf.name = f"{path} (records)"  # type: ignore[attr-defined]
+    rows = sum(len(r.rows) for r in results)
+    _note(
+        f"{path} is a campaign: ran `eodarm records` on it ({rows} states of "
+        f"{len(results)} records; docs/records.md)"
+    )
+    CAMPAIGN_RESULTS[:] = results
+    return read_measurements(buf, arm.n)
+
+
+#: The records of the last campaign read by :func:`_read` (for the report's appendix).
+CAMPAIGN_RESULTS: list[Any] = []
