@@ -12,8 +12,9 @@ The detector, in four steps, every threshold from the record's own noise:
    ringing, a hand on the plate break the chain.
 3. **States.** A run that lasts at least ``min_duration_s`` is a steady state; neighbouring
    states at the same level (a break by chance) are merged. The first block of a state and
-   any leading or trailing block that is off the state's median by more than
-   :data:`K_TRIM` block-noise units are not averaged (the tail of a transient).
+   leading or trailing blocks that are off the state's median by more than :data:`K_TRIM`
+   block-noise units (at most a tenth of the state at each end) are not averaged: the tail
+   of a transient.
 4. **Drift.** Per channel, the slope of the averaged samples against time with its standard
    error; a slope beyond :func:`drift_threshold` (a family-wise false-alarm rate of 1 % per
    record) is a drift: the state is refused unless drift is allowed.
@@ -58,6 +59,8 @@ K_TRIM = 3.0
 DRIFT_ALARM = 0.01
 #: A steady state spans at least this many blocks.
 MIN_BLOCKS = 4
+#: The block size is estimated from at most this many samples (in runs of 1024).
+SCALE_SAMPLES = 131072
 #: Default shortest steady state, s.
 MIN_DURATION_S = 2.0
 
@@ -146,22 +149,47 @@ def _robust_scale(d: FloatArray) -> FloatArray:
 
 
 def _block_size(values: FloatArray, cap: int) -> int:
-    """Samples per block: four integrated correlation times of the noisiest-correlated channel,
-    from the lag-1 correlation r of the first differences (an AR(1) process of coefficient φ
-    has r = −(1 − φ)/2), clipped to [8, cap]."""
-    d = np.diff(values, axis=0)
-    if d.shape[0] < 4:
+    """Samples per block: twice the smallest block length ``B`` (a power of 2) at which
+    ``B`` times the variance of the difference of neighbouring block means has reached 80 %
+    of its largest value, on the channel that needs the longest, clipped to [8, ``cap``].
+
+    For noise without correlation ``B·var`` is the same for every ``B``; for correlated noise
+    it grows with ``B`` until the blocks are longer than the correlation (it then equals twice
+    the long-run variance), whatever mix of correlated and white noise the channel has. The
+    variance is robust (1.4826 · median absolute difference), so that the few differences
+    across a step or a transient do not count. At most :data:`SCALE_SAMPLES` samples are used,
+    in runs spread over the record."""
+    n, c = values.shape
+    top = 1 << max(3, math.floor(math.log2(max(cap, 8))))
+    w = max(16 * top, 1024)
+    if n > max(SCALE_SAMPLES, 2 * w):
+        k = max(1, SCALE_SAMPLES // w)
+        starts = np.linspace(0, n - w, k).astype(np.int64)
+        chunks = [values[s0 : s0 + w] for s0 in starts]
+    else:
+        chunks = [values]
+    sizes = []
+    f = []
+    b = 1
+    while b <= top:
+        diffs = []
+        for x in chunks:
+            m = x.shape[0] // b
+            if m >= 3:
+                bm = x[: m * b].reshape(m, b, c).mean(axis=1)
+                diffs.append(np.diff(bm, axis=0))
+        if not diffs or sum(len(d) for d in diffs) < 16:
+            break
+        f.append(b * _robust_scale(np.concatenate(diffs)) ** 2)
+        sizes.append(b)
+        b *= 2
+    if not f:
         return max(1, min(8, cap))
-    s = _robust_scale(d)
-    s[s == 0] = 1.0
-    c = np.clip(d / s, -5.0, 5.0)
-    c -= c.mean(axis=0)
-    den = (c * c).sum(axis=0)
-    den[den == 0] = 1.0
-    r1 = (c[1:] * c[:-1]).sum(axis=0) / den
-    phi = np.clip(1.0 + 2.0 * r1, 0.0, 0.999)
-    tau = (1.0 + phi) / (1.0 - phi)
-    return int(max(8, min(cap, math.ceil(4.0 * float(tau.max())))))
+    fa = np.array(f)  # (len(sizes), C)
+    reach = fa >= 0.8 * fa.max(axis=0)
+    first = reach.argmax(axis=0)  # per channel, the first size that reaches 80 %
+    best = sizes[int(first.max())]
+    return int(max(8, min(cap, 2 * best)))
 
 
 def _autocov(x: FloatArray, lags: int) -> FloatArray:
@@ -236,9 +264,9 @@ def drift_threshold(tests: int) -> float:
     """|slope| / its standard error beyond which a state drifts: the two-sided normal
     quantile that keeps the family-wise false-alarm rate at :data:`DRIFT_ALARM` over
     ``tests`` tests (Bonferroni)."""
-    from scipy.stats import norm
+    from statistics import NormalDist  # scipy.stats would add a second of import
 
-    return float(norm.isf(DRIFT_ALARM / (2.0 * max(tests, 1))))
+    return NormalDist().inv_cdf(1.0 - DRIFT_ALARM / (2.0 * max(tests, 1)))
 
 
 # ---------------------------------------------------------------------------- detector
@@ -314,9 +342,13 @@ def steady_states(
             continue
         a0, a1 = r0 + 1, r1  # the first block is the tail of what came before
         med = np.median(bm[a0:a1], axis=0)
-        while a1 - a0 > MIN_BLOCKS and (np.abs(bm[a0] - med) > K_TRIM * sb).any():
+        # a transient's tail is short: at most a tenth of the state is trimmed at each end,
+        # so that a drift (off the median at both ends) stays in the averaged part and is seen
+        most = max(1, (a1 - a0) // 10)
+        lo, hi = a0 + most, a1 - most
+        while a0 < lo and a1 - a0 > MIN_BLOCKS and (np.abs(bm[a0] - med) > K_TRIM * sb).any():
             a0 += 1
-        while a1 - a0 > MIN_BLOCKS and (np.abs(bm[a1 - 1] - med) > K_TRIM * sb).any():
+        while a1 > hi and a1 - a0 > MIN_BLOCKS and (np.abs(bm[a1 - 1] - med) > K_TRIM * sb).any():
             a1 -= 1
         i0, i1 = a0 * b, a1 * b
         last = r1 * b if r1 < nb else n
@@ -342,21 +374,22 @@ def _errors(t: FloatArray, v: FloatArray, states: list[State]) -> None:
     c = v.shape[1]
     gam = np.zeros((3, c))
     count = 0
+    dens = []
     for s in states:
-        r = _detrend(v[s.start : s.stop], t[s.start : s.stop])
+        x = v[s.start : s.stop]
+        tc = t[s.start : s.stop] - t[s.start : s.stop].mean()
+        den = float(tc @ tc)
+        r = x - s.mean
+        s.slope = (tc @ r) / den if den > 0 else np.zeros(c)
+        r -= tc[:, None] * s.slope[None, :]
         gam += _autocov(r, 3)
         count += r.shape[0]
+        dens.append(den)
     g0, a, phi = long_run_variance(gam / count)
     lrv = g0 + 2.0 * a * np.where(phi > 0, phi / (1.0 - phi), 0.0)  # per-sample long-run var.
     thr = drift_threshold(len(states) * c)
-    for s in states:
-        m = s.stop - s.start
-        s.stderr = np.sqrt(mean_variance(g0, a, phi, m))
-        tt = t[s.start : s.stop]
-        tc = tt - tt.mean()
-        den = float((tc * tc).sum())
-        x = v[s.start : s.stop]
-        s.slope = (tc @ (x - x.mean(axis=0))) / den if den > 0 else np.zeros(c)
+    for s, den in zip(states, dens, strict=True):
+        s.stderr = np.sqrt(mean_variance(g0, a, phi, s.stop - s.start))
         s.slope_se = np.sqrt(lrv / den) if den > 0 else np.full(c, np.inf)
         with np.errstate(divide="ignore", invalid="ignore"):
             z = np.abs(s.slope) / s.slope_se

@@ -22,6 +22,7 @@ import math
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -145,8 +146,8 @@ def synth_records(
         truth = truth_all[i][:, sel]
         unit = unit_all[i][sel]
         sig = sig_all[sel]
-        pieces_t: list[FloatArray] = []
-        pieces_v: list[FloatArray] = []
+        pieces_t: list[npt.NDArray[np.floating[Any]]] = []
+        pieces_v: list[npt.NDArray[np.floating[Any]]] = []
         t_now = 0.0
         creep = np.zeros(len(sel))
         for k in range(len(seq)):

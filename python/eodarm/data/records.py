@@ -167,12 +167,12 @@ def read_campaign(path: str | Path) -> Campaign:
             raise RecordError(f"{where}: 'masses_kg' needs the reference and at least one payload")
         if any(m < 0 for m in masses):
             raise RecordError(f"{where}: 'masses_kg' has a negative payload")
-        f = (p.parent / t["file"]).resolve()
-        if any(s.file == f for s in specs):
+        rec_file = (p.parent / t["file"]).resolve()
+        if any(s.file == rec_file for s in specs):
             raise RecordError(f"{where}: file '{t['file']}' is listed twice")
         if any(s.config == t["config"] for s in specs):
             raise RecordError(f"{where}: config '{t['config']}' is listed twice")
-        specs.append(RecordSpec(f, t["config"].strip(), tuple(alpha), tuple(masses)))
+        specs.append(RecordSpec(rec_file, t["config"].strip(), tuple(alpha), tuple(masses)))
     return Campaign(p, tuple(specs))
 
 
