@@ -312,3 +312,17 @@ def test_the_figure_shades_a_refused_state_red(
     spans = [p for p in fig.axes[0].patches]
     red = [i for i, p in enumerate(spans) if to_hex(p.get_facecolor()[:3]) == REFUSED]
     assert red == [2]  # the state at 5 kg, the second after the reference
+
+
+def test_the_report_on_a_campaign_shows_the_records_in_an_appendix(
+    campaign: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = tmp_path / "report.html"
+    assert (
+        main(["report", str(campaign), "--arm", str(EXAMPLE), "-o", str(out), "--rounds", "1"]) == 0
+    )
+    assert "is a campaign" in capsys.readouterr().err
+    page = out.read_text()
+    appendix = page[page.index("Appendix: the raw records") :]
+    assert appendix.count("data:image/png;base64,") == 2  # one figure per record
+    assert "c1 (c1.csv)" in appendix and "c2 (c2.csv)" in appendix

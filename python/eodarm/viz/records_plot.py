@@ -120,3 +120,35 @@ def record_figure(record: Record, result: RecordResult, path: PathLike | None = 
             fontsize=10,
         )
     return finish(fig, path)
+
+
+#: The report's appendix draws at most this many records (a figure is ~0.3 MB of the page).
+MAX_REPORT_RECORDS = 20
+
+
+def record_html(record: Record, result: RecordResult) -> str:
+    """The record's figure as an embedded PNG with its caption, for the report's appendix."""
+    from eodarm.viz.html import img
+
+    fig = record_figure(record, result)
+    rows = len(result.rows)
+    caption = (
+        f"{result.spec.config} ({record.path.name}): {record.time_s.size} samples, "
+        f"{len(result.states)} steady states; {rows} rows written, each state's mean minus the "
+        "reference's (shaded: the state; coloured: the samples averaged)."
+    )
+    return img(fig, f"record {result.spec.config}", caption)
+
+
+def records_appendix(figures: list[str], total: int) -> str:
+    """The report's appendix: the records' figures (``figures``, from :func:`record_html`)
+    of a campaign of ``total`` records."""
+    more = (
+        f" The first {len(figures)} of {total} records are shown." if total > len(figures) else ""
+    )
+    return (
+        "<p>The measurements were found by <code>eodarm records</code> in the raw records of "
+        "the campaign: each steady state's mean minus the reference's, with the standard error "
+        f"of that difference, correlation in time included (docs/records.md).{more}</p>"
+        + "\n".join(figures)
+    )
