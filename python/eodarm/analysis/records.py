@@ -16,7 +16,7 @@ The detector, in four steps, every threshold from the record's own noise:
    block-noise units (at most a tenth of the state at each end) are not averaged: the tail
    of a transient.
 4. **Drift.** Per channel, the slope of the averaged samples against time with its standard
-   error; a slope beyond :func:`drift_threshold` (a family-wise false-alarm rate of 1 % per
+   error; a slope beyond :func:`drift_threshold` (a family-wise false-alarm rate of 0.1 % per
    record) is a drift: the state is refused unless drift is allowed.
 
 The standard error of a state's mean accounts for the correlation of the noise in time
@@ -56,7 +56,7 @@ K_BREAK = 5.0
 #: median is not averaged.
 K_TRIM = 3.0
 #: The family-wise false-alarm rate of the drift test, per record.
-DRIFT_ALARM = 0.01
+DRIFT_ALARM = 0.001
 #: A steady state spans at least this many blocks.
 MIN_BLOCKS = 4
 #: The block size is estimated from at most this many samples (in runs of 1024).
