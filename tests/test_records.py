@@ -206,15 +206,24 @@ def test_a_drifting_state_is_refused_in_one_line_and_kept_with_allow_drift(
     assert out.exists()
 
 
+@pytest.mark.parametrize(
+    ("masses", "says"),
+    [
+        ("[0.0, 1.5, 3.0, 5.0,", "found 7 steady states (at 0."),  # the operator skipped 3 kg
+        ("[0.0, 5.0,", "found 7 steady states (at 0."),  # a state more than the payloads
+    ],
+)
 def test_a_skipped_payload_is_refused(
-    campaign: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+    masses: str, says: str, campaign: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     c = copy_campaign(campaign, tmp_path / "skip")
-    text = c.read_text().replace("[0.0, 1.5, 5.0,", "[0.0, 1.5, 3.0, 5.0,", 1)
+    text = c.read_text().replace("[0.0, 1.5, 5.0,", masses, 1)
     c.write_text(text)
     out = tmp_path / "meas.csv"
     err = refused(["records", str(c), "-o", str(out)], capsys)
-    assert "c1.csv" in err and "found 7 steady states" in err and "8 payloads" in err
+    n = masses.count(",") + 4  # payloads: the replaced start, then 6.5, 5, 1.5, 0
+    assert "c1.csv" in err and says in err and f"the {n} payloads" in err
+    assert ("fewer" if n > 7 else "more") in err
     assert not out.exists()
 
 

@@ -69,14 +69,22 @@ def state_values(
     reference (the first state), every channel of the arm.
 
     Each state is loaded once from the unloaded reference (``eodarm.solve``); the reference's
-    own payload is subtracted. This is the one call to swap for a solve of the whole sequence
-    (``eodarm.solve_sequence``, friction memory) where that exists.
+    own payload is subtracted. Effects with memory (friction, a gap that stays where it was
+    pushed) need the whole sequence instead: where ``eodarm.solve_sequence`` exists, the one
+    call below becomes (its keys are (K, S − 1, …), relative to each reference)::
+
+        out = solve_sequence(arm, alpha_deg, np.asarray(sequence[1:]), effects=...)
+        out = {key: a.reshape(k * (s - 1), *a.shape[2:]) for key, a in out.items()}
+        vals = channel_values(out, names).reshape(k, s - 1, -1)
+        return np.concatenate([np.zeros((k, 1, vals.shape[2])), vals], axis=1)
     """
     k, s = alpha_deg.shape[0], len(sequence)
+    names = channel_names(arm.n)
     rows_alpha = np.repeat(alpha_deg, s, axis=0)
     rows_mass = np.tile(np.asarray(sequence, dtype=float), k)
+    # the one call to the model (see above for the sequence of an arm with memory)
     out = solve(arm, rows_alpha, rows_mass, effects=as_effects(hidden), self_weight=self_weight)
-    vals = channel_values(out, channel_names(arm.n)).reshape(k, s, -1)
+    vals = channel_values(out, names).reshape(k, s, -1)
     return vals - vals[:, :1, :]
 
 
