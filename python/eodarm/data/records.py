@@ -167,8 +167,8 @@ def read_campaign(path: str | Path) -> Campaign:
             raise RecordError(f"{where}: 'masses_kg' needs the reference and at least one payload")
         if any(m < 0 for m in masses):
             raise RecordError(f"{where}: 'masses_kg' has a negative payload")
-        rec_file = (p.parent / t["file"]).resolve()
-        if any(s.file == rec_file for s in specs):
+        rec_file = p.parent / t["file"]  # as the user finds it from here, for messages
+        if any(s.file.resolve() == rec_file.resolve() for s in specs):
             raise RecordError(f"{where}: file '{t['file']}' is listed twice")
         if any(s.config == t["config"] for s in specs):
             raise RecordError(f"{where}: config '{t['config']}' is listed twice")
