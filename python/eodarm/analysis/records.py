@@ -11,10 +11,10 @@ The detector, in four steps, every threshold from the record's own noise:
    state, so the median sees the noise, not the steps). A weight placed by hand, the arm
    ringing, a hand on the plate break the chain.
 3. **States.** A run that lasts at least ``min_duration_s`` is a steady state; neighbouring
-   states at the same level (a break by chance) are merged. The first block of a state and
-   leading or trailing blocks that are off the state's median by more than :data:`K_TRIM`
-   block-noise units (at most a tenth of the state at each end) are not averaged: the tail
-   of a transient.
+   states at the same level (a break by chance) are merged. The first and the last block of
+   a state (but not at the record's ends), and further leading or trailing blocks off the
+   state's median by more than :data:`K_TRIM` block-noise units (at most a tenth of the
+   state at each end), are not averaged: the tail of a transient, the start of the next.
 4. **Drift.** Per channel, the slope of the averaged samples against time with its standard
    error; a slope beyond :func:`drift_threshold` (a family-wise false-alarm rate of 0.1 % per
    record) is a drift: the state is refused unless drift is allowed.
@@ -221,6 +221,24 @@ def long_run_variance(gamma: FloatArray) -> tuple[FloatArray, FloatArray, FloatA
     return g0, a, phi
 
 
+def _noise_model(
+    sums: FloatArray, count: int, segments: int
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """:func:`long_run_variance` from the lagged sums of ``segments`` detrended runs of
+    ``count`` samples in all, corrected for the detrending.
+
+    Removing a run's mean and slope removes its slowest noise too: each measured
+    autocovariance is low by about 2·S/n for a run of n samples, S the long-run variance
+    (two fitted coefficients). For runs of a few tens of correlation times that is tens of
+    per cent of S; the bias is added back, S re-estimated, a few times (a fixed point)."""
+    raw = sums / count
+    s_lr = np.zeros(raw.shape[1])
+    for _ in range(6):
+        g0, a, phi = long_run_variance(raw + (2.0 * segments / count) * s_lr[None, :])
+        s_lr = g0 + 2.0 * a * np.where(phi > 0, phi / (1.0 - phi), 0.0)
+    return g0, a, phi
+
+
 def mean_variance(g0: FloatArray, a: FloatArray, phi: FloatArray, n: int) -> FloatArray:
     """Variance of the mean of ``n`` consecutive samples of the noise model of
     :func:`long_run_variance`: (γ₀ + 2 Σ_{k=1}^{n−1} (1 − k/n) a φ^k) / n."""
@@ -242,8 +260,7 @@ def mean_standard_error(x: npt.ArrayLike) -> FloatArray:
     if a.ndim == 1:
         a = a[:, None]
     r = _detrend(a)
-    gam = _autocov(r, 3) / a.shape[0]
-    g0, aa, phi = long_run_variance(gam)
+    g0, aa, phi = _noise_model(_autocov(r, 3), a.shape[0], 1)
     return np.sqrt(mean_variance(g0, aa, phi, a.shape[0]))
 
 
@@ -340,7 +357,10 @@ def steady_states(
     for r0, r1 in merged:
         if r1 - r0 < min_blocks:
             continue
-        a0, a1 = r0 + 1, r1  # the first block is the tail of what came before
+        # guard blocks: the first is the tail of what came before, the last the gentle start
+        # of what comes next (a hand reaching the plate), both below the break threshold
+        a0 = r0 + 1 if r0 > 0 else r0
+        a1 = r1 - 1 if r1 < nb else r1
         med = np.median(bm[a0:a1], axis=0)
         # a transient's tail is short: at most a tenth of the state is trimmed at each end,
         # so that a drift (off the median at both ends) stays in the averaged part and is seen
@@ -385,7 +405,7 @@ def _errors(t: FloatArray, v: FloatArray, states: list[State]) -> None:
         gam += _autocov(r, 3)
         count += r.shape[0]
         dens.append(den)
-    g0, a, phi = long_run_variance(gam / count)
+    g0, a, phi = _noise_model(gam, count, len(states))
     lrv = g0 + 2.0 * a * np.where(phi > 0, phi / (1.0 - phi), 0.0)  # per-sample long-run var.
     thr = drift_threshold(len(states) * c)
     for s, den in zip(states, dens, strict=True):
