@@ -66,6 +66,28 @@ def test_a_steady_record_is_one_state_with_no_drift() -> None:
     assert alarms <= 1  # the test's family-wise rate is 0.1 % per record
 
 
+def test_a_logger_that_writes_few_decimals_is_read_without_understating_the_errors() -> None:
+    """Readings rounded to 0.01 (5 times the actuator sensors' noise): a channel that mostly
+    stands still and flickers by one quantum neither breaks a state nor drifts, and its
+    error is at least the quantisation's (q/√12), so the values stay within it."""
+    from eodarm.analysis.records import analyse_record
+    from eodarm.data.records import Record, RecordSpec
+
+    arm = ARMS["example"]()
+    alpha = solvable_configs(arm, 3, [])
+    z = []
+    for r in synth_records(arm, alpha, SEQUENCE, seed=8):
+        values = np.round(r.values, 2)
+        spec = RecordSpec(Path(f"{r.config}.csv"), r.config, r.alpha_deg, r.masses_kg)
+        res = analyse_record(Record(spec.file, r.time_s, r.channels, values), spec)
+        assert res.refused is None, res.refused
+        for row in res.rows:
+            for j, c in enumerate(r.channels):
+                assert row["sigma"][c] >= 0.01 / math.sqrt(12) * math.sqrt(2) * 0.999
+                z.append((row["values"][c] - r.truth[row["step"], j]) / row["sigma"][c])
+    assert np.max(np.abs(z)) < 4.0
+
+
 # ---------------------------------------------------------------------- rehearsal campaigns
 def solvable_configs(arm: eodarm.Arm, k: int, hidden: list[eodarm.Effect]) -> np.ndarray:
     rng = np.random.default_rng(3)

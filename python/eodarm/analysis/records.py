@@ -13,8 +13,9 @@ The detector, in four steps, every threshold from the record's own noise:
 3. **States.** A run that lasts at least ``min_duration_s`` is a steady state; neighbouring
    states at the same level (a break by chance) are merged. The first and the last block of
    a state (but not at the record's ends), and further leading or trailing blocks off the
-   state's median by more than :data:`K_TRIM` block-noise units (at most a tenth of the
-   state at each end), are not averaged: the tail of a transient, the start of the next.
+   state's median by more than :data:`K_TRIM` block-noise units (at most a third of the
+   state at its start, a tenth at its end), are not averaged: the tail of a transient, the
+   start of the next.
 4. **Drift.** Per channel, the slope of the averaged samples against time with its standard
    error; a slope beyond :func:`drift_threshold` (a family-wise false-alarm rate of 0.1 % per
    record) is a drift: the state is refused unless drift is allowed.
@@ -325,7 +326,8 @@ def steady_states(
     d = np.diff(bm, axis=0)
     sd = _robust_scale(d)
     tiny = 1e-12 * np.maximum(np.abs(bm).max(axis=0), 1.0)
-    sd = np.maximum(sd, tiny)
+    q = _resolution(v)
+    sd = np.maximum(np.maximum(sd, tiny), q)  # a change of less than a quantum is no break
     same = (np.abs(d) <= K_BREAK * sd).all(axis=1)
     # runs of blocks connected by `same`
     runs: list[list[int]] = []
@@ -364,8 +366,8 @@ def steady_states(
         med = np.median(bm[a0:a1], axis=0)
         # a transient's tail is short: at most a tenth of the state is trimmed at each end,
         # so that a drift (off the median at both ends) stays in the averaged part and is seen
-        most = max(1, (a1 - a0) // 10)
-        lo, hi = a0 + most, a1 - most
+        lo = a0 + max(1, (a1 - a0) // 3)  # a transient's tail: at most a third at the start
+        hi = a1 - max(1, (a1 - a0) // 10)  # what comes next: at most a tenth at the end
         while a0 < lo and a1 - a0 > MIN_BLOCKS and (np.abs(bm[a0] - med) > K_TRIM * sb).any():
             a0 += 1
         while a1 > hi and a1 - a0 > MIN_BLOCKS and (np.abs(bm[a1 - 1] - med) > K_TRIM * sb).any():
@@ -382,11 +384,20 @@ def steady_states(
                 mean=v[i0:i1].mean(axis=0),
             )
         )
-    _errors(t, v, states)
+    _errors(t, v, states, q)
     return states, b
 
 
-def _errors(t: FloatArray, v: FloatArray, states: list[State]) -> None:
+def _resolution(v: FloatArray) -> FloatArray:
+    """Each channel's resolution: the smallest non-zero change between two samples (of the
+    first 2¹⁷), 0 for a constant channel. A logger that writes few decimals quantises."""
+    d = np.abs(np.diff(v[: SCALE_SAMPLES + 1], axis=0))
+    d[d == 0] = np.inf
+    q = d.min(axis=0) if d.shape[0] else np.zeros(v.shape[1])
+    return np.where(np.isfinite(q), q, 0.0)
+
+
+def _errors(t: FloatArray, v: FloatArray, states: list[State], q: FloatArray) -> None:
     """Standard errors and drift rates of every state, the noise model of each channel
     fitted to all the states' detrended samples together."""
     if not states:
@@ -409,8 +420,11 @@ def _errors(t: FloatArray, v: FloatArray, states: list[State]) -> None:
     lrv = g0 + 2.0 * a * np.where(phi > 0, phi / (1.0 - phi), 0.0)  # per-sample long-run var.
     thr = drift_threshold(len(states) * c)
     for s, den in zip(states, dens, strict=True):
-        s.stderr = np.sqrt(mean_variance(g0, a, phi, s.stop - s.start))
-        s.slope_se = np.sqrt(lrv / den) if den > 0 else np.full(c, np.inf)
+        # a quantised reading is known to ±q/2 however long it is averaged (q²/12), and a
+        # trend of less than a quantum over the state is not seen
+        s.stderr = np.sqrt(mean_variance(g0, a, phi, s.stop - s.start) + q * q / 12.0)
+        span = max(float(t[s.stop - 1] - t[s.start]), 1e-300)
+        s.slope_se = np.sqrt(lrv / den + (q / span) ** 2) if den > 0 else np.full(c, np.inf)
         with np.errstate(divide="ignore", invalid="ignore"):
             z = np.abs(s.slope) / s.slope_se
         s.drift = bool((np.nan_to_num(z, nan=0.0) > thr).any())
