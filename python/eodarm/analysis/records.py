@@ -452,7 +452,8 @@ def analyse_record(
         when = ", ".join(f"{s.t0:.1f}–{s.t1:.1f}" for s in states) or "none"
         more = "more" if len(states) > len(masses) else "fewer"
         res.refused = (
-            f"{f}: found {len(states)} steady states (at {when} s), {more} than the "
+            f"{f}: found {len(states)} steady state{'' if len(states) == 1 else 's'} "
+            f"(at {when} s), {more} than the "
             f"{len(masses)} payloads of masses_kg"
             + (
                 "; a payload skipped or a pause too short?"

@@ -102,6 +102,7 @@ def synth_records(
     hold_s: float = 8.0,
     corr_s: float = 0.05,
     drift: Mapping[int, float] | None = None,
+    ring_s: float = 0.1,
 ) -> list[SynthRecord]:
     """One rehearsal record per configuration (see the module docstring).
 
@@ -120,6 +121,7 @@ def synth_records(
     corr_s : correlation time of the noise, s.
     drift : state index (1 = the first state after the reference) → creep rate in noise σ
         per second, on every channel.
+    ring_s : time constant of the ringing into a new level, s.
 
     Raises
     ------
@@ -133,7 +135,8 @@ def synth_records(
         raise EodarmError("--sequence: give the reference and at least one payload")
     if any(not math.isfinite(m) or m < 0 for m in seq):
         raise EodarmError(f"--sequence: payloads must be finite and >= 0, got {seq}")
-    for name, val in (("rate", rate_hz), ("hold", hold_s), ("correlation time", corr_s)):
+    checks = (("rate", rate_hz), ("hold", hold_s), ("correlation time", corr_s), ("ring", ring_s))
+    for name, val in checks:
         if not (math.isfinite(val) and val > 0):
             raise EodarmError(f"records: the {name} must be > 0, got {val}")
     drift = dict(drift or {})
@@ -175,7 +178,7 @@ def synth_records(
             if k > 0:
                 step = truth[k] - truth[k - 1]
                 fr = rng.uniform(4.0, 8.0)
-                ring = np.exp(-tt / 0.1) * np.cos(2 * np.pi * fr * tt)
+                ring = np.exp(-tt / ring_s) * np.cos(2 * np.pi * fr * tt)
                 seg += ring[:, None] * (0.4 * step + 0.3 * unit)[None, :]
             if k in drift:
                 seg += (drift[k] * sig)[None, :] * tt[:, None]
