@@ -389,7 +389,6 @@ BAD_CAMPAIGNS = [
         "alpha_deg = [1.0, 2.0]\nmasses_kg = [0.0, 1.0]\n",
         "record 2: 'alpha_deg' has 2 angles",
     ),
-    (HEAD + TWO + "mass = 3\n", "unknown key 'mass'"),
 ]
 
 

@@ -21,6 +21,7 @@ from __future__ import annotations
 import csv
 import math
 import tomllib
+import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -120,6 +121,11 @@ def read_campaign(path: str | Path) -> Campaign:
         One line naming the file and the record (1-based) and key at fault: no ``[[record]]``,
         a missing or mistyped key, angles of different lengths, fewer than two payloads, a
         negative or non-finite payload, two records of one file or of one config label.
+
+    Warns
+    -----
+    UserWarning
+        Naming the keys that are not read (they are ignored).
     """
     p = Path(path)
     try:
@@ -136,7 +142,11 @@ def read_campaign(path: str | Path) -> Campaign:
         )
     unknown = sorted(set(doc) - {"record"})
     if unknown:
-        raise RecordError(f"{p}: unknown key '{unknown[0]}' (a campaign has [[record]] tables)")
+        warnings.warn(
+            f"{p}: ignoring key(s) {', '.join(unknown)} (a campaign has [[record]] tables)",
+            UserWarning,
+            stacklevel=2,
+        )
     specs: list[RecordSpec] = []
     for i, t in enumerate(tables, start=1):
         where = f"{p}: record {i}"
@@ -144,8 +154,11 @@ def read_campaign(path: str | Path) -> Campaign:
             raise RecordError(f"{where}: expected a table")
         extra = sorted(set(t) - {"file", "config", "alpha_deg", "masses_kg"})
         if extra:
-            raise RecordError(
-                f"{where}: unknown key '{extra[0]}' (file, config, alpha_deg, masses_kg)"
+            warnings.warn(
+                f"{where}: ignoring key(s) {', '.join(extra)} "
+                "(file, config, alpha_deg, masses_kg are read)",
+                UserWarning,
+                stacklevel=2,
             )
         for key in ("file", "config", "alpha_deg", "masses_kg"):
             if key not in t:
