@@ -168,12 +168,19 @@ def _held_note(msg: str) -> None:
         _note(msg)
 
 
-def _read(path: str, arm: Arm) -> Measurements:
+def _read(path: str, arm: Arm, record_figures: list[str] | None = None) -> Measurements:
     """Read the measurements and say on stderr where σ was not given: one line for the
-    channels whose σ was pooled from the repeats, one for those that use the defaults."""
-    from eodarm.data.reader import read_measurements
+    channels whose σ was pooled from the repeats, one for those that use the defaults.
 
-    meas = read_measurements(path, arm.n)
+    A campaign file (docs/records.md) is run through ``eodarm records`` first; with
+    ``record_figures`` (a list) each record's figure is appended to it as HTML."""
+    from eodarm.data.reader import read_measurements
+    from eodarm.data.records import is_campaign
+
+    if is_campaign(path):
+        meas = _read_campaign_as_measurements(path, arm, record_figures)
+    else:
+        meas = read_measurements(path, arm.n)
     for line in _noise_notes(meas):
         _note(line)
     return meas
@@ -464,3 +471,89 @@ def _grouped_keys(keys: list[str]) -> str:
         out.append(at if name == last else k)
         last = name
     return ", ".join(out)
+
+
+# ----------------------------------------------------------------------------- records
+def run_records(
+    campaign: str,
+    allow_drift: bool = False,
+    plot_dir: str | None = None,
+    min_duration_s: float = 2.0,
+    record_figures: list[str] | None = None,
+) -> tuple[list[Any], Any]:
+    """Run the records of a campaign file (docs/records.md), one in memory at a time; draw
+    each into ``plot_dir`` when given (the refused one too, before the refusal is raised),
+    and as HTML into ``record_figures`` when given (the report's appendix).
+
+    Returns the records' results and ``write(out)``, which writes the measurement file to a
+    path or an open text file. Nothing is written when a record is refused.
+    """
+    import math
+
+    from eodarm.analysis.records import analyse_campaign
+    from eodarm.data.records import read_campaign, write_rows
+
+    if not (math.isfinite(min_duration_s) and min_duration_s > 0):
+        raise EodarmError(f"--min-duration must be > 0 s, got {min_duration_s}")
+    camp = read_campaign(campaign)
+    drawn: list[str] = []
+    draw = None
+    if plot_dir or record_figures is not None:
+        from eodarm.viz.records_plot import MAX_REPORT_RECORDS, record_figure, record_html
+
+        out = Path(plot_dir) if plot_dir else None
+        if out is not None:
+            out.mkdir(parents=True, exist_ok=True)
+
+        def draw(record: Any, result: Any) -> None:
+            if out is not None:
+                p = out / f"record_{result.spec.config}.png"
+                record_figure(record, result, path=p)
+                drawn.append(str(p))
+            if record_figures is not None and len(record_figures) < MAX_REPORT_RECORDS:
+                record_figures.append(record_html(record, result))
+
+    try:
+        results = analyse_campaign(camp, allow_drift, min_duration_s, on_record=draw)
+    finally:
+        if drawn:
+            _held_note(f"drew {len(drawn)} records into {plot_dir}")
+    channels = list(dict.fromkeys(c for r in results for c in r.channels))
+    rows = [row for r in results for row in r.rows]
+
+    def write(target: Any) -> None:
+        write_rows(target, camp.n, rows, channels)
+
+    if any(r.spec.masses_kg[0] != 0 for r in results):
+        _held_note(
+            "a record's reference carries a payload (masses_kg[0] > 0): its rows are relative "
+            "to that loaded reference"
+        )
+    return results, write
+
+
+def _read_campaign_as_measurements(
+    path: str, arm: Arm, record_figures: list[str] | None = None
+) -> Measurements:
+    """A campaign file given where a measurement file goes: run ``eodarm records`` on it
+    (saying so on stderr) and read the rows it would write."""
+    import io
+
+    from eodarm.data.reader import read_measurements
+
+    results, write = run_records(path, record_figures=record_figures)
+    buf = io.StringIO()
+    write(buf)
+    buf.seek(0)
+    buf.name = f"{path} (records)"  # type: ignore[attr-defined]
+    rows = sum(len(r.rows) for r in results)
+    _note(
+        f"{path} is a campaign: ran `eodarm records` on it ({rows} states of "
+        f"{len(results)} records; docs/records.md)"
+    )
+    CAMPAIGN_RESULTS[:] = results
+    return read_measurements(buf, arm.n)
+
+
+#: The records of the last campaign read by :func:`_read` (for the report's appendix).
+CAMPAIGN_RESULTS: list[Any] = []

@@ -9,6 +9,7 @@ HELP = {
     "compare": "model vs measurements: residuals, RMS, chi2, worst rows, outliers",
     "diagnose": "rank every candidate effect; find the missing set",
     "fit": "fit the parameters of the added effects",
+    "records": "steady states of raw records (a campaign) -> a measurement file with errors",
     "synth": "write a synthetic measurement file (the model with hidden effects + noise)",
     "sweep": "solve a whole grid of poses × payloads; write NetCDF/Zarr and the four maps",
     "report": "the whole story as one HTML report (default: the bundled seed data)",

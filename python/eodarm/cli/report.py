@@ -66,6 +66,7 @@ def _run(args: argparse.Namespace, step: Any) -> int:
     mk = _model_kw(args)
     published: list[tuple[str, float]] = []
     handover: dict[str, str] = {}
+    records: list[str] = []  # the records' figures, when MEAS is a campaign (docs/records.md)
     if args.measurements is None:
         from eodarm.data import datasets
 
@@ -103,7 +104,7 @@ def _run(args: argparse.Namespace, step: Any) -> int:
         _note("no measurements given: reporting on the bundled data set seed2022")
     else:
         arm = _load_arm(args.arm, args.measurements)
-        meas = _read(args.measurements, arm)
+        meas = _read(args.measurements, arm, record_figures=records)
         title = args.title
         intro = None
         handover = {"measurements": args.measurements, "arm": args.arm or "ARM.toml"}
@@ -143,6 +144,7 @@ def _run(args: argparse.Namespace, step: Any) -> int:
         stopped=inv.stopped,
         published=published,
         handover=handover,
+        extra_sections=_records_appendix(records),
         **mk,
     )
     main = "dy_mm" if "dy_mm" in meas.measured_channels else meas.measured_channels[0]
@@ -177,6 +179,17 @@ def _run(args: argparse.Namespace, step: Any) -> int:
     _note(f"wrote {out}")
     _note(f'next: open {out}; the fitted arm file is in it ("Take the model with you")')
     return 0
+
+
+def _records_appendix(figures: list[str]) -> list[tuple[str, str]] | None:
+    """The appendix of a report on a campaign: its records' figures."""
+    if not figures:
+        return None
+    from eodarm.cli._common import CAMPAIGN_RESULTS
+    from eodarm.viz.records_plot import records_appendix
+
+    html = records_appendix(figures, len(CAMPAIGN_RESULTS))
+    return [("Appendix: the raw records", html)]
 
 
 def add_parser(sub: Any) -> argparse.ArgumentParser:

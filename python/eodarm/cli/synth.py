@@ -97,6 +97,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         "else use the default noise levels)",
     )
     p.add_argument("-o", "--output", metavar="OUT.csv", help="output file (default: stdout)")
+    _records_args(p)
     _effects_args(p)
     p.set_defaults(func=run)
     return p
@@ -111,6 +112,8 @@ def run(args: argparse.Namespace) -> int:
         With a one-line reason (the main CLI prints it and exits with status 2).
     """
     arm = _load_arm(args.arm)
+    if args.records:  # rehearsal records of a campaign instead of a measurement file
+        return _records(args, arm)
     n = arm.n
     masses = _floats(args.masses, "--masses")
     if not masses:
@@ -231,3 +234,85 @@ def _hidden_effect(spec: str) -> Effect:
     """``EFFECT@PLACE=VALUE`` → Effect (a catalogue effect or a registered user-written one,
     e.g. from ``--effects FILE.py``)."""
     return _valued_effect(spec, "--hidden")
+
+
+# ------------------------------------------------------------------- rehearsal records
+def _records_args(p: argparse.ArgumentParser) -> None:
+    """``--records DIR`` and its options (docs/records.md, "Rehearsal records")."""
+    g = p.add_argument_group("rehearsal records (docs/records.md)")
+    g.add_argument(
+        "--records",
+        metavar="DIR",
+        help="write a campaign file and one raw record per configuration into DIR, as a "
+        "logger would (offsets, a hand on the plate, ringing, correlated noise)",
+    )
+    g.add_argument(
+        "--sequence",
+        metavar="M0,M1,...",
+        help="with --records: the payloads in the order applied, kg, the first the reference "
+        "(default 0,1.5,5,6.5,5,1.5,0)",
+    )
+    g.add_argument(
+        "--drift",
+        action="append",
+        metavar="STEP[=RATE]",
+        help="with --records: state STEP (1 = first after the reference) creeps at RATE noise "
+        "sigmas per second (default 1) on every channel (repeatable)",
+    )
+    g.add_argument("--rate", type=float, default=300.0, help="sampling rate, Hz (default 300)")
+    g.add_argument("--hold", type=float, default=8.0, help="seconds per state (default 8)")
+
+
+def _records(args: argparse.Namespace, arm: Arm) -> int:
+    from eodarm.analysis.synth_records import synth_records, write_synth_campaign
+
+    if args.output or args.repeats != 1 or args.no_sigma_columns:
+        raise EodarmError(
+            "--records writes a campaign: -o, --repeats, --no-sigma-columns do not apply"
+        )
+    seq = _floats(args.sequence or "0,1.5,5,6.5,5,1.5,0", "--sequence")
+    hidden = [_hidden_effect(s) for s in args.hidden or []]
+    drift: dict[int, float] = {}
+    for spec in args.drift or []:
+        k, _, rate = spec.partition("=")
+        try:
+            drift[int(k)] = float(rate) if rate else 1.0
+        except ValueError:
+            raise EodarmError(f"--drift '{spec}': expected STEP[=RATE], e.g. 3=0.5") from None
+    sigma: dict[str, float] = {}
+    for spec in args.sigma or []:
+        key, _, value = spec.partition("=")
+        try:
+            sigma[key.strip()] = float(value)
+        except ValueError:
+            raise EodarmError(f"--sigma '{spec}': expected CHANNEL=VALUE") from None
+    if args.alpha:
+        alpha = np.array([_angles(a, arm.n) for a in args.alpha])
+    else:
+        alpha = _solvable_configs(
+            arm,
+            4 if args.configs is None else args.configs,
+            np.random.default_rng([1, args.seed]),
+            [max(seq) + 3.0],  # the hand presses up to 3 kg more
+            hidden,
+            not args.no_self_weight,
+        )
+    recs = synth_records(
+        arm,
+        alpha,
+        seq,
+        hidden=hidden,
+        channels=args.channels,
+        sigma=sigma,
+        noise=args.noise,
+        seed=args.seed,
+        self_weight=not args.no_self_weight,
+        rate_hz=args.rate,
+        hold_s=args.hold,
+        drift=drift,
+    )
+    path = write_synth_campaign(args.records, recs)
+    model = ", ".join(f"{e.key}={e.value:g}" for e in hidden) or "none"
+    _note(f"wrote {len(recs)} records ({len(seq)} states each; hidden: {model}) and {path}")
+    _next("records", str(path), "-o", "meas.csv")
+    return 0

@@ -1,0 +1,230 @@
+"""Rehearsal records: a campaign as a logger would write it (docs/records.md).
+
+Each configuration gets one record of its payload sequence (e.g. 0, 1.5, 5, 6.5, 5, 1.5, 0 kg),
+sampled at ``rate_hz`` with a little jitter. What the sensors read:
+
+* each channel's **offset** (the sensors are not zeroed: a constant of a few hundred noise
+  units);
+* the **model's values** of every state, loaded once from the reference
+  (:func:`state_values`, ``eodarm.solve`` with the hidden effects);
+* between two states, a **hand on the plate**: a pressing force of 1–3 kg that rises and
+  falls over about a second with a tremor, then the new weight lands and the arm **rings
+  into the new level** (a damped 4–8 Hz oscillation of a time constant of about 0.1 s);
+* **time-correlated noise**: per channel an AR(1) process of correlation time ``corr_s``
+  and standard deviation σ (the channel's noise level), plus white noise of 0.3 σ;
+* optional **drift**: a state that creeps at a given rate (σ per second) on every channel,
+  and stays where it crept to.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from eodarm.analysis.synth import _sigmas
+from eodarm.data.channels import channel_names, channel_values, expand_channels
+from eodarm.data.records import RecordSpec, write_campaign, write_record
+from eodarm.errors import EodarmError
+from eodarm.model.arm import Arm
+from eodarm.model.effects import Effect, as_effects
+from eodarm.model.solver import solve
+
+__all__ = ["SynthRecord", "state_values", "synth_records", "write_synth_campaign"]
+
+FloatArray = npt.NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class SynthRecord:
+    """One synthetic record: its campaign entry, samples and the truth behind them.
+
+    ``truth`` is (S, C): each state's model values relative to the reference (the first
+    state), in the order of ``channels``.
+    """
+
+    config: str
+    alpha_deg: tuple[float, ...]
+    masses_kg: tuple[float, ...]
+    time_s: FloatArray
+    channels: tuple[str, ...]
+    values: FloatArray
+    truth: FloatArray
+    sigma: FloatArray
+
+
+def state_values(
+    arm: Arm,
+    alpha_deg: FloatArray,
+    sequence: Sequence[float],
+    hidden: Iterable[Effect],
+    self_weight: bool = True,
+) -> FloatArray:
+    """The model's values (K, S, C) of each configuration's states, relative to its
+    reference (the first state), every channel of the arm.
+
+    Each state is loaded once from the unloaded reference (``eodarm.solve``); the reference's
+    own payload is subtracted. Effects with memory (friction, a gap that stays where it was
+    pushed) need the whole sequence instead: where ``eodarm.solve_sequence`` exists, the one
+    call below becomes (its keys are (K, S − 1, …), relative to each reference)::
+
+        out = solve_sequence(arm, alpha_deg, np.asarray(sequence[1:]), effects=...)
+        out = {key: a.reshape(k * (s - 1), *a.shape[2:]) for key, a in out.items()}
+        vals = channel_values(out, names).reshape(k, s - 1, -1)
+        return np.concatenate([np.zeros((k, 1, vals.shape[2])), vals], axis=1)
+    """
+    k, s = alpha_deg.shape[0], len(sequence)
+    names = channel_names(arm.n)
+    rows_alpha = np.repeat(alpha_deg, s, axis=0)
+    rows_mass = np.tile(np.asarray(sequence, dtype=float), k)
+    # the one call to the model (see above for the sequence of an arm with memory)
+    out = solve(arm, rows_alpha, rows_mass, effects=as_effects(hidden), self_weight=self_weight)
+    vals = channel_values(out, names).reshape(k, s, -1)
+    return vals - vals[:, :1, :]
+
+
+def synth_records(
+    arm: Arm,
+    alpha_deg: npt.ArrayLike,
+    sequence: Sequence[float],
+    hidden: Effect | Iterable[Effect] = (),
+    channels: str | Iterable[str] | None = None,
+    sigma: Mapping[str, float] | None = None,
+    noise: float = 1.0,
+    seed: int = 0,
+    self_weight: bool = True,
+    rate_hz: float = 300.0,
+    hold_s: float = 8.0,
+    corr_s: float = 0.05,
+    drift: Mapping[int, float] | None = None,
+    ring_s: float = 0.1,
+) -> list[SynthRecord]:
+    """One rehearsal record per configuration (see the module docstring).
+
+    Parameters
+    ----------
+    arm : the arm.
+    alpha_deg : (K, n) unloaded angles, degrees.
+    sequence : the payloads in the order they are applied, kg; the first is the reference.
+    hidden : effects present in the synthetic arm.
+    channels, sigma, noise : the logged channels and their noise standard deviation per
+        sample, as :func:`eodarm.analysis.synth.synth` takes them (mm or degrees).
+    seed : random seed.
+    self_weight : include link and actuator weights.
+    rate_hz : sampling rate, Hz.
+    hold_s : how long each state is held, s (each record's holds vary by −10 … +20 %).
+    corr_s : correlation time of the noise, s.
+    drift : state index (1 = the first state after the reference) → creep rate in noise σ
+        per second, on every channel.
+    ring_s : time constant of the ringing into a new level, s.
+
+    Raises
+    ------
+    EodarmError
+        On a sequence of fewer than two payloads, a negative payload, a bad rate, hold or
+        correlation time, or a drift of a state that is not in the sequence.
+    """
+    alpha = np.atleast_2d(np.asarray(alpha_deg, dtype=float))
+    seq = [float(m) for m in sequence]
+    if len(seq) < 2:
+        raise EodarmError("--sequence: give the reference and at least one payload")
+    if any(not math.isfinite(m) or m < 0 for m in seq):
+        raise EodarmError(f"--sequence: payloads must be finite and >= 0, got {seq}")
+    checks = (("rate", rate_hz), ("hold", hold_s), ("correlation time", corr_s), ("ring", ring_s))
+    for name, val in checks:
+        if not (math.isfinite(val) and val > 0):
+            raise EodarmError(f"records: the {name} must be > 0, got {val}")
+    drift = dict(drift or {})
+    for k in drift:
+        if not 0 <= k < len(seq):
+            raise EodarmError(f"--drift: state {k} is not in the sequence (0…{len(seq) - 1})")
+    every = channel_names(arm.n)
+    chosen = expand_channels(channels, arm.n)
+    sel = [every.index(c) for c in chosen]
+    sig_all = _sigmas(sigma or {}, every, noise)
+    truth_all = state_values(arm, alpha, seq, as_effects(hidden), self_weight)
+    unit_all = state_values(arm, alpha, [0.0, 1.0], as_effects(hidden), self_weight)[:, 1, :]
+    rng = np.random.default_rng(seed)
+    dt = 1.0 / rate_hz
+    phi = math.exp(-dt / corr_s)
+    out = []
+    for i in range(alpha.shape[0]):
+        truth = truth_all[i][:, sel]
+        unit = unit_all[i][sel]
+        sig = sig_all[sel]
+        pieces_t: list[npt.NDArray[np.floating[Any]]] = []
+        pieces_v: list[npt.NDArray[np.floating[Any]]] = []
+        t_now = 0.0
+        creep = np.zeros(len(sel))
+        for k in range(len(seq)):
+            if k > 0:  # the hand on the plate, then the weight lands
+                h = round(rng.uniform(0.8, 1.5) * rate_hz) * dt
+                tt = np.arange(round(h / dt)) * dt
+                press = rng.uniform(1.0, 3.0)
+                f = rng.uniform(2.0, 4.0)
+                load = press * np.sin(np.pi * tt / h) ** 2 * (1 + 0.3 * np.sin(2 * np.pi * f * tt))
+                pieces_t.append(t_now + tt)
+                pieces_v.append(truth[k - 1] + creep + load[:, None] * unit[None, :])
+                t_now += h
+            hold = max(1, round(hold_s * rng.uniform(0.9, 1.2) * rate_hz)) * dt
+            tt = np.arange(round(hold / dt)) * dt
+            level = truth[k] + creep
+            seg = np.broadcast_to(level, (tt.size, len(sel))).copy()
+            if k > 0:
+                step = truth[k] - truth[k - 1]
+                fr = rng.uniform(4.0, 8.0)
+                ring = np.exp(-tt / ring_s) * np.cos(2 * np.pi * fr * tt)
+                seg += ring[:, None] * (0.4 * step + 0.3 * unit)[None, :]
+            if k in drift:
+                seg += (drift[k] * sig)[None, :] * tt[:, None]
+                creep = creep + drift[k] * sig * (tt[-1] if tt.size else 0.0)
+            pieces_t.append(t_now + tt)
+            pieces_v.append(seg)
+            t_now += hold
+        t = np.concatenate(pieces_t)
+        t = t + rng.uniform(0.0, 0.3 * dt, t.size)  # irregular sampling, still increasing
+        v = np.concatenate(pieces_v)
+        m = t.size
+        innov = rng.standard_normal((m, len(sel))) * math.sqrt(1 - phi * phi)
+        from scipy.signal import lfilter
+
+        z0 = rng.standard_normal(len(sel)) * phi
+        ar = lfilter([1.0], [1.0, -phi], innov, axis=0, zi=z0[None, :])[0]
+        v = v + sig[None, :] * (ar + 0.3 * rng.standard_normal((m, len(sel))))
+        offset = rng.uniform(-300.0, 300.0, len(sel)) * sig
+        v = v + offset[None, :]
+        out.append(
+            SynthRecord(
+                config=f"c{i + 1}",
+                alpha_deg=tuple(float(a) for a in alpha[i]),
+                masses_kg=tuple(seq),
+                time_s=t,
+                channels=tuple(chosen),
+                values=v,
+                truth=truth,
+                sigma=sig,
+            )
+        )
+    return out
+
+
+def write_synth_campaign(
+    directory: str | Path, records: Sequence[SynthRecord], name: str = "campaign.toml"
+) -> Path:
+    """Write each record as ``<config>.csv`` and the campaign file into ``directory``;
+    return the campaign file's path."""
+    d = Path(directory)
+    d.mkdir(parents=True, exist_ok=True)
+    specs = []
+    for r in records:
+        f = d / f"{r.config}.csv"
+        write_record(f, r.time_s, r.channels, r.values)
+        specs.append(RecordSpec(f, r.config, r.alpha_deg, r.masses_kg))
+    path = d / name
+    write_campaign(path, specs)
+    return path
