@@ -23,7 +23,7 @@ from pathlib import Path
 import pytest
 
 import eodarm
-from module_graph import cycles
+from module_graph import cycles, rust_module_graph
 
 ROOT = Path(__file__).resolve().parents[1]
 PACKAGE = Path(eodarm.__file__).resolve().parent
@@ -126,3 +126,39 @@ def test_an_import_cycle_is_caught(tmp_path: Path, module: str, planted: str, cy
     target.write_text(target.read_text(encoding="utf-8") + f"\n{planted}  # noqa\n")
     found = _python_cycles(tmp_path)
     assert any(cycle in c and module.replace("/", ".")[:-3] in " ".join(c) for c in found), found
+
+
+CORE_SRC = ROOT / "crates" / "arm_core" / "src"
+
+
+def test_no_core_module_uses_one_that_uses_it_back() -> None:
+    graph = rust_module_graph(CORE_SRC)
+    assert "solve::fast" in graph and "sweep::fallback" in graph  # the parser found the modules
+    assert "sweep::fast" in graph["solve::fast"]  # and the uses: the kernels share lanes
+    assert cycles(graph) == []
+
+
+@pytest.mark.parametrize(
+    ("module", "planted", "cycle"),
+    [
+        # the general path reaching back into the batch drivers (what sweep/fallback.rs's
+        # use of solve::{SolveOptions, Workspace} once closed through solve.rs)
+        ("solve/general.rs", "use crate::solve::solve_batch;", {"solve", "solve::general"}),
+        # a kernel's effect module calling a helper of its parent inline (what
+        # solve/fast/base.rs's super::cos_m1 once did)
+        (
+            "solve/fast/clearance.rs",
+            "fn planted() { let _ = super::SolveKernel::<1>::new; }",
+            {"solve::fast", "solve::fast::clearance"},
+        ),
+        # a shared piece using the module it serves, through a re-export of the parent
+        ("sweep/cells.rs", "use super::SweepOptions;", {"sweep", "sweep::cells"}),
+    ],
+)
+def test_a_core_cycle_is_caught(tmp_path: Path, module: str, planted: str, cycle: set[str]) -> None:
+    copy = tmp_path / "src"
+    shutil.copytree(CORE_SRC, copy)
+    target = copy / module
+    target.write_text(target.read_text(encoding="utf-8") + f"\n{planted}\n")
+    found = cycles(rust_module_graph(copy))
+    assert any(cycle <= set(c) for c in found), found
