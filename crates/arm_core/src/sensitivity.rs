@@ -17,6 +17,9 @@
 
 mod block;
 mod general;
+mod jacobian;
+
+pub use jacobian::{jacobian_batch, jacobian_batch_general};
 
 use crate::arm::Arm;
 use crate::effects::{
@@ -24,8 +27,7 @@ use crate::effects::{
     LinkBending, MountCompliance, Unloaded, CODE_CLEARANCE_TAKEN_UP, CODE_PLAY_TAKEN_UP,
 };
 use crate::error::{ArmError, Result};
-use crate::solve::fast::Kernel;
-use crate::solve::{check_input, BatchInput, SolveOptions};
+use crate::solve::{check_input, BatchInput};
 
 /// An effect kind and place, by the catalogue code (as in `Effect::from_code`) and 0-based index.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -122,58 +124,6 @@ pub fn step(arm: &Arm, model: &[(Place, f64)], probe: Place) -> (f64, f64) {
 /// Number of channels of an `n`-link arm: dx, dy, dα₁…dαₙ, dl₁…dlₙ.
 pub fn n_channels(n: usize) -> usize {
     2 + 2 * n
-}
-
-/// Model prediction `y` (N × C) and sensitivities `jac` (N × C × P) for `probes`.
-///
-/// `model` holds the model's effects with their θ; a probe that is in the model is
-/// differentiated at its θ, any other at its neutral θ (the model without it).
-/// Channels: dx, dy (mm), dα (deg), dl (mm) as the `dlK_mm` sensor sees it. Row `r`, channel
-/// `k`, probe `j` is `jac[(r·C + k)·P + j]`.
-///
-/// With `opts.nan_on_failure`, a row that cannot be solved for the model or for any of the
-/// stepped models gets NaN in all its `y` and `jac` entries.
-///
-/// # Errors
-/// Shape or non-finite input, duplicate or misplaced effects, singular or unreachable poses
-/// (naming the lowest failing row).
-pub fn jacobian_batch(
-    arm: &Arm,
-    model: &[(Place, f64)],
-    probes: &[Place],
-    input: BatchInput<'_>,
-    opts: SolveOptions,
-    y: &mut [f64],
-    jac: &mut [f64],
-) -> Result<()> {
-    let sets = Sets::new(arm, model, probes, &input, y, jac)?;
-    let kernels: Option<Vec<Kernel>> = sets
-        .sets
-        .iter()
-        .map(|s| Kernel::new(arm, s, opts.self_weight))
-        .collect();
-    match kernels {
-        Some(kernels) => block::run(arm, &sets, &kernels, input, opts, y, jac),
-        None => general::run(arm, &sets, input, opts, y, jac),
-    }
-}
-
-/// [`jacobian_batch`] through the general path only ([`crate::solve::Workspace::solve`] pose by
-/// pose for every effect set): the reference the block kernel's Jacobian is tested against.
-///
-/// # Errors
-/// As [`jacobian_batch`].
-pub fn jacobian_batch_general(
-    arm: &Arm,
-    model: &[(Place, f64)],
-    probes: &[Place],
-    input: BatchInput<'_>,
-    opts: SolveOptions,
-    y: &mut [f64],
-    jac: &mut [f64],
-) -> Result<()> {
-    let sets = Sets::new(arm, model, probes, &input, y, jac)?;
-    general::run(arm, &sets, input, opts, y, jac)
 }
 
 /// Cuts `y` (N × C) and `jac` (N × C × P) into chunks of `rows` rows: (first row, its rows of

@@ -6,18 +6,22 @@
 //! and longer arms go through the general path, one [`Workspace`] per chunk (nothing is
 //! allocated per pose). Both give the status of every pose ([`solve_batch_status`]).
 
+mod batch;
 pub(crate) mod fast;
+mod general;
 mod status;
 
 use rayon::prelude::*;
 
 use crate::arm::Arm;
-use crate::effects::{Deformation, EffectContext, EffectSet, ExtraDeformations};
+use crate::effects::{EffectSet, ExtraDeformations};
 use crate::error::{ArmError, Result};
 use crate::geometry::V2;
 use crate::kinematics::Frames;
-use crate::pose::close_pose;
-use crate::statics::{solve_forces, ActuatorLines, Forces};
+
+pub(crate) use batch::{fill_nan, write_row};
+pub use batch::{BatchBuffers, BatchInput, BatchOutput};
+pub use general::{SolveOptions, Workspace};
 
 /// Below this many poses the batch runs on the calling thread.
 pub const PARALLEL_THRESHOLD: usize = 2048;
@@ -28,273 +32,6 @@ pub const CHUNK: usize = 1024;
 pub const KERNEL_PARALLEL_THRESHOLD: usize = 512;
 /// Poses per parallel work item of the block kernel (64 blocks).
 pub const KERNEL_CHUNK: usize = 1024;
-
-/// Options of a solve.
-#[derive(Debug, Clone, Copy)]
-pub struct SolveOptions {
-    /// Include link and actuator weights in both states (the seed's Table 5 did not).
-    pub self_weight: bool,
-    /// Fill a pose that cannot be solved (singular, or a triangle that cannot close) with
-    /// NaN instead of failing the batch: a sweep's workspace mask.
-    pub nan_on_failure: bool,
-}
-
-impl Default for SolveOptions {
-    fn default() -> Self {
-        Self {
-            self_weight: true,
-            nan_on_failure: false,
-        }
-    }
-}
-
-/// Per-thread scratch space for one pose at a time.
-#[derive(Debug, Clone)]
-pub struct Workspace {
-    /// Undeformed geometry.
-    pub frames: Frames,
-    /// Actuator lines of the undeformed pose.
-    pub lines: ActuatorLines,
-    /// Forces of the self-weight case.
-    pub weight: Forces,
-    /// Forces of the payload case = the change from unloaded to loaded.
-    pub delta: Forces,
-    /// Forces of the loaded state.
-    pub loaded: Forces,
-    /// Deformation causes.
-    pub def: Deformation,
-    /// Loaded pin-to-pin lengths (mm).
-    pub new_length: Vec<f64>,
-    /// Loaded angles (rad).
-    pub new_alpha: Vec<f64>,
-    /// Body length changes seen by the actuator sensors (mm).
-    pub body_dl: Vec<f64>,
-    /// Displacement of the measurement point (mm).
-    pub dmeasure: V2,
-}
-
-impl Workspace {
-    /// Scratch space for `arm`.
-    pub fn new(arm: &Arm) -> Self {
-        let n = arm.n();
-        Self {
-            frames: Frames::new(n),
-            lines: ActuatorLines::new(n),
-            weight: Forces::new(n),
-            delta: Forces::new(n),
-            loaded: Forces::new(n),
-            def: Deformation::new(arm),
-            new_length: vec![0.0; n],
-            new_alpha: vec![0.0; n],
-            body_dl: vec![0.0; n],
-            dmeasure: V2::zeros(),
-        }
-    }
-
-    /// Solves one pose (angles in rad, payload force in N at the load point).
-    ///
-    /// # Errors
-    /// Singular poses and triangles that cannot close, naming `row`.
-    pub fn solve(
-        &mut self,
-        arm: &Arm,
-        effects: &EffectSet,
-        alpha: &[f64],
-        payload: V2,
-        opts: SolveOptions,
-        row: usize,
-    ) -> Result<()> {
-        self.solve_extra(
-            arm,
-            effects,
-            alpha,
-            payload,
-            opts,
-            row,
-            (&ExtraDeformations::none(), 0),
-        )
-    }
-
-    /// [`Self::solve`] with the extra deformations `extra.0` of its row `extra.1` added to the
-    /// effects' (a checked batch, see [`ExtraDeformations::check`]).
-    ///
-    /// # Errors
-    /// Singular poses and triangles that cannot close, naming `row`.
-    #[allow(clippy::too_many_arguments)]
-    pub fn solve_extra(
-        &mut self,
-        arm: &Arm,
-        effects: &EffectSet,
-        alpha: &[f64],
-        payload: V2,
-        opts: SolveOptions,
-        row: usize,
-        extra: (&ExtraDeformations<'_>, usize),
-    ) -> Result<()> {
-        self.frames.fill(arm, alpha);
-        self.lines.fill(&self.frames, row)?;
-        solve_forces(
-            arm,
-            &self.frames,
-            &self.lines,
-            opts.self_weight,
-            V2::zeros(),
-            &mut self.weight,
-        );
-        solve_forces(
-            arm,
-            &self.frames,
-            &self.lines,
-            false,
-            payload,
-            &mut self.delta,
-        );
-        self.loaded.set_sum(&self.weight, &self.delta);
-        let ctx = EffectContext {
-            arm,
-            frames: &self.frames,
-            lines: &self.lines,
-            unloaded: &self.weight,
-            loaded: &self.loaded,
-            delta: &self.delta,
-            payload,
-        };
-        effects.apply(&ctx, &mut self.def);
-        if !extra.0.is_none() {
-            extra.0.add_to(extra.1, &mut self.def);
-        }
-        for i in 0..arm.n() {
-            let body = -self.delta.f[i] * self.def.body_compliance[i] + self.def.seen_length[i];
-            self.body_dl[i] = body;
-            self.new_length[i] = self.lines.length[i] + body + self.def.extra_length[i];
-        }
-        let m = close_pose(
-            arm,
-            &self.frames,
-            &self.def,
-            &self.new_length,
-            row,
-            &mut self.new_alpha,
-        )?;
-        self.dmeasure = m + self.def.measure_shift - self.frames.measure;
-        Ok(())
-    }
-}
-
-/// Inputs of a batch: `N` poses of an `n`-link arm, row-major.
-#[derive(Debug, Clone, Copy)]
-pub struct BatchInput<'a> {
-    /// Unloaded absolute angles (deg), `N × n`.
-    pub alpha_deg: &'a [f64],
-    /// Payload force at the load point (N, global), `N × 2`.
-    pub payload_n: &'a [f64],
-}
-
-/// Outputs of a batch, row-major, to be filled in place.
-#[derive(Debug)]
-pub struct BatchOutput<'a> {
-    /// Loaded actuator forces (N), `N × n`.
-    pub force_n: &'a mut [f64],
-    /// Loaded joint reactions (N), `N × n × 2`.
-    pub reaction_n: &'a mut [f64],
-    /// Force changes unloaded → loaded (N), `N × n`.
-    pub dforce_n: &'a mut [f64],
-    /// Measurement point displacement x (mm), `N`.
-    pub dx_mm: &'a mut [f64],
-    /// Measurement point displacement y (mm), `N`.
-    pub dy_mm: &'a mut [f64],
-    /// Change of absolute link angles (deg), `N × n`.
-    pub dalpha_deg: &'a mut [f64],
-    /// Actuator body length change seen by its sensor (mm), `N × n`.
-    pub dl_mm: &'a mut [f64],
-    /// Pin-to-pin length change (mm), `N × n`.
-    pub dlength_mm: &'a mut [f64],
-    /// Unloaded pin-to-pin length (mm), `N × n`.
-    pub length_mm: &'a mut [f64],
-}
-
-/// Owned, zeroed output buffers of a batch of `rows` poses of an `n`-link arm, lent to the
-/// solver by [`BatchBuffers::out`]; the fields are the [`BatchOutput`] slices' owners.
-#[derive(Debug, Clone, Default, PartialEq)]
-pub struct BatchBuffers {
-    /// See [`BatchOutput::force_n`].
-    pub force_n: Vec<f64>,
-    /// See [`BatchOutput::reaction_n`].
-    pub reaction_n: Vec<f64>,
-    /// See [`BatchOutput::dforce_n`].
-    pub dforce_n: Vec<f64>,
-    /// See [`BatchOutput::dx_mm`].
-    pub dx_mm: Vec<f64>,
-    /// See [`BatchOutput::dy_mm`].
-    pub dy_mm: Vec<f64>,
-    /// See [`BatchOutput::dalpha_deg`].
-    pub dalpha_deg: Vec<f64>,
-    /// See [`BatchOutput::dl_mm`].
-    pub dl_mm: Vec<f64>,
-    /// See [`BatchOutput::dlength_mm`].
-    pub dlength_mm: Vec<f64>,
-    /// See [`BatchOutput::length_mm`].
-    pub length_mm: Vec<f64>,
-}
-
-impl BatchBuffers {
-    /// Zeroed buffers for `rows` poses of an `n`-link arm.
-    pub fn new(rows: usize, n: usize) -> Self {
-        let per_link = || vec![0.0; rows * n];
-        Self {
-            force_n: per_link(),
-            reaction_n: vec![0.0; rows * n * 2],
-            dforce_n: per_link(),
-            dx_mm: vec![0.0; rows],
-            dy_mm: vec![0.0; rows],
-            dalpha_deg: per_link(),
-            dl_mm: per_link(),
-            dlength_mm: per_link(),
-            length_mm: per_link(),
-        }
-    }
-
-    /// The buffers as the solver's output slices.
-    pub fn out(&mut self) -> BatchOutput<'_> {
-        BatchOutput {
-            force_n: &mut self.force_n,
-            reaction_n: &mut self.reaction_n,
-            dforce_n: &mut self.dforce_n,
-            dx_mm: &mut self.dx_mm,
-            dy_mm: &mut self.dy_mm,
-            dalpha_deg: &mut self.dalpha_deg,
-            dl_mm: &mut self.dl_mm,
-            dlength_mm: &mut self.dlength_mm,
-            length_mm: &mut self.length_mm,
-        }
-    }
-}
-
-impl BatchOutput<'_> {
-    pub(crate) fn check(&self, rows: usize, n: usize) -> Result<()> {
-        let want = [
-            ("force_n", self.force_n.len(), rows * n),
-            ("reaction_n", self.reaction_n.len(), rows * n * 2),
-            ("dforce_n", self.dforce_n.len(), rows * n),
-            ("dx_mm", self.dx_mm.len(), rows),
-            ("dy_mm", self.dy_mm.len(), rows),
-            ("dalpha_deg", self.dalpha_deg.len(), rows * n),
-            ("dl_mm", self.dl_mm.len(), rows * n),
-            ("dlength_mm", self.dlength_mm.len(), rows * n),
-            ("length_mm", self.length_mm.len(), rows * n),
-        ];
-        for (what, got, expected) in want {
-            if got != expected {
-                return Err(ArmError::Shape {
-                    what,
-                    expected,
-                    got,
-                });
-            }
-        }
-        Ok(())
-    }
-}
 
 /// Checks shapes and finiteness of a batch; returns the number of poses.
 ///
@@ -573,44 +310,4 @@ fn solve_chunk(
         status[p] = status::pose_status(arm, &ws.frames, &mut loaded, &out, p, down, reach);
     }
     Ok(())
-}
-
-/// Writes the solved pose in `ws` (unloaded angles `alpha`, rad) into output row `p`.
-#[allow(clippy::needless_range_loop)] // i indexes six parallel arrays
-pub(crate) fn write_row(
-    ws: &Workspace,
-    alpha: &[f64],
-    out: &mut BatchOutput<'_>,
-    p: usize,
-    n: usize,
-) {
-    for i in 0..n {
-        let j = p * n + i;
-        out.force_n[j] = ws.loaded.f[i];
-        out.reaction_n[2 * j] = ws.loaded.r[i].x;
-        out.reaction_n[2 * j + 1] = ws.loaded.r[i].y;
-        out.dforce_n[j] = ws.delta.f[i];
-        out.dalpha_deg[j] = (ws.new_alpha[i] - alpha[i]).to_degrees();
-        out.dl_mm[j] = ws.body_dl[i];
-        out.dlength_mm[j] = ws.new_length[i] - ws.lines.length[i];
-        out.length_mm[j] = ws.lines.length[i];
-    }
-    out.dx_mm[p] = ws.dmeasure.x;
-    out.dy_mm[p] = ws.dmeasure.y;
-}
-
-pub(crate) fn fill_nan(out: &mut BatchOutput<'_>, p: usize, n: usize) {
-    for s in [
-        &mut *out.force_n,
-        &mut *out.dforce_n,
-        &mut *out.dalpha_deg,
-        &mut *out.dl_mm,
-        &mut *out.dlength_mm,
-        &mut *out.length_mm,
-    ] {
-        s[p * n..(p + 1) * n].fill(f64::NAN);
-    }
-    out.reaction_n[2 * p * n..2 * (p + 1) * n].fill(f64::NAN);
-    out.dx_mm[p] = f64::NAN;
-    out.dy_mm[p] = f64::NAN;
 }

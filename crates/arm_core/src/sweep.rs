@@ -38,10 +38,12 @@
 //!
 //! Results do not depend on the chunk size or the number of threads (bit for bit).
 
+mod cells;
 mod fallback;
 pub(crate) mod fast;
 pub mod lanes;
 mod reduce;
+mod transpose;
 pub mod trig;
 
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
@@ -50,9 +52,12 @@ use std::sync::Mutex;
 use crate::arm::Arm;
 use crate::effects::EffectSet;
 use crate::error::{ArmError, Result};
+use cells::{cut, PoseOut};
+pub use cells::{CellFields, Cells, ReduceOp};
 pub use fast::L;
 use fast::{CellBlock, FastArm, PoseBlock};
 use reduce::{fold_op, n_fields, write_group, Acc, Sink, ARGMAX, ARGMIN, MAX, MIN};
+pub(crate) use transpose::{transpose_into, transpose_xy_into};
 
 /// Default number of rows (cells) per chunk.
 pub const CHUNK_ROWS: usize = 16_384;
@@ -60,26 +65,6 @@ pub const CHUNK_ROWS: usize = 16_384;
 pub const MIN_CHUNK_ROWS: usize = 512;
 /// Longest arm handled by the block kernel; longer arms use the per-cell path.
 pub const MAX_FAST_LINKS: usize = 6;
-
-/// A reduction over groups of consecutive rows.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum ReduceOp {
-    /// Largest value (NaN ignored).
-    Max,
-    /// Smallest value (NaN ignored).
-    Min,
-    /// Offset within the group of the first largest value; −1 when the group has none.
-    ArgMax,
-    /// Offset within the group of the first smallest value; −1 when the group has none.
-    ArgMin,
-}
-
-impl ReduceOp {
-    /// Whether the reduction yields indices (written to [`Cells::Indices`]).
-    pub fn is_arg(self) -> bool {
-        matches!(self, Self::ArgMax | Self::ArgMin)
-    }
-}
 
 /// Reduce every `group` consecutive rows (cells) with `op`; `group` must divide N·M.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -216,62 +201,6 @@ impl Grid<'_> {
     }
 }
 
-/// The cell fields, row-major, for `R` output rows (cells, or groups when reduced).
-#[derive(Debug)]
-pub struct CellFields<'a, T> {
-    /// Loaded actuator forces (N, compression +), `R × n`.
-    pub force_n: &'a mut [T],
-    /// Displacement of the measure point, x (mm), `R`.
-    pub dx_mm: &'a mut [T],
-    /// Displacement of the measure point, y (mm), `R`.
-    pub dy_mm: &'a mut [T],
-    /// Change of absolute link angles (deg), `R × n`.
-    pub dalpha_deg: &'a mut [T],
-    /// Actuator body length change as its sensor sees it (mm), `R × n`.
-    pub dl_mm: &'a mut [T],
-}
-
-impl<'a, T> CellFields<'a, T> {
-    fn lens(&self, n: usize) -> [(&'static str, usize, usize); 5] {
-        [
-            ("force_n", self.force_n.len(), n),
-            ("dx_mm", self.dx_mm.len(), 1),
-            ("dy_mm", self.dy_mm.len(), 1),
-            ("dalpha_deg", self.dalpha_deg.len(), n),
-            ("dl_mm", self.dl_mm.len(), n),
-        ]
-    }
-
-    /// Splits off output rows `[skip, skip + take)` of what is left, dropping the first `skip`.
-    fn split(&mut self, skip: usize, take: usize, n: usize) -> CellFields<'a, T> {
-        CellFields {
-            force_n: cut(&mut self.force_n, skip * n, take * n),
-            dx_mm: cut(&mut self.dx_mm, skip, take),
-            dy_mm: cut(&mut self.dy_mm, skip, take),
-            dalpha_deg: cut(&mut self.dalpha_deg, skip * n, take * n),
-            dl_mm: cut(&mut self.dl_mm, skip * n, take * n),
-        }
-    }
-}
-
-/// Cell outputs: values (per cell, or `Max`/`Min` per group) or indices (`ArgMax`/`ArgMin`).
-#[derive(Debug)]
-pub enum Cells<'a> {
-    /// Values (N, mm, deg).
-    Values(CellFields<'a, f64>),
-    /// Offsets within each group of the selected cell, −1 where the group has no value.
-    Indices(CellFields<'a, i64>),
-}
-
-impl<'a> Cells<'a> {
-    fn split(&mut self, skip: usize, take: usize, n: usize) -> Cells<'a> {
-        match self {
-            Cells::Values(c) => Cells::Values(c.split(skip, take, n)),
-            Cells::Indices(c) => Cells::Indices(c.split(skip, take, n)),
-        }
-    }
-}
-
 /// Output buffers of a sweep, filled in place. `R` is the number of output rows: N·M, or
 /// N·M / group when reduced. A per-pose buffer may be empty: it is then not written.
 #[derive(Debug)]
@@ -294,14 +223,6 @@ pub struct SweepOut<'a> {
     pub effector_x_mm: &'a mut [f64],
     /// Unloaded global load point, y (mm), `N`.
     pub effector_y_mm: &'a mut [f64],
-}
-
-fn cut<'a, T>(s: &mut &'a mut [T], skip: usize, take: usize) -> &'a mut [T] {
-    let rest = std::mem::take(s);
-    let (_, rest) = rest.split_at_mut(skip.min(rest.len()));
-    let (head, tail) = rest.split_at_mut(take.min(rest.len()));
-    *s = tail;
-    head
 }
 
 /// One chunk's share of the outputs.
@@ -939,14 +860,6 @@ fn merge_partials(op: ReduceOp, n: usize, mut partials: Vec<Partial>, gaps: Vec<
     }
 }
 
-/// A chunk's per-pose output slices (each may be empty: not wanted).
-struct PoseOut<'s> {
-    length: &'s mut [f64],
-    reachable: &'s mut [bool],
-    ex: &'s mut [f64],
-    ey: &'s mut [f64],
-}
-
 /// Solves poses `pose0 .. pose0 + poses`: from `alpha` (their rows), or, when `alpha` is
 /// empty and the sweep is over a grid, generated block by block by the block kernel.
 fn run_kernel(
@@ -1083,49 +996,6 @@ fn run_fast<const N: usize>(
             }
         }
         p += count;
-    }
-}
-
-/// Writes the first `out.len() / N` lanes of a `[link][lane]` block as rows of `N`.
-#[inline(always)]
-pub(crate) fn transpose_into<const N: usize>(block: &[[f64; L]; N], out: &mut [f64]) {
-    if out.len() == L * N {
-        for (g, rows) in out.chunks_exact_mut(4 * N).enumerate() {
-            let cols: [[f64; 4]; N] =
-                std::array::from_fn(|i| std::array::from_fn(|q| block[i][4 * g + q]));
-            let t: [[f64; N]; 4] = std::array::from_fn(|q| std::array::from_fn(|i| cols[i][q]));
-            rows.copy_from_slice(t.as_flattened());
-        }
-        return;
-    }
-    for (q, row) in out.chunks_exact_mut(N).enumerate() {
-        for i in 0..N {
-            row[i] = block[i][q];
-        }
-    }
-}
-
-/// [`transpose_into`] for the x and y parts of a vector per link: the first
-/// `out.len() / (2N)` lanes as rows of `N` (x, y) pairs.
-#[inline(always)]
-pub(crate) fn transpose_xy_into<const N: usize>(xy: &[[[f64; L]; N]; 2], out: &mut [f64]) {
-    if out.len() == 2 * L * N {
-        for (g, rows) in out.chunks_exact_mut(8 * N).enumerate() {
-            let cols: [[[f64; 4]; N]; 2] = std::array::from_fn(|c| {
-                std::array::from_fn(|i| std::array::from_fn(|q| xy[c][i][4 * g + q]))
-            });
-            let t: [[[f64; 2]; N]; 4] = std::array::from_fn(|q| {
-                std::array::from_fn(|i| std::array::from_fn(|c| cols[c][i][q]))
-            });
-            rows.copy_from_slice(t.as_flattened().as_flattened());
-        }
-        return;
-    }
-    for (q, row) in out.chunks_exact_mut(2 * N).enumerate() {
-        for i in 0..N {
-            row[2 * i] = xy[0][i][q];
-            row[2 * i + 1] = xy[1][i][q];
-        }
     }
 }
 

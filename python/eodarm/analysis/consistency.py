@@ -34,13 +34,10 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from typing import TYPE_CHECKING, Any
+from typing import Any, Protocol
 
 import numpy as np
 import numpy.typing as npt
-
-if TYPE_CHECKING:
-    from eodarm.analysis.fit import FitResult
 
 __all__ = [
     "P_PASS",
@@ -51,6 +48,23 @@ __all__ = [
     "sigma_dof",
     "within_states",
 ]
+
+
+class FitLike(Protocol):
+    """What the tests read of a fit (an :class:`eodarm.analysis.fit.FitResult`): its problem
+    (``problem.meas``, ``problem.use``), its χ² and its degrees of freedom. Named by shape,
+    not imported, because the fit itself uses these tests (docs/architecture.md, "No
+    cycles")."""
+
+    @property
+    def problem(self) -> Any: ...
+
+    @property
+    def chi2(self) -> float: ...
+
+    @property
+    def dof(self) -> int: ...
+
 
 #: A model "explains the data within their noise" when the p-value of its χ² is at least this.
 P_PASS = 1e-3
@@ -136,7 +150,7 @@ def effective_nu(meas: Any, use: npt.NDArray[np.bool_] | None = None) -> float:
     return float(1.0 / np.sum(w[finite] ** 2 / nu[finite]))
 
 
-def within_states(fit: FitResult) -> tuple[float, int]:
+def within_states(fit: FitLike) -> tuple[float, int]:
     """(W, ν_W): the whitened scatter of the used pooled-σ values about their state means,
     and its degrees of freedom Σ(n_g − 1); (0, 0) when no σ was pooled."""
     prob = fit.problem
@@ -161,7 +175,7 @@ def within_states(fit: FitResult) -> tuple[float, int]:
     return w, nu
 
 
-def fit_p_value(fit: FitResult) -> float:
+def fit_p_value(fit: FitLike) -> float:
     """P-value of a fit's χ² with the ν of the σ of the cells it used: the χ² test for known
     σ, the lack-of-fit F test (module docstring) when σ was pooled from repeats in the fit."""
     prob = fit.problem

@@ -35,7 +35,6 @@ import math
 import re
 import sys
 import traceback
-import warnings
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -45,7 +44,16 @@ import numpy as np
 import numpy.typing as npt
 
 from eodarm.errors import CustomEffectError, EffectError
-from eodarm.model.effects import CATALOGUE, EffectKind
+from eodarm.model.catalogue import (
+    _REGISTRY,
+    CATALOGUE,
+    ENTRY_POINT_GROUP,
+    CustomKind,
+    load_entry_points,
+    lookup,
+    registered,
+    unregister,
+)
 
 if TYPE_CHECKING:
     from eodarm.model.arm import Arm
@@ -68,9 +76,6 @@ __all__ = [
 
 FloatArray = npt.NDArray[np.float64]
 F = TypeVar("F", bound=Callable[..., Any])
-
-#: The entry-point group through which installed packages register effects.
-ENTRY_POINT_GROUP = "eodarm.effects"
 
 #: What a user function may return, each key optional: key → (the solver's extra
 #: deformation it adds to, the shape of one state's value). All in the global frame, mm and
@@ -98,41 +103,7 @@ _NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
 _RESERVED = {"effect", "at", "unloaded", "stderr"}
 
 
-# ---------------------------------------------------------------------------- the kind
-@dataclass(frozen=True)
-class CustomKind(EffectKind):
-    """A registered user effect: its function, where it sits and its parameter's range.
-
-    The parameter is fitted as it is (θ = the parameter), within ``[lower, upper]``;
-    ``neutral`` is the value at which the effect is absent and ``start`` where a fit of it
-    starts.
-    """
-
-    fn: Callable[..., Any] | None = None
-    lower: float = 0.0
-    upper: float | None = None
-    start: float = 0.0
-    neutral: float = 0.0
-
-    @property
-    def custom(self) -> bool:
-        return True
-
-    @property
-    def theta_bounds(self) -> tuple[float, float]:
-        return self.lower, math.inf if self.upper is None else self.upper
-
-    def value_error(self, value: float) -> str | None:
-        hi = "inf" if self.upper is None else f"{self.upper:g}"
-        if not math.isfinite(value) or value < self.lower or value > self.theta_bounds[1]:
-            return f"must be finite and within [{self.lower:g}, {hi}]"
-        return None
-
-
-_REGISTRY: dict[str, CustomKind] = {}
-_ENTRY_POINTS_LOADED = False
-
-
+# ---------------------------------------------------------------------------- registering
 def custom_effect(
     name: str,
     places: str,
@@ -232,59 +203,6 @@ def _number(name: str, what: str, x: Any) -> float:
     if not math.isfinite(v):
         raise EffectError(f"custom effect {name}: {what} must be finite, got {x!r}")
     return v
-
-
-def lookup(name: str) -> CustomKind | None:
-    """The registered effect ``name``, or None; an unknown name first loads the installed
-    packages' effects (the entry-point group, once)."""
-    kind = _REGISTRY.get(name)
-    if kind is None and not _ENTRY_POINTS_LOADED:
-        load_entry_points()
-        kind = _REGISTRY.get(name)
-    return kind
-
-
-def registered() -> list[str]:
-    """The names of the registered effects, in the order they were registered."""
-    return list(_REGISTRY)
-
-
-def unregister(name: str) -> None:
-    """Forget a registered effect (no error if there is none)."""
-    _REGISTRY.pop(name, None)
-
-
-def load_entry_points() -> list[str]:
-    """Import every module of the entry-point group ``eodarm.effects`` (once per process).
-
-    A package declares, in its ``pyproject.toml``::
-
-        [project.entry-points."eodarm.effects"]
-        friction = "mypackage.friction"
-
-    and importing ``mypackage.friction`` registers its effects. An entry point that fails to
-    load is skipped with a warning naming it. Returns the names of the entry points loaded.
-    """
-    global _ENTRY_POINTS_LOADED
-    if _ENTRY_POINTS_LOADED:
-        return []
-    _ENTRY_POINTS_LOADED = True
-    from importlib.metadata import entry_points
-
-    done = []
-    for ep in entry_points(group=ENTRY_POINT_GROUP):
-        try:
-            ep.load()
-        except Exception as exc:  # a broken plugin must not stop the others
-            warnings.warn(
-                f"entry point {ep.name} = {ep.value!r} of {ENTRY_POINT_GROUP} was not loaded: "
-                f"{type(exc).__name__}: {' '.join(str(exc).split())}",
-                RuntimeWarning,
-                stacklevel=2,
-            )
-            continue
-        done.append(ep.name)
-    return done
 
 
 def load_file(path: str | Path) -> None:

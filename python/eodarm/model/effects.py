@@ -11,6 +11,8 @@ from typing import Any
 import numpy as np
 
 from eodarm.errors import EffectError, EodarmError
+from eodarm.model import catalogue
+from eodarm.model.catalogue import CATALOGUE, THETA_MAX, EffectKind
 
 __all__ = [
     "CATALOGUE",
@@ -36,71 +38,18 @@ __all__ = [
 UNLOADED = ("centred", "taken_up")
 
 
-@dataclass(frozen=True)
-class EffectKind:
-    """One entry of the catalogue: where it may sit, its parameter and physical bounds.
-
-    ``compliance_like`` says whether the deflection grows with ``1/parameter`` (springs,
-    bending) rather than with the parameter itself (clearance, play).
-    """
-
-    name: str
-    code: int
-    place_letter: str  # "M", "O", "L" or "" for the base
-    param: str
-    unit: str
-    compliance_like: bool
-    allow_zero: bool
-    #: The compiled core's code of this effect taken up when unloaded (gaps only).
-    taken_up_code: int | None = None
-
-    @property
-    def custom(self) -> bool:
-        """Whether this is a user-written effect (:mod:`eodarm.model.custom`), computed in
-        Python and given to the core as extra deformations."""
-        return False
-
-    @property
-    def theta_bounds(self) -> tuple[float, float]:
-        """The bounds of the fitted parameter θ (docs/diagnosis.md)."""
-        return 0.0, THETA_MAX.get(self.name, math.inf)
-
-    def value_error(self, value: float) -> str | None:
-        """Why ``value`` is not a valid parameter of this effect (None when it is)."""
-        if not math.isfinite(value) or value < 0 or (value == 0 and not self.allow_zero):
-            return f"must be finite and {'>= 0' if self.allow_zero else '> 0'}"
-        return None
-
-
-CATALOGUE: dict[str, EffectKind] = {
-    k.name: k
-    for k in (
-        EffectKind("actuator_compliance", 0, "M", "stiffness_n_per_mm", "N/mm", True, False),
-        EffectKind("mount_compliance", 1, "M", "stiffness_n_per_mm", "N/mm", True, False),
-        EffectKind("actuator_play", 2, "M", "play_mm", "mm", False, True, 6),
-        EffectKind("joint_clearance", 3, "O", "clearance_mm", "mm", False, True, 7),
-        EffectKind("link_bending", 4, "L", "ei_n_mm2", "N·mm²", True, False),
-        EffectKind("base_compliance", 5, "", "stiffness_nmm_per_rad", "N·mm/rad", True, False),
-    )
-}
-
-
 def kind_of(name: str) -> EffectKind | None:
     """The catalogue's entry ``name``, or the user-written effect registered under it
     (:func:`eodarm.custom_effect`), or None."""
     kind = CATALOGUE.get(name)
     if kind is None and isinstance(name, str):
-        from eodarm.model import custom
-
-        kind = custom.lookup(name)
+        kind = catalogue.lookup(name)
     return kind
 
 
 def known_effects() -> list[str]:
     """Every effect name: the catalogue's, then the registered user-written ones."""
-    from eodarm.model import custom
-
-    return [*CATALOGUE, *custom.registered()]
+    return [*CATALOGUE, *catalogue.registered()]
 
 
 def _unknown(name: object) -> str:
@@ -381,9 +330,6 @@ def as_effects(effects: Any) -> list[Effect]:
     if isinstance(effects, Effect):
         return [effects]
     return list(effects)
-
-
-THETA_MAX = {"actuator_play": 5.0, "joint_clearance": 5.0}
 
 
 @dataclass(frozen=True)

@@ -102,7 +102,7 @@ def _raw(
     nan_on_failure: bool,
 ) -> dict[str, Any]:
     from eodarm.model import native as _core
-    from eodarm.model.solver import _core_arm
+    from eodarm.model.kinematics import _core_arm
 
     ei, ea = sections(arm)
     return _core.fem_solve(

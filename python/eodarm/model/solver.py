@@ -9,8 +9,7 @@ backends refuse bad input with the same one-line message naming the row.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from functools import lru_cache
-from typing import Any, Literal
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -18,6 +17,15 @@ import numpy.typing as npt
 from eodarm.errors import InputError
 from eodarm.model.arm import Arm, check_arm
 from eodarm.model.effects import Effect, effect_arrays, split_effects, with_arm_effects
+from eodarm.model.kinematics import (
+    Arrays,
+    Backend,
+    _check_backend,
+    _core_arm,
+    _poses,
+    forward,
+    stroke_violations,
+)
 from eodarm.model.resources import check_output_memory
 from eodarm.model.validity import status
 
@@ -30,9 +38,6 @@ __all__ = [
     "statics",
     "stroke_violations",
 ]
-
-Backend = Literal["rust", "numpy"]
-Arrays = dict[str, npt.NDArray[Any]]
 
 
 def solve(
@@ -303,25 +308,6 @@ def statics(
     return {k: st[k] for k in ("force_n", "force0_n", "reaction_n", "reaction0_n", "length_mm")}
 
 
-def forward(arm: Arm, alpha_deg: npt.ArrayLike, backend: Backend = "rust") -> Arrays:
-    """Global points of N poses (seed relation 1).
-
-    Returns ``O`` (N, n+1, 2): joints O_1…O_n and the load point; ``A`` (N, n, 2): actuator
-    pins on the links; ``B`` (N, n, 2): base pin of each actuator (B_0 for actuator 1);
-    ``C`` (N, n, 2): centres of mass; ``measure`` (N, 2); ``length_mm`` (N, n) pin-to-pin.
-    """
-    check_arm(arm, "forward")
-    alpha = _poses(alpha_deg, arm.n, "alpha_deg")
-    _check_backend(backend)
-    if backend == "rust":
-        from eodarm.model import native as _core
-
-        return _core.forward(_core_arm(arm), alpha)
-    from eodarm.model import reference
-
-    return reference.forward(arm, alpha)
-
-
 def angles_from_lengths(
     arm: Arm,
     length_mm: npt.ArrayLike,
@@ -385,20 +371,6 @@ def inverse_kinematics(
     return {"alpha_deg": alpha, "length_mm": length, "reachable": ok}
 
 
-def stroke_violations(arm: Arm, length_mm: npt.ArrayLike) -> npt.NDArray[np.int8]:
-    """Stroke check of pin-to-pin lengths (N, n): −1 below ``min_length_mm``, +1 above
-    ``max_length_mm``, 0 within the stroke (or no limit set)."""
-    check_arm(arm, "stroke_violations")
-    length = _poses(length_mm, arm.n, "length_mm")
-    lo = np.array(
-        [a.min_length_mm if a.min_length_mm is not None else -np.inf for a in arm.actuators]
-    )
-    hi = np.array(
-        [a.max_length_mm if a.max_length_mm is not None else np.inf for a in arm.actuators]
-    )
-    return (np.where(length < lo, -1, 0) + np.where(length > hi, 1, 0)).astype(np.int8)
-
-
 # ---------------------------------------------------------------------------- helpers
 def _check_memory(alpha_deg: npt.ArrayLike, n: int) -> None:
     """Refuse, before any array is converted or allocated, a solve whose output cannot fit:
@@ -454,31 +426,6 @@ def check_out(out: Mapping[str, Any], rows: int, n: int) -> dict[str, npt.NDArra
     return checked
 
 
-def _check_backend(backend: str) -> None:
-    if backend not in ("rust", "numpy"):
-        raise InputError(f"backend must be 'rust' or 'numpy', got {backend!r}")
-
-
-def _poses(values: npt.ArrayLike, n: int, name: str) -> npt.NDArray[np.float64]:
-    """(N, n) contiguous float64, or a clear InputError naming the shape or the row."""
-    try:
-        a = np.asarray(values, dtype=float)
-    except (TypeError, ValueError, OverflowError):
-        raise InputError(f"{name}: cannot be read as an array of finite numbers") from None
-    if a.ndim == 1 and a.shape[0] == n:
-        a = a[None, :]
-    if a.ndim != 2 or a.shape[1] != n:
-        raise InputError(f"{name}: expected shape (N, {n}), got {a.shape}")
-    # The sum is finite when every value is (one pass, no temporary); only when it is not
-    # (a NaN or ±inf, or an overflow of huge values) are the rows looked at one by one.
-    if not np.isfinite(np.sum(a)):
-        bad = ~np.isfinite(a).all(axis=1)
-        if bad.any():
-            row = int(np.flatnonzero(bad)[0])
-            raise InputError(f"pose row {row}: {name} has a non-finite value")
-    return np.ascontiguousarray(a)
-
-
 def _extras(
     extra: Mapping[str, npt.ArrayLike | None] | None, rows: int, n: int
 ) -> dict[str, npt.NDArray[np.float64]]:
@@ -521,33 +468,3 @@ def _per_row(values: npt.ArrayLike, rows: int, name: str) -> npt.NDArray[np.floa
     if bad.any():
         raise InputError(f"pose row {int(np.flatnonzero(bad)[0])}: {name} is not finite")
     return a
-
-
-@lru_cache(maxsize=64)
-def _core_arm(arm: Arm) -> Any:
-    from eodarm.model import native as _core
-
-    d = arm.arrays()
-
-    def lim(key: str) -> npt.NDArray[np.float64]:
-        return np.array(
-            [np.nan if getattr(a, key) is None else getattr(a, key) for a in arm.actuators]
-        )
-
-    return _core.CoreArm(
-        float(d["g"]),
-        d["O1"],
-        d["B0"],
-        d["pivot"],
-        d["next"],
-        d["A"],
-        d["B"],
-        d["C"],
-        d["link_mass"],
-        d["measure"],
-        d["stiffness"],
-        d["act_mass"],
-        lim("min_length_mm"),
-        lim("max_length_mm"),
-        lim("max_force_n"),
-    )

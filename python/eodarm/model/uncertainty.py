@@ -121,7 +121,7 @@ def prediction_sigma(
         When the arm carries no ``[fit]`` table.
     """
     from eodarm.model import native as _core
-    from eodarm.model.solver import _core_arm
+    from eodarm.model.kinematics import _core_arm
 
     slots, cov = _parameters(arm)
     n = arm.n

@@ -78,7 +78,7 @@ def status(
     out: Mapping[str, Any],
 ) -> npt.NDArray[np.uint8]:
     """The status code (N,) of each solved pose (see the module docstring)."""
-    from eodarm.model.solver import forward, stroke_violations
+    from eodarm.model.kinematics import forward, stroke_violations
 
     geo = forward(arm, alpha_deg)
     n = arm.n

@@ -32,7 +32,7 @@ from eodarm.model.uncertainty import prediction_sigma
 if TYPE_CHECKING:
     import xarray as xr
 
-    from eodarm.workspace.sweep import _Job
+    from eodarm.workspace.chunk import _Job
 
 __all__ = ["NOT_SOLVED", "Outputs", "cells"]
 

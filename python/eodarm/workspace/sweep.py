@@ -34,7 +34,6 @@ from __future__ import annotations
 import itertools
 import math
 from collections.abc import Iterable, Iterator, Mapping
-from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -46,7 +45,8 @@ from eodarm.model.effects import Effect, effect_arrays, split_effects, with_arm_
 from eodarm.model.solver import _core_arm
 from eodarm.model.validity import STATUS
 from eodarm.workspace import cluster, limits
-from eodarm.workspace.fallback import REDUCE_OPS, kernel, placeholder
+from eodarm.workspace.chunk import CELL_VARS, _chunk, _Job, _Setup
+from eodarm.workspace.fallback import REDUCE_OPS
 from eodarm.workspace.grid import Grid, coord_attrs, make_grid, masses_axis
 
 if TYPE_CHECKING:
@@ -61,8 +61,6 @@ __all__ = [
 FloatArray = npt.NDArray[np.float64]
 BoolArray = npt.NDArray[np.bool_]
 
-#: Outputs per (pose, payload) cell, reduced by a reduction.
-CELL_VARS = ("force_n", "dx_mm", "dy_mm", "dalpha_deg", "dl_mm", "ok", "status")
 #: Outputs per pose (no payload dimension).
 POSE_VARS = ("reachable", "length_mm", "effector_x_mm", "effector_y_mm")
 #: Default number of poses per chunk.
@@ -98,72 +96,6 @@ _ATTRS: dict[str, dict[str, Any]] = {
     "effector_y_mm": {"units": "mm", "long_name": "y of the unloaded load point (global)"},
     "alpha_deg": {"units": "deg", "long_name": "unloaded absolute link angle of the pose"},
 }
-
-
-# ---------------------------------------------------------------------------- one chunk
-@dataclass(frozen=True)
-class _Job:
-    """Everything a chunk needs; picklable, so it can travel to a Dask worker."""
-
-    arm: Arm
-    grid: Grid
-    mass: FloatArray
-    effects: tuple[Effect, ...]
-    self_weight: bool
-    op: str | None
-    block: int  # poses per reduction group (1 unless an angle is reduced)
-    mask_unreachable: bool
-    threads: int | None
-    model: str = "analytic"
-    fem_options: tuple[tuple[str, Any], ...] | None = None  # hashable, like the rest
-
-
-def _chunk(job: _Job, start: int, stop: int) -> dict[str, npt.NDArray[Any]]:
-    """Solve flat poses [start, stop) of the grid (a whole number of reduction blocks)."""
-    arm, n = job.arm, job.arm.n
-    alpha, exists = job.grid.poses(arm, start, stop)
-    # (`mask_unreachable` has nothing to do: cells of poses out of stroke are never ok.)
-    pose_alpha = alpha  # the poses themselves (NaN where none), before any placeholder
-    if exists is not None and not exists.all():
-        alpha = np.where(exists[:, None], alpha, placeholder(arm))
-    codes, places, values = effect_arrays(job.effects, n)
-    m = job.mass.shape[0]
-    out = kernel(
-        arm,
-        np.ascontiguousarray(alpha, dtype=float),
-        job.mass,
-        codes,
-        places,
-        values,
-        job.self_weight,
-        job.op,
-        m * job.block if job.op else 1,
-        job.threads,
-        job.model,
-        dict(job.fem_options) if job.fem_options is not None else None,
-        job.effects,
-    )
-    res = {k: np.asarray(out[k]) for k in CELL_VARS}
-    length = np.array(out["length_mm"], dtype=float)
-    ex = np.array(out["effector_x_mm"], dtype=float)
-    ey = np.array(out["effector_y_mm"], dtype=float)
-    reach = np.array(out["reachable"], dtype=bool)
-    if exists is not None:
-        length[~exists], ex[~exists], ey[~exists] = np.nan, np.nan, np.nan
-        reach[~exists] = False
-        # A grid point without a pose is out of stroke (not the placeholder's near_singular);
-        # a reduced group with one has that lowest code.
-        missing = ~exists if not job.op else ~exists.reshape(-1, job.block).all(axis=1)
-        res["status"] = np.array(res["status"])
-        res["status"][missing] = STATUS.index("out_of_stroke")
-    if job.block > 1:
-        res["reachable"] = np.asarray(reach.reshape(-1, job.block).any(axis=1))
-    else:
-        res["reachable"] = reach
-        res["length_mm"], res["effector_x_mm"], res["effector_y_mm"] = length, ex, ey
-        if job.grid.kind != "alpha":
-            res["alpha_deg"] = np.asarray(pose_alpha, dtype=float)
-    return res
 
 
 def _plan(grid: Grid, reduce: Mapping[str, Any] | None) -> tuple[str | None, list[str], int]:
@@ -352,32 +284,6 @@ def sweep(
 
 
 # ---------------------------------------------------------------------------- the plan
-@dataclass(frozen=True)
-class _Setup:
-    """A checked sweep: its job, the reduced dims, the chunk step and the output's arrays."""
-
-    job: _Job
-    rdims: list[str]
-    step: int  # poses per chunk (a whole number of reduction groups)
-    shapes: dict[str, tuple[int, ...]]  # output arrays, flat over the poses (or groups)
-    dtypes: dict[str, Any]
-
-    @property
-    def size(self) -> int:
-        """Poses of the grid."""
-        return self.job.grid.size
-
-    @property
-    def cells(self) -> int:
-        """Poses × payloads."""
-        return self.job.grid.size * int(self.job.mass.shape[0])
-
-    @property
-    def nbytes(self) -> int:
-        """Bytes of the output arrays."""
-        return sum(math.prod(s) * np.dtype(self.dtypes[k]).itemsize for k, s in self.shapes.items())
-
-
 def _prepare(
     arm: Arm,
     *,

@@ -39,7 +39,7 @@ from eodarm.workspace import compensated
 if TYPE_CHECKING:
     import xarray as xr
 
-    from eodarm.workspace.sweep import _Job, _Setup
+    from eodarm.workspace.chunk import _Job, _Setup
 
 __all__ = ["SIGMA_ATTRS", "add_outputs", "check", "extra_nbytes"]
 
@@ -120,7 +120,7 @@ def _cells(
     if job.op is None:  # the sweep's own cells
         out = {k: result[k][start:stop] for k in ("ok", "dx_mm", "dy_mm", "dalpha_deg")}
     else:  # solved again unreduced, exactly as the reduction saw them
-        from eodarm.workspace.sweep import _chunk
+        from eodarm.workspace.chunk import _chunk
 
         out = _chunk(replace(job, op=None, block=1), start, stop)
     flat = {k: np.asarray(out[k]).reshape(-1, *np.shape(out[k])[2:]) for k in out}

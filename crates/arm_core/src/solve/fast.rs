@@ -45,11 +45,8 @@ use crate::sweep::trig::{asin_small, wrap_once, ASIN_SERIES_MAX};
 use crate::sweep::{transpose_into, transpose_xy_into};
 use crate::validity::{self, Checks};
 
-/// `cos a − 1` from `sin a` and `cos a`, without cancellation where cos a > 0.
-#[inline(always)]
-pub(crate) fn cos_m1<T: Lane>(s: T, c: T) -> T {
-    T::select(c.gt(0.0), -s * s / (c + 1.0), c - 1.0)
-}
+// `cos a − 1` lives with the angle series, below both kernels (docs/architecture.md).
+pub(crate) use crate::sweep::trig::cos_m1;
 
 /// Per-arm constants of the solve kernel for an arm of `N` links.
 #[derive(Debug, Clone)]

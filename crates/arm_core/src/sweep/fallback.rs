@@ -6,8 +6,8 @@
 //! `eodarm.model.validity` does); a cell whose pose is out of stroke or near singular is not
 //! solved, and one whose triangle cannot close is a large deflection.
 
+use super::cells::PoseOut;
 use super::reduce::{n_fields, Sink};
-use super::PoseOut;
 use crate::arm::Arm;
 use crate::effects::EffectSet;
 use crate::kinematics::Frames;

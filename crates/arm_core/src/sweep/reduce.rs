@@ -9,7 +9,7 @@
 //! group's status is 0 when every cell of it is ok, else the lowest code among its cells
 //! that are not ([`fold_status`]): like the reductions, independent of the order.
 
-use super::{CellFields, Cells, ReduceOp};
+use super::cells::{CellFields, Cells, ReduceOp};
 
 /// The cell fields in the order the sinks use: force (n), dx, dy, dalpha (n), dl (n).
 #[inline]

@@ -111,6 +111,12 @@ pub fn asin_small<T: Lane>(x: T) -> T {
     x + x * z * p
 }
 
+/// `cos a − 1` from `sin a` and `cos a`, without cancellation where cos a > 0.
+#[inline(always)]
+pub(crate) fn cos_m1<T: Lane>(s: T, c: T) -> T {
+    T::select(c.gt(0.0), -s * s / (c + 1.0), c - 1.0)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

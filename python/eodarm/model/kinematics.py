@@ -1,0 +1,113 @@
+"""The rigid arm's pose and stroke, and the input checks and core arm every solver shares.
+
+:func:`forward` (the global points of N poses) and :func:`stroke_violations` are what
+:mod:`eodarm.model.validity` needs to judge a pose; :func:`_core_arm`, :func:`_poses` and
+:func:`_check_backend` are shared by :mod:`eodarm.model.solver`, :mod:`eodarm.model.fem`
+and :mod:`eodarm.model.uncertainty`. They sit here, below all of them, so that no two of
+these modules import each other (docs/architecture.md, "No cycles"); the solver re-exports
+them under their old names.
+"""
+
+from __future__ import annotations
+
+from functools import lru_cache
+from typing import Any, Literal
+
+import numpy as np
+import numpy.typing as npt
+
+from eodarm.errors import InputError
+from eodarm.model.arm import Arm, check_arm
+
+__all__ = ["Arrays", "Backend", "forward", "stroke_violations"]
+
+Backend = Literal["rust", "numpy"]
+Arrays = dict[str, npt.NDArray[Any]]
+
+
+def forward(arm: Arm, alpha_deg: npt.ArrayLike, backend: Backend = "rust") -> Arrays:
+    """Global points of N poses (seed relation 1).
+
+    Returns ``O`` (N, n+1, 2): joints O_1…O_n and the load point; ``A`` (N, n, 2): actuator
+    pins on the links; ``B`` (N, n, 2): base pin of each actuator (B_0 for actuator 1);
+    ``C`` (N, n, 2): centres of mass; ``measure`` (N, 2); ``length_mm`` (N, n) pin-to-pin.
+    """
+    check_arm(arm, "forward")
+    alpha = _poses(alpha_deg, arm.n, "alpha_deg")
+    _check_backend(backend)
+    if backend == "rust":
+        from eodarm.model import native as _core
+
+        return _core.forward(_core_arm(arm), alpha)
+    from eodarm.model import reference
+
+    return reference.forward(arm, alpha)
+
+
+def stroke_violations(arm: Arm, length_mm: npt.ArrayLike) -> npt.NDArray[np.int8]:
+    """Stroke check of pin-to-pin lengths (N, n): −1 below ``min_length_mm``, +1 above
+    ``max_length_mm``, 0 within the stroke (or no limit set)."""
+    check_arm(arm, "stroke_violations")
+    length = _poses(length_mm, arm.n, "length_mm")
+    lo = np.array(
+        [a.min_length_mm if a.min_length_mm is not None else -np.inf for a in arm.actuators]
+    )
+    hi = np.array(
+        [a.max_length_mm if a.max_length_mm is not None else np.inf for a in arm.actuators]
+    )
+    return (np.where(length < lo, -1, 0) + np.where(length > hi, 1, 0)).astype(np.int8)
+
+
+def _check_backend(backend: str) -> None:
+    if backend not in ("rust", "numpy"):
+        raise InputError(f"backend must be 'rust' or 'numpy', got {backend!r}")
+
+
+def _poses(values: npt.ArrayLike, n: int, name: str) -> npt.NDArray[np.float64]:
+    """(N, n) contiguous float64, or a clear InputError naming the shape or the row."""
+    try:
+        a = np.asarray(values, dtype=float)
+    except (TypeError, ValueError, OverflowError):
+        raise InputError(f"{name}: cannot be read as an array of finite numbers") from None
+    if a.ndim == 1 and a.shape[0] == n:
+        a = a[None, :]
+    if a.ndim != 2 or a.shape[1] != n:
+        raise InputError(f"{name}: expected shape (N, {n}), got {a.shape}")
+    # The sum is finite when every value is (one pass, no temporary); only when it is not
+    # (a NaN or ±inf, or an overflow of huge values) are the rows looked at one by one.
+    if not np.isfinite(np.sum(a)):
+        bad = ~np.isfinite(a).all(axis=1)
+        if bad.any():
+            row = int(np.flatnonzero(bad)[0])
+            raise InputError(f"pose row {row}: {name} has a non-finite value")
+    return np.ascontiguousarray(a)
+
+
+@lru_cache(maxsize=64)
+def _core_arm(arm: Arm) -> Any:
+    from eodarm.model import native as _core
+
+    d = arm.arrays()
+
+    def lim(key: str) -> npt.NDArray[np.float64]:
+        return np.array(
+            [np.nan if getattr(a, key) is None else getattr(a, key) for a in arm.actuators]
+        )
+
+    return _core.CoreArm(
+        float(d["g"]),
+        d["O1"],
+        d["B0"],
+        d["pivot"],
+        d["next"],
+        d["A"],
+        d["B"],
+        d["C"],
+        d["link_mass"],
+        d["measure"],
+        d["stiffness"],
+        d["act_mass"],
+        lim("min_length_mm"),
+        lim("max_length_mm"),
+        lim("max_force_n"),
+    )
