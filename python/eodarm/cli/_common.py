@@ -143,7 +143,15 @@ def _model_kw(args: argparse.Namespace) -> dict[str, Any]:
 
 # ----------------------------------------------------------------- compare / fit / diagnose
 def _note(msg: str) -> None:
-    """A message on stderr, ``eodarm: …``, wrapped within :data:`WIDTH` columns."""
+    """A message on stderr, ``eodarm: …``, wrapped within :data:`WIDTH` columns.
+
+    Under the main CLI (:data:`HOLD`) it is held until the command has succeeded, like every
+    note: a refusal that comes after it (a pose that cannot close, a bad ``-o``) is then the
+    one line on stderr (docs/terminal.md, "One line on a refusal").
+    """
+    if HOLD[0]:
+        HELD.append(f"eodarm: {msg}")
+        return
     _say(f"eodarm: {msg}", file=sys.stderr)
 
 
@@ -162,18 +170,21 @@ HOLD = [False]
 
 
 def _held_note(msg: str) -> None:
-    if HOLD[0]:
-        HELD.append(f"eodarm: {msg}")
-    else:
-        _note(msg)
+    """A note held until the command has succeeded (the same as :func:`_note`)."""
+    _note(msg)
 
 
-def _read(path: str, arm: Arm) -> Measurements:
-    """Read the measurements and say on stderr where σ was not given: one line for the
-    channels whose σ was pooled from the repeats, one for those that use the defaults."""
+def _read(path: str, arm: Arm, self_weight: bool = True) -> Measurements:
+    """Read the measurements, refuse the states the arm cannot take
+    (:func:`eodarm.data.plausible.check_states`: out of stroke, cannot close under load,
+    radians, grams) and say on stderr, once the command has succeeded, where σ was not
+    given: one line for the channels whose σ was pooled from the repeats, one for those that
+    use the defaults."""
+    from eodarm.data.plausible import check_states
     from eodarm.data.reader import read_measurements
 
     meas = read_measurements(path, arm.n)
+    check_states(arm, meas, self_weight=self_weight)
     for line in _noise_notes(meas):
         _note(line)
     return meas
@@ -350,6 +361,27 @@ def _next(*argv: str) -> None:
         else:
             lines[-1] += " " + w
     NEXT[:] = ["\n".join(lines)]
+
+
+def _force_arg(p: argparse.ArgumentParser, what: str) -> None:
+    """``--force``: overwrite ``what`` (refused without it; docs/terminal.md, "Nothing
+    overwritten without asking")."""
+    p.add_argument("--force", action="store_true", help=f"overwrite {what}")
+
+
+def _refuse_overwrite(path: str, force: bool, flag: str) -> None:
+    """Refuse, before any work, to write over an existing ``path`` without ``--force``.
+
+    Raises
+    ------
+    EodarmError
+        One line naming the path and the way out.
+    """
+    if force or not (Path(path).exists() or Path(path).is_symlink()):
+        return
+    raise EodarmError(
+        f"{flag} {path}: exists; give --force to overwrite it, or choose another name"
+    )
 
 
 def _arm_argv(args: argparse.Namespace, always: bool = False) -> list[str]:

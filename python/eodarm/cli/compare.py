@@ -59,7 +59,7 @@ def run(args: argparse.Namespace) -> int:
     from eodarm.analysis.fit import FitWarning, outlier_table, robust_fit
 
     arm = _load_arm(args.arm, args.measurements)
-    meas = _read(args.measurements, arm)
+    meas = _read(args.measurements, arm, not args.no_self_weight)
     sw = not args.no_self_weight
     model = _model(args.add, allow_values=True)
     fixed = [m for m in model if isinstance(m, Effect)]

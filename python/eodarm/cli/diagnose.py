@@ -40,7 +40,7 @@ def run(args: argparse.Namespace) -> int:
     from eodarm.analysis.diagnose import diagnose
 
     arm = _load_arm(args.arm, args.measurements)
-    meas = _read(args.measurements, arm)
+    meas = _read(args.measurements, arm, not args.no_self_weight)
     sw = not args.no_self_weight
     model = [m for m in _model(args.add, allow_values=False) if not isinstance(m, Effect)]
     mk = _model_kw(args)

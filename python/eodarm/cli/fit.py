@@ -9,6 +9,7 @@ from typing import Any
 from eodarm.cli._common import (
     _arm_argv,
     _describe_data,
+    _force_arg,
     _load_arm,
     _model,
     _model_kw,
@@ -17,6 +18,7 @@ from eodarm.cli._common import (
     _plots,
     _print_table,
     _read,
+    _refuse_overwrite,
     _rms_line,
     _say,
     _stages,
@@ -38,8 +40,10 @@ def run(args: argparse.Namespace) -> int:
         robust_fit,
     )
 
+    if args.output:
+        _check_output(args)
     arm = _load_arm(args.arm, args.measurements)
-    meas = _read(args.measurements, arm)
+    meas = _read(args.measurements, arm, not args.no_self_weight)
     sw = not args.no_self_weight
     model = _model(args.add, allow_values=True)
     if not model:
@@ -103,6 +107,29 @@ def run(args: argparse.Namespace) -> int:
         adds = [a for spec in args.add or [] for a in ("--add", spec)]
         _next("fit", args.measurements, *_arm_argv(args), *adds, "-o", "fitted.toml")
     return 0
+
+
+def _check_output(args: argparse.Namespace) -> None:
+    """``-o`` never replaces the measurements it is fitted to; an existing file (the
+    ``--arm`` input included) only with ``--force``."""
+    import os
+
+    out = args.output
+
+    def same(a: str) -> bool:
+        try:
+            return os.path.samefile(out, a)
+        except OSError:
+            return False
+
+    if same(args.measurements):
+        raise EodarmError(f"-o {out}: is the measurement file being fitted; choose another name")
+    if args.arm and same(args.arm) and not args.force:
+        raise EodarmError(
+            f"-o {out}: is the --arm input; give --force to replace it with the fitted arm, "
+            "or choose another name"
+        )
+    _refuse_overwrite(out, args.force, "-o")
 
 
 def _print_fit(
@@ -192,5 +219,6 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
         metavar="FITTED.toml",
         help="write the arm with the fitted effects, their errors and covariance (CONTRACT §7)",
     )
+    _force_arg(c, "an existing -o file (the --arm input included)")
     c.set_defaults(func=run)
     return c

@@ -87,7 +87,7 @@ def _run(args: argparse.Namespace, step: Any) -> int:
         _note("no measurements given: reporting on the bundled data set seed2022")
     else:
         arm = _load_arm(args.arm, args.measurements)
-        meas = _read(args.measurements, arm)
+        meas = _read(args.measurements, arm, not args.no_self_weight)
         title = args.title
         intro = None
         handover = {"measurements": args.measurements, "arm": args.arm or "ARM.toml"}
