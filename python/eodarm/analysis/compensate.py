@@ -25,6 +25,7 @@ import numpy.typing as npt
 from eodarm.errors import EodarmError, InputError
 from eodarm.model.arm import Arm, check_arm
 from eodarm.model.effects import Effect, effect_arrays, split_effects, with_arm_effects
+from eodarm.model.kinds import integer, real_number
 from eodarm.model.solver import _core_arm, _per_row, _poses
 
 __all__ = [
@@ -131,8 +132,8 @@ def compensate(
         raise InputError(f"pose row {bad[0]}: mass_kg is negative ({mass[bad[0]]})")
     if jacobian not in JACOBIANS:
         raise InputError(f"jacobian must be one of {', '.join(JACOBIANS)}, got {jacobian!r}")
-    if isinstance(max_iter, bool) or not isinstance(max_iter, (int, np.integer)) or max_iter < 1:
-        raise InputError(f"max_iter must be an integer >= 1, got {max_iter!r}")
+    max_iter = integer(max_iter, "max_iter", 1, 2**31 - 1)
+    tol_mm = real_number(tol_mm, "tol_mm")
     if not (np.isfinite(tol_mm) and tol_mm > 0):
         raise InputError(f"tol_mm must be finite and > 0, got {tol_mm!r}")
     effs = with_arm_effects(arm.effects, effects)

@@ -419,18 +419,43 @@ def check_validity(result: FitResult) -> None:
     prob = result.problem
     if prob.model != "analytic" or not result.slots:
         return
+    meas = prob.meas
+    mass = meas.mass_kg
     effects = [*result.fixed, *result.effects]
-    out = solve(prob.arm, prob.alpha, prob.meas.mass_kg, effects, self_weight=prob.self_weight)
-    counts = status_counts(out["status"])
-    bad = {k: v for k, v in counts.items() if k != "ok"}
-    if bad:
-        params = ", ".join(f"{e.spec} = {e.value:.4g}" for e in result.effects)
+    code = np.asarray(
+        solve(prob.arm, prob.alpha, mass, effects, self_weight=prob.self_weight)["status"]
+    )
+    if not (code != 0).any():
+        return
+    # the states that are outside already without the fitted effects are not the fit's fault
+    base = np.asarray(
+        solve(prob.arm, prob.alpha, mass, list(result.fixed), self_weight=prob.self_weight)[
+            "status"
+        ]
+    )
+    before = (base != 0) & (code != 0)
+    if before.any():
+        counts = status_counts(base[before])
+        lines = ", ".join(str(int(x)) for x in np.asarray(meas.line)[before][:10])
         raise EodarmError(
-            f"the fitted {params} put {sum(bad.values())} of {prob.meas.n_rows} measured "
-            f"states outside the model's validity ("
-            + ", ".join(f"{k} {v}" for k, v in bad.items())
-            + "; docs/model.md, Validity): the data do not support this model"
+            f"{meas.source}: {int(before.sum())} of {meas.n_rows} measured states are "
+            "outside the model's validity before any effect is fitted ("
+            + ", ".join(f"{k} {v}" for k, v in counts.items() if k != "ok")
+            + f"; line(s) {lines}; docs/model.md, Validity): a data or geometry problem, not "
+            "the fit's"
         )
+    counts = status_counts(code)
+    params = ", ".join(
+        f"{s.spec} = {param_from_theta(s.name, float(t)):.4g} {s.kind.unit}".rstrip()
+        for s, t in zip(result.slots, result.theta, strict=True)
+    )
+    lines = ", ".join(str(int(x)) for x in np.asarray(meas.line)[code != 0][:10])
+    raise EodarmError(
+        f"the fitted {params} put {int((code != 0).sum())} of {meas.n_rows} measured states "
+        f"of {meas.source} outside the model's validity ("
+        + ", ".join(f"{k} {v}" for k, v in counts.items() if k != "ok")
+        + f"; line(s) {lines}; docs/model.md, Validity): the data do not support this model"
+    )
 
 
 def determining_channel(slot: Slot, measured: Sequence[str]) -> str:

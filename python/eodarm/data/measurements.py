@@ -109,6 +109,8 @@ MAX_LISTED = 10
 
 _ALPHA = re.compile(r"^alpha([1-9][0-9]*)_deg$")
 _NUMBER = re.compile(r"^[+-]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][+-]?[0-9]+)?$")
+_IS_IT = " (is it '{}'?)"
+_DECIMAL_COMMA = re.compile(r"^[+-]?[0-9]*,[0-9]+$")
 _NONFINITE = {"nan", "+nan", "-nan", "inf", "+inf", "-inf", "infinity", "+infinity", "-infinity"}
 
 Cell = str | float | None
@@ -466,8 +468,13 @@ def build(
         else:
             seen[name] = j
     missing = [c for c in required if c not in seen]
+    known = [*required, *channels, *(f"sigma_{c}" for c in channels)]
     if missing:
-        problems.append("missing required column(s) " + ", ".join(f"'{c}'" for c in missing))
+        others = [c for c in seen if c not in known]
+        problems.append(
+            "missing required column(s) "
+            + ", ".join(f"'{c}'{_did_you_mean(c, others, _IS_IT)}" for c in missing)
+        )
     unknown: list[str] = []
     foreign: list[str] = []
     for name in seen:
@@ -493,7 +500,7 @@ def build(
     if unknown and unknown_is_error:
         problems.append(
             "unknown column(s) "
-            + ", ".join(f"'{c}'" for c in unknown)
+            + ", ".join(f"'{c}'{_did_you_mean(c, known)}" for c in unknown)
             + f" (channels: {', '.join(channels)})"
         )
     if problems:
@@ -502,8 +509,8 @@ def build(
         raise MeasurementFileError(f"{source}: no data rows after the header (line 1)")
     if unknown:
         warnings.warn(
-            f"{source}: ignoring column(s) not in the measurement-file contract: "
-            + ", ".join(f"'{c}'" for c in unknown),
+            f"{source}: ignoring column(s) not in the measurement-file format: "
+            + ", ".join(f"'{c}'{_did_you_mean(c, known)}" for c in unknown),
             UserWarning,
             stacklevel=stacklevel,
         )
@@ -612,6 +619,16 @@ def build(
     )
 
 
+def _did_you_mean(name: str, known: Sequence[str], form: str = " (did you mean '{}'?)") -> str:
+    """`` (did you mean 'x'?)`` for the closest of ``known`` to a misspelled ``name``
+    (difflib's ratio ≥ 0.75, case ignored), or nothing."""
+    import difflib
+
+    lower = {k.lower(): k for k in known}
+    close = difflib.get_close_matches(name.strip().lower(), list(lower), n=1, cutoff=0.75)
+    return form.format(lower[close[0]]) if close else ""
+
+
 def _label(cell: Cell) -> str:
     if cell is None or (isinstance(cell, float) and math.isnan(cell)):
         return ""
@@ -646,4 +663,9 @@ def _number(cell: Cell) -> tuple[float | None, str]:
         return x, ""
     if text.lower() in _NONFINITE:
         return None, f"'{text}' is not finite"
+    if _DECIMAL_COMMA.match(text):
+        return (
+            None,
+            f"'{_show(text)}' is not a number (a decimal comma? write {text.replace(',', '.')})",
+        )
     return None, f"'{_show(text)}' is not a number"

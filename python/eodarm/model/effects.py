@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import functools
 import math
+import numbers
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -159,7 +160,11 @@ class Effect:
             )
         raw = params[kind.param]
         try:
-            value = float(raw)
+            num = raw[()] if isinstance(raw, np.ndarray) and raw.ndim == 0 else raw
+            if isinstance(num, (bool, np.bool_)) or not isinstance(num, numbers.Real):
+                # True is not 1.0 mm, "0.1" not a number, 0.1+0j not a real one (as in arm files)
+                raise TypeError
+            value = float(num)
         except (TypeError, ValueError, OverflowError):
             got = repr(raw) if len(repr(raw)) <= 40 else repr(raw)[:39] + "…"
             raise EffectError(
