@@ -71,11 +71,12 @@ def _valued_effect(spec: str, flag: str = "--add") -> Effect:
         )
     kind = kind_of(name)
     if kind is None:
-        from eodarm.model.effects import known_effects
+        from eodarm.model.effects import did_you_mean, known_effects
 
+        known = known_effects()
         raise EodarmError(
-            f"{flag} '{spec}': unknown effect '{name}'; known: {', '.join(known_effects())} "
-            "(user-written effects come with --effects FILE.py)"
+            f"{flag} '{spec}': unknown effect '{name}'{did_you_mean(name, known)}; known: "
+            f"{', '.join(known)} (user-written effects come with --effects FILE.py)"
         )
     try:
         x = float(value)

@@ -105,7 +105,18 @@ def known_effects() -> list[str]:
 
 
 def _unknown(name: object) -> str:
-    return f"unknown effect '{name}'; known: {', '.join(known_effects())}"
+    known = known_effects()
+    return f"unknown effect '{name}'{did_you_mean(str(name), known)}; known: {', '.join(known)}"
+
+
+def did_you_mean(name: str, known: Iterable[str], cutoff: float = 0.6) -> str:
+    """``": did you mean 'x'?"`` for the closest of ``known`` to a misspelled ``name``
+    (difflib's ratio ≥ ``cutoff``, case ignored), or nothing."""
+    import difflib
+
+    lower = {k.lower(): k for k in known}
+    close = difflib.get_close_matches(name.strip().lower(), list(lower), n=1, cutoff=cutoff)
+    return f" (did you mean '{lower[close[0]]}'?)" if close else ""
 
 
 def _kind(name: str) -> EffectKind:
@@ -321,8 +332,33 @@ def _place_index(kind: EffectKind, at: str) -> int:
     letter = kind.place_letter
     ok = isinstance(at, str) and at[:1] == letter and at[1:].isascii() and at[1:].isdigit()
     if not (ok and int(at[1:]) >= 1):
-        raise EffectError(f"effect {kind.name} sits at {letter}1…{letter}n, not '{at}'")
+        raise EffectError(
+            f"effect {kind.name} sits at {letter}1…{letter}n, not '{at}'{_place_hint(kind, at)}"
+        )
     return int(at[1:]) - 1
+
+
+#: What sits at each kind of place (the letter of its name).
+_PLACE_WORD = {"M": "an actuator", "O": "a joint", "L": "a link"}
+
+
+def _place_hint(kind: EffectKind, at: object) -> str:
+    """What was probably meant by a wrong place: ``o3`` for O3, or, for a place of another
+    kind (``joint_clearance@M2``), the effects that sit there."""
+    if not isinstance(at, str):
+        return ""
+    text = at.strip()
+    num = text[1:]
+    if text[:1].upper() == kind.place_letter and num.isascii() and num.isdigit() and int(num):
+        return f" (did you mean '{kind.place_letter}{int(num)}'?)"
+    word = _PLACE_WORD.get(text[:1].upper())
+    if word and num.isascii() and num.isdigit():
+        there = [k.name for k in CATALOGUE.values() if k.place_letter == text[:1].upper()]
+        return (
+            f" ({text} is {word}: did you mean {kind.place_letter}{int(num)}, or "
+            f"{' / '.join(there)}@{text.upper()}?)"
+        )
+    return ""
 
 
 def candidate_places(name: str, n: int) -> list[str]:
