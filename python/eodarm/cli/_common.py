@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -349,10 +350,17 @@ def _stages(names: list[str], command: str) -> Any:
     return stages(names, f"eodarm {command}")
 
 
-def _next(*argv: str) -> None:
-    """The ``next:`` line on stderr (stdout is data): the command to run next."""
+def _next(*argv: str, args: argparse.Namespace | None = None) -> None:
+    """The ``next:`` line on stderr (stdout is data): the command to run next.
+
+    With the command's ``args``, the options that the next command needs to see the same
+    model are carried over when it takes them (:func:`_carried`): ``--effects FILE.py``,
+    ``--model``, ``--elements-per-link``, ``--no-self-weight``.
+    """
     import shlex
 
+    if args is not None:
+        argv = (*argv, *_carried(args, argv[0], argv))
     words = ["eodarm:", "next:", "eodarm", *(shlex.quote(a) for a in argv)]
     lines = [words[0]]
     for w in words[1:]:  # wrapped as the shell continues a line, so that it pastes whole
@@ -362,6 +370,47 @@ def _next(*argv: str) -> None:
         else:
             lines[-1] += " " + w
     NEXT[:] = ["\n".join(lines)]
+
+
+def _options_of(command: str) -> set[str]:
+    """Every option string of ``command`` (``--add``, ``--effects`` …)."""
+    from eodarm.cli import _parser
+
+    parser = _parser([command])
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            return set(action.choices[command]._option_string_actions)
+    return set()
+
+
+def _carried(args: argparse.Namespace, command: str, given: Sequence[str] = ()) -> list[str]:
+    """The options of ``args`` that the next ``command`` needs in order to run the same model
+    (and that it takes, and that ``given`` does not already hold): the user-written effects'
+    files (an ``--add`` of theirs is unknown without them), the model, self-weight."""
+    takes = _options_of(command) - set(given)
+    out: list[str] = []
+    if "--effects" in takes:
+        for path in getattr(args, "effects", None) or []:
+            out += ["--effects", path]
+    if getattr(args, "model", "analytic") != "analytic" and "--model" in takes:
+        out += ["--model", args.model]
+        epl = getattr(args, "elements_per_link", None)
+        if epl is not None and "--elements-per-link" in takes:
+            out += ["--elements-per-link", str(epl)]
+    if getattr(args, "no_self_weight", False) and "--no-self-weight" in takes:
+        out.append("--no-self-weight")
+    return out
+
+
+def _free_name(name: str) -> str:
+    """``name``, or ``stem-2.ext``, ``stem-3.ext`` … the first that does not exist here: an
+    output the ``next:`` line proposes is never one that would be refused (``--force``)."""
+    p = Path(name)
+    k = 2
+    while p.exists():
+        p = Path(f"{Path(name).stem}-{k}{Path(name).suffix}")
+        k += 1
+    return str(p)
 
 
 def _force_arg(p: argparse.ArgumentParser, what: str) -> None:

@@ -106,7 +106,7 @@ def run(args: argparse.Namespace) -> int:
     else:
         _print_compare(doc, res, meas, arm, model, outliers)
     _plots(args.plot, meas, base, res, fixed + list(res.effects), arm, sw, None, _model_kw(args))
-    _next("diagnose", args.measurements, *_arm_argv(args), *_adds(model))
+    _next("diagnose", args.measurements, *_arm_argv(args), *_adds(model), args=args)
     return 0
 
 

@@ -211,7 +211,16 @@ def run(args: argparse.Namespace) -> int:
     if first is not None:  # check: solve at the command, the point lands on the nominal
         cmd = ",".join(f"{a:.6g}" for a in out["alpha_deg"][first])
         adds = [a for spec in args.add or [] for a in ("--add", spec)]
-        _next("solve", *_arm_argv(args), *adds, "--alpha", cmd, "--mass", f"{mass[first]:g}")
+        _next(
+            "solve",
+            *_arm_argv(args),
+            *adds,
+            "--alpha",
+            cmd,
+            "--mass",
+            f"{mass[first]:g}",
+            args=args,
+        )
     return 0
 
 

@@ -10,6 +10,7 @@ from eodarm.cli._common import (
     _arm_argv,
     _describe_data,
     _force_arg,
+    _free_name,
     _load_arm,
     _model,
     _model_kw,
@@ -102,10 +103,18 @@ def run(args: argparse.Namespace) -> int:
         ]
     _plots(args.plot, meas, before, res, list(res.effects), arm, sw, steps, _model_kw(args))
     if args.output:
-        _next("solve", "--arm", args.output, "--uncertainty")
+        _next("solve", "--arm", args.output, "--uncertainty", args=args)
     else:
         adds = [a for spec in args.add or [] for a in ("--add", spec)]
-        _next("fit", args.measurements, *_arm_argv(args), *adds, "-o", "fitted.toml")
+        _next(
+            "fit",
+            args.measurements,
+            *_arm_argv(args),
+            *adds,
+            "-o",
+            _free_name("fitted.toml"),
+            args=args,
+        )
     return 0
 
 

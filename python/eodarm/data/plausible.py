@@ -8,8 +8,9 @@ the 1-based line and the column, what no model of this arm could explain:
 * an unloaded pose **out of stroke**: an actuator's pin-to-pin length outside the arm file's
   ``[min_length_mm, max_length_mm]``;
 * a pose that **cannot close under its load**: an actuator triangle with no solution at the
-  loaded length. Where the same pose closes under ``mass_kg / 1000``, the mass was most
-  probably written in grams, and the message says so.
+  loaded length. Where the mass is more than :data:`GRAMS_FACTOR` times the arm's own and
+  the same pose closes under ``mass_kg / 1000``, the mass was most probably written in
+  grams, and the message says so.
 
 These are data or geometry problems, not the fault of a fitted effect: they are refused
 before fitting (docs/terminal.md, "Mistakes caught at the door").
@@ -27,9 +28,10 @@ the angles would be radians if they were meant so, and the file is used as degre
 Masses in grams (warning)
 -------------------------
 A state that closes but whose deflection is outside the model's validity
-(:mod:`eodarm.model.validity`: ``large_deflection``, ``branch_flip``, ``over_force``) while
-``mass_kg / 1000`` would be inside it gets a warning naming the lines: grams are likely, but a
-heavily loaded arm is possible, so it is not refused.
+(:mod:`eodarm.model.validity`: ``large_deflection``, ``branch_flip``) under a mass more than
+:data:`GRAMS_FACTOR` times the arm's own, while ``mass_kg / 1000`` would be inside it, gets a
+warning naming the lines: grams are likely, but a heavily loaded arm is possible, so it is not
+refused.
 """
 
 from __future__ import annotations
@@ -46,11 +48,16 @@ from eodarm.data.channels import channel_values
 from eodarm.data.measurements import MAX_LISTED, MeasurementFileError, Measurements
 from eodarm.model.arm import Arm
 
-__all__ = ["RADIAN_CHI2_RATIO", "check_states"]
+__all__ = ["GRAMS_FACTOR", "RADIAN_CHI2_RATIO", "check_states", "own_mass_kg"]
 
 #: The radian reading of angles within ±2π must explain the measured deflections this many
 #: times better (in χ²) than the degree reading for the file to be refused as radians.
 RADIAN_CHI2_RATIO = 10.0
+
+#: A payload above this many times the arm's own mass (links and actuators) whose state
+#: fails where a thousandth of it would not is taken for grams: arms of this kind carry a
+#: fraction of their own weight (the seed's 10 kg arm, 6.5 kg), not tens of times it.
+GRAMS_FACTOR = 10.0
 
 _ROW = re.compile(r"pose row (\d+):\s*")
 
@@ -109,6 +116,20 @@ def _chi2(meas: Measurements, out: dict[str, Any] | None, failed: dict[int, str]
     return float(np.nansum(z * z))
 
 
+def own_mass_kg(arm: Arm) -> float:
+    """The arm's own mass, kg: its links and actuators."""
+    return float(sum(x.mass_kg for x in arm.links) + sum(x.mass_kg for x in arm.actuators))
+
+
+def _outside(out: dict[str, Any] | None, failed: dict[int, str], rows: int) -> int:
+    """How many states cannot be solved or are outside the model's validity (status ≠ ok)."""
+    if out is None:
+        return rows
+    bad = np.asarray(out.get("status", np.zeros(rows)), dtype=np.int64) != 0
+    bad[list(failed)] = True
+    return int(bad.sum())
+
+
 def _check_radians(arm: Arm, meas: Measurements, self_weight: bool) -> None:
     alpha = np.asarray(meas.alpha_deg, dtype=float)
     if not (np.abs(alpha) <= 2 * math.pi).all() or not (np.abs(alpha) > 0.05).any():
@@ -118,18 +139,26 @@ def _check_radians(arm: Arm, meas: Measurements, self_weight: bool) -> None:
     deg_out, deg_failed = _solve(arm, alpha, mass, self_weight)
     rad_out, rad_failed = _solve(arm, as_rad, mass, self_weight)
     chi_deg, chi_rad = _chi2(meas, deg_out, deg_failed), _chi2(meas, rad_out, rad_failed)
+    outside_deg = _outside(deg_out, deg_failed, alpha.shape[0])
+    outside_rad = _outside(rad_out, rad_failed, alpha.shape[0])
     r, j = np.unravel_index(int(np.argmax(np.abs(alpha))), alpha.shape)
     example = (
         f"line {int(meas.line[r])} alpha{j + 1}_deg {alpha[r, j]:.6g} is "
         f"{as_rad[r, j]:.4g}° if it is in radians"
     )
-    if math.isfinite(chi_rad) and chi_rad * RADIAN_CHI2_RATIO < chi_deg:
+    if outside_deg and not outside_rad:
         why = (
-            "the poses read as degrees cannot be solved"
-            if not math.isfinite(chi_deg)
-            else f"read as radians they explain the data {chi_deg / max(chi_rad, 1e-300):.3g}× "
+            f"read as degrees, {outside_deg} of {alpha.shape[0]} states cannot be solved or "
+            "leave the model's validity; read as radians, none does"
+        )
+    elif math.isfinite(chi_rad) and chi_rad * RADIAN_CHI2_RATIO < chi_deg:
+        why = (
+            f"read as radians they explain the data {chi_deg / max(chi_rad, 1e-300):.3g}× "
             "better (χ²)"
         )
+    else:
+        why = ""
+    if why:
         raise MeasurementFileError(
             f"{meas.source}: every alphaK_deg is within ±2π: the angles look like radians "
             f"({example}; {why}); give degrees (multiply by 180/π)"
@@ -192,9 +221,10 @@ def check_states(arm: Arm, meas: Measurements, self_weight: bool = True) -> None
     if failed:
         rows = np.array(sorted(failed), dtype=np.int64)
         _, in_grams = _solve(arm, alpha[rows], mass[rows] / 1000.0, self_weight)
+        heavy = GRAMS_FACTOR * own_mass_kg(arm)
         for k, r in enumerate(rows):
             hint = ""
-            if k not in in_grams and mass[r] > 0:
+            if k not in in_grams and mass[r] > heavy:
                 hint = f"; in grams? {mass[r] / 1000:g} kg closes: give kilograms"
             bad[int(r)] = f"mass_kg {mass[r]:g}: {failed[int(r)]} under this load{hint}"
     if bad:
@@ -214,7 +244,7 @@ def check_states(arm: Arm, meas: Measurements, self_weight: bool = True) -> None
         return
     code = np.asarray(out["status"], dtype=np.int64)
     loaded_bad = np.isin(code, [STATUS.index(s) for s in ("branch_flip", "large_deflection")])
-    suspects = np.flatnonzero(loaded_bad & (mass > 0))
+    suspects = np.flatnonzero(loaded_bad & (mass > GRAMS_FACTOR * own_mass_kg(arm)))
     if suspects.size:
         light, light_failed = _solve(arm, alpha[suspects], mass[suspects] / 1000, self_weight)
         if light is not None and not light_failed:

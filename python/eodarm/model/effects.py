@@ -449,9 +449,10 @@ class Slot:
             raise EodarmError(str(exc)) from None
         kind = kind_of(name)
         if kind is None:
+            known = known_effects()
             raise EodarmError(
-                f"'{spec}' is not of the form EFFECT@PLACE with EFFECT one of "
-                f"{', '.join(known_effects())}"
+                f"'{spec}': unknown effect '{name}'{did_you_mean(name, known)}; known: "
+                f"{', '.join(known)} (user-written effects come with --effects FILE.py)"
             )
         slot = cls(name, at, unloaded)
         slot.example  # noqa: B018 - validates place and mode
