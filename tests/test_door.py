@@ -27,7 +27,7 @@ import pytest
 import eodarm
 from eodarm.cli import main
 from eodarm.data.datasets import bundled_arm_path
-from eodarm.data.measurements import MeasurementFileError
+from eodarm.data.measurements import MeasurementFileError, Measurements
 from eodarm.data.reader import read_measurements
 from eodarm.errors import ArmFileError, EffectError, InputError
 
@@ -425,6 +425,10 @@ WRONG_KINDS: dict[str, Callable[[], Any]] = {
     "datetime grid": lambda: eodarm.sweep(
         _arm(), alpha_deg={**GRID, "alpha1": np.array([80], dtype="datetime64[D]")}, mass_kg=[1.0]
     ),
+    "complex measured values": lambda: Measurements.from_arrays(
+        "c1", P, 1.0, {"dy_mm": np.array([-1.0 + 1e-3j])}
+    ),
+    "bool measured mass": lambda: Measurements.from_arrays("c1", P, True, {"dy_mm": [-1.0]}),
 }  # fmt: skip
 
 
@@ -434,7 +438,7 @@ def test_numbers_of_the_wrong_kind_are_refused_in_one_line(case: str) -> None:
     True as 1.0 mm, "80" as 80) or ended in an OverflowError."""
     with pytest.raises(ValueError) as err:  # InputError / EffectError: ValueError subclasses
         WRONG_KINDS[case]()
-    assert isinstance(err.value, (InputError, EffectError)), type(err.value)
+    assert isinstance(err.value, (InputError, EffectError, MeasurementFileError)), err.value
     assert "\n" not in str(err.value)
 
 
@@ -481,6 +485,11 @@ def _hinted(tmp: Path, shim: Path) -> dict[str, list[str]]:
     return {
         "compare": ["compare", meas, "--arm", SEED_ARM, "--add", "door_shim@M2", *common],
         "fit": ["fit", meas, "--arm", SEED_ARM, "--add", "mount_compliance@M2", *common],
+        "fit -o": [
+            "fit", meas, "--arm", SEED_ARM, "--add", "mount_compliance@M2", "-o",
+            tmp / "fitted.toml", *common,
+        ],
+        "diagnose": ["diagnose", meas, "--arm", SEED_ARM, "--max-set", "1", *common],
         "solve": ["solve", "--add", "door_shim@M2=0.05", "--alpha", "90,10,0", *common],
         "compensate": [
             "compensate", "--add", "door_shim@M2=0.05", "--alpha", "90,10,0", "--mass", "5",
@@ -491,7 +500,9 @@ def _hinted(tmp: Path, shim: Path) -> dict[str, list[str]]:
     }  # fmt: skip
 
 
-@pytest.mark.parametrize("command", ["compare", "fit", "solve", "compensate", "synth"])
+@pytest.mark.parametrize(
+    "command", ["compare", "diagnose", "fit", "fit -o", "solve", "compensate", "synth"]
+)
 def test_a_next_line_carries_the_effects_file_and_the_model_and_runs(
     command: str,
     shim: Path,

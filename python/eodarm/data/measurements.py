@@ -408,7 +408,12 @@ class Measurements:
         MeasurementFileError
             Naming the row (as the line it would have in a file, header = line 1) and column.
         """
-        alpha = np.asarray(alpha_deg, dtype=float)
+        from eodarm.model.kinds import real_array
+
+        try:
+            alpha = np.asarray(real_array(alpha_deg, f"{source}: alpha_deg"), dtype=float)
+        except (TypeError, ValueError, OverflowError) as exc:
+            raise MeasurementFileError(str(exc)) from None
         if alpha.ndim == 1:
             alpha = alpha[None, :]
         if alpha.ndim != 2 or alpha.shape[1] < 1:
@@ -425,8 +430,11 @@ class Measurements:
 
         def column(arr: npt.ArrayLike, what: str) -> FloatArray:
             try:
-                return np.broadcast_to(np.asarray(arr, dtype=float), (rows,))
-            except (TypeError, ValueError):
+                real = real_array(arr, f"{source}: {what}")
+                return np.broadcast_to(np.asarray(real, dtype=float), (rows,))
+            except EodarmError as exc:
+                raise MeasurementFileError(str(exc)) from None
+            except (TypeError, ValueError, OverflowError):
                 raise MeasurementFileError(
                     f"{source}: {what} must be a number or {rows} numbers"
                 ) from None

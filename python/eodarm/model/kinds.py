@@ -103,9 +103,11 @@ def integer(x: Any, name: str, lo: int = 1, hi: int = 2**31 - 1) -> int:
         Naming ``name``, the value and the range (a huge Python int included).
     """
     if isinstance(x, (bool, np.bool_)) or not isinstance(x, (int, np.integer)):
-        raise InputError(f"{name}: expected an integer, got {kind_name(x)}")
+        raise InputError(f"{name} must be an integer >= {lo}, got {kind_name(x)}")
     v = int(x)
-    if not lo <= v <= hi:
+    if v < lo:
+        raise InputError(f"{name} must be >= {lo}, got {v}")
+    if v > hi:
         shown = str(v) if len(str(v)) <= 24 else f"{str(v)[:20]}… ({len(str(v))} digits)"
-        raise InputError(f"{name}: {shown} is outside {lo}…{hi}")
+        raise InputError(f"{name} must be <= {hi}, got {shown}")
     return v
