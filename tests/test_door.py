@@ -535,3 +535,17 @@ def test_a_proposed_output_is_never_one_that_would_be_refused(
     argv = _next_argv(err)
     out = argv[argv.index("-o") + 1]
     assert out != "fitted.toml" and not Path(out).exists()
+
+
+def test_compensate_names_the_lines_of_a_pose_file(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Poses from a file that cannot be compensated are named by their lines in it, not by
+    0-based rows (issue 23 item 3); a binary pose file is one line."""
+    poses = tmp_path / "poses.csv"
+    poses.write_text("config,alpha1_deg,alpha2_deg,alpha3_deg\na,90,10,0\nb,95,15,0\n")
+    code, _, err = cli(capsys, "compensate", "--poses", poses, "--mass", "5000")
+    line = one_line(code, err)
+    assert f"{poses} lines 2, 3:" in line and "rows 0" not in line
+    code, _, err = cli(capsys, "compensate", "--poses", "/dev/zero", "--mass", "5")
+    assert "binary file" in one_line(code, err)
