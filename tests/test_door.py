@@ -194,6 +194,38 @@ def test_a_state_out_of_stroke_unloaded_is_the_datas_problem_not_the_fits(
     assert "[250, 370] mm" in line and "not the model's" in line
 
 
+def test_a_fit_refused_for_validity_names_the_effect_and_the_lines(
+    shim: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The fitted shim moves two of the seed's states beyond the model's validity: the
+    refusal names the fitted effect with its value, the file and the lines."""
+    meas = no_sigma(tmp_path / "m.csv")
+    argv = ["fit", meas, "--arm", SEED_ARM, "--effects", shim, "--no-self-weight"]
+    code, _, err = cli(capsys, *argv, "--add", "door_shim@M2")
+    line = one_line(code, err)
+    assert "the fitted door_shim@M2 = " in line and f"of {meas} outside" in line
+    assert "line(s) 2, 5" in line
+
+
+def test_states_outside_validity_before_the_fit_are_blamed_on_the_data(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Four times the seed's payloads: under the arm file's model alone 10 of the 15 states
+    deflect beyond the model's validity. A fit that leaves them there is refused as a data
+    problem naming the lines, not as the fitted effect's fault (issue 23 item 3)."""
+    meas = edit_rows(
+        no_sigma(tmp_path / "m.csv"),
+        tmp_path / "heavy.csv",
+        lambda h, r: [
+            str(float(c) * 4) if n == "mass_kg" else c for n, c in zip(h, r, strict=True)
+        ],
+    )
+    code, _, err = cli(capsys, "fit", meas, "--arm", SEED_ARM, "--add", "mount_compliance@M2")
+    line = one_line(code, err)
+    assert f"{meas}: 10 of 15 measured states are outside the model's validity before" in line
+    assert "line(s) 3, 4, 6" in line and "not the fit's" in line and "the fitted" not in line
+
+
 # ---------------------------------------------------------------- nothing overwritten (20.5)
 def test_datasets_export_refuses_a_folder_with_files(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
