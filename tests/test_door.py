@@ -86,6 +86,7 @@ def _late_failures(tmp: Path) -> dict[str, list[str]]:
         "compare": ["compare", meas, *arm, "--plot", below],
         "fit": ["fit", meas, *arm, "--add", "mount_compliance@M2", "--plot", below],
         "diagnose": ["diagnose", meas, *arm, "--max-set", "1", "--plot", below],
+        "report": ["report", meas, *arm, "--rounds", "1", "-o", below + ".html"],
         "solve": ["solve", "--model", "fem", "--alpha", "90,10,0", "--plot", below],
         "compensate": ["compensate", "--alpha", "90,10,0", "--mass", "5", "-o", below + ".csv"],
         "sweep": [
@@ -99,7 +100,7 @@ def _late_failures(tmp: Path) -> dict[str, list[str]]:
 
 @pytest.mark.parametrize(
     "command",
-    ["compare", "fit", "diagnose", "solve", "compensate", "sweep", "synth", "datasets"],
+    ["compare", "fit", "diagnose", "report", "solve", "compensate", "sweep", "synth", "datasets"],
 )
 def test_a_late_refusal_is_one_line_without_the_notes_that_were_due(
     command: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
