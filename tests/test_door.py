@@ -227,6 +227,28 @@ def test_states_outside_validity_before_the_fit_are_blamed_on_the_data(
     assert "line(s) 3, 4, 6" in line and "not the fit's" in line and "the fitted" not in line
 
 
+def test_the_api_names_the_file_line_of_a_state_that_cannot_close(tmp_path: Path) -> None:
+    """eodarm.fit and eodarm.diagnose on measurements whose state cannot close name the
+    file and the state's line, not `pose row 0` (issue 23 item 3)."""
+    meas = no_sigma(tmp_path / "m.csv", rows=2)
+    meas = edit_rows(
+        meas,
+        meas,
+        lambda h, r: [
+            str(float(c) * 1000) if n == "mass_kg" else c for n, c in zip(h, r, strict=True)
+        ],
+    )
+    arm = eodarm.Arm.from_toml(SEED_ARM)
+    data = read_measurements(meas, 3)
+    for call in (
+        lambda: eodarm.fit(arm, data, ["mount_compliance@M2"]),
+        lambda: eodarm.diagnose(arm, data),
+    ):
+        with pytest.raises(ValueError) as err:
+            call()
+        assert f"{meas} line 2: actuator 1 cannot close its triangle" in str(err.value)
+
+
 # ---------------------------------------------------------------- nothing overwritten (20.5)
 def test_datasets_export_refuses_a_folder_with_files(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]

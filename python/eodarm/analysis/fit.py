@@ -28,6 +28,7 @@ A user-written effect (CONTRACT §8) is fitted through its parameter itself, wit
 from __future__ import annotations
 
 import math
+import re
 import warnings
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -112,6 +113,28 @@ class Problem:
 
     # --------------------------------------------------------------- evaluation
     def evaluate(
+        self,
+        model: Sequence[tuple[Slot, float]],
+        probes: Sequence[Slot] = (),
+        rows: npt.NDArray[np.intp] | None = None,
+        nan_on_failure: bool = False,
+    ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+        """:meth:`_evaluate`, whose refusal of a pose (``pose row k: …``, k counted in the
+        rows solved) names the measurement file and the state's 1-based line instead."""
+        try:
+            return self._evaluate(model, probes, rows, nan_on_failure)
+        except ValueError as exc:
+            m = _POSE_ROW.search(str(exc))
+            if m is None:
+                raise
+            k = int(m.group(1))
+            index = np.arange(self.meas.n_rows) if rows is None else np.asarray(rows).ravel()
+            if k >= index.size:
+                raise
+            line = int(self.meas.line[int(index[k])])
+            raise EodarmError(f"{self.meas.source} line {line}: {str(exc)[m.end() :]}") from None
+
+    def _evaluate(
         self,
         model: Sequence[tuple[Slot, float]],
         probes: Sequence[Slot] = (),
@@ -402,6 +425,10 @@ class FitResult:
             "covariance": [[_json_num(float(x)) for x in row] for row in cov],
             "correlation": [[_json_num(float(x)) for x in row] for row in corr],
         }
+
+
+#: The solvers' way of naming a pose: ``pose row k: `` (0-based, in the rows solved).
+_POSE_ROW = re.compile(r"pose row (\d+):\s*")
 
 
 def check_validity(result: FitResult) -> None:
