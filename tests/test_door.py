@@ -544,6 +544,14 @@ def _hinted(tmp: Path, shim: Path) -> dict[str, list[str]]:
             "fit", meas, "--arm", SEED_ARM, "--add", "mount_compliance@M2", "-o",
             tmp / "fitted.toml", *common,
         ],
+        "fit -o, fem": [
+            "fit", meas, "--arm", SEED_ARM, "--add", "mount_compliance@M2", "-o",
+            tmp / "fitted_fem.toml", "--model", "fem", *common,
+        ],
+        "compare, fem": [
+            "compare", meas, "--arm", SEED_ARM, "--model", "fem", "--elements-per-link", "4",
+            *common,
+        ],
         "diagnose": ["diagnose", meas, "--arm", SEED_ARM, "--max-set", "1", *common],
         "solve": ["solve", "--add", "door_shim@M2=0.05", "--alpha", "90,10,0", *common],
         "compensate": [
@@ -556,8 +564,12 @@ def _hinted(tmp: Path, shim: Path) -> dict[str, list[str]]:
 
 
 @pytest.mark.parametrize(
-    "command", ["compare", "diagnose", "fit", "fit -o", "solve", "compensate", "synth"]
-)
+    "command",
+    [
+        "compare", "compare, fem", "diagnose", "fit", "fit -o", "fit -o, fem", "solve",
+        "compensate", "synth",
+    ],
+)  # fmt: skip
 def test_a_next_line_carries_the_effects_file_and_the_model_and_runs(
     command: str,
     shim: Path,
@@ -574,6 +586,10 @@ def test_a_next_line_carries_the_effects_file_and_the_model_and_runs(
     argv = _next_argv(err)
     assert argv[argv.index("--effects") + 1] == str(shim), argv
     assert "--no-self-weight" in argv, argv
+    if "fem" in command and "--uncertainty" not in argv:
+        assert argv[argv.index("--model") + 1] == "fem", argv
+    if command == "compare, fem":
+        assert argv[argv.index("--elements-per-link") + 1] == "4", argv
     if argv[0] == "report":
         return  # the whole report is report's own test
     code, _, err = cli(capsys, *argv)

@@ -386,13 +386,15 @@ def _options_of(command: str) -> set[str]:
 def _carried(args: argparse.Namespace, command: str, given: Sequence[str] = ()) -> list[str]:
     """The options of ``args`` that the next ``command`` needs in order to run the same model
     (and that it takes, and that ``given`` does not already hold): the user-written effects'
-    files (an ``--add`` of theirs is unknown without them), the model, self-weight."""
+    files (an ``--add`` of theirs is unknown without them), the model (not to a command asked
+    for ``--uncertainty``, which is propagated with the analytic model), self-weight."""
     takes = _options_of(command) - set(given)
     out: list[str] = []
     if "--effects" in takes:
         for path in getattr(args, "effects", None) or []:
             out += ["--effects", path]
-    if getattr(args, "model", "analytic") != "analytic" and "--model" in takes:
+    uncertainty = "--uncertainty" in given  # propagated with the analytic model only
+    if getattr(args, "model", "analytic") != "analytic" and "--model" in takes and not uncertainty:
         out += ["--model", args.model]
         epl = getattr(args, "elements_per_link", None)
         if epl is not None and "--elements-per-link" in takes:

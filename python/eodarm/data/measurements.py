@@ -46,7 +46,16 @@ What the reader promises
   whose one-line message names the file and, for each bad row, its line and column. Nothing is
   silently dropped: a row that measures no channel is kept (it contributes nothing). Entirely
   blank lines are not rows and are skipped.
-* Comment lines are not part of the contract and are not supported.
+* Comment lines are not part of the format and are not supported.
+* Spreadsheet exports (:mod:`eodarm.data.reader`): a header without a comma but with
+  semicolons (or tabs) is read with that separator, with a warning; rows whose every cell is
+  empty (``,,,,``) are skipped with one warning; a decimal comma is named as such in the
+  error; an unknown or missing column names the close match it probably is.
+* A file over :data:`eodarm.data.reader.MAX_FILE_BYTES` (100 MB) or with NUL bytes (a binary
+  file, ``/dev/zero``) is refused in one line before it is read whole.
+* States that the arm cannot take (out of stroke unloaded, a pose that cannot close under its
+  load, angles in radians) are refused by the commands before any fit, naming the line
+  (:func:`eodarm.data.plausible.check_states`).
 """
 
 from __future__ import annotations
