@@ -451,6 +451,12 @@ def _arm() -> eodarm.Arm:
     return eodarm.Arm.from_toml(EXAMPLE)
 
 
+def _synth(**kw: Any) -> Any:
+    from eodarm.analysis.synth import synth
+
+    return synth(_arm(), P, [1.0], **kw)
+
+
 WRONG_KINDS: dict[str, Callable[[], Any]] = {
     "complex angles": lambda: eodarm.solve(_arm(), np.array(P) + 0j, 1.0),
     "complex mass": lambda: eodarm.solve(_arm(), P, np.complex128(1.0)),
@@ -484,6 +490,11 @@ WRONG_KINDS: dict[str, Callable[[], Any]] = {
         "c1", P, 1.0, {"dy_mm": np.array([-1.0 + 1e-3j])}
     ),
     "bool measured mass": lambda: Measurements.from_arrays("c1", P, True, {"dy_mm": [-1.0]}),
+    "synth repeats 2**64": lambda: _synth(repeats=2**64),
+    "synth complex noise": lambda: _synth(noise=1 + 1j),
+    "diagnose max_set 2**64": lambda: eodarm.diagnose(
+        eodarm.Arm.from_toml(SEED_ARM), read_measurements(SEED, 3), max_set=2**64
+    ),
 }  # fmt: skip
 
 
