@@ -143,7 +143,7 @@ def _read_capped(f: Any, source: str) -> str | bytes:
 
 def _delimiter(text: str, source: str) -> str:
     """``,``, or the ``;`` (or tab) of a header that has no comma: a spreadsheet's export in
-    a locale whose decimal mark is a comma. Said in a warning, since the contract's files
+    a locale whose decimal mark is a comma. Said in a warning, since the format's files
     are comma-separated."""
     header = text.split("\n", 1)[0]
     if "," in header:
