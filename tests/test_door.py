@@ -249,6 +249,20 @@ def test_the_api_names_the_file_line_of_a_state_that_cannot_close(tmp_path: Path
         assert f"{meas} line 2: actuator 1 cannot close its triangle" in str(err.value)
 
 
+def test_a_state_that_an_added_effect_cannot_close_names_the_effect(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A mount of 0.01 N/mm stretches actuator 1 by kilometres: the refusal names the file,
+    the line and the effect that did it (issue 23 item 3)."""
+    meas = no_sigma(tmp_path / "m.csv")
+    code, _, err = cli(
+        capsys, "compare", meas, "--arm", SEED_ARM, "--add", "mount_compliance@M1=0.01"
+    )
+    line = one_line(code, err)
+    assert f"{meas} line 2: actuator 1 cannot close its triangle" in line
+    assert "(with mount_compliance@M1 = 0.01 N/mm)" in line
+
+
 # ---------------------------------------------------------------- nothing overwritten (20.5)
 def test_datasets_export_refuses_a_folder_with_files(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]

@@ -132,7 +132,17 @@ class Problem:
             if k >= index.size:
                 raise
             line = int(self.meas.line[int(index[k])])
-            raise EodarmError(f"{self.meas.source} line {line}: {str(exc)[m.end() :]}") from None
+            under = ", ".join(  # the effects of the model that the state could not take
+                f"{s.spec} = {param_from_theta(s.name, float(t)):.4g} {s.kind.unit}".rstrip()
+                for s, t in [
+                    *(f for f in self.fixed if f[0].key not in {s.key for s, _ in model}),
+                    *model,
+                ]
+            )
+            raise EodarmError(
+                f"{self.meas.source} line {line}: {str(exc)[m.end() :]}"
+                + (f" (with {under})" if under else "")
+            ) from None
 
     def _evaluate(
         self,
