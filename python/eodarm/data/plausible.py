@@ -223,10 +223,15 @@ def check_states(arm: Arm, meas: Measurements, self_weight: bool = True) -> None
         _, in_grams = _solve(arm, alpha[rows], mass[rows] / 1000.0, self_weight)
         heavy = GRAMS_FACTOR * own_mass_kg(arm)
         for k, r in enumerate(rows):
+            why = failed[int(r)]
+            if k in in_grams and "cannot close" not in why:  # the unloaded pose itself
+                cols = ",".join(f"alpha{j + 1}_deg" for j in range(arm.n))
+                bad[int(r)] = f"{cols}: {why}"
+                continue
             hint = ""
             if k not in in_grams and mass[r] > heavy:
                 hint = f"; in grams? {mass[r] / 1000:g} kg closes: give kilograms"
-            bad[int(r)] = f"mass_kg {mass[r]:g}: {failed[int(r)]} under this load{hint}"
+            bad[int(r)] = f"mass_kg {mass[r]:g}: {why} under this load{hint}"
     if bad:
         order = sorted(bad)
         listed = "; ".join(f"line {int(lines[r])}: {bad[r]}" for r in order[:MAX_LISTED])
