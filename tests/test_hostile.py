@@ -69,16 +69,20 @@ def test_a_byte_order_mark_is_accepted(tmp_path: Path) -> None:
     assert eodarm.Arm.from_toml(path) == eodarm.Arm.from_toml(EXAMPLE)
 
 
-def test_a_typo_is_a_note_after_success_and_silent_on_failure(tmp_path: Path) -> None:
-    path = tmp_path / "typo.toml"
-    path.write_text(TEXT.replace("mass_kg = 3.0", "mass_kg = 3.0\nmas_kg = 3.0", 1))
+def test_an_unknown_key_is_a_note_after_success_and_silent_on_failure(tmp_path: Path) -> None:
+    path = tmp_path / "serial.toml"
+    path.write_text(TEXT.replace("mass_kg = 3.0", 'mass_kg = 3.0\nserial = "A17"', 1))
     ok = cli("solve", "--arm", str(path), "--json")
     assert ok.returncode == 0, ok.stderr
     notes = ok.stderr.split("eodarm: next:")[0]  # then the command to run next
     assert " ".join(notes.split()) == (
-        f"eodarm: note: {path}: key 'link[1].mas_kg' is not an arm-file key and is ignored"
+        f"eodarm: note: {path}: key 'link[1].serial' is not an arm-file key and is ignored"
     )
-    bad = tmp_path / "typo_and_error.toml"
+    # a misspelled key is refused (its default would be used silently): see test_door.py
+    typo = tmp_path / "typo.toml"
+    typo.write_text(TEXT.replace("mass_kg = 3.0", "mass_kg = 3.0\nmas_kg = 3.0", 1))
+    assert "did you mean 'mass_kg'" in one_error_line(cli("solve", "--arm", str(typo)))
+    bad = tmp_path / "serial_and_error.toml"
     bad.write_text(path.read_text().replace("stiffness_n_per_mm = 3000.0", "", 1))
     assert "actuator[1].stiffness_n_per_mm" in one_error_line(cli("solve", "--arm", str(bad)))
 

@@ -59,7 +59,8 @@ def arm_file(arm: eodarm.Arm, tmp_path: Path) -> Path:
 
 
 def cli(arm_file: Path, out: Path | None, *extra: str, grid: list[str] = ARGV_GRID) -> int:
-    argv = ["sweep", "--arm", str(arm_file), *grid, "--mass", "1.5,5", "--no-progress"]
+    # --force: these tests overwrite on purpose (without it an existing -o is refused)
+    argv = ["sweep", "--arm", str(arm_file), *grid, "--mass", "1.5,5", "--no-progress", "--force"]
     argv += ["--add", "joint_clearance@O3=0.15", *(["-o", str(out)] if out else []), *extra]
     return main(argv)
 

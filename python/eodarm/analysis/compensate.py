@@ -17,6 +17,7 @@ docs/compensation.md has the equations, the statuses and the limits).
 from __future__ import annotations
 
 import warnings
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -25,6 +26,7 @@ import numpy.typing as npt
 from eodarm.errors import EodarmError, InputError
 from eodarm.model.arm import Arm, check_arm
 from eodarm.model.effects import Effect, effect_arrays, split_effects, with_arm_effects
+from eodarm.model.kinds import integer, real_number
 from eodarm.model.solver import _core_arm, _per_row, _poses
 
 __all__ = [
@@ -131,8 +133,8 @@ def compensate(
         raise InputError(f"pose row {bad[0]}: mass_kg is negative ({mass[bad[0]]})")
     if jacobian not in JACOBIANS:
         raise InputError(f"jacobian must be one of {', '.join(JACOBIANS)}, got {jacobian!r}")
-    if isinstance(max_iter, bool) or not isinstance(max_iter, (int, np.integer)) or max_iter < 1:
-        raise InputError(f"max_iter must be an integer >= 1, got {max_iter!r}")
+    max_iter = integer(max_iter, "max_iter", 1, 2**31 - 1)
+    tol_mm = real_number(tol_mm, "tol_mm")
     if not (np.isfinite(tol_mm) and tol_mm > 0):
         raise InputError(f"tol_mm must be finite and > 0, got {tol_mm!r}")
     effs = with_arm_effects(arm.effects, effects)
@@ -188,9 +190,14 @@ def compensate(
     return out
 
 
-def failure_summary(out: dict[str, npt.NDArray[Any]]) -> str:
+def failure_summary(
+    out: dict[str, npt.NDArray[Any]],
+    source: str | None = None,
+    lines: Sequence[int] | None = None,
+) -> str:
     """One line naming the poses of a :func:`compensate` result that are not ``ok``, grouped
-    by reason (``""`` when all are ok)."""
+    by reason (``""`` when all are ok): by their 0-based row, or, for poses read from a file
+    ``source``, by their 1-based ``lines`` in it."""
     status = np.asarray(out["status"])
     actuator = np.asarray(out["actuator"])
     failed = np.flatnonzero(status != "ok")
@@ -201,9 +208,14 @@ def failure_summary(out: dict[str, npt.NDArray[Any]]) -> str:
         groups.setdefault((str(status[row]), int(actuator[row])), []).append(row)
     parts = []
     for (reason, act), rows in groups.items():
-        named = ", ".join(str(r) for r in rows[:MAX_ROWS_NAMED])
+        shown = (
+            rows[:MAX_ROWS_NAMED] if lines is None else [lines[r] for r in rows[:MAX_ROWS_NAMED]]
+        )
+        named = ", ".join(str(r) for r in shown)
         more = f" and {len(rows) - MAX_ROWS_NAMED} more" if len(rows) > MAX_ROWS_NAMED else ""
         word = "row" if len(rows) == 1 else "rows"
+        if lines is not None:
+            word = f"{source} line" + ("" if len(rows) == 1 else "s")
         parts.append(f"{word} {named}{more}: {_reason(reason, act)}")
     return (
         f"compensate: {failed.size} of {status.size} poses could not be compensated: "

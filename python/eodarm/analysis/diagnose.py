@@ -240,6 +240,11 @@ def _bounded_qp_batch(
     return best_d, best
 
 
+#: The largest ``max_set`` of :func:`diagnose`: sets of up to five effects of some twenty
+#: candidates are tens of thousands of fits; beyond, the search would not end in a session.
+MAX_SET = 5
+
+
 def diagnose(
     arm: Arm,
     meas: Measurements,
@@ -260,13 +265,18 @@ def diagnose(
     arm, meas : the arm and the measurements.
     model : effects already in the model (their parameters are fitted).
     candidates : the candidates to consider (default: every effect × place not in the model).
-    max_set : the largest set searched for ``suggested`` (≤ 3 is cheap; sets are exact).
+    max_set : the largest set searched for ``suggested`` (≤ 3 is cheap; sets are exact; at
+        most :data:`MAX_SET`: the search grows with the number of candidate sets).
     outliers : name cells > 4σ off after the best fit and run a second pass without them.
     advise : for confused pairs, search for the channel and the pose that separate them.
     solver_model : ``"analytic"`` or ``"fem"``: the model that predicts the channels, the
         ``model=`` of :func:`eodarm.solve` and :func:`eodarm.fit` (named so here because
         ``model`` is the list of effects already in the model); ``fem_options`` go with it.
     """
+    from eodarm.model.kinds import integer
+
+    max_set = integer(max_set, "diagnose: max_set", 1, MAX_SET)
+    refine_per_size = integer(refine_per_size, "diagnose: refine_per_size", 1, 10**4)
     kw: dict[str, Any] = {"model": solver_model, "fem_options": fem_options}
     Problem(arm, meas, self_weight, **kw)  # refuses a bad solver_model before any work
     model_slots = [Slot.of(s) for s in model]

@@ -28,6 +28,7 @@ A user-written effect (CONTRACT §8) is fitted through its parameter itself, wit
 from __future__ import annotations
 
 import math
+import re
 import warnings
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -118,6 +119,38 @@ class Problem:
 
     # --------------------------------------------------------------- evaluation
     def evaluate(
+        self,
+        model: Sequence[tuple[Slot, float]],
+        probes: Sequence[Slot] = (),
+        rows: npt.NDArray[np.intp] | None = None,
+        nan_on_failure: bool = False,
+    ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+        """:meth:`_evaluate`, whose refusal of a pose (``pose row k: …``, k counted in the
+        rows solved) names the measurement file and the state's 1-based line instead."""
+        try:
+            return self._evaluate(model, probes, rows, nan_on_failure)
+        except ValueError as exc:
+            m = _POSE_ROW.search(str(exc))
+            if m is None:
+                raise
+            k = int(m.group(1))
+            index = np.arange(self.meas.n_rows) if rows is None else np.asarray(rows).ravel()
+            if k >= index.size:
+                raise
+            line = int(self.meas.line[int(index[k])])
+            under = ", ".join(  # the effects of the model that the state could not take
+                f"{s.spec} = {param_from_theta(s.name, float(t)):.4g} {s.kind.unit}".rstrip()
+                for s, t in [
+                    *(f for f in self.fixed if f[0].key not in {s.key for s, _ in model}),
+                    *model,
+                ]
+            )
+            raise EodarmError(
+                f"{self.meas.source} line {line}: {str(exc)[m.end() :]}"
+                + (f" (with {under})" if under else "")
+            ) from None
+
+    def _evaluate(
         self,
         model: Sequence[tuple[Slot, float]],
         probes: Sequence[Slot] = (),
@@ -448,6 +481,10 @@ class FitResult:
         }
 
 
+#: The solvers' way of naming a pose: ``pose row k: `` (0-based, in the rows solved).
+_POSE_ROW = re.compile(r"pose row (\d+):\s*")
+
+
 def check_validity(result: FitResult) -> None:
     """Refuse a fit whose parameters put measured states outside the model's validity
     (:mod:`eodarm.model.validity`): one line naming the reasons and the parameters.
@@ -463,18 +500,43 @@ def check_validity(result: FitResult) -> None:
     prob = result.problem
     if prob.model != "analytic" or not result.slots:
         return
+    meas = prob.meas
+    mass = meas.mass_kg
     effects = [*result.fixed, *result.effects]
-    out = solve(prob.arm, prob.alpha, prob.meas.mass_kg, effects, self_weight=prob.self_weight)
-    counts = status_counts(out["status"])
-    bad = {k: v for k, v in counts.items() if k != "ok"}
-    if bad:
-        params = ", ".join(f"{e.spec} = {e.value:.4g}" for e in result.effects)
+    code = np.asarray(
+        solve(prob.arm, prob.alpha, mass, effects, self_weight=prob.self_weight)["status"]
+    )
+    if not (code != 0).any():
+        return
+    # the states that are outside already without the fitted effects are not the fit's fault
+    base = np.asarray(
+        solve(prob.arm, prob.alpha, mass, list(result.fixed), self_weight=prob.self_weight)[
+            "status"
+        ]
+    )
+    before = (base != 0) & (code != 0)
+    if before.any():
+        counts = status_counts(base[before])
+        lines = ", ".join(str(int(x)) for x in np.asarray(meas.line)[before][:10])
         raise EodarmError(
-            f"the fitted {params} put {sum(bad.values())} of {prob.meas.n_rows} measured "
-            f"states outside the model's validity ("
-            + ", ".join(f"{k} {v}" for k, v in bad.items())
-            + "; docs/model.md, Validity): the data do not support this model"
+            f"{meas.source}: {int(before.sum())} of {meas.n_rows} measured states are "
+            "outside the model's validity before any effect is fitted ("
+            + ", ".join(f"{k} {v}" for k, v in counts.items() if k != "ok")
+            + f"; line(s) {lines}; docs/model.md, Validity): a data or geometry problem, not "
+            "the fit's"
         )
+    counts = status_counts(code)
+    params = ", ".join(
+        f"{s.spec} = {param_from_theta(s.name, float(t)):.4g} {s.kind.unit}".rstrip()
+        for s, t in zip(result.slots, result.theta, strict=True)
+    )
+    lines = ", ".join(str(int(x)) for x in np.asarray(meas.line)[code != 0][:10])
+    raise EodarmError(
+        f"the fitted {params} put {int((code != 0).sum())} of {meas.n_rows} measured states "
+        f"of {meas.source} outside the model's validity ("
+        + ", ".join(f"{k} {v}" for k, v in counts.items() if k != "ok")
+        + f"; line(s) {lines}; docs/model.md, Validity): the data do not support this model"
+    )
 
 
 def determining_channel(slot: Slot, measured: Sequence[str]) -> str:

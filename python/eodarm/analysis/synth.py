@@ -237,11 +237,12 @@ def synth(
         raise EodarmError(f"synth: {len(labels)} config labels for {kc} configurations")
     if any(not lb.strip() for lb in labels):
         raise EodarmError("synth: config labels must not be empty")
+    from eodarm.model.kinds import integer, real_number
+
+    noise = real_number(noise, "synth: noise")
     if not (math.isfinite(noise) and noise > 0):
         raise EodarmError(f"synth: noise must be finite and > 0, got {noise!r}")
-    if isinstance(repeats, bool) or not isinstance(repeats, (int, np.integer)) or repeats < 1:
-        raise EodarmError(f"synth: repeats must be an integer >= 1, got {repeats!r}")
-    rep = int(repeats)
+    rep = integer(repeats, "synth: repeats", 1, 10**6)
     chosen = expand_channels(channels, n)
     every = channel_names(n)
     sig = _sigmas(sigma or {}, every, noise)

@@ -71,8 +71,9 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     Warnings raised while a command runs (an ignored key of an arm file, say) are held back:
     after a success they are printed as notes on stderr, each once, followed by the held
-    notes (which arm was used) and the ``next:`` line; after a failure only the one-line error
-    is printed, so that bad input always gives exactly one line.
+    notes (where σ came from, which arm was used, what was written) and the ``next:`` line;
+    after a failure (or an interruption) only its one line is printed, so that bad input
+    always gives exactly one line.
     """
     argv = list(sys.argv[1:] if argv is None else argv)
     parser = _parser(argv)
@@ -106,6 +107,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             return 130
         finally:
             _common.HOLD[0] = False
+    if code != 0:  # interrupted (130): the one line that says what is on disk is all
+        return code
     _notes(caught)
     for line in _common.HELD:  # which arm was used
         _common._say(line, file=sys.stderr)

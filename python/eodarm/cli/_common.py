@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -71,11 +72,12 @@ def _valued_effect(spec: str, flag: str = "--add") -> Effect:
         )
     kind = kind_of(name)
     if kind is None:
-        from eodarm.model.effects import known_effects
+        from eodarm.model.effects import did_you_mean, known_effects
 
+        known = known_effects()
         raise EodarmError(
-            f"{flag} '{spec}': unknown effect '{name}'; known: {', '.join(known_effects())} "
-            "(user-written effects come with --effects FILE.py)"
+            f"{flag} '{spec}': unknown effect '{name}'{did_you_mean(name, known)}; known: "
+            f"{', '.join(known)} (user-written effects come with --effects FILE.py)"
         )
     try:
         x = float(value)
@@ -143,7 +145,15 @@ def _model_kw(args: argparse.Namespace) -> dict[str, Any]:
 
 # ----------------------------------------------------------------- compare / fit / diagnose
 def _note(msg: str) -> None:
-    """A message on stderr, ``eodarm: …``, wrapped within :data:`WIDTH` columns."""
+    """A message on stderr, ``eodarm: …``, wrapped within :data:`WIDTH` columns.
+
+    Under the main CLI (:data:`HOLD`) it is held until the command has succeeded, like every
+    note: a refusal that comes after it (a pose that cannot close, a bad ``-o``) is then the
+    one line on stderr (docs/terminal.md, "One line on a refusal").
+    """
+    if HOLD[0]:
+        HELD.append(f"eodarm: {msg}")
+        return
     _say(f"eodarm: {msg}", file=sys.stderr)
 
 
@@ -162,18 +172,22 @@ HOLD = [False]
 
 
 def _held_note(msg: str) -> None:
-    if HOLD[0]:
-        HELD.append(f"eodarm: {msg}")
-    else:
-        _note(msg)
+    """A note held until the command has succeeded (the same as :func:`_note`)."""
+    _note(msg)
 
 
-def _read(path: str, arm: Arm, record_figures: list[str] | None = None) -> Measurements:
-    """Read the measurements and say on stderr where σ was not given: one line for the
-    channels whose σ was pooled from the repeats, one for those that use the defaults.
+def _read(
+    path: str, arm: Arm, self_weight: bool = True, record_figures: list[str] | None = None
+) -> Measurements:
+    """Read the measurements, refuse the states the arm cannot take
+    (:func:`eodarm.data.plausible.check_states`: out of stroke, cannot close under load,
+    radians, grams) and say on stderr, once the command has succeeded, where σ was not
+    given: one line for the channels whose σ was pooled from the repeats, one for those that
+    use the defaults.
 
     A campaign file (docs/records.md) is run through ``eodarm records`` first; with
     ``record_figures`` (a list) each record's figure is appended to it as HTML."""
+    from eodarm.data.plausible import check_states
     from eodarm.data.reader import read_measurements
     from eodarm.data.records import is_campaign
 
@@ -181,6 +195,7 @@ def _read(path: str, arm: Arm, record_figures: list[str] | None = None) -> Measu
         meas = _read_campaign_as_measurements(path, arm, record_figures)
     else:
         meas = read_measurements(path, arm.n)
+    check_states(arm, meas, self_weight=self_weight)
     for line in _noise_notes(meas):
         _note(line)
     return meas
@@ -344,10 +359,17 @@ def _stages(names: list[str], command: str) -> Any:
     return stages(names, f"eodarm {command}")
 
 
-def _next(*argv: str) -> None:
-    """The ``next:`` line on stderr (stdout is data): the command to run next."""
+def _next(*argv: str, args: argparse.Namespace | None = None) -> None:
+    """The ``next:`` line on stderr (stdout is data): the command to run next.
+
+    With the command's ``args``, the options that the next command needs to see the same
+    model are carried over when it takes them (:func:`_carried`): ``--effects FILE.py``,
+    ``--model``, ``--elements-per-link``, ``--no-self-weight``.
+    """
     import shlex
 
+    if args is not None:
+        argv = (*argv, *_carried(args, argv[0], argv))
     words = ["eodarm:", "next:", "eodarm", *(shlex.quote(a) for a in argv)]
     lines = [words[0]]
     for w in words[1:]:  # wrapped as the shell continues a line, so that it pastes whole
@@ -357,6 +379,70 @@ def _next(*argv: str) -> None:
         else:
             lines[-1] += " " + w
     NEXT[:] = ["\n".join(lines)]
+
+
+def _options_of(command: str) -> set[str]:
+    """Every option string of ``command`` (``--add``, ``--effects`` …)."""
+    from eodarm.cli import _parser
+
+    parser = _parser([command])
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            return set(action.choices[command]._option_string_actions)
+    return set()
+
+
+def _carried(args: argparse.Namespace, command: str, given: Sequence[str] = ()) -> list[str]:
+    """The options of ``args`` that the next ``command`` needs in order to run the same model
+    (and that it takes, and that ``given`` does not already hold): the user-written effects'
+    files (an ``--add`` of theirs is unknown without them), the model (not to a command asked
+    for ``--uncertainty``, which is propagated with the analytic model), self-weight."""
+    takes = _options_of(command) - set(given)
+    out: list[str] = []
+    if "--effects" in takes:
+        for path in getattr(args, "effects", None) or []:
+            out += ["--effects", path]
+    uncertainty = "--uncertainty" in given  # propagated with the analytic model only
+    if getattr(args, "model", "analytic") != "analytic" and "--model" in takes and not uncertainty:
+        out += ["--model", args.model]
+        epl = getattr(args, "elements_per_link", None)
+        if epl is not None and "--elements-per-link" in takes:
+            out += ["--elements-per-link", str(epl)]
+    if getattr(args, "no_self_weight", False) and "--no-self-weight" in takes:
+        out.append("--no-self-weight")
+    return out
+
+
+def _free_name(name: str) -> str:
+    """``name``, or ``stem-2.ext``, ``stem-3.ext`` … the first that does not exist here: an
+    output the ``next:`` line proposes is never one that would be refused (``--force``)."""
+    p = Path(name)
+    k = 2
+    while p.exists():
+        p = Path(f"{Path(name).stem}-{k}{Path(name).suffix}")
+        k += 1
+    return str(p)
+
+
+def _force_arg(p: argparse.ArgumentParser, what: str) -> None:
+    """``--force``: overwrite ``what`` (refused without it; docs/terminal.md, "Nothing
+    overwritten without asking")."""
+    p.add_argument("--force", action="store_true", help=f"overwrite {what}")
+
+
+def _refuse_overwrite(path: str, force: bool, flag: str) -> None:
+    """Refuse, before any work, to write over an existing ``path`` without ``--force``.
+
+    Raises
+    ------
+    EodarmError
+        One line naming the path and the way out.
+    """
+    if force or not (Path(path).exists() or Path(path).is_symlink()):
+        return
+    raise EodarmError(
+        f"{flag} {path}: exists; give --force to overwrite it, or choose another name"
+    )
 
 
 def _arm_argv(args: argparse.Namespace, always: bool = False) -> list[str]:

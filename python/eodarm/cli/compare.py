@@ -62,7 +62,7 @@ def run(args: argparse.Namespace) -> int:
     from eodarm.analysis.fit import FitWarning, outlier_table, robust_fit
 
     arm = _load_arm(args.arm, args.measurements)
-    meas = _read(args.measurements, arm)
+    meas = _read(args.measurements, arm, not args.no_self_weight)
     sw = not args.no_self_weight
     model = _model(args.add, allow_values=True)
     fixed = [m for m in model if isinstance(m, Effect)]
@@ -110,7 +110,7 @@ def run(args: argparse.Namespace) -> int:
     else:
         _print_compare(doc, res, meas, arm, model, outliers)
     _plots(args.plot, meas, base, res, fixed + list(res.effects), arm, sw, None, _model_kw(args))
-    _next("diagnose", args.measurements, *_arm_argv(args), *_adds(model))
+    _next("diagnose", args.measurements, *_arm_argv(args), *_adds(model), args=args)
     return 0
 
 

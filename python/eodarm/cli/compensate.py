@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from eodarm.analysis.compensate import CompensationError, compensate
+from eodarm.analysis.compensate import compensate
 from eodarm.cli._common import (
     ARM_HELP,
     _arm_argv,
@@ -108,12 +108,12 @@ def _uncompensated_miss(
 
     try:
         return miss(np.arange(alpha.shape[0]))
-    except EodarmError:  # some pose cannot be solved: the others still can, one by one
-        result = np.full(alpha.shape[0], np.nan)
+    except ValueError:  # some pose cannot be solved (the core's error is a ValueError too):
+        result = np.full(alpha.shape[0], np.nan)  # the others still can, one by one
         for i in range(alpha.shape[0]):
             try:
                 result[i] = miss(np.array([i]))[0]
-            except EodarmError:
+            except ValueError:
                 pass
         return result
 
@@ -180,15 +180,33 @@ def run(args: argparse.Namespace) -> int:
     effects = [_valued_effect(s) for s in args.add or []]
     alpha, mass, config = _nominal_poses(args, arm)
     self_weight = not args.no_self_weight
-    try:
-        with _stages(["compensating"], "compensate") as step:
-            step("compensating")
-            out = compensate(
-                arm, alpha, mass, effects, self_weight=self_weight, strict=not args.partial
-            )
-    except CompensationError as exc:
+    import warnings
+
+    from eodarm.analysis.compensate import CompensationWarning, failure_summary
+
+    with (
+        warnings.catch_warnings(record=True) as caught,
+        _stages(["compensating"], "compensate") as step,
+    ):
+        warnings.simplefilter("always")
+        step("compensating")
+        out = compensate(arm, alpha, mass, effects, self_weight=self_weight, strict=False)
+    for w in caught:  # the failures are said below, by their lines in a --poses file
+        if not issubclass(w.category, CompensationWarning):
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+    lines = None
+    if args.poses:
+        from eodarm.data.poses import read_poses
+
+        lines = read_poses(args.poses, arm.n).line
+    summary = failure_summary(out, args.poses, lines)
+    if summary and not args.partial:
         hint = "; --partial keeps the others" if alpha.shape[0] > 1 else ""
-        raise EodarmError(f"{exc}{hint}") from None
+        raise EodarmError(f"{summary}{hint}")
+    if summary:
+        warnings.warn(
+            summary + "; their alpha_deg and length_mm are NaN", CompensationWarning, stacklevel=1
+        )
     if args.output:
         _write_csv(args.output, arm, alpha, mass, config, out)
         _note(f"wrote {args.output}")
@@ -252,7 +270,16 @@ def run(args: argparse.Namespace) -> int:
     if first is not None:  # check: solve at the command, the point lands on the nominal
         cmd = ",".join(f"{a:.6g}" for a in out["alpha_deg"][first])
         adds = [a for spec in args.add or [] for a in ("--add", spec)]
-        _next("solve", *_arm_argv(args), *adds, "--alpha", cmd, "--mass", f"{mass[first]:g}")
+        _next(
+            "solve",
+            *_arm_argv(args),
+            *adds,
+            "--alpha",
+            cmd,
+            "--mass",
+            f"{mass[first]:g}",
+            args=args,
+        )
     return 0
 
 

@@ -20,6 +20,7 @@ from eodarm.cli._common import (
     _channel,
     _describe_data,
     _fmt,
+    _free_name,
     _load_arm,
     _model,
     _model_keys,
@@ -42,7 +43,7 @@ def run(args: argparse.Namespace) -> int:
     from eodarm.analysis.diagnose import diagnose
 
     arm = _load_arm(args.arm, args.measurements)
-    meas = _read(args.measurements, arm)
+    meas = _read(args.measurements, arm, not args.no_self_weight)
     sw = not args.no_self_weight
     model = [m for m in _model(args.add, allow_values=False) if not isinstance(m, Effect)]
     mk = _model_kw(args)
@@ -89,11 +90,11 @@ def _say_next(args: argparse.Namespace, d: Any) -> None:
     data = [args.measurements, *_arm_argv(args)]
     adds = [a for s in [*d.model, *d.suggested] for a in ("--add", s.spec)]
     if d.verdict == "missing":
-        _next("fit", *data, *adds, "--cv", "config")
+        _next("fit", *data, *adds, "--cv", "config", args=args)
     elif d.verdict == "unexplained":
-        _next("report", *data, *[a for s in d.model for a in ("--add", s.spec)])
+        _next("report", *data, *[a for s in d.model for a in ("--add", s.spec)], args=args)
     else:
-        _next("sweep", *_arm_argv(args), "-o", "sweep.nc", "--plot", "maps")
+        _next("sweep", *_arm_argv(args), "-o", _free_name("sweep.nc"), "--plot", "maps", args=args)
 
 
 def _candidate(slot: Any) -> str:

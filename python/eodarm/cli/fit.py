@@ -9,6 +9,8 @@ from typing import Any
 from eodarm.cli._common import (
     _arm_argv,
     _describe_data,
+    _force_arg,
+    _free_name,
     _load_arm,
     _model,
     _model_kw,
@@ -18,6 +20,7 @@ from eodarm.cli._common import (
     _plots,
     _print_table,
     _read,
+    _refuse_overwrite,
     _rms_line,
     _say,
     _stages,
@@ -41,8 +44,10 @@ def run(args: argparse.Namespace) -> int:
         settle,
     )
 
+    if args.output:
+        _check_output(args)
     arm = _load_arm(args.arm, args.measurements)
-    meas = _read(args.measurements, arm)
+    meas = _read(args.measurements, arm, not args.no_self_weight)
     sw = not args.no_self_weight
     model = _model(args.add, allow_values=True)
     if not model:
@@ -103,11 +108,42 @@ def run(args: argparse.Namespace) -> int:
         ]
     _plots(args.plot, meas, before, res, list(res.effects), arm, sw, steps, _model_kw(args))
     if args.output:
-        _next("solve", "--arm", args.output, "--uncertainty")
+        _next("solve", "--arm", args.output, "--uncertainty", args=args)
     else:
         adds = [a for spec in args.add or [] for a in ("--add", spec)]
-        _next("fit", args.measurements, *_arm_argv(args), *adds, "-o", "fitted.toml")
+        _next(
+            "fit",
+            args.measurements,
+            *_arm_argv(args),
+            *adds,
+            "-o",
+            _free_name("fitted.toml"),
+            args=args,
+        )
     return 0
+
+
+def _check_output(args: argparse.Namespace) -> None:
+    """``-o`` never replaces the measurements it is fitted to; an existing file (the
+    ``--arm`` input included) only with ``--force``."""
+    import os
+
+    out = args.output
+
+    def same(a: str) -> bool:
+        try:
+            return os.path.samefile(out, a)
+        except OSError:
+            return False
+
+    if same(args.measurements):
+        raise EodarmError(f"-o {out}: is the measurement file being fitted; choose another name")
+    if args.arm and same(args.arm) and not args.force:
+        raise EodarmError(
+            f"-o {out}: is the --arm input; give --force to replace it with the fitted arm, "
+            "or choose another name"
+        )
+    _refuse_overwrite(out, args.force, "-o")
 
 
 def _print_fit(
@@ -237,5 +273,6 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
         help="write the arm with the fitted effects, their errors, covariance and the model's "
         "inadequacy (docs/model.md); the input arm file's comments are kept",
     )
+    _force_arg(c, "an existing -o file (the --arm input included)")
     c.set_defaults(func=run)
     return c

@@ -104,7 +104,7 @@ def _run(args: argparse.Namespace, step: Any) -> int:
         _note("no measurements given: reporting on the bundled data set seed2022")
     else:
         arm = _load_arm(args.arm, args.measurements)
-        meas = _read(args.measurements, arm, record_figures=records)
+        meas = _read(args.measurements, arm, not args.no_self_weight, record_figures=records)
         title = args.title
         intro = None
         handover = {"measurements": args.measurements, "arm": args.arm or "ARM.toml"}

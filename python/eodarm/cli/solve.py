@@ -179,7 +179,7 @@ def run(args: argparse.Namespace) -> int:
         "change (--json: every output, full precision)"
     )
     a0 = ",".join(f"{a:g}" for a in alpha[0])
-    _next("compensate", *_arm_argv(args), *adds, "--alpha", a0, "--mass", f"{mass[0]:g}")
+    _next("compensate", *_arm_argv(args), *adds, "--alpha", a0, "--mass", f"{mass[0]:g}", args=args)
     return 0
 
 

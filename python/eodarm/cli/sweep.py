@@ -14,9 +14,11 @@ import numpy.typing as npt
 from eodarm.cli._common import (
     ARM_HELP,
     _effects_args,
+    _force_arg,
     _load_arm,
     _note,
     _one_line,
+    _refuse_overwrite,
     _say,
     _valued_effect,
 )
@@ -138,6 +140,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         help="continue an interrupted sweep into OUT.zarr from its completed chunks "
         "(same arm, grid, payloads, effects and options)",
     )
+    _force_arg(p, "an existing -o result (the previous one stays whole until the new is in)")
     p.add_argument("--plot", metavar="DIR", help="write the four maps as PNGs into DIR")
     p.add_argument(
         "--plot-prefix",
@@ -285,6 +288,9 @@ def run(args: argparse.Namespace) -> int:
         )
     if args.resume and kind != "zarr":
         raise EodarmError("--resume continues an interrupted Zarr sweep: give -o OUT.zarr")
+    if out and not (args.resume and store.partial_path(out).exists()):
+        # a resumed overwrite was asked for when it started
+        _refuse_overwrite(out, args.force, "-o")
     scheduler: Any = None
     client = None
     if args.scheduler:

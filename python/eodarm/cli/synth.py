@@ -172,7 +172,7 @@ def run(args: argparse.Namespace) -> int:
             f"{args.repeats} repeats"
         )
     _note(f"wrote {what}, {len(meas.measured_channels)} channels; hidden: {model}) to {where}")
-    _next("diagnose", args.output or "FILE.csv", *_arm_argv(args, always=True))
+    _next("diagnose", args.output or "FILE.csv", *_arm_argv(args, always=True), args=args)
     return 0
 
 

@@ -46,7 +46,16 @@ What the reader promises
   whose one-line message names the file and, for each bad row, its line and column. Nothing is
   silently dropped: a row that measures no channel is kept (it contributes nothing). Entirely
   blank lines are not rows and are skipped.
-* Comment lines are not part of the contract and are not supported.
+* Comment lines are not part of the format and are not supported.
+* Spreadsheet exports (:mod:`eodarm.data.reader`): a header without a comma but with
+  semicolons (or tabs) is read with that separator, with a warning; rows whose every cell is
+  empty (``,,,,``) are skipped with one warning; a decimal comma is named as such in the
+  error; an unknown or missing column names the close match it probably is.
+* A file over :data:`eodarm.data.reader.MAX_FILE_BYTES` (100 MB) or with NUL bytes (a binary
+  file, ``/dev/zero``) is refused in one line before it is read whole.
+* States that the arm cannot take (out of stroke unloaded, a pose that cannot close under its
+  load, angles in radians) are refused by the commands before any fit, naming the line
+  (:func:`eodarm.data.plausible.check_states`).
 """
 
 from __future__ import annotations
@@ -109,6 +118,8 @@ MAX_LISTED = 10
 
 _ALPHA = re.compile(r"^alpha([1-9][0-9]*)_deg$")
 _NUMBER = re.compile(r"^[+-]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][+-]?[0-9]+)?$")
+_IS_IT = " (is it '{}'?)"
+_DECIMAL_COMMA = re.compile(r"^[+-]?[0-9]*,[0-9]+$")
 _NONFINITE = {"nan", "+nan", "-nan", "inf", "+inf", "-inf", "infinity", "+infinity", "-infinity"}
 
 Cell = str | float | None
@@ -406,7 +417,12 @@ class Measurements:
         MeasurementFileError
             Naming the row (as the line it would have in a file, header = line 1) and column.
         """
-        alpha = np.asarray(alpha_deg, dtype=float)
+        from eodarm.model.kinds import real_array
+
+        try:
+            alpha = np.asarray(real_array(alpha_deg, f"{source}: alpha_deg"), dtype=float)
+        except (TypeError, ValueError, OverflowError) as exc:
+            raise MeasurementFileError(str(exc)) from None
         if alpha.ndim == 1:
             alpha = alpha[None, :]
         if alpha.ndim != 2 or alpha.shape[1] < 1:
@@ -423,8 +439,11 @@ class Measurements:
 
         def column(arr: npt.ArrayLike, what: str) -> FloatArray:
             try:
-                return np.broadcast_to(np.asarray(arr, dtype=float), (rows,))
-            except (TypeError, ValueError):
+                real = real_array(arr, f"{source}: {what}")
+                return np.broadcast_to(np.asarray(real, dtype=float), (rows,))
+            except EodarmError as exc:
+                raise MeasurementFileError(str(exc)) from None
+            except (TypeError, ValueError, OverflowError):
                 raise MeasurementFileError(
                     f"{source}: {what} must be a number or {rows} numbers"
                 ) from None
@@ -466,8 +485,13 @@ def build(
         else:
             seen[name] = j
     missing = [c for c in required if c not in seen]
+    known = [*required, *channels, *(f"sigma_{c}" for c in channels)]
     if missing:
-        problems.append("missing required column(s) " + ", ".join(f"'{c}'" for c in missing))
+        others = [c for c in seen if c not in known]
+        problems.append(
+            "missing required column(s) "
+            + ", ".join(f"'{c}'{_did_you_mean(c, others, _IS_IT)}" for c in missing)
+        )
     unknown: list[str] = []
     foreign: list[str] = []
     for name in seen:
@@ -493,7 +517,7 @@ def build(
     if unknown and unknown_is_error:
         problems.append(
             "unknown column(s) "
-            + ", ".join(f"'{c}'" for c in unknown)
+            + ", ".join(f"'{c}'{_did_you_mean(c, known)}" for c in unknown)
             + f" (channels: {', '.join(channels)})"
         )
     if problems:
@@ -502,8 +526,8 @@ def build(
         raise MeasurementFileError(f"{source}: no data rows after the header (line 1)")
     if unknown:
         warnings.warn(
-            f"{source}: ignoring column(s) not in the measurement-file contract: "
-            + ", ".join(f"'{c}'" for c in unknown),
+            f"{source}: ignoring column(s) not in the measurement-file format: "
+            + ", ".join(f"'{c}'{_did_you_mean(c, known)}" for c in unknown),
             UserWarning,
             stacklevel=stacklevel,
         )
@@ -612,6 +636,16 @@ def build(
     )
 
 
+def _did_you_mean(name: str, known: Sequence[str], form: str = " (did you mean '{}'?)") -> str:
+    """`` (did you mean 'x'?)`` for the closest of ``known`` to a misspelled ``name``
+    (difflib's ratio ≥ 0.75, case ignored), or nothing."""
+    import difflib
+
+    lower = {k.lower(): k for k in known}
+    close = difflib.get_close_matches(name.strip().lower(), list(lower), n=1, cutoff=0.75)
+    return form.format(lower[close[0]]) if close else ""
+
+
 def _label(cell: Cell) -> str:
     if cell is None or (isinstance(cell, float) and math.isnan(cell)):
         return ""
@@ -646,4 +680,9 @@ def _number(cell: Cell) -> tuple[float | None, str]:
         return x, ""
     if text.lower() in _NONFINITE:
         return None, f"'{text}' is not finite"
+    if _DECIMAL_COMMA.match(text):
+        return (
+            None,
+            f"'{_show(text)}' is not a number (a decimal comma? write {text.replace(',', '.')})",
+        )
     return None, f"'{_show(text)}' is not a number"

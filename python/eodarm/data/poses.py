@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 import numpy.typing as npt
 
-from eodarm.errors import InputError
+from eodarm.errors import EodarmError, InputError
 
 __all__ = ["Poses", "read_poses"]
 
@@ -47,12 +47,21 @@ def read_poses(path: str | Path, n: int) -> Poses:
         that are not finite numbers (or a negative mass): the message names the file, the
         lines and the columns.
     """
+    from eodarm.data.reader import _read_capped
+
     source = str(path)
     try:
-        with open(path, encoding="utf-8-sig", newline="") as f:
-            text = f.read()
+        with open(path, "rb") as f:
+            raw = _read_capped(f, source)  # a binary or huge file: one line
+        text = (raw if isinstance(raw, str) else raw.decode("utf-8-sig")).removeprefix("\ufeff")
     except (OSError, UnicodeDecodeError) as exc:
         raise InputError(f"{source}: cannot read the pose file ({exc})") from None
+    except EodarmError as exc:
+        raise InputError(
+            str(exc)
+            .replace("not a CSV text", "not a pose")
+            .replace("not a measurement file", "not a pose file")
+        ) from None
     reader = csv.reader(io.StringIO(text))
     try:
         header = [h.strip() for h in next(reader)]

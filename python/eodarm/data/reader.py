@@ -9,6 +9,7 @@ from __future__ import annotations
 import csv
 import io
 import math
+import warnings
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, TextIO
 
@@ -56,34 +57,38 @@ def read_measurements(path: str | Path | TextIO, n: int) -> Measurements:
     if isinstance(path, (str, Path)):
         source = str(path)
         try:
-            with open(path, encoding="utf-8-sig", newline="") as f:
-                text = f.read()
+            with open(path, "rb") as fb:
+                raw = _read_capped(fb, source)
         except OSError as exc:
             raise MeasurementFileError(
                 f"{source}: cannot read measurement file: {exc.strerror or exc}"
             ) from None
-        except UnicodeDecodeError as exc:
-            raise MeasurementFileError(f"{source}: not a UTF-8 text file ({exc.reason})") from None
     else:
         source = str(getattr(path, "name", "<stream>"))
-        raw = path.read()
-        if isinstance(raw, bytes):
-            try:
-                raw = raw.decode("utf-8-sig")
-            except UnicodeDecodeError as exc:
-                raise MeasurementFileError(
-                    f"{source}: not a UTF-8 text file ({exc.reason})"
-                ) from None
-        text = raw.removeprefix("\ufeff")
+        raw = _read_capped(path, source)
+    if isinstance(raw, bytes):
+        try:
+            raw = raw.decode("utf-8-sig")
+        except UnicodeDecodeError as exc:
+            raise MeasurementFileError(f"{source}: not a UTF-8 text file ({exc.reason})") from None
+    text = raw.removeprefix("\ufeff")
+    if "\0" in text:
+        raise MeasurementFileError(f"{source}: a binary file (NUL bytes), not a CSV text file")
 
-    reader = csv.reader(io.StringIO(text, newline=""), strict=True)
+    delimiter = _delimiter(text, source)
+    reader = csv.reader(io.StringIO(text, newline=""), strict=True, delimiter=delimiter)
     records: list[tuple[int, list[str]]] = []
+    empty: list[int] = []
     prev = 0
     try:
         for cells in reader:
             start, prev = prev + 1, reader.line_num
-            if cells:  # an entirely blank line is not a row
-                records.append((start, cells))
+            if not cells:  # an entirely blank line is not a row
+                continue
+            if records and not any(c.strip() for c in cells):
+                empty.append(start)  # a row of separators only (Excel's trailing ",,,,")
+                continue
+            records.append((start, cells))
     except csv.Error as exc:
         raise MeasurementFileError(
             f"{source}: line {reader.line_num}: not valid CSV ({exc})"
@@ -96,7 +101,62 @@ def read_measurements(path: str | Path | TextIO, n: int) -> Measurements:
     (hline, header), body = records[0], records[1:]
     if hline != 1:
         raise MeasurementFileError(f"{source}: line 1: is blank; the header must be line 1")
+    if empty:
+        where = f"line {empty[0]}" if len(empty) == 1 else f"lines {empty[0]}…{empty[-1]}"
+        warnings.warn(
+            f"{source}: skipped {len(empty)} row(s) with every cell empty ({where}; a "
+            "spreadsheet's trailing rows)",
+            UserWarning,
+            stacklevel=2,
+        )
     return build(header, list(body), n, source, stacklevel=3)
+
+
+#: Largest measurement file read, bytes: about 600 000 rows of the seed's 19 columns, far
+#: beyond a measuring campaign; a larger file (or a device such as /dev/zero) is refused in
+#: one line before it fills the memory. Arm files have their own cap
+#: (:data:`eodarm.model.arm.MAX_FILE_BYTES`).
+MAX_FILE_BYTES = 100_000_000
+
+#: The bytes looked at first for NUL, the mark of a binary file.
+_SNIFF_BYTES = 65_536
+
+
+def _read_capped(f: Any, source: str) -> str | bytes:
+    """The whole of an open file, refused in one line when it holds NUL bytes in its first
+    :data:`_SNIFF_BYTES` (a binary file) or is longer than :data:`MAX_FILE_BYTES`."""
+    head = f.read(_SNIFF_BYTES)
+    if head is None:
+        head = b""
+    nul = b"\0" if isinstance(head, bytes) else "\0"
+    if nul in head:
+        raise MeasurementFileError(f"{source}: a binary file (NUL bytes), not a CSV text file")
+    rest = f.read(MAX_FILE_BYTES + 1 - len(head)) if len(head) >= _SNIFF_BYTES else head[:0]
+    raw = head + (rest or head[:0])
+    if len(raw) > MAX_FILE_BYTES:
+        raise MeasurementFileError(
+            f"{source}: larger than {MAX_FILE_BYTES:,} bytes: not a measurement file "
+            "(split it, or read it with pandas and eodarm.data.from_dataframe)"
+        )
+    return raw
+
+
+def _delimiter(text: str, source: str) -> str:
+    """``,``, or the ``;`` (or tab) of a header that has no comma: a spreadsheet's export in
+    a locale whose decimal mark is a comma. Said in a warning, since the format's files
+    are comma-separated."""
+    header = text.split("\n", 1)[0]
+    if "," in header:
+        return ","
+    for sep, name in ((";", "semicolon"), ("\t", "tab")):
+        if sep in header:
+            warnings.warn(
+                f"{source}: read as {name}-separated (the header has no comma)",
+                UserWarning,
+                stacklevel=3,
+            )
+            return sep
+    return ","
 
 
 def from_dataframe(df: pd.DataFrame, n: int, source: str = "<DataFrame>") -> Measurements:

@@ -15,7 +15,7 @@ from __future__ import annotations
 import math
 import tomllib
 import warnings
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, NoReturn
@@ -765,9 +765,20 @@ class _Validator:
         warnings.warn(f"{self.source}: key '{key}' {why}", UserWarning, stacklevel=4)
 
     def unknown(self, table: Mapping[str, Any], allowed: set[str], prefix: str) -> None:
+        """A key not in ``allowed``: refused when it looks like a misspelling of one (its
+        default would be used silently in its place), else ignored with a warning (a note
+        of the user's own, say). docs/model.md, "Arm file keys"."""
         for key in table:
-            if key not in allowed:
-                self.warn(prefix + key, "is not an arm-file key and is ignored")
+            if key in allowed:
+                continue
+            meant = misspelling_of(key, allowed)
+            if meant is not None:
+                self.fail(
+                    prefix + key,
+                    f"is not an arm-file key: did you mean '{meant}'? (a misspelled key is "
+                    "refused rather than left to its default)",
+                )
+            self.warn(prefix + key, "is not an arm-file key and is ignored")
 
     def number(
         self,
@@ -826,3 +837,20 @@ class _Validator:
                 f"(|x|, |y| <= {MAX_LENGTH_MM:g} mm)",
             )
         return (x, y)
+
+
+def misspelling_of(key: str, allowed: Iterable[str], cutoff: float = 0.6) -> str | None:
+    """The key of ``allowed`` that ``key`` most probably misspells, or None.
+
+    A close match by difflib's ratio (≥ ``cutoff``, case ignored), or a known key that
+    ``key`` starts with followed by ``_`` (``measure_point`` for ``measure``).
+    """
+    import difflib
+
+    lower = {k.lower(): k for k in allowed}
+    k = key.strip().lower()
+    close = difflib.get_close_matches(k, list(lower), n=1, cutoff=cutoff)
+    if close:
+        return lower[close[0]]
+    prefix = [v for lk, v in lower.items() if k.startswith(lk + "_") or lk.startswith(k + "_")]
+    return prefix[0] if len(prefix) == 1 else None

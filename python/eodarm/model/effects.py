@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import functools
 import math
+import numbers
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -53,7 +54,18 @@ def known_effects() -> list[str]:
 
 
 def _unknown(name: object) -> str:
-    return f"unknown effect '{name}'; known: {', '.join(known_effects())}"
+    known = known_effects()
+    return f"unknown effect '{name}'{did_you_mean(str(name), known)}; known: {', '.join(known)}"
+
+
+def did_you_mean(name: str, known: Iterable[str], cutoff: float = 0.6) -> str:
+    """``": did you mean 'x'?"`` for the closest of ``known`` to a misspelled ``name``
+    (difflib's ratio ≥ ``cutoff``, case ignored), or nothing."""
+    import difflib
+
+    lower = {k.lower(): k for k in known}
+    close = difflib.get_close_matches(name.strip().lower(), list(lower), n=1, cutoff=cutoff)
+    return f" (did you mean '{lower[close[0]]}'?)" if close else ""
 
 
 def _kind(name: str) -> EffectKind:
@@ -108,7 +120,11 @@ class Effect:
             )
         raw = params[kind.param]
         try:
-            value = float(raw)
+            num = raw[()] if isinstance(raw, np.ndarray) and raw.ndim == 0 else raw
+            if isinstance(num, (bool, np.bool_)) or not isinstance(num, numbers.Real):
+                # True is not 1.0 mm, "0.1" not a number, 0.1+0j not a real one (as in arm files)
+                raise TypeError
+            value = float(num)
         except (TypeError, ValueError, OverflowError):
             got = repr(raw) if len(repr(raw)) <= 40 else repr(raw)[:39] + "…"
             raise EffectError(
@@ -265,8 +281,33 @@ def _place_index(kind: EffectKind, at: str) -> int:
     letter = kind.place_letter
     ok = isinstance(at, str) and at[:1] == letter and at[1:].isascii() and at[1:].isdigit()
     if not (ok and int(at[1:]) >= 1):
-        raise EffectError(f"effect {kind.name} sits at {letter}1…{letter}n, not '{at}'")
+        raise EffectError(
+            f"effect {kind.name} sits at {letter}1…{letter}n, not '{at}'{_place_hint(kind, at)}"
+        )
     return int(at[1:]) - 1
+
+
+#: What sits at each kind of place (the letter of its name).
+_PLACE_WORD = {"M": "an actuator", "O": "a joint", "L": "a link"}
+
+
+def _place_hint(kind: EffectKind, at: object) -> str:
+    """What was probably meant by a wrong place: ``o3`` for O3, or, for a place of another
+    kind (``joint_clearance@M2``), the effects that sit there."""
+    if not isinstance(at, str):
+        return ""
+    text = at.strip()
+    num = text[1:]
+    if text[:1].upper() == kind.place_letter and num.isascii() and num.isdigit() and int(num):
+        return f" (did you mean '{kind.place_letter}{int(num)}'?)"
+    word = _PLACE_WORD.get(text[:1].upper())
+    if word and num.isascii() and num.isdigit():
+        there = [k.name for k in CATALOGUE.values() if k.place_letter == text[:1].upper()]
+        return (
+            f" ({text} is {word}: did you mean {kind.place_letter}{int(num)}, or "
+            f"{' / '.join(there)}@{text.upper()}?)"
+        )
+    return ""
 
 
 def candidate_places(name: str, n: int) -> list[str]:
@@ -354,9 +395,10 @@ class Slot:
             raise EodarmError(str(exc)) from None
         kind = kind_of(name)
         if kind is None:
+            known = known_effects()
             raise EodarmError(
-                f"'{spec}' is not of the form EFFECT@PLACE with EFFECT one of "
-                f"{', '.join(known_effects())}"
+                f"'{spec}': unknown effect '{name}'{did_you_mean(name, known)}; known: "
+                f"{', '.join(known)} (user-written effects come with --effects FILE.py)"
             )
         slot = cls(name, at, unloaded)
         slot.example  # noqa: B018 - validates place and mode

@@ -18,6 +18,7 @@ import numpy.typing as npt
 
 from eodarm.errors import InputError
 from eodarm.model.arm import Arm, check_arm
+from eodarm.model.kinds import real_array
 
 __all__ = ["Arrays", "Backend", "forward", "stroke_violations"]
 
@@ -66,8 +67,10 @@ def _check_backend(backend: str) -> None:
 def _poses(values: npt.ArrayLike, n: int, name: str) -> npt.NDArray[np.float64]:
     """(N, n) contiguous float64, or a clear InputError naming the shape or the row."""
     try:
-        a = np.asarray(values, dtype=float)
-    except (TypeError, ValueError, OverflowError):
+        a = np.asarray(real_array(values, name), dtype=float)
+    except (TypeError, ValueError, OverflowError) as exc:
+        if isinstance(exc, InputError):
+            raise
         raise InputError(f"{name}: cannot be read as an array of finite numbers") from None
     if a.ndim == 1 and a.shape[0] == n:
         a = a[None, :]

@@ -17,6 +17,7 @@ import numpy.typing as npt
 from eodarm.errors import InputError
 from eodarm.model.arm import Arm, check_arm
 from eodarm.model.effects import Effect, effect_arrays, split_effects, with_arm_effects
+from eodarm.model.kinds import real_array
 from eodarm.model.kinematics import (
     Arrays,
     Backend,
@@ -441,8 +442,10 @@ def _extras(
             continue
         shape = (rows, *(n if d == "n" else int(d) for d in EXTRA_SHAPES[key]))
         try:
-            a = np.asarray(value, dtype=float)
-        except (TypeError, ValueError):
+            a = np.asarray(real_array(value, key), dtype=float)
+        except (TypeError, ValueError, OverflowError) as exc:
+            if isinstance(exc, InputError):
+                raise
             raise InputError(f"{key}: cannot be read as an array of numbers") from None
         if a.shape != shape:
             raise InputError(f"{key}: expected shape {shape}, got {a.shape}")
@@ -457,8 +460,10 @@ def _extras(
 
 def _per_row(values: npt.ArrayLike, rows: int, name: str) -> npt.NDArray[np.float64]:
     try:
-        a = np.asarray(values, dtype=float)
-    except (TypeError, ValueError, OverflowError):
+        a = np.asarray(real_array(values, name), dtype=float)
+    except (TypeError, ValueError, OverflowError) as exc:
+        if isinstance(exc, InputError):
+            raise
         raise InputError(f"{name}: cannot be read as finite numbers") from None
     if a.ndim == 0:
         a = np.full(rows, float(a))

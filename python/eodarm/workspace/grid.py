@@ -17,6 +17,7 @@ import numpy.typing as npt
 
 from eodarm.errors import EodarmError, InputError
 from eodarm.model.arm import Arm
+from eodarm.model.kinds import real_array
 from eodarm.model.solver import _core_arm
 
 if TYPE_CHECKING:
@@ -99,8 +100,10 @@ def coord_attrs(kind: str, name: str) -> dict[str, str]:
 
 def _axis(values: Any, name: str, positive: bool = False) -> FloatArray:
     try:
-        a = np.asarray(values, dtype=float)
-    except (TypeError, ValueError):
+        a = np.asarray(real_array(values, f"sweep: grid '{name}'"), dtype=float)
+    except (TypeError, ValueError, OverflowError) as exc:
+        if isinstance(exc, InputError):
+            raise
         raise InputError(f"sweep: grid '{name}' cannot be read as numbers") from None
     if a.ndim == 0:
         a = a.reshape(1)
@@ -199,8 +202,10 @@ def angles_from_lengths_masked(
 # ---------------------------------------------------------------------------- the sweep
 def masses_axis(mass_kg: npt.ArrayLike) -> FloatArray:
     try:
-        m = np.asarray(mass_kg, dtype=float)
-    except (TypeError, ValueError):
+        m = np.asarray(real_array(mass_kg, "sweep: mass_kg"), dtype=float)
+    except (TypeError, ValueError, OverflowError) as exc:
+        if isinstance(exc, InputError):
+            raise
         raise InputError("sweep: mass_kg cannot be read as numbers") from None
     if m.ndim == 0:
         m = m.reshape(1)

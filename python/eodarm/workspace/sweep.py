@@ -315,14 +315,11 @@ def _prepare(
             "user-written effects; use model='analytic'"
         )
     op, rdims, block = _plan(grid, reduce)
-    if isinstance(chunk_size, bool) or not isinstance(chunk_size, (int, np.integer)):
-        raise InputError(f"sweep: chunk_size must be an integer, got {chunk_size!r}")
-    if chunk_size < 1:
-        raise InputError(f"sweep: chunk_size must be >= 1, got {chunk_size}")
-    if threads is not None and (
-        isinstance(threads, bool) or not isinstance(threads, (int, np.integer)) or threads < 1
-    ):
-        raise InputError(f"sweep: threads must be an integer >= 1, got {threads!r}")
+    from eodarm.model.kinds import integer
+
+    chunk_size = integer(chunk_size, "sweep: chunk_size", 1, 2**62)
+    if threads is not None:
+        threads = integer(threads, "sweep: threads", 1, 2**16)
     n, m, size = arm.n, mass.shape[0], grid.size
     step = block * max(1, int(chunk_size) // block)
     from eodarm.model.fem import check_model
