@@ -86,6 +86,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     _common.HELD.clear()
     _common.NEXT.clear()
     _common.HOLD[0] = True
+    _common.PARSER[:] = [_parser]
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         try:

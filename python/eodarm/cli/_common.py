@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import argparse
 import sys
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -169,6 +169,9 @@ def _one_line(msg: str) -> None:
 HELD: list[str] = []
 NEXT: list[str] = []
 HOLD = [False]
+#: The command line's parser factory (``eodarm.cli._parser``), handed over by ``main`` so that
+#: this module need not import the package that imports it (no import cycle).
+PARSER: list[Callable[[Sequence[str]], argparse.ArgumentParser]] = []
 
 
 def _held_note(msg: str) -> None:
@@ -383,9 +386,9 @@ def _next(*argv: str, args: argparse.Namespace | None = None) -> None:
 
 def _options_of(command: str) -> set[str]:
     """Every option string of ``command`` (``--add``, ``--effects`` …)."""
-    from eodarm.cli import _parser
-
-    parser = _parser([command])
+    if not PARSER:  # not run through eodarm.cli.main: no parser to ask
+        return set()
+    parser = PARSER[0]([command])
     for action in parser._actions:
         if isinstance(action, argparse._SubParsersAction):
             return set(action.choices[command]._option_string_actions)
