@@ -9,9 +9,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from arms import example_arm, four_link_arm, two_link_arm
 
 import eodarm
+from arms import example_arm, four_link_arm, two_link_arm
 from eodarm.analysis.synth import random_configs
 from eodarm.model import reference
 
