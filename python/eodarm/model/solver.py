@@ -313,7 +313,7 @@ def solve_sequence(
     flat_alpha = np.repeat(alpha, n_states, axis=0)
     flat_payload = np.stack([np.zeros(mass.size), -mass.ravel() * arm.g], axis=-1)
     flat = {k: v.reshape(n_seq * n_states, *v.shape[2:]) for k, v in res.items()}
-    res["status"] = status(arm, flat_alpha, flat_payload, flat).reshape(n_seq, n_states)
+    res["status"] = status(arm, flat_alpha, flat_payload, flat).reshape(n_seq, n_states)  # type: ignore[assignment]
     return res
 
 
