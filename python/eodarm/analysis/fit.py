@@ -462,9 +462,15 @@ def determining_channel(slot: Slot, measured: Sequence[str]) -> str:
         "joint_clearance": f"dalpha{i}_deg",
         "link_bending": f"dalpha{i}_deg",
         "base_compliance": "dalpha1_deg",
+        "actuator_friction": f"dl{i}_mm",  # the body's sensor sees what the body spring takes
     }.get(slot.name)
     if own is not None and own not in measured:
         return f"measure {own}"
+    if slot.name in ("actuator_friction", "joint_friction"):
+        return (
+            "load and unload (a load cycle with a step column): the unloading branch and the "
+            "return to zero payload show a friction (docs/diagnosis.md, load sequences)"
+        )
     return "add poses and payloads that load it differently (docs/diagnosis.md, advice)"
 
 
