@@ -1,4 +1,4 @@
-"""A worn pin bearing in an actuator's mount, as a user-written effect (CONTRACT §8).
+"""A worn pin bearing in an actuator's mount, as a user-written effect (docs/custom-effects.md).
 
 The mount's pin sits in a worn bearing: the contact grows with the load, so the mount
 stiffens as it is pressed (Hertz-like). Its pin-to-pin length changes by

@@ -78,7 +78,7 @@ def mount_compliance_like(state: eodarm.EffectState, i: int, c: float) -> dict[s
 
 
 def contact(state: eodarm.EffectState, i: int, c_mm_per_n23: float) -> dict[str, Any]:
-    """The worn mount of examples/contact_mount.py (CONTRACT §8's example)."""
+    """The worn mount of examples/contact_mount.py (the example of docs/custom-effects.md)."""
     df = state.force_n[:, i] - state.force0_n[:, i]
     return {"actuator_unseen_mm": -np.sign(df) * c_mm_per_n23 * np.abs(df) ** (2 / 3)}
 

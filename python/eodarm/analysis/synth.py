@@ -209,7 +209,7 @@ def synth(
         N = K·M·``repeats`` rows, the repeats of a state one after the other (row
         ``(i·M + j)·repeats + r``). With 1, the same data as without the argument.
     sequence : ``masses`` is one load sequence applied to every configuration in that order,
-        from its reference (docs/formats.md, "Load sequences"): a leading 0 is the reference
+        from its reference (docs/diagnosis.md, "Load sequences"): a leading 0 is the reference
         itself (not written); each configuration's states get ``step`` 1, 2, … and the truth
         is :func:`eodarm.solve_sequence` (friction and gaps with memory). With ``repeats``
         the whole cycle is repeated, each time under its own label (``c1``, ``c1#2``, …).

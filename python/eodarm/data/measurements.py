@@ -154,7 +154,7 @@ class Measurements:
     sigma_columns : whether :meth:`to_csv` writes ``sigma_`` columns.
     sigma_pooled : (N, C) bool, ``True`` where a measured value's sigma is its channel's
         pooled standard deviation of the repeats because the source gave none.
-    step : (N,) int or None, the ``step`` column of a file of load sequences (docs/formats.md,
+    step : (N,) int or None, the ``step`` column of a file of load sequences (docs/diagnosis.md,
         "Load sequences"): each config label is one sequence, its rows its states in
         ascending step, every value relative to the sequence's zeroed reference. ``None``:
         no ``step`` column, every row its own sequence loaded once from its reference.
