@@ -9,7 +9,9 @@ lands there with probability 95 %, and the seeds were not chosen to make it pass
 from __future__ import annotations
 
 import dataclasses
+import json
 import warnings
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -18,6 +20,9 @@ import eodarm
 from arms import example_arm, four_link_arm, two_link_arm
 from eodarm.analysis.fit import FitWarning, compare
 from eodarm.analysis.synth import random_configs, synth
+from eodarm.cli import main
+
+EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "example_arm.toml"
 
 E = eodarm.Effect
 CYCLE = [0.0, 1.5, 5.0, 6.5, 5.0, 1.5, 0.0]
@@ -106,3 +111,37 @@ def test_the_order_of_states_matters() -> None:
     assert compare(arm, meas, hidden).chi2_per_dof < 1.5
     single = dataclasses.replace(meas, step=None)
     assert compare(arm, single, hidden).chi2_per_dof > 5.0
+
+
+def test_compare_shows_each_sequence_loading_unloading_and_what_is_left(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """`eodarm compare` of a load cycle: per sequence, every channel against payload on both
+    branches, measured and model, and the value left at the return to zero payload; the
+    model with the hidden friction leaves what the data leave."""
+    arm = example_arm()
+    hidden = [E("joint_friction", "O2", torque_nmm=5000.0)]
+    meas = _cycle_data(arm, hidden)
+    csv = tmp_path / "cycle.csv"
+    meas.to_csv(csv)
+    args = ["compare", str(csv), "--arm", str(EXAMPLE), "--add", "joint_friction@O2=5000"]
+    assert main([*args, "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    loops = doc["hysteresis"]
+    assert [h["config"] for h in loops] == list(meas.configs)
+    first = loops[0]
+    assert first["mass_kg"] == CYCLE[1:]
+    assert first["branch"] == ["loading"] * 3 + ["unloading"] * 3
+    last = meas.sequences()[0][-1]
+    left = first["left_at_return"]
+    for ch in meas.channels:
+        assert left[ch]["measured"] == meas.values[last, meas.index(ch)]
+    # the friction leaves the sag short of the reference, and the model says the same
+    sig = meas.sigma[last, meas.index("dy_mm")]
+    assert abs(left["dy_mm"]["model"]) > 5 * sig
+    assert abs(left["dy_mm"]["model"] - left["dy_mm"]["measured"]) < 4 * sig
+    assert main(args) == 0
+    text = capsys.readouterr().out
+    assert "load sequence c1" in text and "unloading" in text
+    assert "left at the return to zero: dx_mm" in " ".join(text.split())
+    assert max(len(line) for line in text.splitlines()) <= 100

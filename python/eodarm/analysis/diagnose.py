@@ -600,7 +600,11 @@ def _advice(
                 "mass_kg": mass,
                 "chi2_separation": float(score[i]),
             }
-        entry = {"pair": [top.slot.spec, other.slot.spec], "channel": channel, "pose": pose}
+        entry: dict[str, Any] = {
+            "pair": [top.slot.spec, other.slot.spec],
+            "channel": channel,
+            "pose": pose,
+        }
         memory = friction_advice(top.slot, other.slot, meas.has_sequences)
         if memory:
             entry["memory"] = memory

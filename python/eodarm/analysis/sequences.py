@@ -45,7 +45,15 @@ if TYPE_CHECKING:
     from eodarm.data.measurements import Measurements
     from eodarm.model.arm import Arm
 
-__all__ = ["FRICTIONS", "FRICTION_STEP", "SequenceEvaluator", "friction_step", "layout"]
+__all__ = [
+    "FRICTIONS",
+    "FRICTION_STEP",
+    "SequenceEvaluator",
+    "branches",
+    "friction_step",
+    "hysteresis",
+    "layout",
+]
 
 FloatArray = npt.NDArray[np.float64]
 Model = Sequence[tuple[Slot, float]]
@@ -253,3 +261,73 @@ def _stack(out: dict[str, FloatArray]) -> FloatArray:
         [out["dx_mm"][..., None], out["dy_mm"][..., None], out["dalpha_deg"], out["dl_mm"]],
         axis=-1,
     )
+
+
+def branches(mass: npt.ArrayLike) -> list[str]:
+    """The branch of each state of one sequence: ``"loading"`` where the payload rose from
+    the state before it (the first state rises from the reference's 0), ``"unloading"`` where
+    it fell; a payload held keeps the branch of the state before it."""
+    out: list[str] = []
+    prev, branch = 0.0, "loading"
+    for m in np.asarray(mass, dtype=float).tolist():
+        if m > prev:
+            branch = "loading"
+        elif m < prev:
+            branch = "unloading"
+        out.append(branch)
+        prev = m
+    return out
+
+
+def hysteresis(
+    meas: Measurements,
+    model: FloatArray,
+    before: FloatArray | None = None,
+) -> list[dict[str, object]]:
+    """Each sequence's states against payload, measured and model, and what is left at the
+    return to zero payload (the numbers the text output and the report show).
+
+    Parameters
+    ----------
+    meas : measurements with a ``step`` column (an empty list without one).
+    model : (N, C) the model's channels at every row (a fit's ``prediction``).
+    before : (N, C) optionally a second model (the baseline), shown beside it.
+
+    Returns
+    -------
+    list of dict, one per sequence: ``config``; ``rows`` (N_s,) row indices in order;
+    ``step``, ``mass_kg``, ``branch`` per state; ``channels`` the measured channels;
+    ``measured``, ``sigma``, ``model`` (and ``before``) (N_s, C_s) arrays; ``left``: at the
+    last state, if its payload is 0, channel → (measured, model) left at the return, else
+    None.
+    """
+    if not meas.has_sequences or meas.step is None:
+        return []
+    chans = list(meas.measured_channels)
+    cols = np.array([meas.index(c) for c in chans], dtype=np.intp)
+    out: list[dict[str, object]] = []
+    for rows in meas.sequences():
+        mass = meas.mass_kg[rows]
+        entry: dict[str, object] = {
+            "config": str(meas.config[rows[0]]),
+            "rows": rows,
+            "step": meas.step[rows].tolist(),
+            "mass_kg": mass.tolist(),
+            "branch": branches(mass),
+            "channels": chans,
+            "measured": meas.values[np.ix_(rows, cols)],
+            "sigma": meas.sigma[np.ix_(rows, cols)],
+            "model": model[np.ix_(rows, cols)],
+        }
+        if before is not None:
+            entry["before"] = before[np.ix_(rows, cols)]
+        left = None
+        if len(rows) > 1 and mass[-1] == 0.0:
+            last = rows[-1]
+            left = {
+                ch: (float(meas.values[last, c]), float(model[last, c]))
+                for ch, c in zip(chans, cols, strict=True)
+            }
+        entry["left"] = left
+        out.append(entry)
+    return out

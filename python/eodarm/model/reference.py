@@ -482,9 +482,9 @@ def _custom_extras(
     self_weight: bool,
     ext: dict[str, FloatArray],
 ) -> dict[str, FloatArray]:
-    """The extra deformations with those of user-written effects added (docs/custom-effects.md): their
-    functions read this reference's own statics of both states (in a sequence: the state and
-    its reference, loaded once, without history)."""
+    """The extra deformations with those of user-written effects added
+    (docs/custom-effects.md): their functions read this reference's own statics of both
+    states (in a sequence: the state and its reference, loaded once, without history)."""
     from eodarm.model import custom
 
     statics_out = {
