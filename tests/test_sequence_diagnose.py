@@ -145,3 +145,34 @@ def test_compare_shows_each_sequence_loading_unloading_and_what_is_left(
     assert "load sequence c1" in text and "unloading" in text
     assert "left at the return to zero: dx_mm" in " ".join(text.split())
     assert max(len(line) for line in text.splitlines()) <= 100
+
+
+def test_the_loops_figure_and_the_report_section(tmp_path: Path) -> None:
+    """One panel per sequence: the measured states with σ bars joined by one arrow per step
+    in the order applied, the model before and after; the report holds the figure and the
+    return values of every sequence."""
+    from eodarm.viz.hysteresis import loops
+    from eodarm.viz.report import write_report
+
+    arm = example_arm()
+    cfg = random_configs(arm, 3, np.random.default_rng(1))
+    hidden = [E("joint_friction", "O2", torque_nmm=5000.0)]
+    meas = synth(arm, cfg, CYCLE, hidden, seed=3, sequence=True)
+    before = compare(arm, meas, [])
+    after = eodarm.fit(arm, meas, ["joint_friction@O2"])
+    png = tmp_path / "loops.png"
+    fig = loops(meas, before, after, path=png)
+    assert png.stat().st_size > 10_000
+    axes = [ax for ax in fig.axes if ax.get_visible()]
+    assert len(axes) == 3
+    for ax in axes:
+        gids = [a.get_gid() for a in ax.get_children()]
+        # the reference and the 6 states after it: one arrow per step, 6
+        assert gids.count("direction") == 6
+        assert "before" in gids and "after" in gids
+        assert "left" in ax.get_title()
+    d = eodarm.diagnose(arm, meas, advise=False)
+    html = write_report(tmp_path / "r.html", arm, meas, d).read_text(encoding="utf-8")
+    assert "Load cycles: the loops" in html
+    section = html[html.index("Load cycles: the loops") :]
+    assert all(f"<td>{label}</td>" in section for label in meas.configs)
