@@ -397,6 +397,12 @@ def _plots(
             arm, meas, effects, self_weight=self_weight, path=p, **(model_kw or {})
         )
         written.append(p)
+    if meas.has_sequences:
+        from eodarm.viz.hysteresis import loops
+
+        p = out / "loops.png"
+        loops(meas, before, after, path=p)
+        written.append(p)
     if steps:
         p = out / "ladder.png"
         plots.ladder(steps, path=p)
