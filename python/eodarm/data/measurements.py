@@ -333,6 +333,9 @@ class Measurements:
 
         The sigmas and :attr:`noise` records are those of the whole data: a sigma pooled from
         the repeats stays the estimate made on every repeat, not re-estimated on the subset.
+        In a file of load sequences the rows kept are the states of their sequences that
+        remain: select whole sequences (config labels), as a state's model depends on every
+        payload before it.
         """
         sel = np.asarray(rows)
         if sel.dtype == bool:
