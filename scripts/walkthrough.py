@@ -332,7 +332,7 @@ def cycle(work: Path, w: Any) -> None:
     w(f"```\n$ {cmd}\n{trim(out)}\n```\n")
     cmd = f"eodarm compare cycle.csv --arm {ARM} --add joint_friction@O2=5000"
     out = run(cmd, work)
-    block = out.split("load sequence c2")[0]
+    block = "…\n" + out[out.index("load sequence c1") : out.index("load sequence c2")].strip()
     w(
         "`compare` shows each sequence on its loading and unloading branch, measured and "
         "model, and what is left at the return to zero (the first sequence):\n"

@@ -113,3 +113,42 @@ def test_sequence_file_round_trip(tmp_path: Path) -> None:
     np.testing.assert_array_equal(again.values, meas.values)
     sub = meas.subset(np.array([1, 2]))
     assert sub.step is not None and sub.step.tolist() == [1, 2]
+
+
+def test_synth_sequence_writes_load_cycles(tmp_path: Path) -> None:
+    """`eodarm synth --sequence 0,1.5,5,6.5,5,1.5,0`: each configuration one sequence, the
+    leading 0 the reference (not written), steps from 1, the values those of
+    ``solve_sequence`` with the hidden effect (noise 1e-5 of the defaults)."""
+    import eodarm
+    from eodarm.cli import main
+
+    out = tmp_path / "cycle.csv"
+    arm_file = Path(__file__).resolve().parents[1] / "examples" / "example_arm.toml"
+    code = main(
+        [
+            "synth", "--arm", str(arm_file), "--configs", "3",
+            "--sequence", "0,1.5,5,6.5,5,1.5,0", "--hidden", "actuator_friction@M2=60",
+            "--noise", "1e-5", "-o", str(out),
+        ]
+    )  # fmt: skip
+    assert code == 0
+    meas = read_measurements(out, 3)
+    assert meas.has_sequences and meas.step is not None
+    seqs = meas.sequences()
+    assert len(seqs) == 3
+    for rows in seqs:
+        assert meas.step[rows].tolist() == [1, 2, 3, 4, 5, 6]
+        assert meas.mass_kg[rows].tolist() == [1.5, 5.0, 6.5, 5.0, 1.5, 0.0]
+    arm = eodarm.Arm.from_toml(arm_file)
+    first = np.array([rows[0] for rows in seqs])
+    truth = eodarm.solve_sequence(
+        arm,
+        meas.alpha_deg[first],
+        [1.5, 5.0, 6.5, 5.0, 1.5, 0.0],
+        effects=[eodarm.Effect("actuator_friction", "M2", friction_n=60.0)],
+        backend="numpy",
+    )
+    got = np.array([meas.values[rows, meas.index("dl2_mm")] for rows in seqs])
+    # noise 1e-5 of the 0.002 mm default (2e-8 mm): equal to 1e-6 mm, 50 sigma
+    np.testing.assert_allclose(got, truth["dl_mm"][:, :, 1], rtol=0, atol=1e-6)
+    assert np.all(np.abs(got[:, -1]) > 0.01)  # 60 N over 2500 N/mm stays at the return

@@ -8,7 +8,8 @@ be checked against the truth. :func:`random_configs` draws well-conditioned pose
 
 Command line (registered by :func:`add_parser`)::
 
-    eodarm synth --arm ARM.toml [--configs K | --alpha A1,A2,A3 ...] [--masses 1.5,5,6.5]
+    eodarm synth --arm ARM.toml [--configs K | --alpha A1,A2,A3 ...]
+                 [--masses 1.5,5,6.5 | --sequence 0,1.5,5,6.5,5,1.5,0]
                  [--hidden EFFECT@PLACE=VALUE ...] [--channels dx_mm,dy_mm,dalpha,dl | all]
                  [--noise 1.0] [--sigma CHANNEL=VALUE ...] [--seed 0] [--no-self-weight]
                  [--repeats 1] [--no-sigma-columns] [-o OUT.csv]

@@ -91,7 +91,7 @@ def loops(
         ya = np.concatenate([[0.0], np.asarray(h["model"])[:, j]])  # type: ignore[call-overload]
         yb = np.concatenate([[0.0], np.asarray(h["before"])[:, j]])  # type: ignore[call-overload]
         if not same:
-            ax.plot(m, yb, ls="--", color=GREY, lw=1.2, gid="before")
+            ax.plot(m, yb, ls=(0, (5, 3)), color=GREY, lw=1.3, gid="before", zorder=3)
         ax.plot(m, ya, ls="-", color=PALETTE[0], lw=2.2, alpha=0.85, gid="after", zorder=2)
         ok = np.isfinite(y)
         ax.errorbar(
