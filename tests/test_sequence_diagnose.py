@@ -176,3 +176,28 @@ def test_the_loops_figure_and_the_report_section(tmp_path: Path) -> None:
     assert "Load cycles: the loops" in html
     section = html[html.index("Load cycles: the loops") :]
     assert all(f"<td>{label}</td>" in section for label in meas.configs)
+
+
+def test_frictions_of_one_actuator_at_one_pose_are_confused_and_the_tool_says_what_separates(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path
+) -> None:
+    """At one pose the actuator's moment arm is fixed, so a joint friction T at O2 and an
+    actuator friction T/r at M2 are the same deadband: the data cannot tell them apart, and
+    the advice names the measurement that would (a pose with another moment arm)."""
+    arm = example_arm()
+    pose = np.repeat(random_configs(arm, 1, np.random.default_rng(2)), 2, axis=0)
+    hidden = [E("actuator_friction", "M2", friction_n=60.0)]
+    meas = synth(arm, pose, CYCLE, hidden, seed=3, sequence=True)
+    d = eodarm.diagnose(arm, meas)
+    first, second = d.ranking[0], d.ranking[1]
+    assert {first.slot.key, second.slot.key} == {"actuator_friction@M2", "joint_friction@O2"}
+    assert second.slot.key in first.confused_with
+    assert abs(first.fit.chi2 - second.fit.chi2) < 1e-6 * first.fit.chi2
+    [advice] = [a for a in d.advice if set(a["pair"]) == {first.slot.key, second.slot.key}]
+    assert "moment arm of actuator 2 about O2" in advice["memory"]
+    assert advice["pose"]["chi2_separation"] > 3.84  # another pose does separate them
+    csv = tmp_path / "one_pose.csv"
+    meas.to_csv(csv)
+    assert main(["diagnose", str(csv), "--arm", str(EXAMPLE)]) == 0
+    said = " ".join(capsys.readouterr().out.split())
+    assert "what separates them: poses with a different moment arm of actuator 2" in said
