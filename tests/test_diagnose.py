@@ -495,6 +495,11 @@ def test_seed_third_round_suggests_nothing_that_predicts_held_out_configurations
     # but it does not explain the data within the noise, so it is not suggested either.
     assert acc is not None and not acc.accepted and "noise" in acc.failed
     assert not any(s.name == "base_compliance" for s in acc.added)
+    # its members are not determined by the data (a clearance and frictions that trade off),
+    # so it is no step either: the investigation ends with the mounts
+    assert acc.undetermined and not acc.improves
+    assert "do not determine" in inv.stopped
+    assert inv.final_model == third.model
     assert third.to_json()["best_effort"]["cv"]["rms"]["dy_mm"] == acc.cv["rms"]["dy_mm"]
 
 
