@@ -569,7 +569,9 @@ def _respond(
     e = st["e"]
     s_joint, s_body, couple = held["joint"], held["body"], held["couple"]
     delta = (s_joint - st["dforce_n"])[..., None] * e  # (N, n, 2)
-    f_actual = st["force_unloaded_n"] + s_joint
+    # F_ref + S_joint, written as the frictionless loaded force plus what the joint holds
+    # back (exactly the frictionless numbers when nothing is held)
+    f_actual = st["force_n"] + (s_joint - st["dforce_n"])
     r_actual = st["reaction_n"] - delta
     df = s_joint
     dr = st["dreaction_n"] - delta
