@@ -176,6 +176,10 @@ def test_the_loops_figure_and_the_report_section(tmp_path: Path) -> None:
     assert "Load cycles: the loops" in html
     section = html[html.index("Load cycles: the loops") :]
     assert all(f"<td>{label}</td>" in section for label in meas.configs)
+    # every channel of every sequence, measured and model, folded per sequence
+    assert section.count("<details><summary>sequence ") == 3
+    for ch in meas.channels:
+        assert f"{ch} measured / model" in section
 
 
 def test_frictions_of_one_actuator_at_one_pose_are_confused_and_the_tool_says_what_separates(

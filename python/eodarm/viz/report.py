@@ -540,10 +540,48 @@ def _loops_section(meas: Measurements, before: FitResult, after: FitResult, main
     )
     return [
         "<h2>Load cycles: the loops</h2>",
-        "<p>Every channel on both branches, measured and model, is in the text output of "
-        "<code>eodarm compare</code> (and its <code>--json</code>).</p>",
         page.row(table, img),
+        "<p>Every channel of every sequence on its loading and unloading branch, measured "
+        "and the fitted model, and what is left at the return to zero payload:</p>",
+        *_loop_tables(meas, after),
     ]
+
+
+def _loop_tables(meas: Measurements, after: FitResult) -> list[str]:
+    """One folded table per sequence: step, payload, branch, each channel measured / model."""
+    from eodarm.analysis.sequences import hysteresis
+
+    out = []
+    for h in hysteresis(meas, after.prediction):
+        chans = list(h["channels"])  # type: ignore[call-overload]
+        meas_v = np.asarray(h["measured"])
+        model_v = np.asarray(h["model"])
+        head = ["step", "kg", "branch"] + [f"{ch} measured / model" for ch in chans]
+        rows = []
+        for s, (step, kg, br) in enumerate(
+            zip(h["step"], h["mass_kg"], h["branch"], strict=True)  # type: ignore[call-overload]
+        ):
+            cells: list[Any] = [str(step), page.num(kg), br]
+            cells += [
+                f"{page.num(meas_v[s, j], 4)} / {page.num(model_v[s, j], 4)}"
+                for j in range(len(chans))
+            ]
+            rows.append(cells)
+        left = h["left"]
+        note = (
+            "does not return to 0 kg"
+            if not isinstance(left, dict)
+            else "left at 0 kg: "
+            + "; ".join(
+                f"{ch} {page.num(m, 3)} (model {page.num(mo, 3)})" for ch, (m, mo) in left.items()
+            )
+        )
+        out.append(
+            f"<details><summary>sequence {page.esc(h['config'])}: {page.esc(note)}</summary>"
+            + page.table(head, rows)
+            + "</details>"
+        )
+    return out
 
 
 def _share_section(
