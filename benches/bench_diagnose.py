@@ -5,10 +5,10 @@ Usage: python benches/bench_diagnose.py [--repeat 5] [--markdown FILE]
 The target of issue 3 is under 2 s for the whole diagnosis (ranking, every set of up to three
 candidates, confusions, next-measurement advice); issue 11's is under 0.2 s with the
 catalogue's candidates alone (16, and the 6 gaps taken up when unloaded) and under 1 s more
-with one user-written effect type registered (examples/friction.py: 3 more candidates, whose
-columns are forward differences). Timings are the best and the median of the repeats, in one
+with one user-written effect type registered (examples/contact_mount.py: 3 more candidates,
+whose columns are forward differences). Timings are the best and the median of the repeats, in one
 process after a warm-up run (imports and first calls excluded). The cases run first with no
-user effect registered, then again with the friction registered, plus one with it hidden.
+user effect registered, then again with the contact mount registered, plus one with it hidden.
 """
 
 from __future__ import annotations
@@ -67,11 +67,11 @@ def main() -> None:
     }
     rows = []
     run(cases, args.repeat, rows, arm)
-    runpy.run_path(str(EXAMPLE.parent / "friction.py"))  # registers actuator_friction
-    friction = [eodarm.Effect("actuator_friction", "M2", friction_n=30.0)]
-    cases = {f"{k}, friction registered": v for k, v in cases.items()}
-    cases["friction hidden, friction registered"] = synth(
-        arm, cfg, [1.5, 3.0, 5.0, 6.5], hidden=friction, seed=1
+    runpy.run_path(str(EXAMPLE.parent / "contact_mount.py"))  # registers contact_mount
+    contact = [eodarm.Effect("contact_mount", "M2", c_mm_per_n23=1e-3)]
+    cases = {f"{k}, contact registered": v for k, v in cases.items()}
+    cases["contact hidden, contact registered"] = synth(
+        arm, cfg, [1.5, 3.0, 5.0, 6.5], hidden=contact, seed=1
     )
     run(cases, args.repeat, rows, arm)
     lines = [

@@ -24,7 +24,7 @@ where it is spent):
    per state, and a ``fit`` of the two hidden effects;
 4. **candidates**: ``diagnose`` of the seed2022 arm on 48 states with the first 4, 8, 16 and
    all 22 catalogue candidates, then the 22 plus the 3 of a user-written effect
-   (``examples/friction.py``, whose Jacobian columns are forward differences).
+   (``examples/contact_mount.py``, whose Jacobian columns are forward differences).
 
 The profile splits the call's own time into: the compiled core (``eodarm._core``: the model
 and its Jacobian), numpy's linear algebra, the rest of numpy, eodarm's Python, and the rest.
@@ -251,9 +251,9 @@ def study_candidates(repeat: int) -> list[str]:
         (str(k), catalogue[:k]) for k in (4, 8, 16) if k < len(catalogue)
     ]
     cases.append((f"{len(catalogue)} (catalogue)", catalogue))
-    runpy.run_path(str(ROOT / "examples" / "friction.py"), run_name="friction")
+    runpy.run_path(str(ROOT / "examples" / "contact_mount.py"), run_name="contact")
     every = all_slots(arm.n)
-    cases.append((f"{len(every)} (+ user-written friction)", every))
+    cases.append((f"{len(every)} (+ user-written contact mount)", every))
     for label, cands in cases:
         c = len(cands)
         sets = c + c * (c - 1) // 2 + c * (c - 1) * (c - 2) // 6

@@ -29,7 +29,6 @@ BEST = BODIES + MOUNTS
 
 
 def _load_effects() -> None:
-    runpy.run_path(str(ROOT / "examples" / "friction.py"))
     runpy.run_path(str(ROOT / "examples" / "thresholds.py"))
 
 
@@ -50,7 +49,7 @@ def models() -> list[tuple[str, list[str]]]:
         ms.append((f"+ joint_clearance@O{k}:taken_up", [*BEST, f"joint_clearance@O{k}:taken_up"]))
     ms.append(
         (
-            "+ actuator_friction@M1–M3 (user)",
+            "+ actuator_friction@M1–M3",
             [*BEST, *(f"actuator_friction@M{k}" for k in (1, 2, 3))],
         )
     )
@@ -269,9 +268,9 @@ def section(arm: eodarm.Arm | None = None, meas: eodarm.Measurements | None = No
         "threshold does (the first newtons move less than the rest: friction, stiction, a "
         "preload). So the models below add to §4's best (bodies + mounts) the taken-up "
         "variants of play and clearance (model.md §4: the self-weight has already closed the "
-        "gap, so only a reversal of a force shows) and three user-written threshold effects: "
-        "`actuator_friction` ([examples/friction.py](../examples/friction.py): a deadband in "
-        "the actuator body, seen by its sensor) and `mount_preload` / `joint_preload` "
+        "gap, so only a reversal of a force shows) and the built-in "
+        "`actuator_friction` (loaded once: a deadband in the actuator body, seen by its "
+        "sensor) and two user-written threshold effects, `mount_preload` / `joint_preload` "
         "([examples/thresholds.py](../examples/thresholds.py): a mount or a joint that holds "
         "the first newtons of a force change, i.e. a constant relief δ against the "
         "deformation once the change passes a threshold, unseen by the motor sensors).\n"
@@ -304,7 +303,7 @@ def section(arm: eodarm.Arm | None = None, meas: eodarm.Measurements | None = No
         "little, but the data want none (O1: 0 ± "
         f"{by['+ joint_clearance@O1:taken_up']['estimates'].split('±')[1]} mm). The friction "
         "deadband in the actuator bodies "
-        f"({by['+ actuator_friction@M1–M3 (user)']['estimates']}) changes nothing: it can only "
+        f"({by['+ actuator_friction@M1–M3']['estimates']}) changes nothing: it can only "
         "give back what the bodies themselves deform, and their own sensors say that is "
         "micrometres. The preload reliefs in the mounts and joints come out at "
         + ", ".join(r["estimates"] for r in singles)
@@ -324,14 +323,14 @@ def section(arm: eodarm.Arm | None = None, meas: eodarm.Measurements | None = No
     )
     w.append(
         f"**The diagnosis with these effects** (`eodarm diagnose ... --add` the six "
-        "compliances `--effects examples/thresholds.py --effects examples/friction.py`, "
+        "compliances `--effects examples/thresholds.py`, "
         f"{len(d.ranking)} candidates): verdict *{d.verdict}*. The ranking is led by "
         f"{', '.join(c.slot.key for c in d.ranking[:3])}, none significant; the best "
         f"effort by BIC is {be}, with parameters of millimetres that largely cancel each other "
         f"({be_vals} mm) and which predicts held-out sag "
         f"to {be_cv:.2f} mm, worse than without it; the acceptance rule refuses it. "
-        "The tool is right to say *unexplained*. `eodarm report --effects examples/thresholds.py "
-        "--effects examples/friction.py` takes the same path (the bodies, then the mounts) and "
+        "The tool is right to say *unexplained*. `eodarm report --effects examples/thresholds.py` "
+        "takes the same path (the bodies, then the mounts) and "
         "stops there with the same best effort, which does not improve the model.\n"
     )
     w.append(

@@ -8,13 +8,13 @@ import eodarm
 from eodarm.data.measurements import channel_values
 
 
-def with_stick_slip(
+def with_softening(
     arm: eodarm.Arm, meas: eodarm.Measurements, i: int, f0: float
 ) -> eodarm.Measurements:
-    """The measurements plus stick-slip friction in actuator i's body (0-based): the body does
-    not move until the force change passes ``f0`` (N), then follows its stiffness k:
-    its length change is −sign(ΔF)·max(|ΔF| − f0, 0)/k instead of −ΔF/k. No effect of the
-    catalogue does this (a play adds length change, a stiffness scales it).
+    """The measurements plus a softening body in actuator i (0-based): its stiffness falls with
+    the load as k/(1 + |ΔF|/f0) (``f0`` in N), so its length change is −ΔF/k − ΔF·|ΔF|/(k·f0),
+    quadratic in the load. No effect of the catalogue does this (a stiffness scales the length
+    change, a play or a friction shifts it by a constant).
 
     The core cannot solve it, so it is added to the data to first order: the channels' response
     to a pin-to-pin length change of actuator i is read off a very stiff mount there (whose
@@ -29,7 +29,7 @@ def with_stick_slip(
     soft = eodarm.solve(arm, a, m, effects=[mount])
     ch = meas.channels
     per_mount = channel_values(soft, ch) - channel_values(plain, ch)  # response to −ΔF/k_m
-    extra_length = np.sign(df) * np.minimum(np.abs(df), f0) / k
+    extra_length = -df * np.abs(df) / (k * f0)
     extra = per_mount * (-km * extra_length / np.where(df == 0, 1.0, df))[:, None]
     extra[:, ch.index(f"dl{i + 1}_mm")] = extra_length  # the body's own sensor sees it
     values = meas.values + extra

@@ -24,7 +24,7 @@ from eodarm.analysis.residuals import residual_pattern
 from eodarm.analysis.synth import random_configs, synth
 from eodarm.data.measurements import default_sigma
 from eodarm.model.effects import Slot
-from outside import with_stick_slip
+from outside import with_softening
 
 MASSES = [1.5, 3.0, 5.0, 6.5]
 ARMS_FILE = Path(__file__).resolve().parent.parent / "examples" / "example_arm.toml"
@@ -40,6 +40,8 @@ def hidden_value(arm: eodarm.Arm, slot: Slot) -> float:
         "joint_clearance": 0.12,
         "link_bending": 2e9,
         "base_compliance": 4e7,
+        "actuator_friction": 40.0,
+        "joint_friction": 5000.0,
     }[slot.name]
 
 
@@ -239,8 +241,8 @@ def test_cli_diagnose_json_is_exactly_the_contract(two_hidden_csv: str) -> None:
     assert set(doc["baseline"]) == {"rms", "chi2_per_dof"}
     assert doc["verdict"] == "missing"
     assert set(doc["suggested"]) == {"joint_clearance@O2", "mount_compliance@M1"}
-    # 16 effects × places, and the 6 gaps (play, clearance) taken up when unloaded
-    assert len(doc["ranking"]) == 22
+    # 22 effects × places (frictions included), and the 6 gaps taken up when unloaded
+    assert len(doc["ranking"]) == 28
     for entry in doc["ranking"]:
         keys = {"effect", "at", "estimate", "rms", "chi2_per_dof", "confused_with"}
         if entry.get("unloaded") == "taken_up":
@@ -345,7 +347,7 @@ def test_cli_compare_writes_every_residual(two_hidden_csv: str, tmp_path: Path) 
 def friction() -> tuple[eodarm.Arm, eodarm.Measurements]:
     arm = example_arm()
     clean = synth(arm, configs(arm), MASSES, hidden=[], seed=11)
-    return arm, with_stick_slip(arm, clean, 1, 150.0)
+    return arm, with_softening(arm, clean, 1, 400.0)
 
 
 def test_an_effect_outside_the_catalogue_is_unexplained(
@@ -488,10 +490,15 @@ def test_seed_third_round_suggests_nothing_that_predicts_held_out_configurations
     }
     assert third.verdict == "unexplained" and third.suggested == []
     acc = third.acceptance
-    assert acc is not None and acc.predicts is False and not acc.improves
-    assert acc.cv["rms"]["dy_mm"] > acc.baseline_cv["rms"]["dy_mm"]
-    # the investigation stops for the same reason and ends with the mounts
-    assert "held-out" in inv.stopped
+    # With the frictions in the catalogue the best set of the third round (joint frictions and
+    # a clearance: the seed's arm did not come back) predicts held-out configurations better,
+    # but it does not explain the data within the noise, so it is not suggested either.
+    assert acc is not None and not acc.accepted and "noise" in acc.failed
+    assert not any(s.name == "base_compliance" for s in acc.added)
+    # its members are not determined by the data (a clearance and frictions that trade off),
+    # so it is no step either: the investigation ends with the mounts
+    assert acc.undetermined and not acc.improves
+    assert "do not determine" in inv.stopped
     assert inv.final_model == third.model
     assert third.to_json()["best_effort"]["cv"]["rms"]["dy_mm"] == acc.cv["rms"]["dy_mm"]
 

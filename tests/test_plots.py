@@ -32,7 +32,7 @@ from eodarm.errors import EodarmError
 from eodarm.viz import plots, style
 from eodarm.viz.report import write_report
 from eodarm.viz.residual_map import residual_map
-from outside import with_stick_slip
+from outside import with_softening
 
 HIDDEN = eodarm.Effect("joint_clearance", "O2", clearance_mm=0.12)
 MASSES = (1.5, 5.0, 6.5)
@@ -368,9 +368,9 @@ def test_the_report_of_an_adequate_model_says_so(arm: eodarm.Arm, tmp_path: Path
 
 @pytest.fixture(scope="module")
 def unexplained(arm: eodarm.Arm) -> tuple[Measurements, Diagnosis]:
-    """Stick-slip friction in actuator 2: no effect of the catalogue explains it."""
+    """A softening body in actuator 2: no effect of the catalogue explains it."""
     poses = random_configs(arm, 5, np.random.default_rng(3))
-    m = with_stick_slip(arm, synth(arm, poses, MASSES, seed=4), 1, 150.0)
+    m = with_softening(arm, synth(arm, poses, MASSES, seed=4), 1, 400.0)
     return m, diagnose(arm, m)
 
 

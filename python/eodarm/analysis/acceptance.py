@@ -23,7 +23,8 @@ is **accepted** when
 (b), unless asked for (``always_cross_validate``).
 
 A set that does not explain the data can still be a step toward an explanation: it
-**improves** the model when (b) and (c) hold and it lowers the BIC (χ² + k ln N). The
+**improves** the model when (b) and (c) hold, it lowers the BIC (χ² + k ln N) and the data
+determine every member's parameter (relative standard error ≤ 100 %). The
 investigation adds such a set when no set is accepted (verdict ``unexplained``) and goes on;
 it is never called ``suggested``.
 """
@@ -138,8 +139,26 @@ class Acceptance:
 
     @property
     def improves(self) -> bool:
-        """(b), (c) and a lower BIC: a step toward an explanation, though not one."""
-        return self.away_from_bounds and self.predicts is True and self.bic < bic(self.baseline)
+        """(b), (c), a lower BIC and every member determined by the data: a step toward an
+        explanation, though not one."""
+        return (
+            self.away_from_bounds
+            and self.predicts is True
+            and self.bic < bic(self.baseline)
+            and not self.undetermined
+        )
+
+    @property
+    def undetermined(self) -> list[str]:
+        """Members whose parameter the data do not determine (relative standard error above
+        100 %, :meth:`FitResult.undetermined`): a set of them, however it lowers the BIC, is
+        no step toward an explanation (two gaps or frictions that cancel each other)."""
+        first = len(self.fit.slots) - len(self.added)
+        return [
+            self.fit.slots[i].key
+            for i, why in self.fit.undetermined(max_correlation=1.0)
+            if i >= first and why.startswith("relative")
+        ]
 
     @property
     def keys(self) -> list[str]:

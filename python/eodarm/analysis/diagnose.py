@@ -378,6 +378,8 @@ def _diagnose_pass(
         # taken-up gap is the centred one
         analytic = kw.get("model", "analytic") == "analytic"
         every = all_slots(arm.n, taken_up=analytic and self_weight, custom=analytic)
+        if not analytic:  # frictions are modelled by the analytic model only
+            every = [s for s in every if s.name not in ("actuator_friction", "joint_friction")]
         cands = [s for s in every if s.key not in taken]
     else:
         cands = [Slot.of(s) for s in candidates if Slot.of(s).key not in taken]
@@ -608,8 +610,48 @@ def _advice(
                 "mass_kg": mass,
                 "chi2_separation": float(score[i]),
             }
-        out.append({"pair": [top.slot.spec, other.slot.spec], "channel": channel, "pose": pose})
+        entry: dict[str, Any] = {
+            "pair": [top.slot.spec, other.slot.spec],
+            "channel": channel,
+            "pose": pose,
+        }
+        memory = friction_advice(top.slot, other.slot, meas.has_sequences)
+        if memory:
+            entry["memory"] = memory
+        out.append(entry)
     return out
+
+
+def friction_advice(a: Slot, b: Slot, has_sequences: bool) -> str | None:
+    """The measurement that tells a friction from what it is confused with, in words (None
+    when neither is a friction).
+
+    Loaded once, a friction is a deadband: it takes a constant off each force change, which
+    an elastic effect or a gap can imitate. Only the history shows it for what it is: the
+    unloading branch lies on the other side of the frictionless curve and the arm does not
+    come back at zero payload. Two frictions on one actuator differ by their limit: an
+    actuator friction's is a force, a joint friction's a torque T/r_i, so it changes with
+    the moment arm r_i of actuator i about O_i from pose to pose.
+    """
+    frictions = ("actuator_friction", "joint_friction")
+    if a.name not in frictions and b.name not in frictions:
+        return None
+    if a.name in frictions and b.name in frictions:
+        if a.name != b.name and a.at[1:] == b.at[1:]:
+            i = a.at[1:]
+            return (
+                f"poses with a different moment arm of actuator {i} about O{i}: the joint "
+                f"friction's limit (torque / moment arm) changes with it, the actuator "
+                "friction's does not"
+            )
+        return "poses and channels that load the two places differently"
+    if not has_sequences:
+        return (
+            "an unloading branch (a load cycle written with a step column): only a friction "
+            "leaves the loading and unloading branches apart and the arm short of its "
+            "reference at the return to zero payload"
+        )
+    return "a longer unloading branch, back to zero payload"
 
 
 def _problem_at(

@@ -116,6 +116,7 @@ class Problem:
         #: unless the same effect@place is in the model being evaluated (then it is refitted).
         self.fixed = [(Slot.of(e), theta_from_param(e.name, e.value)) for e in arm.effects]
         self._custom: Any = None  # the evaluator of user-written effects, made on first use
+        self._seq: Any = None  # the evaluator of sequences and frictions, made on first use
 
     # --------------------------------------------------------------- evaluation
     def evaluate(
@@ -172,6 +173,23 @@ class Problem:
             named = {s.key for s, _ in model} | {s.key for s in probes}
             model = [*(f for f in self.fixed if f[0].key not in named), *model]
 
+        from eodarm.analysis import sequences
+
+        if self.meas.has_sequences or sequences.has_friction([*(s for s, _ in model), *probes]):
+            # Memory (load sequences, frictions): :mod:`eodarm.analysis.sequences`.
+            if self.model == "fem":
+                raise EodarmError(
+                    "load sequences and frictions are modelled by the analytic model only"
+                )
+            if self._seq is None:
+                self._seq = sequences.SequenceEvaluator(self.arm, self.meas, self.self_weight)
+            return self._seq.evaluate(  # type: ignore[no-any-return]
+                model,
+                probes,
+                rows,
+                nan_on_failure,
+                lambda m, p: self.evaluate(m, p, None, nan_on_failure),
+            )
         n = self.arm.n
         alpha, payload = self.alpha, self.payload
         if rows is not None:
@@ -550,9 +568,15 @@ def determining_channel(slot: Slot, measured: Sequence[str]) -> str:
         "joint_clearance": f"dalpha{i}_deg",
         "link_bending": f"dalpha{i}_deg",
         "base_compliance": "dalpha1_deg",
+        "actuator_friction": f"dl{i}_mm",  # the body's sensor sees what the body spring takes
     }.get(slot.name)
     if own is not None and own not in measured:
         return f"measure {own}"
+    if slot.name in ("actuator_friction", "joint_friction"):
+        return (
+            "load and unload (a load cycle with a step column): the unloading branch and the "
+            "return to zero payload show a friction (docs/diagnosis.md, load sequences)"
+        )
     return "add poses and payloads that load it differently (docs/diagnosis.md, advice)"
 
 

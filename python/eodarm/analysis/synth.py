@@ -8,7 +8,8 @@ be checked against the truth. :func:`random_configs` draws well-conditioned pose
 
 Command line (registered by :func:`add_parser`)::
 
-    eodarm synth --arm ARM.toml [--configs K | --alpha A1,A2,A3 ...] [--masses 1.5,5,6.5]
+    eodarm synth --arm ARM.toml [--configs K | --alpha A1,A2,A3 ...]
+                 [--masses 1.5,5,6.5 | --sequence 0,1.5,5,6.5,5,1.5,0]
                  [--hidden EFFECT@PLACE=VALUE ...] [--channels dx_mm,dy_mm,dalpha,dl | all]
                  [--noise 1.0] [--sigma CHANNEL=VALUE ...] [--seed 0] [--no-self-weight]
                  [--repeats 1] [--no-sigma-columns] [-o OUT.csv]
@@ -177,6 +178,7 @@ def synth(
     configs: Sequence[str] | None = None,
     sigma_columns: bool = True,
     repeats: int = 1,
+    sequence: bool = False,
 ) -> Measurements:
     """Synthetic measurements: the model with ``hidden`` effects, plus Gaussian noise.
 
@@ -207,6 +209,11 @@ def synth(
     repeats : how many times each state is measured (≥ 1), each time with independent noise:
         N = K·M·``repeats`` rows, the repeats of a state one after the other (row
         ``(i·M + j)·repeats + r``). With 1, the same data as without the argument.
+    sequence : ``masses`` is one load sequence applied to every configuration in that order,
+        from its reference (docs/diagnosis.md, "Load sequences"): a leading 0 is the reference
+        itself (not written); each configuration's states get ``step`` 1, 2, … and the truth
+        is :func:`eodarm.solve_sequence` (friction and gaps with memory). With ``repeats``
+        the whole cycle is repeated, each time under its own label (``c1``, ``c1#2``, …).
 
     Returns
     -------
@@ -247,6 +254,21 @@ def synth(
     every = channel_names(n)
     sig = _sigmas(sigma or {}, every, noise)
 
+    if sequence:
+        return _synth_sequence(
+            arm,
+            alpha,
+            mass,
+            hidden,
+            chosen,
+            every,
+            sig,
+            seed,
+            self_weight,
+            labels,
+            rep,
+            sigma_columns,
+        )
     rows_alpha = np.repeat(alpha, mm, axis=0)
     rows_mass = np.tile(mass, kc)
     truth = channel_values(
@@ -275,6 +297,57 @@ def synth(
         line=np.arange(2, kc * mm * rep + 2),
         sigma_default=np.zeros(truth.shape, dtype=bool),
         sigma_columns=sigma_columns,
+    )
+
+
+def _synth_sequence(
+    arm: Arm,
+    alpha: npt.NDArray[np.float64],
+    mass: npt.NDArray[np.float64],
+    hidden: Effect | Iterable[Effect],
+    chosen: Sequence[str],
+    every: list[str],
+    sig: npt.NDArray[np.float64],
+    seed: int | np.random.SeedSequence | None,
+    self_weight: bool,
+    labels: list[str],
+    rep: int,
+    sigma_columns: bool,
+) -> Measurements:
+    """:func:`synth` of one load sequence per configuration (and per repeat)."""
+    from eodarm.model.solver import solve_sequence
+
+    states = mass[1:] if mass[0] == 0 and mass.size > 1 else mass
+    s = states.size
+    out = solve_sequence(arm, alpha, states, effects=as_effects(hidden), self_weight=self_weight)
+    kc = alpha.shape[0]
+    truth = np.concatenate(
+        [out["dx_mm"][..., None], out["dy_mm"][..., None], out["dalpha_deg"], out["dl_mm"]],
+        axis=-1,
+    )  # (K, S, C) in channel order
+    truth = np.repeat(truth, rep, axis=0).reshape(kc * rep * s, len(every))
+    names = [lb if r == 0 else f"{lb}#{r + 1}" for lb in labels for r in range(rep)]
+    gen = np.random.default_rng(seed)
+    z = gen.standard_normal(truth.shape)
+    values = truth + z * sig
+    sigma_arr = np.broadcast_to(sig, truth.shape).copy()
+    off = np.array([c not in chosen for c in every])
+    values[:, off] = np.nan
+    sigma_arr[:, off] = np.nan
+    rows = truth.shape[0]
+    return Measurements(
+        source="<synth>",
+        n=arm.n,
+        config=np.repeat(np.array(names, dtype=str), s),
+        alpha_deg=np.repeat(alpha, rep * s, axis=0),
+        mass_kg=np.tile(states, kc * rep),
+        channels=tuple(every),
+        values=values,
+        sigma=sigma_arr,
+        line=np.arange(2, rows + 2),
+        sigma_default=np.zeros(truth.shape, dtype=bool),
+        sigma_columns=sigma_columns,
+        step=np.tile(np.arange(1, s + 1), kc * rep),
     )
 
 

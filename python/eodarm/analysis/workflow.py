@@ -163,6 +163,8 @@ def _why_not(acc: Acceptance) -> str:
             "it would predict held-out configurations worse (held-out RMS/σ "
             f"{acc.cv['z_rms']:.3g} against {acc.baseline_cv['z_rms']:.3g} without it)"
         )
+    if acc.undetermined:
+        why.append(f"the data do not determine {', '.join(acc.undetermined)}")
     if not why:
         why.append("it does not lower the BIC")
     return (

@@ -481,7 +481,12 @@ def _plots(
     out = Path(dirname)
     out.mkdir(parents=True, exist_ok=True)
     written = []
-    names = ["measured vs model", "residuals", *(["sag budget"] if effects else [])]
+    names = [
+        "measured vs model",
+        "residuals",
+        *(["loops"] if meas.has_sequences else []),
+        *(["sag budget"] if effects else []),
+    ]
     with _stages([*names, *(["ladder"] if steps else [])], "--plot") as step:
         step("measured vs model")
         p = out / "measured_vs_model.png"
@@ -491,6 +496,13 @@ def _plots(
         p = out / "residual_vs_payload.png"
         plots.residual_vs_payload(meas, before, after, path=p)
         written.append(p)
+        if meas.has_sequences:
+            step("loops")
+            from eodarm.viz.hysteresis import loops
+
+            p = out / "loops.png"
+            loops(meas, before, after, path=p)
+            written.append(p)
         if effects:
             step("sag budget")
             p = out / "deflection_share.png"

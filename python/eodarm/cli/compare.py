@@ -60,6 +60,7 @@ def _worst(result: FitResult, k: int = 8) -> list[dict[str, Any]]:
 
 def run(args: argparse.Namespace) -> int:
     from eodarm.analysis.fit import FitWarning, outlier_table, robust_fit
+    from eodarm.analysis.sequences import hysteresis
 
     arm = _load_arm(args.arm, args.measurements)
     meas = _read(args.measurements, arm, not args.no_self_weight)
@@ -102,6 +103,9 @@ def run(args: argparse.Namespace) -> int:
     }
     if res.slots:
         doc["estimate"] = res.summary()["effects"]
+    loops = hysteresis(meas, res.prediction)
+    if loops:
+        doc["hysteresis"] = [_loop_json(h) for h in loops]
     if args.residuals:
         _write_residuals(args.residuals, res, flagged)
         _note(f"wrote every row's residuals to {args.residuals}")
@@ -162,11 +166,71 @@ def _print_compare(
             for r in doc["worst"]
         ],
     )
+    for h in doc.get("hysteresis", []):
+        _print_loop(h)
     if outliers:
         print()
         _say(
             "outliers (> 4σ after the fit, left out of it): "
             + "; ".join(f"line {r['line']} {r['channel']} z={r['z']:+.1f}" for r in outliers)
+        )
+
+
+def _loop_json(h: dict[str, Any]) -> dict[str, Any]:
+    """One sequence's hysteresis as JSON: per state step, payload, branch, and per channel
+    the measured and model values; what is left at the return to zero payload."""
+
+    def col(a: Any, j: int) -> list[float | None]:
+        return [float(x) if np.isfinite(x) else None for x in np.asarray(a)[:, j]]
+
+    chans = list(h["channels"])
+    return {
+        "config": h["config"],
+        "step": h["step"],
+        "mass_kg": h["mass_kg"],
+        "branch": h["branch"],
+        "measured": {ch: col(h["measured"], j) for j, ch in enumerate(chans)},
+        "model": {ch: col(h["model"], j) for j, ch in enumerate(chans)},
+        "left_at_return": None
+        if h["left"] is None
+        else {
+            ch: {"measured": (m if np.isfinite(m) else None), "model": mo}
+            for ch, (m, mo) in h["left"].items()
+        },
+    }
+
+
+def _print_loop(h: dict[str, Any]) -> None:
+    """One sequence: every channel against payload on the loading and unloading branch,
+    measured and model (three channels per table, within 100 columns), and what is left at
+    the return to zero."""
+    chans = list(h["measured"])
+    print(f"\nload sequence {h['config']} (hysteresis; measured / model):")
+    for start in range(0, len(chans), 3):
+        group = chans[start : start + 3]
+        head = ["step", "kg", "branch"]
+        for ch in group:
+            head += [f"{ch}", "model"]
+        rows = []
+        for s, (step, kg, br) in enumerate(zip(h["step"], h["mass_kg"], h["branch"], strict=True)):
+            row = [str(step), f"{kg:g}", br]
+            for ch in group:
+                m, mo = h["measured"][ch][s], h["model"][ch][s]
+                row += [_fmt(np.nan if m is None else m), _fmt(mo)]
+            rows.append(row)
+        _print_table(head, rows, left=(2,))
+    left = h["left_at_return"]
+    if left is None:
+        _say("the sequence does not return to zero payload", "  ")
+    else:
+        _say(
+            "left at the return to zero: "
+            + "; ".join(
+                f"{ch} {_fmt(np.nan if v['measured'] is None else v['measured'])} measured, "
+                f"{_fmt(v['model'])} model"
+                for ch, v in left.items()
+            ),
+            "  ",
         )
 
 

@@ -136,6 +136,8 @@ def _print_diagnosis(d: Any, arm: Arm, meas: Measurements) -> None:
         x, y = a["pair"]
         print()
         _say(f"{x} and {y} cannot be told apart with these channels and poses.")
+        if a.get("memory"):
+            _say(f"what separates them: {a['memory']}", "  ")
         if a["channel"]:
             _say(
                 f"measure {a['channel']['channel']}: it separates them by "

@@ -57,6 +57,13 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         help="payload masses in kg, each applied to every configuration (default 1.5,5,6.5)",
     )
     p.add_argument(
+        "--sequence",
+        metavar="M0,M1,...",
+        help="one load sequence applied to every configuration in this order, e.g. "
+        "0,1.5,5,6.5,5,1.5,0 (a leading 0 is the zeroed reference): writes a step column, "
+        "friction and gaps keep their history (instead of --masses)",
+    )
+    p.add_argument(
         "--hidden",
         action="append",
         metavar="EFFECT@PLACE=VALUE",
@@ -115,9 +122,14 @@ def run(args: argparse.Namespace) -> int:
     if args.records:  # rehearsal records of a campaign instead of a measurement file
         return _records(args, arm)
     n = arm.n
-    masses = _floats(args.masses, "--masses")
+    sequence = getattr(args, "sequence", None)
+    masses = _floats(sequence, "--sequence") if sequence else _floats(args.masses, "--masses")
     if not masses:
         raise EodarmError("--masses: give at least one payload mass")
+    if sequence and (any(m < 0 for m in masses) or masses == [0.0]):
+        raise EodarmError(
+            f"--sequence '{sequence}': payloads must be >= 0, with at least one after the reference"
+        )
     hidden = [_hidden_effect(s) for s in args.hidden or []]
     if args.repeats < 1:
         raise EodarmError(f"--repeats: need at least 1 measurement per state, got {args.repeats}")
@@ -154,6 +166,7 @@ def run(args: argparse.Namespace) -> int:
             self_weight=not args.no_self_weight,
             sigma_columns=not args.no_sigma_columns,
             repeats=args.repeats,
+            sequence=bool(sequence),
         )
         step("writing")
         if args.output:
@@ -164,7 +177,12 @@ def run(args: argparse.Namespace) -> int:
             sys.stdout.flush()
             where = "stdout"
     model = ", ".join(f"{e.key}={e.value:g}" for e in hidden) or "none"
-    if args.repeats == 1:
+    if sequence:
+        what = (
+            f"{meas.n_rows} states ({alpha.shape[0]} configs × {args.repeats} × the sequence "
+            f"{','.join(f'{m:g}' for m in masses)}"
+        )
+    elif args.repeats == 1:
         what = f"{meas.n_rows} states ({alpha.shape[0]} configs × {len(masses)} payloads"
     else:
         what = (

@@ -83,7 +83,13 @@ from eodarm.data.channels import (
     default_sigma,
     expand_channels,
 )
-from eodarm.data.noise import ChannelNoise, assign_sigma, check_noise, state_groups
+from eodarm.data.noise import (
+    ChannelNoise,
+    assign_sigma,
+    check_noise,
+    sequence_state_groups,
+    state_groups,
+)
 from eodarm.errors import EodarmError
 
 if TYPE_CHECKING:
@@ -159,6 +165,12 @@ class Measurements:
     sigma_columns : whether :meth:`to_csv` writes ``sigma_`` columns.
     sigma_pooled : (N, C) bool, ``True`` where a measured value's sigma is its channel's
         pooled standard deviation of the repeats because the source gave none.
+    step : (N,) int or None, the ``step`` column of a file of load sequences (docs/diagnosis.md,
+        "Load sequences"): each config label is one sequence, its rows its states in
+        ascending step, every value relative to the sequence's zeroed reference. ``None``:
+        no ``step`` column, every row its own sequence loaded once from its reference.
+    reference : (N,) bool, the written reference rows of a sequence file (mass 0, every
+        channel 0 or empty): kept as rows, with no value (they carry no information).
     noise : measured channel → :class:`~eodarm.data.noise.ChannelNoise`, where that
         channel's sigma came from (``"given"``, ``"repeats"`` with the pool's states, rows and
         degrees of freedom, or ``"default"`` with the reason). Read-only mapping. A
@@ -181,6 +193,9 @@ class Measurements:
     # None means "none pooled" / "derive from the flags"; __post_init__ fills them in
     sigma_pooled: npt.NDArray[np.bool_] = field(default=None)  # type: ignore[arg-type]
     noise: Mapping[str, ChannelNoise] = field(default=None)  # type: ignore[arg-type]
+    step: npt.NDArray[np.int64] | None = None
+    # None means "no reference rows"; __post_init__ replaces it by the (N,) array
+    reference: npt.NDArray[np.bool_] = field(default=None)  # type: ignore[arg-type]
 
     def __post_init__(self) -> None:
         n = int(self.n)
@@ -196,6 +211,12 @@ class Measurements:
             values = np.array(self.values, dtype=float).reshape(rows, c)
             sigma = np.array(self.sigma, dtype=float).reshape(rows, c)
             line = np.array(self.line, dtype=np.int64).reshape(rows)
+            step = None if self.step is None else np.array(self.step, dtype=np.int64).reshape(rows)
+            refs = (
+                np.zeros(rows, dtype=bool)
+                if self.reference is None
+                else np.array(self.reference, dtype=bool).reshape(rows)
+            )
             dflt, pooled = (
                 np.zeros((rows, c), dtype=bool)
                 if flags is None
@@ -228,6 +249,8 @@ class Measurements:
             ("line", line),
             ("sigma_default", dflt),
             ("sigma_pooled", pooled),
+            ("reference", refs),
+            *((("step", step),) if step is not None else ()),
         ):
             arr.setflags(write=False)
             object.__setattr__(self, name, arr)
@@ -262,6 +285,27 @@ class Measurements:
     def configs(self) -> tuple[str, ...]:
         """Configuration labels, each once, in order of first appearance."""
         return tuple(dict.fromkeys(self.config.tolist()))
+
+    @property
+    def has_sequences(self) -> bool:
+        """Whether the data carry a ``step`` column (load sequences with memory)."""
+        return self.step is not None
+
+    def sequences(self) -> list[npt.NDArray[np.int64]]:
+        """The rows of each load sequence, in the order its states were applied.
+
+        With a ``step`` column: one sequence per config label (in order of first appearance),
+        its rows in ascending step, written reference rows left out (the reference is the
+        state before the first row). Without: every row is its own sequence of one state.
+        """
+        if self.step is None:
+            return [np.array([r], dtype=np.int64) for r in range(self.n_rows)]
+        out = []
+        for label in self.configs:
+            rows = np.flatnonzero((self.config == label) & ~self.reference)
+            if rows.size:
+                out.append(rows[np.argsort(self.step[rows], kind="stable")].astype(np.int64))
+        return out
 
     @property
     def defaulted(self) -> tuple[str, ...]:
@@ -300,6 +344,9 @@ class Measurements:
 
         The sigmas and :attr:`noise` records are those of the whole data: a sigma pooled from
         the repeats stays the estimate made on every repeat, not re-estimated on the subset.
+        In a file of load sequences the rows kept are the states of their sequences that
+        remain: select whole sequences (config labels), as a state's model depends on every
+        payload before it.
         """
         sel = np.asarray(rows)
         if sel.dtype == bool:
@@ -326,6 +373,8 @@ class Measurements:
             line=self.line[idx],
             sigma_default=self.sigma_default[idx],
             sigma_pooled=self.sigma_pooled[idx],
+            step=None if self.step is None else self.step[idx],
+            reference=self.reference[idx],
         )
 
     def to_dataframe(self) -> pd.DataFrame:
@@ -338,6 +387,8 @@ class Measurements:
         for i in range(self.n):
             data[f"alpha{i + 1}_deg"] = self.alpha_deg[:, i]
         data["mass_kg"] = self.mass_kg
+        if self.step is not None:
+            data["step"] = self.step
         for ch in self.measured_channels:
             j = self.index(ch)
             data[ch] = self.values[:, j]
@@ -363,6 +414,7 @@ class Measurements:
         given = self.measured & ~self.sigma_default & ~self.sigma_pooled
         sig_cols = [j for j in cols if with_sigma and given[:, j].any()]
         header = ["config", *(f"alpha{i + 1}_deg" for i in range(self.n)), "mass_kg"]
+        header += ["step"] if self.step is not None else []
         header += list(chans) + ["sigma_" + self.channels[j] for j in sig_cols]
 
         def num(x: float) -> str:
@@ -375,6 +427,8 @@ class Measurements:
                 row = [str(self.config[r])]
                 row += [num(a) for a in self.alpha_deg[r]]
                 row.append(num(self.mass_kg[r]))
+                if self.step is not None:
+                    row.append(str(int(self.step[r])))
                 row += [num(self.values[r, j]) for j in cols]
                 row += [num(self.sigma[r, j]) if given[r, j] else "" for j in sig_cols]
                 w.writerow(row)
@@ -398,6 +452,7 @@ class Measurements:
         values: Mapping[str, npt.ArrayLike],
         sigma: Mapping[str, npt.ArrayLike | float] | None = None,
         source: str = "<arrays>",
+        step: npt.ArrayLike | None = None,
     ) -> Measurements:
         """Measurements from arrays, validated exactly like a file.
 
@@ -411,6 +466,8 @@ class Measurements:
             next to a measured value get the sigma pooled from the repeats, or else the
             default (recorded in :attr:`noise` and :attr:`defaulted`), as in a file.
         source : name used in error messages.
+        step : (N,) integer steps ≥ 0 making each config label one load sequence (the file's
+            ``step`` column, checked as in a file), or None.
 
         Raises
         ------
@@ -450,6 +507,9 @@ class Measurements:
 
         header = ["config", *(f"alpha{i + 1}_deg" for i in range(n)), "mass_kg"]
         cols = [alpha[:, i] for i in range(n)] + [column(mass_kg, "mass_kg")]
+        if step is not None:
+            header.append("step")
+            cols.append(column(step, "step"))
         for name, table, kind in (("values", values, ""), ("sigma", sigma or {}, "sigma_")):
             for ch, arr in table.items():
                 header.append(kind + str(ch))
@@ -486,6 +546,7 @@ def build(
             seen[name] = j
     missing = [c for c in required if c not in seen]
     known = [*required, *channels, *(f"sigma_{c}" for c in channels)]
+    jstep = seen.get("step")
     if missing:
         others = [c for c in seen if c not in known]
         problems.append(
@@ -495,7 +556,7 @@ def build(
     unknown: list[str] = []
     foreign: list[str] = []
     for name in seen:
-        if name in required or name in chan_set:
+        if name in required or name in chan_set or name == "step":
             continue
         base = name.removeprefix("sigma_")
         if name.startswith("sigma_") and base in chan_set:
@@ -544,6 +605,8 @@ def build(
     sigma = np.full((rows, len(channels)), np.nan)
     given = np.zeros((rows, len(channels)), dtype=bool)
     line = np.zeros(rows, dtype=np.int64)
+    step = np.full(rows, -1, dtype=np.int64)
+    step_given = np.zeros(rows, dtype=bool)
     bad: list[str] = []
     for r, (ln, cells) in enumerate(body):
         line[r] = ln
@@ -576,6 +639,12 @@ def build(
             errs.append(f"mass_kg {x:.6g} is beyond {MAX_MASS_KG:g} kg")
         else:
             mass[r] = x
+        if jstep is not None:
+            x, why = _number(cells[jstep])
+            if why or (x is not None and (x < 0 or x != math.floor(x) or x > 2**53)):
+                errs.append(f"step '{_show(cells[jstep])}' is not an integer >= 0")
+            elif x is not None:
+                step[r], step_given[r] = int(x), True
         for c, jv, js in present:
             ch = channels[c]
             v, why = _number(cells[jv])
@@ -616,10 +685,23 @@ def build(
         listed = "; ".join(bad[:MAX_LISTED])
         more = f"; …and {len(bad) - MAX_LISTED} more" if len(bad) > MAX_LISTED else ""
         raise MeasurementFileError(f"{source}: {len(bad)} bad row(s): {listed}{more}")
+    has_step = bool(step_given.any())
+    reference = np.zeros(rows, dtype=bool)
+    if has_step:
+        bad = _check_sequences(
+            config, alpha, mass, step, step_given, values, line, _cells_of(body, jstep)
+        )
+        if bad:
+            listed = "; ".join(bad[:MAX_LISTED])
+            more = f"; …and {len(bad) - MAX_LISTED} more" if len(bad) > MAX_LISTED else ""
+            raise MeasurementFileError(f"{source}: {len(bad)} bad row(s): {listed}{more}")
+        reference = _reference_rows(config, mass, step, values)
+        values[reference] = np.nan  # the written reference carries no information
+        groups = sequence_state_groups(config, alpha, mass, step, reference)
+    else:
+        groups = state_groups(config, alpha, mass)
     # the values without a given sigma: pooled from the repeats, or the default level
-    sigma, dflt, pooled, noise = assign_sigma(
-        channels, values, sigma, given, state_groups(config, alpha, mass)
-    )
+    sigma, dflt, pooled, noise = assign_sigma(channels, values, sigma, given, groups)
     return Measurements(
         source=source,
         n=n,
@@ -633,6 +715,8 @@ def build(
         sigma_default=dflt,
         sigma_pooled=pooled,
         noise=noise,
+        step=step if has_step else None,
+        reference=reference,
     )
 
 
@@ -644,6 +728,85 @@ def _did_you_mean(name: str, known: Sequence[str], form: str = " (did you mean '
     lower = {k.lower(): k for k in known}
     close = difflib.get_close_matches(name.strip().lower(), list(lower), n=1, cutoff=0.75)
     return form.format(lower[close[0]]) if close else ""
+
+
+def _cells_of(body: Sequence[tuple[int, Sequence[Cell]]], j: int | None) -> list[Cell]:
+    """Column ``j`` of every row (None where the row is short or there is no column)."""
+    return [cells[j] if j is not None and j < len(cells) else None for _, cells in body]
+
+
+def _first_rows(config: Sequence[str], step: npt.NDArray[np.int64]) -> dict[str, int]:
+    """Each label's row with the lowest step."""
+    first: dict[str, int] = {}
+    for r, label in enumerate(config):
+        if label not in first or step[r] < step[first[label]]:
+            first[label] = r
+    return first
+
+
+def _check_sequences(
+    config: Sequence[str],
+    alpha: FloatArray,
+    mass: FloatArray,
+    step: npt.NDArray[np.int64],
+    step_given: npt.NDArray[np.bool_],
+    values: FloatArray,
+    line: npt.NDArray[np.int64],
+    step_cells: Sequence[Cell],
+) -> list[str]:
+    """The rules of a file with a ``step`` column: every problem, one entry per bad row.
+
+    A step that is empty while others are given (a partly empty column), a step that repeats
+    within a label, a label whose rows have different angles, a written reference row (the
+    first of its label, mass 0) whose channels are not all 0 or empty.
+    """
+    bad: list[str] = []
+    for empty in np.flatnonzero(~step_given).tolist():
+        bad.append(
+            f"line {line[empty]}: step is empty (the step column must be filled in every row)"
+        )
+    if bad:
+        return bad
+    seen: dict[tuple[str, int], int] = {}
+    first_angles: dict[str, int] = {}
+    for r, label in enumerate(config):
+        key = (label, int(step[r]))
+        if key in seen:
+            bad.append(
+                f"line {line[r]}: step {_show(step_cells[r])} repeats within config '{label}' "
+                f"(line {line[seen[key]]})"
+            )
+        else:
+            seen[key] = r
+        f = first_angles.setdefault(label, r)
+        if not np.array_equal(alpha[r], alpha[f]):
+            bad.append(
+                f"line {line[r]}: config '{label}' is one sequence, its angles must be those of "
+                f"line {line[f]} ({', '.join(f'{a:g}' for a in alpha[r])} vs "
+                f"{', '.join(f'{a:g}' for a in alpha[f])})"
+            )
+    for label, r in _first_rows(config, step).items():
+        v = values[r]
+        if mass[r] == 0 and np.any(np.isfinite(v) & (v != 0)):
+            c = int(np.flatnonzero(np.isfinite(v) & (v != 0))[0])
+            bad.append(
+                f"line {line[r]}: the reference row of config '{label}' (mass 0 before any "
+                f"load) must read 0 or be empty; {channel_names(alpha.shape[1])[c]} is {v[c]:g}"
+            )
+    return bad
+
+
+def _reference_rows(
+    config: Sequence[str],
+    mass: FloatArray,
+    step: npt.NDArray[np.int64],
+    values: FloatArray,
+) -> npt.NDArray[np.bool_]:
+    """(N,) the written reference rows: the first row of a label, with mass 0."""
+    out = np.zeros(len(config), dtype=bool)
+    for r in _first_rows(config, step).values():
+        out[r] = mass[r] == 0
+    return out
 
 
 def _label(cell: Cell) -> str:

@@ -41,6 +41,7 @@ __all__ = [
     "assign_sigma",
     "check_noise",
     "pooled_sigma",
+    "sequence_state_groups",
     "state_groups",
 ]
 
@@ -125,6 +126,45 @@ def state_groups(
         ids.setdefault((lab, *(a + 0.0).tolist(), float(m) + 0.0), len(ids))
         for lab, a, m in zip(labels, alpha, mass, strict=True)
     ]
+    return np.array(out, dtype=np.int64)
+
+
+def sequence_state_groups(
+    config: Sequence[str] | npt.ArrayLike,
+    alpha_deg: npt.ArrayLike,
+    mass_kg: npt.ArrayLike,
+    step: npt.ArrayLike,
+    reference: npt.ArrayLike,
+) -> npt.NDArray[np.int64]:
+    """(N,) state index of each row of a file of load sequences (a ``step`` column).
+
+    With memory, a state is its angles, its payload *and the payloads before it* in its
+    sequence (a friction holds what the history let it hold): two rows are repeats only when
+    all of these are equal, whatever their labels (a cycle repeated is written under another
+    label). Written reference rows are not states of the history; they get groups of their
+    own.
+    """
+    labels = [str(c) for c in np.asarray(config, dtype=object).ravel()]
+    rows = len(labels)
+    alpha = np.asarray(alpha_deg, dtype=float).reshape(rows, -1)
+    mass = np.asarray(mass_kg, dtype=float).reshape(rows)
+    steps = np.asarray(step, dtype=np.int64).reshape(rows)
+    refs = np.asarray(reference, dtype=bool).reshape(rows)
+    history: dict[int, tuple[float, ...]] = {}
+    for label in dict.fromkeys(labels):
+        rs = [r for r in range(rows) if labels[r] == label and not refs[r]]
+        rs.sort(key=lambda r: steps[r])
+        past: tuple[float, ...] = ()
+        for r in rs:
+            past = (*past, float(mass[r]) + 0.0)
+            history[r] = past
+    ids: dict[tuple[Any, ...], int] = {}
+    out = []
+    for r in range(rows):
+        key: tuple[Any, ...] = (
+            ("reference", r) if refs[r] else ((alpha[r] + 0.0).tolist().__repr__(), history[r])
+        )
+        out.append(ids.setdefault(key, len(ids)))
     return np.array(out, dtype=np.int64)
 
 

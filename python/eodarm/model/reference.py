@@ -49,6 +49,7 @@ __all__ = [
     "inverse_kinematics",
     "solve",
     "solve_payload",
+    "solve_sequence",
     "statics",
 ]
 
@@ -254,6 +255,9 @@ def _effect_params(arm: Arm, effects: Any) -> dict[str, Any]:
         "clearance_up": np.zeros(n, dtype=bool),
         "ei": [None] * n,
         "k_base": None,
+        # Coulomb friction limits (docs/model.md): N in actuator i's body, N·mm in joint O_i.
+        "actuator_friction": np.zeros(n),
+        "joint_friction": np.zeros(n),
     }
     for e in effs:
         i = e.index(n)
@@ -276,6 +280,8 @@ def _effect_params(arm: Arm, effects: Any) -> dict[str, Any]:
             p["ei"][i] = e.value
         elif e.name == "base_compliance":
             p["k_base"] = e.value
+        elif e.name in ("actuator_friction", "joint_friction"):
+            p[e.name][i] = e.value
         else:  # pragma: no cover - the catalogue and this list must agree
             raise EffectError(f"effect {e.key}: not implemented by the numpy reference")
     return p
@@ -287,6 +293,7 @@ def _bending_displacement(
     f_local: FloatArray,
     ei: float,
     x_a: float,
+    couples: FloatArray | None = None,
 ) -> FloatArray:
     """Displacement (−y·v′(x), v(x)) of local points of a bent link (model §4, link bending).
 
@@ -309,6 +316,9 @@ def _bending_displacement(
         Flexural rigidity, N·mm².
     x_a : float
         Local abscissa of the second support (pin A), mm, nonzero.
+    couples : ndarray, shape (N, k), optional
+        Pure couples (N·mm, counter-clockwise +) acting at the load points besides the forces
+        (the friction couples of ``joint_friction``); they add to C_p.
 
     Returns
     -------
@@ -318,7 +328,10 @@ def _bending_displacement(
     xp = load_points[:, 0]
     yp = load_points[:, 1]
     fy = f_local[..., 1][:, None, :]  # (N, 1, k)
-    cp = (-yp * f_local[..., 0])[:, None, :]  # (N, 1, k)
+    c_all = -yp * f_local[..., 0]
+    if couples is not None:
+        c_all = c_all + couples
+    cp = c_all[:, None, :]  # (N, 1, k)
 
     def w(x: FloatArray) -> FloatArray:
         s = np.maximum(x[:, None] - xp[None, :], 0.0)  # (m, k)
@@ -448,37 +461,132 @@ def solve_payload(
     effect_arrays(effs, n)  # types, places and duplicates over all of them
     builtin, custom_effs = split_effects(effs)
     par = _effect_params(arm, builtin)
-    ext = _extras(extra, n_rows, n)
     alpha = np.radians(alpha_d)
     geo = _forward(arr, alpha)
     st = _statics(arr, geo, payload, bool(self_weight))
+    ext = _extras(extra, n_rows, n)
     if custom_effs:
-        # User-written effects (CONTRACT §8): their functions read this reference's own
-        # statics of both states, and what they return adds to the extra deformations.
-        from eodarm.model import custom
+        ext = _custom_extras(arm, alpha_d, payload, geo, st, custom_effs, self_weight, ext)
+    # Loaded once from the reference: every friction element starts with S = 0 (the deadband).
+    held = _held_forces(par, st, np.zeros((n_rows, n)), np.zeros((n_rows, n)))
+    return _respond(arr, par, geo, alpha, st, payload, ext, held)
 
-        statics_out = {
-            "force_n": st["force_n"],
-            "force0_n": st["force_unloaded_n"],
-            "reaction_n": st["reaction_n"],
-            "reaction0_n": st["reaction_unloaded_n"],
-            "length_mm": geo["length_mm"],
-        }
-        state = custom.EffectState.from_statics(arm, alpha_d, payload, statics_out, self_weight)
-        ext = custom.add_extras(ext, custom.extras_of(custom_effs, state))
+
+def _custom_extras(
+    arm: Arm,
+    alpha_d: FloatArray,
+    payload: FloatArray,
+    geo: dict[str, FloatArray],
+    st: dict[str, FloatArray],
+    custom_effs: list[Effect],
+    self_weight: bool,
+    ext: dict[str, FloatArray],
+) -> dict[str, FloatArray]:
+    """The extra deformations with those of user-written effects added
+    (docs/custom-effects.md): their functions read this reference's own statics of both
+    states (in a sequence: the state and its reference, loaded once, without history)."""
+    from eodarm.model import custom
+
+    statics_out = {
+        "force_n": st["force_n"],
+        "force0_n": st["force_unloaded_n"],
+        "reaction_n": st["reaction_n"],
+        "reaction0_n": st["reaction_unloaded_n"],
+        "length_mm": geo["length_mm"],
+    }
+    state = custom.EffectState.from_statics(arm, alpha_d, payload, statics_out, self_weight)
+    return custom.add_extras(ext, custom.extras_of(custom_effs, state))
+
+
+def _slip(held: FloatArray, wanted: FloatArray, limit: FloatArray) -> FloatArray:
+    """One step of a Coulomb (elastic–perfectly plastic) friction element.
+
+    The spring in parallel with the friction holds ``held`` (N); the force it would take
+    without friction is now ``wanted``. While the friction can carry the difference,
+    ``|wanted − held| ≤ limit``, the spring keeps ``held`` (sticking); otherwise the element
+    slips until the friction carries exactly its limit: ``wanted − limit·sign(wanted − held)``.
+    A limit of 0 gives ``wanted`` (no friction); from ``held = 0`` one step gives the deadband
+    ``sign(wanted)·max(0, |wanted| − limit)``.
+    """
+    d = wanted - held
+    return np.where(np.abs(d) <= limit, held, wanted - limit * np.sign(d))
+
+
+def _held_forces(
+    par: dict[str, Any],
+    st: dict[str, FloatArray],
+    joint_prev: FloatArray,
+    body_prev: FloatArray,
+) -> dict[str, FloatArray]:
+    """What each actuator's parts carry at one state, given the friction state before it.
+
+    Parameters
+    ----------
+    par : the effect parameters (``_effect_params``).
+    st : the state's statics on the undeformed geometry (``_statics``): ``dforce_n`` ΔF_i (N)
+        is the frictionless force change from the reference, ``h`` the signed moment arm
+        h_i = (A_i − O_i) × e_i (mm) of actuator i about O_i.
+    joint_prev, body_prev : (N, n) the force change held before this state by the whole
+        actuator against the joint friction, and by the body spring against the actuator
+        friction (both 0 at the reference).
+
+    Returns
+    -------
+    dict: ``joint`` (N, n) S_joint, the actuator's force change (mount, play, and the input of
+    the body's friction): ΔF_i filtered by the joint friction of O_i, limit T_i/|h_i|;
+    ``body`` (N, n) S_body, the body spring's force change: S_joint filtered by the actuator
+    friction; ``couple`` (N, n) the friction couple (ΔF_i − S_joint,i)·h_i (N·mm, counter-
+    clockwise +) on link i, the opposite one acting on body i−1.
+    """
+    df = st["dforce_n"]
+    h = st["h"]
+    joint_limit = par["joint_friction"][None, :] / np.abs(h)
+    s_joint = _slip(joint_prev, df, joint_limit)
+    s_body = _slip(body_prev, s_joint, np.broadcast_to(par["actuator_friction"], df.shape))
+    return {"joint": s_joint, "body": s_body, "couple": (df - s_joint) * h}
+
+
+def _respond(
+    arr: dict[str, Any],
+    par: dict[str, Any],
+    geo: dict[str, FloatArray],
+    alpha: FloatArray,
+    st: dict[str, FloatArray],
+    payload: FloatArray,
+    ext: dict[str, FloatArray],
+    held: dict[str, FloatArray],
+) -> dict[str, FloatArray]:
+    """The loaded pose of one state from its statics and what the frictions hold (model §4–§5).
+
+    ``held`` comes from :func:`_held_forces`. The actuator's actual force is the reference's
+    plus S_joint; the body spring deforms with S_body, the mount with S_joint, a play sits on
+    the side of the actual force. The joint reaction R_i changes by −δ_i with
+    δ_i = (S_joint,i − ΔF_i)·e_i (the change of the actuator's force on link i), so a clearance
+    sits along the actual reaction; link bending sees the actual force changes and the friction
+    couples. Without friction every one of these is the frictionless value.
+    """
+    n_rows, n = geo["length_mm"].shape
     e = st["e"]
-    df, dr = st["dforce_n"], st["dreaction_n"]
+    s_joint, s_body, couple = held["joint"], held["body"], held["couple"]
+    delta = (s_joint - st["dforce_n"])[..., None] * e  # (N, n, 2)
+    # F_ref + S_joint, written as the frictionless loaded force plus what the joint holds
+    # back (exactly the frictionless numbers when nothing is held)
+    f_actual = st["force_n"] + (s_joint - st["dforce_n"])
+    r_actual = st["reaction_n"] - delta
+    df = s_joint
+    dr = st["dreaction_n"] - delta
 
     # --- actuator lengths
     ell = geo["length_mm"]
-    d_body = -df / par["k_body"] + ext["extra_seen_mm"]
-    d_mount = -df / par["k_mount"] + ext["extra_unseen_mm"]
+    d_body = -s_body / par["k_body"] + ext["extra_seen_mm"]
+    d_mount = -s_joint / par["k_mount"] + ext["extra_unseen_mm"]
 
     def sign0(f: FloatArray) -> FloatArray:
         return np.where(np.abs(f) < FORCE_ZERO_N, 0.0, np.sign(f))
 
-    # Play: the loaded side, less the unloaded side where the weights took the play up.
-    turned = sign0(st["force_n"]) - np.where(par["play_up"], sign0(st["force_unloaded_n"]), 0.0)
+    # Play: the side of the state's actual force, less the reference's side where the weights
+    # took the play up.
+    turned = sign0(f_actual) - np.where(par["play_up"], sign0(st["force_unloaded_n"]), 0.0)
     d_play = -par["play"] * turned
     d_length = d_body + d_mount + d_play
     ell_new = ell + d_length
@@ -491,7 +599,7 @@ def solve_payload(
         safe = np.where(pressed, r_norm, 1.0)
         return np.where(pressed[..., None], -r / safe[..., None], 0.0)  # (N, n, 2)
 
-    u = press_dir(st["reaction_n"]) - np.where(
+    u = press_dir(r_actual) - np.where(
         par["clearance_up"][None, :, None], press_dir(st["reaction_unloaded_n"]), 0.0
     )
     clear = par["clearance"][None, :, None] * u + ext["extra_joint_mm"]  # (N, n, 2), global
@@ -509,13 +617,22 @@ def solve_payload(
         last = i == n - 1
         pts = [np.zeros(2), arr["A"][i], arr["next"][i]]
         forces = [dr[:, i], df[:, i, None] * e[:, i], payload if last else -dr[:, i + 1]]
+        # Friction couples: +C_i at O_i on link i, −C_{i+1} at O_{i+1} (link i is body i of
+        # joint i+1's friction).
+        couples = [couple[:, i], np.zeros(n_rows), -couple[:, i + 1] if not last else zero[:, 0]]
         if not last:
             pts.append(arr["B"][i])
             forces.append(-df[:, i + 1, None] * e[:, i + 1])
+            couples.append(np.zeros(n_rows))
         f_local = _rotate(-alpha[:, i, None], np.stack(forces, axis=1))  # (N, k, 2)
         wanted = np.stack([arr["A"][i], arr["next"][i], arr["B"][i], arr["measure"]])
         disp = _bending_displacement(
-            wanted, np.stack(pts), f_local, float(ei), float(arr["A"][i, 0])
+            wanted,
+            np.stack(pts),
+            f_local,
+            float(ei),
+            float(arr["A"][i, 0]),
+            np.stack(couples, axis=1),
         )
         d_a[i], d_next[i] = disp[:, 0], disp[:, 1]
         if not last:
@@ -523,7 +640,8 @@ def solve_payload(
         else:
             d_meas = disp[:, 3]
 
-    # --- base compliance: chassis tilt about the pivot
+    # --- base compliance: chassis tilt about the pivot (the payload is the only external
+    # load that changes; internal friction does not tilt the chassis)
     pivot = arr["pivot"]
     if par["k_base"] is None:
         dphi = np.zeros(n_rows)
@@ -555,8 +673,8 @@ def solve_payload(
     m_new = o_new + _rotate(alpha_new[:, n - 1], arr["measure"] + d_meas)
     dm = m_new - geo["measure"] + ext["extra_measure_mm"]
     return {
-        "force_n": st["force_n"],
-        "reaction_n": st["reaction_n"],
+        "force_n": f_actual,
+        "reaction_n": r_actual,
         "dforce_n": df,
         "dx_mm": dm[:, 0],
         "dy_mm": dm[:, 1],
@@ -606,3 +724,96 @@ def solve(
     mass = _as_mass(mass_kg, alpha.shape[0])
     payload = np.stack([np.zeros_like(mass), -mass * arm.g], axis=-1)
     return solve_payload(arm, alpha, payload, effects=effects, self_weight=self_weight, extra=extra)
+
+
+def solve_sequence(
+    arm: Arm,
+    alpha_deg: ArrayLike,
+    mass_kg: ArrayLike,
+    effects: Any = (),
+    self_weight: bool = True,
+) -> dict[str, FloatArray]:
+    """Response of N arms to sequences of S payloads, with memory (docs/model.md §4, sequences).
+
+    Each sequence starts at its *reference*: the unloaded pose (self-weight only) in which the
+    sensors were zeroed, no friction holding any force and the gaps centred (or taken up with
+    ``unloaded="taken_up"``). Its S states are then applied in order. At each state:
+
+    * ΔF_i, ΔR_i: the frictionless force and reaction changes from the reference (statics on the
+      undeformed geometry, as :func:`solve_payload`);
+    * ``joint_friction`` at O_i (limit L = T_i/|h_i|, h_i = (A_i − O_i) × e_i the moment arm
+      of actuator i about O_i in the unloaded pose): the whole actuator holds S_joint, updated
+      from the previous state by the Coulomb rule of :func:`_slip` with input ΔF_i; the
+      friction couple (ΔF_i − S_joint)·h_i acts on link i and its opposite on body i−1;
+    * ``actuator_friction`` at M_i (limit ``friction_n``): the body spring holds S_body, the
+      same rule with input S_joint (ΔF_i without joint friction); the mount and the play
+      take S_joint, the actual force is F_i,ref + S_joint;
+    * gaps are taken up along that state's actual forces (a centred gap does not re-centre
+      when the payload comes off);
+    * the pose is closed exactly from the undeformed geometry (:func:`_respond`).
+
+    Parameters
+    ----------
+    arm : Arm
+        The arm.
+    alpha_deg : array_like, shape (N, n)
+        Unloaded absolute link angles of each sequence, degrees.
+    mass_kg : array_like, shape (N, S) or (S,)
+        Payload masses (kg, ≥ 0) of the S states after each reference, in the order applied;
+        (S,) is the same sequence for every pose. The payload force is ``(0, −m·g)``.
+    effects : iterable of Effect, optional
+        The whole model (the arm's own effects are *not* added here: the public wrapper does).
+        User-written effects see each state loaded once from the reference (no history).
+    self_weight : bool, default True
+        Whether every state and the reference carry the link and actuator weights.
+
+    Returns
+    -------
+    dict of str to ndarray
+        The keys of :func:`solve_payload`, each with shape (N, S, ...), relative to each
+        sequence's reference. ``force_n`` is the actuator's actual force F_i,ref + S_joint,
+        ``reaction_n`` the actual joint reaction, ``dforce_n`` S_joint, ``dl_mm`` −S_body/k_i.
+
+    Raises
+    ------
+    InputError
+        Wrong shape, non-finite input, a negative mass, a singular pose or a triangle that
+        cannot close (the row and the state are named).
+    EffectError
+        As :func:`solve_payload`.
+    """
+    n = arm.n
+    arr = arm.arrays()
+    alpha_d = _as_poses(alpha_deg, n, "alpha_deg")
+    n_rows = alpha_d.shape[0]
+    mass = _as_float(mass_kg, "mass_kg")
+    if mass.ndim == 1:
+        mass = np.broadcast_to(mass, (n_rows, mass.shape[0]))
+    if mass.ndim != 2 or mass.shape[0] != n_rows or mass.shape[1] < 1:
+        raise InputError(f"mass_kg must have shape ({n_rows}, S) or (S,), S ≥ 1; got {mass.shape}")
+    _check_finite(mass, "mass_kg")
+    if (mass < 0).any():
+        row, state = (int(v[0]) for v in np.nonzero(mass < 0))
+        raise InputError(f"pose row {row}, state {state + 1}: mass_kg is negative")
+    effs = as_effects(effects)
+    effect_arrays(effs, n)
+    builtin, custom_effs = split_effects(effs)
+    par = _effect_params(arm, builtin)
+    alpha = np.radians(alpha_d)
+    geo = _forward(arr, alpha)
+    joint = np.zeros((n_rows, n))
+    body = np.zeros((n_rows, n))
+    states: list[dict[str, FloatArray]] = []
+    for s in range(mass.shape[1]):
+        payload = np.stack([np.zeros(n_rows), -mass[:, s] * arm.g], axis=-1)
+        try:
+            st = _statics(arr, geo, payload, bool(self_weight))
+            ext = _extras(None, n_rows, n)
+            if custom_effs:
+                ext = _custom_extras(arm, alpha_d, payload, geo, st, custom_effs, self_weight, ext)
+            held = _held_forces(par, st, joint, body)
+            states.append(_respond(arr, par, geo, alpha, st, payload, ext, held))
+        except InputError as exc:
+            raise InputError(f"{exc} (state {s + 1} of the sequence)") from None
+        joint, body = held["joint"], held["body"]
+    return {key: np.stack([out[key] for out in states], axis=1) for key in states[0]}

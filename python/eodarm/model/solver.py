@@ -36,6 +36,7 @@ __all__ = [
     "inverse_kinematics",
     "solve",
     "solve_payload",
+    "solve_sequence",
     "statics",
     "stroke_violations",
 ]
@@ -238,6 +239,10 @@ def _solve_payload(
         raise InputError("fem_options is for model='fem'")
     if uncertainty and (extras or custom_effs):
         raise InputError("uncertainty is propagated for the catalogue's effects only")
+    # TEMP (until the compiled core has the frictions): a model with a friction runs in the
+    # numpy reference.
+    if backend == "rust" and any(c in (8, 9) for c in codes.tolist()):
+        backend = "numpy"
     if backend == "rust":
         from eodarm.model import native as _core
 
@@ -276,6 +281,48 @@ def _solve_payload(
         from eodarm.model.uncertainty import prediction_sigma
 
         res.update(prediction_sigma(arm, alpha, payload, effs, self_weight))
+    return res
+
+
+def solve_sequence(
+    arm: Arm,
+    alpha_deg: npt.ArrayLike,
+    mass_kg: npt.ArrayLike,
+    effects: Effect | list[Effect] | tuple[Effect, ...] | None = None,
+    backend: Backend = "rust",
+    self_weight: bool = True,
+) -> Arrays:
+    """TEMP shim: N sequences of S payloads from each reference (docs/model.md); both backends
+    run the numpy reference until the compiled core has sequences.
+
+    Parameters
+    ----------
+    arm : the arm.
+    alpha_deg : (N, n) unloaded angles of each sequence, degrees.
+    mass_kg : (N, S) or (S,) payloads (kg) of the states after each reference, in order.
+    effects, backend, self_weight : as :func:`solve`.
+
+    Returns
+    -------
+    dict of arrays: the keys of :func:`solve` with shape (N, S, ...), relative to each
+    sequence's reference, and ``status`` (N, S).
+    """
+    check_arm(arm, "solve_sequence")
+    _check_backend(backend)
+    alpha = _poses(alpha_deg, arm.n, "alpha_deg")
+    mass = np.asarray(mass_kg, dtype=np.float64)
+    if mass.ndim == 1:
+        mass = np.broadcast_to(mass, (alpha.shape[0], mass.shape[0]))
+    mass = np.ascontiguousarray(mass, dtype=np.float64)
+    effs = with_arm_effects(arm.effects, effects)
+    from eodarm.model import reference
+
+    res = dict(reference.solve_sequence(arm, alpha, mass, effects=effs, self_weight=self_weight))
+    n_seq, n_states = mass.shape
+    flat_alpha = np.repeat(alpha, n_states, axis=0)
+    flat_payload = np.stack([np.zeros(mass.size), -mass.ravel() * arm.g], axis=-1)
+    flat = {k: v.reshape(n_seq * n_states, *v.shape[2:]) for k, v in res.items()}
+    res["status"] = status(arm, flat_alpha, flat_payload, flat).reshape(n_seq, n_states)  # type: ignore[assignment]
     return res
 
 

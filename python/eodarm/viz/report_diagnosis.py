@@ -280,6 +280,8 @@ def _advice(d: Diagnosis) -> list[str]:
                 f"{page.esc(page.num(pose['chi2_separation'], 3))} on the channels "
                 "measured now)"
             )
+        if a.get("memory"):
+            bits.append(page.esc(a["memory"]))
         todo = "; or ".join(bits) if bits else "no measurement found that separates them"
         if pose and pose["chi2_separation"] <= CONFUSION_CHI2:
             todo += (
