@@ -61,7 +61,8 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         metavar="M0,M1,...",
         help="one load sequence applied to every configuration in this order, e.g. "
         "0,1.5,5,6.5,5,1.5,0 (a leading 0 is the zeroed reference): writes a step column, "
-        "friction and gaps keep their history (instead of --masses)",
+        "friction and gaps keep their history (instead of --masses); with --records, the "
+        "payloads of each record in the order applied (default 0,1.5,5,6.5,5,1.5,0)",
     )
     p.add_argument(
         "--hidden",
@@ -263,12 +264,6 @@ def _records_args(p: argparse.ArgumentParser) -> None:
         metavar="DIR",
         help="write a campaign file and one raw record per configuration into DIR, as a "
         "logger would (offsets, a hand on the plate, ringing, correlated noise)",
-    )
-    g.add_argument(
-        "--sequence",
-        metavar="M0,M1,...",
-        help="with --records: the payloads in the order applied, kg, the first the reference "
-        "(default 0,1.5,5,6.5,5,1.5,0)",
     )
     g.add_argument(
         "--drift",
