@@ -328,7 +328,8 @@ def _without_outliers(
     refine_per_size: int,
     kw: dict[str, Any],
 ) -> tuple[Diagnosis, list[dict[str, Any]]]:
-    """Leave out the worst cell while it is > 4σ off the best model, and diagnose again.
+    """Leave out the cells > 4σ off the best model, and diagnose again (a few rounds at most:
+    :func:`eodarm.analysis.fit.peel_outliers`).
 
     Accepted only if, with at most 2 % of the values left out, the best model then explains
     the rest within the noise; otherwise the first diagnosis stands and nothing is flagged.

@@ -59,6 +59,10 @@ __all__ = [
 
 T = TypeVar("T")
 
+#: At most this many refits when leaving outliers out (each round leaves out every cell beyond
+#: the threshold at once; docs/diagnosis.md, "Outliers").
+PEEL_ROUNDS = 8
+
 
 class Problem:
     """An arm, measurements and the whitened residual machinery shared by fits.
@@ -618,7 +622,7 @@ def robust_fit(
     model: str = "analytic",
     fem_options: Mapping[str, Any] | None = None,
 ) -> tuple[FitResult, npt.NDArray[np.bool_]]:
-    """Fit, then leave out the worst cell while it is more than ``z_max`` σ off, and refit.
+    """Fit, then leave out the cells more than ``z_max`` σ off, and refit (:func:`peel_outliers`).
 
     At most ``share`` of the values (at least one) may be left out, and only if the fit
     without them is consistent with the noise (χ² p ≥ 0.001): a few typos are named, but a
@@ -642,14 +646,21 @@ def peel_outliers(
     best_of: Callable[[T], FitResult],
     z_max: float = 4.0,
     share: float = 0.02,
+    max_rounds: int = PEEL_ROUNDS,
 ) -> tuple[T, npt.NDArray[np.bool_]]:
-    """Leave out the worst cell while it is more than ``z_max`` σ off, and redo the work.
+    """Leave out every cell more than ``z_max`` σ off, redo the work, and re-check.
 
     ``first`` is the work on all cells, ``refit(mask)`` redoes it without the masked cells and
-    ``best_of`` gives the fit whose residuals judge the cells. At most ``share`` of the values
-    (at least one) are left out, and only if the best fit is then consistent with the noise
-    (p ≥ 0.001 by :func:`eodarm.analysis.consistency.fit_p_value`); otherwise ``first``
-    stands and the mask is all False.
+    ``best_of`` gives the fit whose residuals judge the cells. Each round judges every measured
+    cell, the left-out ones included (the fit predicts them too), against the last fit: the
+    mask becomes the cells beyond ``z_max`` (the ``share`` of the values with the largest
+    ``|z|`` when more are), and the work is redone. A cell that a typo elsewhere had dragged
+    beyond the threshold comes back once the typo is out. The rounds stop when the mask no
+    longer changes, after at most ``max_rounds`` refits: the cost is a few fits, whatever the
+    size of the file. The exclusion stands only if it leaves out at most ``share`` of the
+    values (at least one) and the best fit is then consistent with the noise (p ≥ 0.001 by
+    :func:`eodarm.analysis.consistency.fit_p_value`); otherwise ``first`` stands and the mask
+    is all False (docs/diagnosis.md, "Outliers").
     """
     from eodarm.analysis.consistency import P_PASS, fit_p_value
 
@@ -657,14 +668,22 @@ def peel_outliers(
     mask = np.zeros(base.problem.meas.values.shape, dtype=bool)
     budget = max(1, int(share * base.problem.n_values))
     current = first
-    for _ in range(budget):
+    for _ in range(max_rounds):
         best = best_of(current)
         z = np.abs(best.z)
-        z[~best.problem.use] = 0.0
-        worst = np.unravel_index(int(np.argmax(np.nan_to_num(z))), z.shape)
-        if not z[worst] > z_max:
+        z[~np.isfinite(z)] = 0.0  # not measured (or a non-finite prediction): never flagged
+        beyond = np.flatnonzero(z > z_max)
+        if beyond.size > budget:
+            # keep the worst: the rest may be dragged by them, and the next round says so
+            beyond = beyond[np.argsort(z.flat[beyond], kind="stable")[::-1][:budget]]
+        new = np.zeros_like(mask)
+        new.flat[beyond] = True
+        if np.array_equal(new, mask):
             break
-        mask[worst] = True
+        mask = new
+        if not mask.any():
+            current = first
+            break
         current = refit(mask.copy())
     best = best_of(current)
     if mask.any() and fit_p_value(best) >= P_PASS:
