@@ -85,6 +85,7 @@ def run(args: argparse.Namespace) -> int:
         backend=args.backend,
         self_weight=not args.no_self_weight,
         uncertainty=args.uncertainty,
+        strict=args.strict,
         **_model_kw(args),
     )
     dofs = int(out["n_dof"]) if args.model == "fem" else 0
@@ -95,6 +96,12 @@ def run(args: argparse.Namespace) -> int:
         out = {k: out[k] for k in (*_SOLVE_KEYS, "pin_force_n")}
     from eodarm.model.validity import STATUS, status_counts
 
+    failed = int(np.isnan(np.asarray(out["dy_mm"], dtype=float)).sum())
+    if failed:
+        _note(
+            f"{failed} of {len(out['status'])} poses cannot be closed under their load: their "
+            "values are NaN (null in --json) and their status says why (--strict: an error)"
+        )
     counts = status_counts(out["status"])
     if set(counts) - {"ok"}:
         _note(
@@ -112,7 +119,7 @@ def run(args: argparse.Namespace) -> int:
                 {
                     "alpha_deg": alpha[i].tolist(),
                     "mass_kg": float(mass[i]),
-                    **{k: np.asarray(v[i]).tolist() for k, v in out.items()},
+                    **{k: _nulls(np.asarray(v[i]).tolist()) for k, v in out.items()},
                 }
                 for i in range(len(rows_in))
             ],
@@ -156,6 +163,13 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
+def _nulls(x: Any) -> Any:
+    """NaN (a pose that cannot be closed under its load) as JSON's null, in nested lists."""
+    if isinstance(x, list):
+        return [_nulls(v) for v in x]
+    return None if isinstance(x, float) and x != x else x
+
+
 def add_parser(sub: Any) -> argparse.ArgumentParser:
     """Register ``eodarm solve`` on the sub-parser collection."""
     s = sub.add_parser(
@@ -197,6 +211,12 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
         action="store_true",
         help="standard deviations of dx, dy and the angle changes from the arm file's fitted "
         "covariance (an arm written by 'eodarm fit -o')",
+    )
+    s.add_argument(
+        "--strict",
+        action="store_true",
+        help="a pose that cannot be closed under its load is an error (exit 2) naming it, "
+        "instead of a row of NaN with its status (the default)",
     )
     s.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     s.add_argument("--compact", action="store_true", help="with --json: no indentation")

@@ -194,6 +194,7 @@ def _solvable_configs(
                 np.asarray(masses),
                 effects=hidden,
                 self_weight=self_weight,
+                strict=True,
             )
         except (ValueError, EodarmError):
             return False

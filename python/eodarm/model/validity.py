@@ -94,7 +94,9 @@ def status(
     h = np.abs(_cross(line, o - b)) / np.maximum(np.linalg.norm(line, axis=2), 1e-300)
     mark((h < MIN_MOMENT_ARM * arm_len).any(axis=1), 2)
     dalpha = np.asarray(out["dalpha_deg"], dtype=float)
-    loaded = forward(arm, alpha_deg + dalpha) if np.isfinite(dalpha).all() else geo
+    # a pose that failed (NaN) is judged on what is known of it: its unloaded checks, else
+    # too large a deflection (below), as the compiled core judges it
+    loaded = forward(arm, alpha_deg + np.where(np.isfinite(dalpha), dalpha, 0.0))
     turn0 = np.sign(_cross(a - b, o - b))
     turn1 = np.sign(_cross(loaded["A"] - loaded["B"], loaded["O"][:, :n] - loaded["B"]))
     mark((turn0 * turn1 < 0).any(axis=1), 3)
@@ -104,7 +106,10 @@ def status(
     dx, dy = np.asarray(out["dx_mm"], dtype=float), np.asarray(out["dy_mm"], dtype=float)
     moved = np.hypot(dx, dy)
     rise = (dy > MAX_RISE_OF_REACH * reach) & (np.asarray(payload_n)[:, 1] < 0)
-    big = (np.abs(dalpha) > MAX_DALPHA_DEG).any(axis=1) | (moved > MAX_DEFLECTION_OF_REACH * reach)
+    # `~(x <= limit)`: NaN breaks the limit
+    big = ~(np.abs(dalpha) <= MAX_DALPHA_DEG).all(axis=1) | ~(
+        moved <= MAX_DEFLECTION_OF_REACH * reach
+    )
     mark(big | rise, 5)
     return code
 
