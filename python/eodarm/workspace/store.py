@@ -191,7 +191,7 @@ def clean_leftovers(folder: str | os.PathLike[str]) -> list[Path]:
     """Remove the temporaries of dead processes in ``folder``: ``.NAME.partial-PID`` (a whole
     NetCDF or Zarr output being written) and ``.NAME.old-PID`` (a previous result renamed
     aside), where no process PID is running. Returns what was removed."""
-    gone = []
+    gone: list[Path] = []
     try:
         entries = list(Path(folder).iterdir())
     except OSError:
