@@ -19,7 +19,7 @@ from eodarm.errors import InputError
 from eodarm.model.arm import Arm, check_arm
 from eodarm.model.effects import Effect, effect_arrays, split_effects, with_arm_effects
 from eodarm.model.resources import check_output_memory
-from eodarm.model.validity import status
+from eodarm.model.validity import checks_load_rise, quiet_rows, status
 
 __all__ = [
     "angles_from_lengths",
@@ -281,7 +281,10 @@ def _solve_payload(
                 nan_on_failure=not strict,
             )
         )
-        res["status"] = status(arm, alpha, payload, res)
+        lift = checks_load_rise(arm, effs)
+        res["status"] = status(
+            arm, alpha, payload, res, load_rise=lift & quiet_rows(extras, alpha.shape[0])
+        )
     if not strict:
         _refuse_unloaded_singular(arm, alpha, res)
     if uncertainty:
