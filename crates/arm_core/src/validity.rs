@@ -281,6 +281,19 @@ mod tests {
     }
 
     #[test]
+    fn the_load_point_moves_with_the_rigid_last_link() {
+        // A link hanging 300 mm below its joint, the measure point on the joint (dy = 0),
+        // turned by 0.1 rad: the load point comes up by 300·(1 − cos 0.1) = 1.4988 mm.
+        let d: f64 = 0.1;
+        let up = load_dy(0.0, d.sin(), d.cos() - 1.0, 0.0, -300.0);
+        assert!((up - 300.0 * (1.0 - d.cos())).abs() < 1e-12, "{up}");
+        assert!(up > MAX_LOAD_RISE_MM);
+        // horizontal lever: first order, down for a clockwise turn
+        let down = load_dy(0.0, (-d).sin(), (-d).cos() - 1.0, 300.0, 0.0);
+        assert!((down - 300.0 * (-d).sin()).abs() < 1e-12, "{down}");
+    }
+
+    #[test]
     fn a_rise_under_a_downward_payload_is_not_elastic() {
         let reach = 1000.0;
         assert!(!large_deflection(1.0, 0.0, -20.0, true, reach));
