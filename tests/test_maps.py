@@ -59,7 +59,7 @@ SOFT = [E("actuator_compliance", f"M{i}", stiffness_n_per_mm=30.0) for i in (1, 
 def limits_crossed(arm: eodarm.Arm, alpha: np.ndarray, mass: float) -> list[int] | None:
     """Codes of the limits beyond which the pose is at this payload (None: no solution)."""
     try:
-        out = eodarm.solve(arm, alpha, mass, effects=[*SOFT, *MODEL])
+        out = eodarm.solve(arm, alpha, mass, effects=[*SOFT, *MODEL], strict=True)
     except ValueError:
         return None
     crossed = []

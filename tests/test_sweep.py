@@ -116,7 +116,7 @@ def test_a_cell_is_ok_exactly_where_solve_gives_status_ok(
     for p in range(alpha.shape[0]):
         for j, m in enumerate(MASSES):
             try:
-                out = eodarm.solve(arm, alpha[p], m, effects=SOFT)
+                out = eodarm.solve(arm, alpha[p], m, effects=SOFT, strict=True)
             except ValueError as exc:
                 assert "singular" in str(exc) or "cannot close" in str(exc), str(exc)
                 refused[p, j] = True

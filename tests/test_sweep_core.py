@@ -167,7 +167,12 @@ def test_unsolvable_cells_are_nan_not_errors() -> None:
     assert np.isfinite(out["length_mm"]).all()
     for row, col in [(1, 0), (0, 1)]:
         with pytest.raises(ValueError):
-            eodarm.solve(arm, alpha[row], mass[col], soft, backend="rust")
+            eodarm.solve(arm, alpha[row], mass[col], soft, backend="rust", strict=True)
+    # not strict: the singular pose is still refused, the heavy cell is NaN with its status
+    with pytest.raises(ValueError):
+        eodarm.solve(arm, alpha[1], mass[0], soft, backend="rust")
+    heavy = eodarm.solve(arm, alpha[0], mass[1], soft, backend="rust")
+    assert np.isnan(heavy["dy_mm"]).all() and list(heavy["status"]) == [out["status"][0, 1]]
     want = every_cell(arm, alpha[[0, 2]], mass[:1], soft, "numpy", True)
     for key in CELL_KEYS:
         assert_close(out[key][[0, 2], :1], want[key], key)

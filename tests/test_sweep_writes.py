@@ -357,7 +357,9 @@ def test_ctrl_c_while_the_result_is_renamed_into_place_is_taken_after_it(
     real = store._remove
 
     def interrupting(path: Path) -> None:
-        if ".old-" in path.name:  # between the rename of the new store and removing the old
+        # between putting the new store in place and removing the old one (exchanged into
+        # the partial directory, or renamed aside where the system cannot exchange)
+        if ".partial" in str(path) or ".old-" in path.name:
             _thread.interrupt_main()
         real(path)
 

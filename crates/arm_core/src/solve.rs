@@ -294,6 +294,7 @@ fn solve_chunk(
     let mut ws = Workspace::new(arm);
     let mut loaded = Frames::new(n);
     let reach = crate::validity::reach(arm);
+    let rise_checked = crate::validity::checks_load_rise(arm, effects);
     let mut alpha = vec![0.0; n];
     for p in 0..out.dx_mm.len() {
         let row = first_row + p;
@@ -307,7 +308,9 @@ fn solve_chunk(
             Err(e) => return Err(e),
         }
         let down = payload.y < 0.0;
-        status[p] = status::pose_status(arm, &ws.frames, &mut loaded, &out, p, down, reach);
+        // the load point's rise is checked where no user-written deformation acts on the pose
+        let lift = rise_checked && status::no_extra(&extra, p, n);
+        status[p] = status::pose_status(arm, &ws.frames, &mut loaded, &out, p, down, reach, lift);
     }
     Ok(())
 }

@@ -14,7 +14,7 @@
 //! | 2    | `near_singular`    | an actuator's moment arm about its joint < [`MIN_MOMENT_ARM`]·\|A_i − O_i\| |
 //! | 3    | `branch_flip`      | a loaded actuator triangle turned over                          |
 //! | 4    | `over_force`       | a loaded \|force\| above `max_force`                            |
-//! | 5    | `large_deflection` | a link turned > [`MAX_DALPHA_DEG`], the measure point moved > [`MAX_DEFLECTION_OF_REACH`]·reach, or rose > [`MAX_RISE_OF_REACH`]·reach under a downward payload |
+//! | 5    | `large_deflection` | a link turned > [`MAX_DALPHA_DEG`], the measure point moved > [`MAX_DEFLECTION_OF_REACH`]·reach, or rose > [`MAX_RISE_OF_REACH`]·reach under a downward payload; or the load point rose > [`MAX_LOAD_RISE_MM`] where [`checks_load_rise`] and no user deformation |
 //!
 //! When several apply, the first in this order is reported.
 
@@ -34,6 +34,11 @@ pub const MAX_DALPHA_DEG: f64 = 10.0;
 pub const MAX_DEFLECTION_OF_REACH: f64 = 0.05;
 /// Largest rise of the measure point under a downward payload, as a fraction of the reach.
 pub const MAX_RISE_OF_REACH: f64 = 1e-3;
+/// Largest rise (mm) of the *load point* under a downward payload, where no gap effect and no
+/// user-written deformation act: an elastic arm's load point cannot rise at all (its energy
+/// forbids it, docs/model.md §7), so a rise is the model's second-order error showing; 1e-3
+/// mm is a fraction of any sensor's noise.
+pub const MAX_LOAD_RISE_MM: f64 = 1e-3;
 
 /// The status of one solved pose; the `u8` value is the code shared with Python.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -182,6 +187,38 @@ pub fn large_deflection_sq<T: Lane>(
         | (payload_down & dy_mm.gt(MAX_RISE_OF_REACH * reach_mm))
 }
 
+/// The load point's vertical displacement (mm) from the measure point's `dy_mm`, the last
+/// link's turn (`sin_d` = sin Δα_n, `cos_m1` = cos Δα_n − 1) and `w` = R(α_n)·(next_n −
+/// measure) (global, unloaded, mm): the last link is rigid between the two points, so the
+/// load point moves by the measure point's displacement plus (R(Δα_n) − I)·w.
+#[inline(always)]
+pub fn load_dy<T: Lane>(dy_mm: T, sin_d: T, cos_m1: T, wx: T, wy: T) -> T {
+    dy_mm + (sin_d * wx + cos_m1 * wy)
+}
+
+/// Whether the load point's rise is checked for these effects: not with a gap (play or
+/// clearance: the unloaded pose is then not an equilibrium of elastic parts) nor with the last
+/// link bending (the kernels know the load point through the rigid last link).
+pub fn checks_load_rise(arm: &Arm, effects: &crate::effects::EffectSet) -> bool {
+    use crate::effects::Effect;
+    let last = arm.n() - 1;
+    effects.effects().iter().all(|e| match e {
+        Effect::ActuatorPlay(_) | Effect::JointClearance(_) => false,
+        Effect::LinkBending(b) => b.link != last,
+        Effect::ActuatorCompliance(_) | Effect::MountCompliance(_) | Effect::BaseCompliance(_) => {
+            true
+        }
+    })
+}
+
+/// `R(α_n)·(next_n − measure)` (global, mm) of the last link at unloaded angle `alpha_n`
+/// (rad): the lever of [`load_dy`].
+pub fn load_lever(arm: &Arm, alpha_n: f64) -> V2 {
+    let v = arm.links[arm.n() - 1].next - arm.measure;
+    let (s, c) = alpha_n.sin_cos();
+    V2::new(c * v.x - s * v.y, s * v.x + c * v.y)
+}
+
 /// Some |force_i| above its actuator's `max_force` (actuators without one never are).
 pub fn over_force(arm: &Arm, force_n: &[f64]) -> bool {
     arm.actuators
@@ -241,6 +278,19 @@ mod tests {
         // 4 % of |a − o| is below the 5 % limit, 6 % above it
         assert!(near_singular(o, a, V2::new(300.0, 8.0)));
         assert!(!near_singular(o, a, V2::new(300.0, 12.0)));
+    }
+
+    #[test]
+    fn the_load_point_moves_with_the_rigid_last_link() {
+        // A link hanging 300 mm below its joint, the measure point on the joint (dy = 0),
+        // turned by 0.1 rad: the load point comes up by 300·(1 − cos 0.1) = 1.4988 mm.
+        let d: f64 = 0.1;
+        let up = load_dy(0.0, d.sin(), d.cos() - 1.0, 0.0, -300.0);
+        assert!((up - 300.0 * (1.0 - d.cos())).abs() < 1e-12, "{up}");
+        assert!(up > MAX_LOAD_RISE_MM);
+        // horizontal lever: first order, down for a clockwise turn
+        let down = load_dy(0.0, (-d).sin(), (-d).cos() - 1.0, 300.0, 0.0);
+        assert!((down - 300.0 * (-d).sin()).abs() < 1e-12, "{down}");
     }
 
     #[test]

@@ -154,7 +154,7 @@ def sag_budget(
                 for k in members:
                     for e in comps[k][2]:
                         on[e.key] = e
-                out = solve(bare, alpha, mass_kg, effects=list(on.values()), **kw)
+                out = solve(bare, alpha, mass_kg, effects=list(on.values()), strict=True, **kw)
                 v[members] = np.asarray(out[channel], dtype=float).reshape(-1)
         return v
 

@@ -187,7 +187,7 @@ def calibrate_geometry(
             pay = np.asarray(payload_n, dtype=float)
         else:
             raise EodarmError("calibration: give payload_n or payload_fn")
-        return solve_payload(a, alpha, pay, [], self_weight=self_weight)["force_n"]
+        return solve_payload(a, alpha, pay, [], self_weight=self_weight, strict=True)["force_n"]
 
     def resid(x: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
         try:

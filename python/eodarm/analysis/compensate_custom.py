@@ -92,7 +92,14 @@ class _Model:
         return out
 
     def _residual(self, alpha: FloatArray, rows: npt.NDArray[np.intp]) -> FloatArray:
-        s = solve(self.arm, alpha, self.mass[rows], self.effects, self_weight=self.self_weight)
+        s = solve(
+            self.arm,
+            alpha,
+            self.mass[rows],
+            self.effects,
+            self_weight=self.self_weight,
+            strict=True,
+        )
         point = forward(self.arm, alpha)["measure"] + np.column_stack([s["dx_mm"], s["dy_mm"]])
         r = point - self.target[rows]
         if self.p == 2:

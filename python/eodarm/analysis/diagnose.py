@@ -338,7 +338,8 @@ def _without_outliers(
     refine_per_size: int,
     kw: dict[str, Any],
 ) -> tuple[Diagnosis, list[dict[str, Any]]]:
-    """Leave out the worst cell while it is > 4σ off the best model, and diagnose again.
+    """Leave out the cells > 4σ off the best model, and diagnose again (a few rounds at most:
+    :func:`eodarm.analysis.fit.peel_outliers`).
 
     Accepted only if, with at most 2 % of the values left out, the best model then explains
     the rest within the noise; otherwise the first diagnosis stands and nothing is flagged.
@@ -529,15 +530,17 @@ def _confusions(
         q, _ = np.linalg.qr(am)
         ac = ac - q @ (q.T @ ac)
     index = {s.spec: j for j, s in enumerate(cands)}
-    contrib = np.zeros_like(ac)
+    # Every quantity below is a product of two columns: from their Gram matrix (one pass over
+    # the values, K² numbers), not column by column over the whole file for each pair.
+    gram = ac.T @ ac
+    scale = np.zeros(len(cands))  # contribution of candidate j = scale[j] · ac[:, j]
     for cand in ranking:
         j = index[cand.slot.spec]
-        t = cand.fit.theta[-1]
-        contrib[:, j] = ac[:, j] * (t - prob.neutral(cand.slot)) * cnorm[j]
+        scale[j] = (cand.fit.theta[-1] - prob.neutral(cand.slot)) * cnorm[j]
     for cand in ranking:
         j = index[cand.slot.spec]
-        v = contrib[:, j]
-        vv = float(v @ v)
+        s = scale[j]
+        vv = float(s * s * gram[j, j])
         if vv <= detectable:
             continue
         out = []
@@ -545,14 +548,14 @@ def _confusions(
             i = index[other.slot.spec]
             if i == j:
                 continue
-            col = ac[:, i]
-            cc = float(col @ col)
+            cc = float(gram[i, i])
             if cc == 0:
                 continue
             lo_i = (prob.bounds(other.slot)[0] - prob.neutral(other.slot)) * cnorm[i]
-            coef = max(float(col @ v) / cc, lo_i)
-            resid = v - coef * col
-            left = float(resid @ resid)
+            cv = float(s * gram[i, j])  # col · v
+            coef = max(cv / cc, lo_i)
+            # |v − coef·col|², never below 0 by rounding
+            left = max(vv - 2.0 * coef * cv + coef * coef * cc, 0.0)
             if left < CONFUSION_CHI2 and left < 0.1 * vv:
                 out.append(other.slot.spec)
         cand.confused_with = out

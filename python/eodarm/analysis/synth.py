@@ -272,7 +272,14 @@ def synth(
     rows_alpha = np.repeat(alpha, mm, axis=0)
     rows_mass = np.tile(mass, kc)
     truth = channel_values(
-        solve(arm, rows_alpha, rows_mass, effects=as_effects(hidden), self_weight=self_weight),
+        solve(
+            arm,
+            rows_alpha,
+            rows_mass,
+            effects=as_effects(hidden),
+            self_weight=self_weight,
+            strict=True,
+        ),
         every,
     )
     rows_alpha = np.repeat(rows_alpha, rep, axis=0)

@@ -342,7 +342,11 @@ def _print_table(
     for r in rows:
         print(f"{head[0]} {r[0]}")
         for h, c in zip(head[1:], r[1:], strict=True):
-            _say(f"{h.ljust(key_w)}  {c}", "  ", width)
+            cell = f"  {h.ljust(key_w)}  {c}"
+            if len(cell) <= width:  # the common case, without textwrap's cost per cell
+                print(cell.rstrip())
+            else:
+                _say(f"{h.ljust(key_w)}  {c}", "  ", width)
 
 
 def _describe_data(meas: Measurements) -> str:

@@ -37,11 +37,22 @@ from eodarm.cli._common import (
 
 
 def _by(result: FitResult, key: str) -> dict[str, dict[str, float]]:
+    """RMS per channel of each configuration (or payload), in the file's order: one pass over
+    the cells (a mask per label would cost labels × rows)."""
     meas = result.problem.meas
-    labels = meas.config if key == "config" else np.asarray(meas.mass_kg)
-    out: dict[str, dict[str, float]] = {}
-    for lab in dict.fromkeys(labels.tolist()):
-        out[str(lab)] = result.rms(np.asarray(labels) == lab)
+    labels = np.asarray(meas.config if key == "config" else meas.mass_kg)
+    first, group = np.unique(labels, return_index=True, return_inverse=True)[1:]
+    order = np.argsort(first, kind="stable")  # the labels in the order the file gives them
+    use = result.problem.use
+    sq = np.where(use, result.residual, 0.0) ** 2
+    k = len(first)
+    out: dict[str, dict[str, float]] = {str(labels[first[g]]): {} for g in order}
+    for c, ch in enumerate(meas.channels):
+        n = np.bincount(group, weights=use[:, c], minlength=k)
+        total = np.bincount(group, weights=sq[:, c], minlength=k)
+        for g in order:
+            if n[g] > 0:
+                out[str(labels[first[g]])][ch] = float(np.sqrt(total[g] / n[g]))
     return out
 
 
@@ -63,44 +74,48 @@ def run(args: argparse.Namespace) -> int:
     from eodarm.analysis.sequences import hysteresis
 
     arm = _load_arm(args.arm, args.measurements)
-    meas = _read(args.measurements, arm, not args.no_self_weight)
     sw = not args.no_self_weight
     model = _model(args.add, allow_values=True)
     fixed = [m for m in model if isinstance(m, Effect)]
     free = [m for m in model if not isinstance(m, Effect)]
     import warnings
 
-    with warnings.catch_warnings(record=True) as caught, _stages(["comparing"], "compare") as step:
-        warnings.simplefilter("always", FitWarning)
+    names = ["reading", "comparing", "tables"]
+    with _stages(names, "compare") as step:
+        step("reading")  # a file of 10⁵ rows takes seconds to read and check
+        meas = _read(args.measurements, arm, sw)
         step("comparing")
-        from eodarm.analysis.fit import compare
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", FitWarning)
+            from eodarm.analysis.fit import compare
 
-        mk = _model_kw(args)
-        if free:
-            res, flagged = robust_fit(arm, meas, [*fixed, *free], self_weight=sw, **mk)
-        else:
-            res = compare(arm, meas, fixed, self_weight=sw, **mk)
-            # with nothing to fit, flag cells only if they are few and the rest agree
-            _, flagged = (
-                robust_fit(arm, meas, [], self_weight=sw, **mk)
-                if not fixed
-                else (res, np.zeros(meas.values.shape, dtype=bool))
-            )
-        outliers = outlier_table(res, flagged)
+            mk = _model_kw(args)
+            if free:
+                res, flagged = robust_fit(arm, meas, [*fixed, *free], self_weight=sw, **mk)
+            else:
+                res = compare(arm, meas, fixed, self_weight=sw, **mk)
+                # with nothing to fit, flag cells only if they are few and the rest agree
+                _, flagged = (
+                    robust_fit(arm, meas, [], self_weight=sw, **mk)
+                    if not fixed
+                    else (res, np.zeros(meas.values.shape, dtype=bool))
+                )
+            outliers = outlier_table(res, flagged)
+        step("tables")
+        base = compare(arm, meas, [], self_weight=sw, **mk)
+        doc: dict[str, Any] = {
+            "model": _model_keys(arm, model),
+            "solver_model": args.model,
+            "rms": res.rms(),
+            "chi2_per_dof": res.chi2_per_dof,
+            "by_config": _by(res, "config"),
+            "by_payload": _by(res, "mass"),
+            "worst": _worst(res),
+            "outliers": outliers,
+            "noise": _noise_json(meas),
+        }
     for w in caught:
         _note(str(w.message))
-    base = compare(arm, meas, [], self_weight=sw, **mk)
-    doc: dict[str, Any] = {
-        "model": _model_keys(arm, model),
-        "solver_model": args.model,
-        "rms": res.rms(),
-        "chi2_per_dof": res.chi2_per_dof,
-        "by_config": _by(res, "config"),
-        "by_payload": _by(res, "mass"),
-        "worst": _worst(res),
-        "outliers": outliers,
-        "noise": _noise_json(meas),
-    }
     if res.slots:
         doc["estimate"] = res.summary()["effects"]
     loops = hysteresis(meas, res.prediction)

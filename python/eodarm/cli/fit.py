@@ -47,24 +47,26 @@ def run(args: argparse.Namespace) -> int:
     if args.output:
         _check_output(args)
     arm = _load_arm(args.arm, args.measurements)
-    meas = _read(args.measurements, arm, not args.no_self_weight)
     sw = not args.no_self_weight
     model = _model(args.add, allow_values=True)
     if not model:
         raise EodarmError("fit needs at least one --add EFFECT@PLACE")
-    names = ["fitting", *(["cross-validation"] if args.cv else [])]
-    with warnings.catch_warnings(record=True) as caught, _stages(names, "fit") as step:
-        warnings.simplefilter("always", FitWarning)
-        mk = _model_kw(args)
-        step("fitting")
-        res, flagged = robust_fit(arm, meas, model, self_weight=sw, **mk)
-        check_validity(res)
-        outliers = outlier_table(res, flagged)
-        cv = cv0 = None
-        if args.cv:
-            step("cross-validation")
-            cv = cross_validate(arm, meas, res.slots, self_weight=sw, **mk)
-            cv0 = cross_validate(arm, meas, [], self_weight=sw, **mk)
+    names = ["reading", "fitting", *(["cross-validation"] if args.cv else [])]
+    with _stages(names, "fit") as step:
+        step("reading")  # a file of 10⁵ rows takes seconds to read and check
+        meas = _read(args.measurements, arm, not args.no_self_weight)
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", FitWarning)
+            mk = _model_kw(args)
+            step("fitting")
+            res, flagged = robust_fit(arm, meas, model, self_weight=sw, **mk)
+            check_validity(res)
+            outliers = outlier_table(res, flagged)
+            cv = cv0 = None
+            if args.cv:
+                step("cross-validation")
+                cv = cross_validate(arm, meas, res.slots, self_weight=sw, **mk)
+                cv0 = cross_validate(arm, meas, [], self_weight=sw, **mk)
     for w in {str(w.message) for w in caught}:
         _note(w)
     before = compare(arm, meas, [], self_weight=sw, **mk)

@@ -75,7 +75,8 @@ def _fem_plots(
 
 
 def _json_safe(v: Any) -> Any:
-    """NaN (an unknown σ) as JSON null, inside lists too."""
+    """NaN (an unknown σ, or a pose that cannot be closed under its load) as JSON null, inside
+    lists too."""
     if isinstance(v, list):
         return [_json_safe(x) for x in v]
     if isinstance(v, float) and not math.isfinite(v):
@@ -107,6 +108,7 @@ def run(args: argparse.Namespace) -> int:
         backend=args.backend,
         self_weight=not args.no_self_weight,
         uncertainty=args.uncertainty,
+        strict=args.strict,
         **_model_kw(args),
     )
     dofs = int(out["n_dof"]) if args.model == "fem" else 0
@@ -117,6 +119,12 @@ def run(args: argparse.Namespace) -> int:
         out = {k: out[k] for k in (*_SOLVE_KEYS, "pin_force_n")}
     from eodarm.model.validity import STATUS, status_counts
 
+    failed = int(np.isnan(np.asarray(out["dy_mm"], dtype=float)).sum())
+    if failed:
+        _note(
+            f"{failed} of {len(out['status'])} poses cannot be closed under their load: their "
+            "values are NaN (null in --json) and their status says why (--strict: an error)"
+        )
     counts = status_counts(out["status"])
     if set(counts) - {"ok"}:
         _note(
@@ -225,6 +233,12 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
         help="standard deviations of dx, dy and the angle changes (an arm written by 'eodarm "
         "fit -o'): sigma_* the total, sigma_param_* from the fitted parameters' covariance, "
         "sigma_model_* the model's own inadequacy (docs/model.md, Prediction errors)",
+    )
+    s.add_argument(
+        "--strict",
+        action="store_true",
+        help="a pose that cannot be closed under its load is an error (exit 2) naming it, "
+        "instead of a row of NaN with its status (the default)",
     )
     s.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     s.add_argument("--compact", action="store_true", help="with --json: no indentation")

@@ -216,6 +216,7 @@ def _solvable_configs(
                 np.asarray(masses),
                 effects=hidden,
                 self_weight=self_weight,
+                strict=True,
             )
         except (ValueError, EodarmError):
             return False

@@ -397,6 +397,7 @@ def solve_payload(
     effects: Any = (),
     self_weight: bool = True,
     extra: Any = None,
+    nan_on_failure: bool = False,
 ) -> dict[str, FloatArray]:
     """Loaded minus unloaded response of the arm to a payload force (model §4–§5).
 
@@ -422,6 +423,9 @@ def solve_payload(
         Deformations of user-written effects added to the effects' (CONTRACT §8), each
         optional: ``extra_seen_mm`` (N, n), ``extra_unseen_mm`` (N, n), ``extra_joint_mm``
         (N, n, 2), ``extra_tilt_rad`` (N,), ``extra_measure_mm`` (N, 2) (see ``_extras``).
+    nan_on_failure : bool, default False
+        A pose whose loaded triangle cannot close gets NaN in its loaded-pose outputs instead
+        of an error naming its row (as the compiled core's ``nan_on_failure``).
 
     Returns
     -------
@@ -469,7 +473,7 @@ def solve_payload(
         ext = _custom_extras(arm, alpha_d, payload, geo, st, custom_effs, self_weight, ext)
     # Loaded once from the reference: every friction element starts with S = 0 (the deadband).
     held = _held_forces(par, st, np.zeros((n_rows, n)), np.zeros((n_rows, n)))
-    return _respond(arr, par, geo, alpha, st, payload, ext, held)
+    return _respond(arr, par, geo, alpha, st, payload, ext, held, nan_on_failure=nan_on_failure)
 
 
 def _custom_extras(
@@ -555,6 +559,8 @@ def _respond(
     payload: FloatArray,
     ext: dict[str, FloatArray],
     held: dict[str, FloatArray],
+    *,
+    nan_on_failure: bool = False,
 ) -> dict[str, FloatArray]:
     """The loaded pose of one state from its statics and what the frictions hold (model §4–§5).
 
@@ -662,17 +668,18 @@ def _respond(
         a_loc = arr["A"][i] + d_a[i]  # (N, 2)
         rho = np.linalg.norm(a_loc, axis=-1)
         a_new, ok = _circle_intersection(o_new, rho, b_new, ell_new[:, i], side[:, i])
-        if not ok.all():
+        if not ok.all() and not nan_on_failure:
             row = _first_row(~ok)[0]
             raise InputError(
                 f"pose row {row}: actuator {i + 1} cannot close its triangle with the loaded length"
             )
+        a_new[~ok] = np.nan  # the pose failed: NaN from here on
         turn = _angle(a_new - o_new) - _angle(a_loc) - alpha[:, i]
         alpha_new[:, i] = alpha[:, i] + _wrap(turn)
 
     m_new = o_new + _rotate(alpha_new[:, n - 1], arr["measure"] + d_meas)
     dm = m_new - geo["measure"] + ext["extra_measure_mm"]
-    return {
+    out = {
         "force_n": f_actual,
         "reaction_n": r_actual,
         "dforce_n": df,
@@ -683,6 +690,13 @@ def _respond(
         "dlength_mm": d_length,
         "length_mm": ell,
     }
+    failed = np.isnan(alpha_new).any(axis=1)
+    if failed.any():  # a failed pose is NaN in every output, as the compiled core fills it
+        out = {
+            k: np.where(failed.reshape((-1,) + (1,) * (v.ndim - 1)), np.nan, v)
+            for k, v in out.items()
+        }
+    return out
 
 
 def solve(

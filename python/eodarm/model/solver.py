@@ -28,7 +28,7 @@ from eodarm.model.kinematics import (
     stroke_violations,
 )
 from eodarm.model.resources import check_output_memory
-from eodarm.model.validity import status
+from eodarm.model.validity import checks_load_rise, quiet_rows, status
 
 __all__ = [
     "angles_from_lengths",
@@ -54,6 +54,7 @@ def solve(
     extra: Mapping[str, npt.ArrayLike | None] | None = None,
     uncertainty: bool = False,
     out: Mapping[str, npt.NDArray[Any]] | None = None,
+    strict: bool = False,
 ) -> Arrays:
     """Loaded minus unloaded state of N poses under a payload mass at the load point.
 
@@ -91,6 +92,12 @@ def solve(
         solve(...).items()}``). The returned dict holds these arrays. ``backend="rust"``,
         ``model="analytic"`` only; a missing key or a wrong shape, dtype or layout is an
         :class:`~eodarm.errors.InputError` naming the key.
+    strict : a pose that cannot be closed under its load (an actuator triangle that the
+        loaded lengths cannot close, a loaded pose that will not settle) raises naming the row
+        (True), or gets NaN in every output and a non-``ok`` ``status`` while the other poses
+        are solved (False, the default; as :func:`eodarm.sweep` marks such a cell). A pose
+        that is singular *unloaded* (an actuator through its joint, coincident pins) is
+        invalid input and raises either way.
 
     Returns
     -------
@@ -113,7 +120,8 @@ def solve(
     ------
     ValueError
         (an :class:`~eodarm.errors.EodarmError`) naming the row for a wrong shape, a non-finite
-        value, a negative mass, a singular pose or a triangle that cannot close.
+        value, a negative mass, a pose singular unloaded, or (``strict=True``) a pose that
+        cannot be closed under its load.
     """
     check_arm(arm, "solve")
     _check_memory(alpha_deg, arm.n)
@@ -132,6 +140,7 @@ def solve(
         uncertainty,
         out,
         checked=True,
+        strict=strict,
     )
 
 
@@ -160,6 +169,7 @@ def solve_payload(
     extra: Mapping[str, npt.ArrayLike | None] | None = None,
     uncertainty: bool = False,
     out: Mapping[str, npt.NDArray[Any]] | None = None,
+    strict: bool = False,
 ) -> Arrays:
     """Like :func:`solve`, with any payload force vector (N, 2) in N at the load point."""
     check_arm(arm, "solve_payload")
@@ -176,6 +186,7 @@ def solve_payload(
         extra,
         uncertainty,
         out,
+        strict=strict,
     )
 
 
@@ -192,6 +203,7 @@ def _solve_payload(
     uncertainty: bool,
     out: Mapping[str, npt.NDArray[Any]] | None,
     checked: bool = False,
+    strict: bool = False,
 ) -> Arrays:
     """:func:`solve_payload` once the arm and the memory the outputs need are checked (the
     memory check reads /proc: once per call, not once per layer). ``checked``: ``alpha_deg``
@@ -260,6 +272,7 @@ def _solve_payload(
             places,
             values,
             self_weight,
+            not strict,  # nan_on_failure: a pose that cannot close under load is NaN
             extra_seen_mm=extras.get("extra_seen_mm"),
             extra_unseen_mm=extras.get("extra_unseen_mm"),
             extra_joint_mm=extras.get("extra_joint_mm"),
@@ -273,10 +286,21 @@ def _solve_payload(
 
         res = dict(
             reference.solve_payload(
-                arm, alpha, payload, effs, self_weight=self_weight, extra=extras
+                arm,
+                alpha,
+                payload,
+                effs,
+                self_weight=self_weight,
+                extra=extras,
+                nan_on_failure=not strict,
             )
         )
-        res["status"] = status(arm, alpha, payload, res)
+        lift = checks_load_rise(arm, effs)
+        res["status"] = status(
+            arm, alpha, payload, res, load_rise=lift & quiet_rows(extras, alpha.shape[0])
+        )
+    if not strict:
+        _refuse_unloaded_singular(arm, alpha, res)
     if uncertainty:
         from eodarm.model.uncertainty import prediction_sigma
 
@@ -324,6 +348,29 @@ def solve_sequence(
     flat = {k: v.reshape(n_seq * n_states, *v.shape[2:]) for k, v in res.items()}
     res["status"] = status(arm, flat_alpha, flat_payload, flat).reshape(n_seq, n_states)  # type: ignore[assignment]
     return res
+
+
+def _refuse_unloaded_singular(arm: Arm, alpha: npt.NDArray[np.float64], res: Arrays) -> None:
+    """Raise for a pose that failed because it is singular unloaded (invalid input, whatever
+    ``strict``), naming its row; the poses that failed only under load keep their NaN.
+
+    The failed rows' statics without payload are solved again (numpy reference, few rows):
+    they fail only for a pose that is singular on its undeformed geometry."""
+    import re
+
+    failed = np.flatnonzero(np.isnan(np.asarray(res["dy_mm"])))
+    if failed.size == 0:
+        return
+    from eodarm.model import reference
+
+    try:
+        reference.statics(arm, alpha[failed], np.zeros((failed.size, 2)), self_weight=True)
+    except InputError as exc:
+        # the message names the row among the failed ones: give the caller's row
+        text = re.sub(
+            r"pose row (\d+)", lambda m: f"pose row {failed[int(m.group(1))]}", str(exc), count=1
+        )
+        raise InputError(text) from None
 
 
 def statics(

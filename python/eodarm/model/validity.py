@@ -19,7 +19,10 @@ code   name                meaning (thresholds below)
 5      large_deflection    a link turned by more than 10°, the measure point moved by more
                            than 5 % of the arm's length (Σ|next_i|), or rose by more than
                            0.1 % of it under a downward payload (negative work: not an
-                           elastic answer)
+                           elastic answer); or the *load point* rose by more than
+                           :data:`MAX_LOAD_RISE_MM` under a downward payload where no gap
+                           effect and no user-written deformation act (an elastic arm's
+                           load point cannot rise: docs/model.md §7)
 =====  ==================  ===============================================================
 
 When several apply, the first in this order is reported.
@@ -39,10 +42,13 @@ from eodarm.model.arm import Arm
 __all__ = [
     "MAX_DALPHA_DEG",
     "MAX_DEFLECTION_OF_REACH",
+    "MAX_LOAD_RISE_MM",
     "MAX_RISE_OF_REACH",
     "MIN_MOMENT_ARM",
     "STATUS",
     "arm_reach",
+    "checks_load_rise",
+    "quiet_rows",
     "status",
     "status_counts",
 ]
@@ -65,6 +71,40 @@ MAX_DALPHA_DEG = 10.0
 MAX_DEFLECTION_OF_REACH = 0.05
 #: Largest rise of the measure point under a downward payload, as a fraction of that length.
 MAX_RISE_OF_REACH = 1e-3
+#: Largest rise (mm) of the load point under a downward payload where no gap effect and no
+#: user-written deformation act (the core's ``validity::MAX_LOAD_RISE_MM``): a fraction of
+#: any sensor's noise.
+MAX_LOAD_RISE_MM = 1e-3
+
+
+def checks_load_rise(arm: Arm, effects: Any) -> bool:
+    """Whether the load point's rise is checked with these effects (the core's
+    ``validity::checks_load_rise``): no gap (play, clearance), no user-written effect, the last
+    link not bending (the load point is known through the rigid last link)."""
+    for e in effects:
+        name = getattr(e, "name", "")
+        if name in ("actuator_play", "joint_clearance"):
+            return False
+        if name == "link_bending" and getattr(e, "at", "") == f"L{arm.n}":
+            return False
+        if name not in (
+            "actuator_compliance",
+            "mount_compliance",
+            "link_bending",
+            "base_compliance",
+        ):
+            return False  # a user-written effect
+    return True
+
+
+def quiet_rows(extras: Mapping[str, Any], rows: int) -> npt.NDArray[np.bool_]:
+    """(rows,) whether no user-written deformation acts on each row (every extra array absent
+    or zero there)."""
+    quiet = np.ones(rows, dtype=bool)
+    for v in extras.values():
+        if v is not None:
+            quiet &= ~(np.asarray(v, dtype=float).reshape(rows, -1) != 0).any(axis=1)
+    return quiet
 
 
 def _cross(a: npt.NDArray[np.float64], b: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
@@ -76,8 +116,11 @@ def status(
     alpha_deg: npt.NDArray[np.float64],
     payload_n: npt.NDArray[np.float64],
     out: Mapping[str, Any],
+    load_rise: bool | npt.NDArray[np.bool_] = False,
 ) -> npt.NDArray[np.uint8]:
-    """The status code (N,) of each solved pose (see the module docstring)."""
+    """The status code (N,) of each solved pose (see the module docstring). ``load_rise``
+    (a bool, or one per pose): check the load point's rise there (:func:`checks_load_rise`
+    and :func:`quiet_rows` say where it applies)."""
     from eodarm.model.kinematics import forward, stroke_violations
 
     geo = forward(arm, alpha_deg)
@@ -94,7 +137,9 @@ def status(
     h = np.abs(_cross(line, o - b)) / np.maximum(np.linalg.norm(line, axis=2), 1e-300)
     mark((h < MIN_MOMENT_ARM * arm_len).any(axis=1), 2)
     dalpha = np.asarray(out["dalpha_deg"], dtype=float)
-    loaded = forward(arm, alpha_deg + dalpha) if np.isfinite(dalpha).all() else geo
+    # a pose that failed (NaN) is judged on what is known of it: its unloaded checks, else
+    # too large a deflection (below), as the compiled core judges it
+    loaded = forward(arm, alpha_deg + np.where(np.isfinite(dalpha), dalpha, 0.0))
     turn0 = np.sign(_cross(a - b, o - b))
     turn1 = np.sign(_cross(loaded["A"] - loaded["B"], loaded["O"][:, :n] - loaded["B"]))
     mark((turn0 * turn1 < 0).any(axis=1), 3)
@@ -104,8 +149,20 @@ def status(
     dx, dy = np.asarray(out["dx_mm"], dtype=float), np.asarray(out["dy_mm"], dtype=float)
     moved = np.hypot(dx, dy)
     rise = (dy > MAX_RISE_OF_REACH * reach) & (np.asarray(payload_n)[:, 1] < 0)
-    big = (np.abs(dalpha) > MAX_DALPHA_DEG).any(axis=1) | (moved > MAX_DEFLECTION_OF_REACH * reach)
-    mark(big | rise, 5)
+    # `~(x <= limit)`: NaN breaks the limit
+    big = ~(np.abs(dalpha) <= MAX_DALPHA_DEG).all(axis=1) | ~(
+        moved <= MAX_DEFLECTION_OF_REACH * reach
+    )
+    # the load point: the measure point's displacement plus (R(Δα_n) − I)·R(α_n)·(next − m)
+    last = arm.links[-1]
+    v = np.asarray(last.next, dtype=float) - np.asarray(last.measure or last.next, dtype=float)
+    an = np.radians(alpha_deg[:, -1])
+    wx, wy = np.cos(an) * v[0] - np.sin(an) * v[1], np.sin(an) * v[0] + np.cos(an) * v[1]
+    dn = np.radians(dalpha[:, -1])
+    load_dy = dy + (np.sin(dn) * wx + (np.cos(dn) - 1.0) * wy)
+    down = np.asarray(payload_n)[:, 1] < 0
+    lift = np.asarray(load_rise) & down & (load_dy > MAX_LOAD_RISE_MM)
+    mark(big | rise | lift, 5)
     return code
 
 

@@ -18,7 +18,7 @@ from eodarm.errors import EodarmError, InputError
 from eodarm.model.arm import Arm
 from eodarm.model.effects import Effect, split_effects
 from eodarm.model.solver import _core_arm, forward, stroke_violations
-from eodarm.model.validity import STATUS, status
+from eodarm.model.validity import STATUS, checks_load_rise, quiet_rows, status
 
 if TYPE_CHECKING:
     from eodarm.model.custom import EffectState
@@ -130,7 +130,11 @@ def sweep_fallback(
             nan_on_failure=True,
             **extras,
         )
-    code = cell_status(arm, np.repeat(alpha, m, axis=0), payload, out)
+    if model == "fem":
+        lift: Any = False
+    else:
+        lift = checks_load_rise(arm, split_effects(effects)[0]) & quiet_rows(extras, rows)
+    code = cell_status(arm, np.repeat(alpha, m, axis=0), payload, out, lift)
     ok = code == 0
     cells: dict[str, npt.NDArray[Any]] = {
         key: np.where(ok.reshape(-1, *[1] * (out[key].ndim - 1)), out[key], np.nan)
@@ -158,13 +162,17 @@ def sweep_fallback(
 
 
 def cell_status(
-    arm: Arm, alpha: FloatArray, payload: FloatArray, out: Mapping[str, Any]
+    arm: Arm,
+    alpha: FloatArray,
+    payload: FloatArray,
+    out: Mapping[str, Any],
+    load_rise: Any = False,
 ) -> npt.NDArray[np.uint8]:
     """The status (R,) of solved cells (``out`` with NaN where a cell did not solve), as the
     core's sweep gives it: :func:`eodarm.model.validity.status`, and a cell that did not
     solve although its pose is in stroke and not near singular is a large deflection (its
     loaded triangle cannot close)."""
-    code = status(arm, alpha, payload, out)
+    code = status(arm, alpha, payload, out, load_rise=load_rise)
     unsolved = ~np.isfinite(np.asarray(out["dy_mm"], dtype=float))
     code[(code == 0) & unsolved] = STATUS.index("large_deflection")
     return code

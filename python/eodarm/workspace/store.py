@@ -4,6 +4,9 @@ chunk that an interrupted run can resume.
 * :func:`save` writes an in-memory sweep (NetCDF or Zarr) to a temporary sibling,
   ``.OUT.partial-<pid>``, and renames it into place only when it is complete; a previous
   result at ``OUT`` stays whole until then, and nothing partial is ever left under ``OUT``.
+  A directory replaces a previous one in one atomic exchange (Linux ``renameat2``), so that
+  even a kill leaves the old result or the new one at ``OUT``; the temporaries of a killed
+  process (they name its PID) are removed by the next write into that folder.
 * :func:`sweep_to_netcdf` checks memory and disk up front, sweeps, and saves.
 * :func:`sweep_to_zarr` solves the grid chunk by chunk into the directory ``.OUT.partial``
   (the Zarr store ``.OUT.partial/OUT``, whose chunks are exactly the sweep's chunks, beside
@@ -19,13 +22,17 @@ The rules are in ``docs/sweeps.md`` ("Writes that never lose a result").
 from __future__ import annotations
 
 import contextlib
+import errno
 import hashlib
 import json
 import math
 import os
+import re
 import shutil
 import signal
+import sys
 import threading
+import warnings
 from collections.abc import Iterable, Iterator, Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -55,6 +62,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "SweepInterrupted",
+    "clean_leftovers",
     "output_kind",
     "partial_path",
     "save",
@@ -68,6 +76,11 @@ RECORD = "eodarm-sweep.json"
 DONE = "eodarm-done.txt"
 #: NetCDF-3 (64-bit offset, what xarray's scipy engine writes) holds no variable this large.
 NETCDF3_MAX_VAR_BYTES = 2**32 - 4
+#: Test hook: the name of a point (:func:`_kill_point`) at which the writer kills itself with
+#: SIGKILL, so that tests can kill a real process at the dangerous moments without timing.
+KILL_AT_ENV = "EODARM_KILL_AT"
+#: The temporaries this module leaves beside an output, named by their process.
+_LEFTOVER = re.compile(r"^\..+\.(?:partial|old)-(?P<pid>\d+)$")
 
 
 class SweepInterrupted(KeyboardInterrupt):
@@ -155,20 +168,86 @@ def _remove(path: Path) -> None:
         path.unlink()
 
 
+def _kill_point(name: str) -> None:
+    """Die here with SIGKILL when the environment names this point (tests only)."""
+    if os.environ.get(KILL_AT_ENV) == name:
+        os.kill(os.getpid(), signal.SIGKILL)
+
+
+def _alive(pid: int) -> bool:
+    """Whether a process ``pid`` exists (one of another user counts: it is not ours to judge)."""
+    if pid == os.getpid():
+        return True
+    try:
+        os.kill(pid, 0)
+    except (ProcessLookupError, OverflowError):
+        return False
+    except PermissionError:
+        return True
+    return True
+
+
+def clean_leftovers(folder: str | os.PathLike[str]) -> list[Path]:
+    """Remove the temporaries of dead processes in ``folder``: ``.NAME.partial-PID`` (a whole
+    NetCDF or Zarr output being written) and ``.NAME.old-PID`` (a previous result renamed
+    aside), where no process PID is running. Returns what was removed."""
+    gone: list[Path] = []
+    try:
+        entries = list(Path(folder).iterdir())
+    except OSError:
+        return gone
+    for p in entries:
+        m = _LEFTOVER.match(p.name)
+        if m and not _alive(int(m["pid"])):
+            with contextlib.suppress(OSError):
+                _remove(p)
+                gone.append(p)
+    return gone
+
+
+def _exchange(a: Path, b: Path) -> bool:
+    """Swap the paths ``a`` and ``b`` in one atomic step (Linux ``renameat2`` with
+    ``RENAME_EXCHANGE``); False where the system or the filesystem cannot."""
+    if not sys.platform.startswith("linux"):
+        return False
+    try:
+        import ctypes
+
+        fn = ctypes.CDLL(None, use_errno=True).renameat2
+    except (OSError, AttributeError):
+        return False
+    fn.argtypes = [ctypes.c_int, ctypes.c_char_p, ctypes.c_int, ctypes.c_char_p, ctypes.c_uint]
+    at_fdcwd, rename_exchange = -100, 2
+    if fn(at_fdcwd, os.fsencode(a), at_fdcwd, os.fsencode(b), rename_exchange) == 0:
+        return True
+    err = ctypes.get_errno()
+    if err in (errno.EINVAL, errno.ENOSYS, errno.ENOTSUP, errno.EXDEV):
+        return False
+    raise OSError(err, os.strerror(err), str(b))
+
+
 def replace(new: Path, out: Path) -> None:
-    """Put ``new`` (a file or a directory) at ``out``; a previous ``out`` is renamed aside and
-    removed only once ``new`` is in place. Ctrl-C waits until it is done."""
+    """Put ``new`` (a file or a directory) at ``out``. A file over a file is one atomic
+    rename; otherwise the two are exchanged atomically and the previous result, now at
+    ``new``, is removed: a kill at any moment leaves the old result or the new one at
+    ``out``. Where the system cannot exchange, a previous ``out`` is renamed aside to
+    ``.OUT.old-PID`` first and removed once ``new`` is in place (a later write into the
+    folder removes it if the process died). Ctrl-C waits until it is done."""
     with deferred_sigint():
-        old = None
-        if out.exists() or out.is_symlink():
-            if not out.is_dir() and not new.is_dir():
-                os.replace(new, out)  # a file over a file: one atomic rename
-                return
-            old = out.with_name(f".{out.name}.old-{os.getpid()}")
-            os.rename(out, old)
+        if not (out.exists() or out.is_symlink()):
+            os.rename(new, out)
+            return
+        if not out.is_dir() and not new.is_dir():
+            os.replace(new, out)  # a file over a file: one atomic rename
+            return
+        if _exchange(new, out):
+            _kill_point("replace-exchanged")
+            _remove(new)  # the previous result
+            return
+        old = out.with_name(f".{out.name}.old-{os.getpid()}")
+        os.rename(out, old)
         os.rename(new, out)
-        if old is not None:
-            _remove(old)
+        _remove(old)
 
 
 # ---------------------------------------------------------------------------- whole Datasets
@@ -188,13 +267,16 @@ def save(ds: xr.Dataset, path: str | os.PathLike[str]) -> None:
     if kind == "zarr":
         _need_zarr(with_dask=False)
     previous = out.exists()
+    clean_leftovers(out.parent)
     tmp = out.with_name(f".{out.name}.partial-{os.getpid()}")
     try:
         _remove(tmp)
         if kind == "zarr":
-            ds.to_zarr(tmp, mode="w", consolidated=False)
+            with _consolidating():
+                ds.to_zarr(tmp, mode="w", consolidated=True)
         else:
             _netcdf3(ds).to_netcdf(tmp, engine="scipy")
+        _kill_point("save-written")
         replace(tmp, out)
     except KeyboardInterrupt:
         with deferred_sigint():
@@ -440,7 +522,19 @@ def _template(setup: _Setup, chunks: _Chunks, part: Path) -> None:
         arrays[key] = da.empty(tuple(shape), chunks=zc, dtype=setup.dtypes[key])
         encoding[key] = {"chunks": zc}
     ds = _dataset(setup, arrays)
-    ds.to_zarr(part, mode="w", compute=False, consolidated=False, encoding=encoding)
+    # the metadata is complete here (chunks only add data): consolidated once, so that
+    # xarray.open_zarr finds it in one read and does not warn
+    with _consolidating():
+        ds.to_zarr(part, mode="w", compute=False, consolidated=True, encoding=encoding)
+
+
+@contextlib.contextmanager
+def _consolidating() -> Iterator[None]:
+    """zarr 3 warns on every consolidation that consolidated metadata is not yet in the Zarr 3
+    specification; it is what xarray reads first (and warns without), so it is written."""
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", message="Consolidated metadata is currently not part")
+        yield
 
 
 def sweep_to_zarr(
@@ -467,8 +561,8 @@ def sweep_to_zarr(
 ) -> Path:
     """:func:`eodarm.sweep` written chunk by chunk into the Zarr store ``path``; resumable.
 
-    The keywords are :func:`eodarm.sweep`'s; the store, opened with
-    ``xarray.open_zarr(path, consolidated=False)``, equals that Dataset. Chunks of
+    The keywords are :func:`eodarm.sweep`'s; the store (consolidated metadata), opened with
+    ``xarray.open_zarr(path)``, equals that Dataset. Chunks of
     ``chunk_size`` poses (rounded to whole rows of the grid's dims and to whole reduction
     groups) are solved here (an angle grid by the core's own grid walker) or on ``scheduler``
     and written into ``.OUT.partial/OUT``, each recorded once its data is in; memory is a few
@@ -524,6 +618,14 @@ def sweep_to_zarr(
     part, previous = partial_path(out), out.exists()
     want, chunks = _fingerprint(setup), _Chunks.plan(setup)
     done: set[int] = set()
+    clean_leftovers(out.parent)
+    if part.exists() and _put_in_place(part, out):
+        # killed after its store was put in place: what is left in `part` is the previous
+        # result being removed. --resume has nothing left to do; a new run starts afresh.
+        same = _record_of(part).get("fingerprint") == want
+        _remove(part)
+        if resume and same:
+            return out
     if part.exists():
         if not resume:
             raise EodarmError(
@@ -541,6 +643,7 @@ def sweep_to_zarr(
                 _template(setup, chunks, zstore)
                 record = {"fingerprint": want, "split": chunks.split, "rows": chunks.rows}
                 record["chunks"] = chunks.count
+                record["store"] = _identity(zstore)
                 (part / RECORD).write_text(json.dumps(record, indent=1), encoding="utf-8")
             except BaseException:
                 _remove(part)
@@ -563,6 +666,7 @@ def sweep_to_zarr(
                     log.write(f"{i}\n")
                     log.flush()
                     written += 1
+                _kill_point(f"zarr-chunk-{written}")
                 if bar is not None:
                     bar.update(1)
     except KeyboardInterrupt:
@@ -575,13 +679,41 @@ def sweep_to_zarr(
     finally:
         if bar is not None:
             bar.close()
+    _kill_point("zarr-complete")
     try:
         with deferred_sigint():
             replace(zstore, out)
+            _kill_point("zarr-in-place")
             _remove(part)  # the record
     except KeyboardInterrupt:  # held until the result was in place
         raise SweepInterrupted(out, "done", previous) from None
     return out
+
+
+def _record_of(part: Path) -> dict[str, Any]:
+    """The partial directory's record, or {} when it has none readable."""
+    try:
+        rec = json.loads((part / RECORD).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return {}
+    return rec if isinstance(rec, dict) else {}
+
+
+def _identity(path: Path) -> list[int]:
+    """(device, inode) of a directory: what a rename keeps."""
+    st = os.stat(path)
+    return [st.st_dev, st.st_ino]
+
+
+def _put_in_place(part: Path, out: Path) -> bool:
+    """The store of the partial directory ``part`` is already at ``out`` (the directory at
+    ``out`` is the one the record names): the run that wrote it died while removing what it
+    replaced."""
+    want = _record_of(part).get("store")
+    try:
+        return want is not None and out.is_dir() and _identity(out) == want
+    except OSError:
+        return False
 
 
 def _bounded(region: tuple[slice, ...], shape: list[int]) -> list[slice]:

@@ -370,7 +370,12 @@ impl<const N: usize> SolveKernel<N> {
             max_da = Lane::max(max_da, d.abs());
         }
         let down = Lane::lt(ld(&pay[1]), 0.0);
-        let large = validity::large_deflection_sq(max_da, dx, dy, down, self.reach);
+        let mut large = validity::large_deflection_sq(max_da, dx, dy, down, self.reach);
+        if self.fa.load_rise {
+            // the load point rising (validity::MAX_LOAD_RISE_MM): not an elastic answer
+            let lift = validity::load_dy(dy, sr, cm, ld(&pb.lx), ld(&pb.ly));
+            large = large | (down & Lane::gt(lift, validity::MAX_LOAD_RISE_MM));
+        }
         for j in 0..W {
             let k = at + j;
             sb.status[k] = validity::code_of(Checks {
@@ -578,6 +583,7 @@ impl General {
             r,
             pay.y < 0.0,
             self.reach,
+            validity::checks_load_rise(ctx.arm, ctx.effects),
         ))
     }
 }

@@ -3,11 +3,14 @@
 
 use super::BatchOutput;
 use crate::arm::Arm;
+use crate::effects::ExtraDeformations;
 use crate::kinematics::Frames;
 use crate::validity::{self, Checks};
 
 /// The status code of output row `r`, whose unloaded pose is `fr`; `loaded` is scratch space
-/// for the rigid loaded pose (the unloaded angles plus `dalpha_deg`).
+/// for the rigid loaded pose (the unloaded angles plus `dalpha_deg`). `load_rise`: check the
+/// load point's rise ([`validity::checks_load_rise`], no user-written deformation).
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn pose_status(
     arm: &Arm,
     fr: &Frames,
@@ -16,6 +19,7 @@ pub(crate) fn pose_status(
     r: usize,
     payload_down: bool,
     reach: f64,
+    load_rise: bool,
 ) -> u8 {
     let n = arm.n();
     let span = r * n..(r + 1) * n;
@@ -42,6 +46,11 @@ pub(crate) fn pose_status(
         dalpha.iter().fold(0.0f64, |m, d| m.max(d.abs()))
     };
     let lengths: Vec<f64> = (0..n).map(|i| fr.length(i)).collect();
+    let lift = load_rise && payload_down && {
+        let w = validity::load_lever(arm, fr.alpha[n - 1]);
+        let (s, c) = dalpha[n - 1].to_radians().sin_cos();
+        validity::load_dy(out.dy_mm[r], s, c - 1.0, w.x, w.y) > validity::MAX_LOAD_RISE_MM
+    };
     let checks = Checks {
         out_of_stroke: validity::out_of_stroke(arm, &lengths),
         near_singular: near,
@@ -53,7 +62,20 @@ pub(crate) fn pose_status(
             out.dy_mm[r],
             payload_down,
             reach,
-        ),
+        ) || lift,
     };
     validity::classify(checks).code()
+}
+
+/// Whether no user-written deformation acts on pose `p` (every extra array absent or zero in
+/// its row): only then is the load point's rise an error of the model.
+pub(crate) fn no_extra(extra: &ExtraDeformations<'_>, p: usize, n: usize) -> bool {
+    let zero = |a: Option<&[f64]>, width: usize| {
+        a.is_none_or(|v| v[p * width..(p + 1) * width].iter().all(|x| *x == 0.0))
+    };
+    zero(extra.seen_mm, n)
+        && zero(extra.unseen_mm, n)
+        && zero(extra.joint_mm, 2 * n)
+        && zero(extra.tilt_rad, 1)
+        && zero(extra.measure_mm, 2)
 }

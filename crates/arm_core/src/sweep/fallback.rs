@@ -63,6 +63,7 @@ pub(crate) fn run(
         nan_on_failure: false,
     };
     let reach = validity::reach(arm);
+    let lift = validity::checks_load_rise(arm, effects);
     for (p, deg) in alpha.chunks_exact(n).enumerate() {
         let pose = pose0 + p;
         for (r, d) in s.rad.iter_mut().zip(deg) {
@@ -108,7 +109,7 @@ pub(crate) fn run(
                     .solve(arm, effects, &s.rad, payload, opts, pose)
                     .is_ok()
                 {
-                    cell_status(arm, s, pose_checks, m * arm.g > 0.0, reach)
+                    cell_status(arm, s, pose_checks, m * arm.g > 0.0, reach, lift)
                 } else {
                     Status::LargeDeflection // the loaded triangle cannot close
                 };
@@ -119,7 +120,14 @@ pub(crate) fn run(
 }
 
 /// The status of the cell just solved in `s.ws` (its values written into `s.v`).
-fn cell_status(arm: &Arm, s: &mut Scratch, pose: Checks, down: bool, reach: f64) -> Status {
+fn cell_status(
+    arm: &Arm,
+    s: &mut Scratch,
+    pose: Checks,
+    down: bool,
+    reach: f64,
+    load_rise: bool,
+) -> Status {
     let n = arm.n();
     let ws = &s.ws;
     let mut max_turn = 0.0f64;
@@ -141,6 +149,12 @@ fn cell_status(arm: &Arm, s: &mut Scratch, pose: Checks, down: bool, reach: f64)
     s.v[n + 1] = ws.dmeasure.y;
     s.loaded.fill(arm, &s.rad_loaded);
     let flip = (0..n).any(|i| s.frames.side(i) * s.loaded.side(i) < 0.0);
+    // the load point rising (validity::MAX_LOAD_RISE_MM): not an elastic answer
+    let lift = load_rise && down && {
+        let w = validity::load_lever(arm, s.rad[n - 1]);
+        let (sn, cs) = (s.rad_loaded[n - 1] - s.rad[n - 1]).sin_cos();
+        validity::load_dy(ws.dmeasure.y, sn, cs - 1.0, w.x, w.y) > validity::MAX_LOAD_RISE_MM
+    };
     validity::classify(Checks {
         branch_flip: flip,
         over_force: validity::over_force(arm, &ws.loaded.f),
@@ -150,7 +164,7 @@ fn cell_status(arm: &Arm, s: &mut Scratch, pose: Checks, down: bool, reach: f64)
             ws.dmeasure.y,
             down,
             reach,
-        ),
+        ) || lift,
         ..pose
     })
 }

@@ -100,6 +100,8 @@ pub struct FastArm<const N: usize> {
     /// Squared largest displacement (mm²) and largest rise (mm) of the measure point.
     move_lim2: f64,
     rise_lim: f64,
+    /// The load point's rise is checked ([`validity::checks_load_rise`]).
+    pub(crate) load_rise: bool,
 }
 
 fn p2(v: crate::V2) -> [f64; 2] {
@@ -161,6 +163,7 @@ impl<const N: usize> FastArm<N> {
             fmax: z,
             move_lim2: 0.0,
             rise_lim: 0.0,
+            load_rise: validity::checks_load_rise(arm, effects),
         };
         let reach = validity::reach(arm);
         k.move_lim2 = (MAX_DEFLECTION_OF_REACH * reach).powi(2);
@@ -239,6 +242,10 @@ pub struct PoseBlock<const N: usize> {
     /// Global levers whose rotation moves the measure point: R(α_i)·next_i, last R(α_n)·m.
     pub(crate) gx: [[f64; L]; N],
     pub(crate) gy: [[f64; L]; N],
+    /// R(α_n)·(next_n − m): from the measure point to the load point (global), the lever of
+    /// [`validity::load_dy`].
+    pub(crate) lx: [f64; L],
+    pub(crate) ly: [f64; L],
     /// The pose is singular (an actuator through its joint, or coincident pins).
     pub singular: [bool; L],
     /// Some actuator's moment arm below [`crate::validity::MIN_MOMENT_ARM`] of |A_i − O_i|.
@@ -272,6 +279,8 @@ impl<const N: usize> PoseBlock<N> {
             d: [z; 2],
             gx: z,
             gy: z,
+            lx: [0.0; L],
+            ly: [0.0; L],
             singular: [false; L],
             near_singular: [false; L],
             out_of_stroke: [false; L],
@@ -525,6 +534,10 @@ impl<const N: usize> FastArm<N> {
             };
             gx.store(&mut pb.gx[i], at);
             gy.store(&mut pb.gy[i], at);
+            if i + 1 == N {
+                (rnx[i] - gx).store(&mut pb.lx, at);
+                (rny[i] - gy).store(&mut pb.ly, at);
+            }
             px = px + rnx[i];
             py = py + rny[i];
         }
@@ -692,7 +705,12 @@ impl<const N: usize> FastArm<N> {
         for k in 0..L {
             let moved = !(dx[k] * dx[k] + dy[k] * dy[k] <= self.move_lim2);
             let rise = down & (dy[k] > self.rise_lim);
-            let cell = if fail[k] | big[k] | moved | rise {
+            // the load point rising (validity::MAX_LOAD_RISE_MM): not an elastic answer
+            let lift = self.load_rise
+                & down
+                & (validity::load_dy(dy[k], sr[k], cm[k], pb.lx[k], pb.ly[k])
+                    > validity::MAX_LOAD_RISE_MM);
+            let cell = if fail[k] | big[k] | moved | rise | lift {
                 large
             } else {
                 0
