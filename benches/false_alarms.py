@@ -12,7 +12,7 @@ counts the verdicts that are not "adequate".
 `--campaign` (issue 11, "noise from repeats"): data sets as real campaigns make them: each
 state (`--configs` random configurations x 3 payloads) measured `--repeats` times, NO sigma columns,
 real noise `--noise` times the default levels. Each set is written to CSV and read back, so
-the reader pools sigma from the repeats (CONTRACT §3), and `eodarm.diagnose` (with its
+the reader pools sigma from the repeats (docs/formats.md §3), and `eodarm.diagnose` (with its
 outlier pass, without the advice that does not change the verdict) decides. Arms: the bundled
 example arm, the seed2022 arm and the 2-link arm of tests/arms.py. Besides the verdict, it
 reports on the same sets:

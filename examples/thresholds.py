@@ -1,5 +1,5 @@
 """Thresholds in series with the actuators: preload or stiction in a mount or in a joint,
-as user-written effects (CONTRACT §8), written for the seed data's residual shape.
+as user-written effects (docs/custom-effects.md), written for the seed data's residual shape.
 
 On the seed data (Ștefan et al. 2022, docs/seed-reproduction.md §6) a straight line through
 each configuration's three measured sags meets zero payload *below* zero in 4 of 5

@@ -163,7 +163,7 @@ def main() -> None:
         cmd = f"eodarm diagnose meas.csv --arm {ARM} --json"
         out = run(cmd, work)
         w(
-            "The same as JSON (CONTRACT §6), for scripts:\n\n```\n$ "
+            "The same as JSON (docs/formats.md §7), for scripts:\n\n```\n$ "
             + cmd
             + " | head -c 600\n"
             + out[:600]

@@ -321,7 +321,7 @@ def effects_for(
 
 @st.composite
 def extra_deformations(draw: Any, arm: eodarm.Arm, rows: int) -> dict[str, np.ndarray]:
-    """What user-written effects add (CONTRACT §8), as ``solve(extra=...)`` takes it: each key
+    """What user-written effects add (custom-effects.md), as ``solve(extra=...)`` takes it: each key
     present or not, in sizes a real mechanism shows (length changes and joint offsets up to
     0.3 mm, a chassis tilt up to 1e-4 rad, a measure-point shift up to 1 mm), small enough that
     every loaded triangle still closes."""

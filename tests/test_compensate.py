@@ -1,4 +1,4 @@
-"""Compensation (CONTRACT §9): the commanded pose, solved under the payload, puts the measure
+"""Compensation: the commanded pose, solved under the payload, puts the measure
 point on the nominal one (and keeps the last angle, n >= 3), checked with both solvers; the
 arm file's effects are part of the model; poses that cannot be compensated are named, never
 returned; bad input gets one clear error; the command line; and the independent check of

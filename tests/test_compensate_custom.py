@@ -1,4 +1,4 @@
-"""Compensation with user-written effects (CONTRACT §8, §9): finished in Python on the full
+"""Compensation with user-written effects (docs/compensation.md): finished in Python on the full
 model, from the core's compensation with the catalogue's effects."""
 
 from __future__ import annotations

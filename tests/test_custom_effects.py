@@ -1,4 +1,4 @@
-"""User-written effects (CONTRACT §8): registered in Python, used like the catalogue's.
+"""User-written effects (docs/custom-effects.md): registered in Python, used like the catalogue's.
 
 * A user effect that returns a built-in effect's cause gives that effect's numbers (mount
   compliance as an unseen length −ΔF/k, joint clearance as a pin offset c·û), through

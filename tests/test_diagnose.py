@@ -559,7 +559,7 @@ def test_sigma_from_few_repeats_is_not_called_a_missing_effect() -> None:
         sigma={c: default_sigma(c) for c in truth.channels},
     )
     d = diagnose(arm, stated, advise=False)
-    assert d.verdict == "unexplained"  # "... or the noise is understated" (CONTRACT §6)
+    assert d.verdict == "unexplained"  # "... or the noise is understated" (docs/formats.md §7)
     text = io.StringIO()
     truth.to_csv(text, sigma_columns=False)
     text.seek(0)

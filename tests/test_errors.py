@@ -1,5 +1,5 @@
 """Bad input gets a clear, one-line ValueError naming the key, row, actuator or effect at fault,
-from both backends, and the compiled core never panics across the boundary (CONTRACT §2, §5)."""
+from both backends, and the compiled core never panics across the boundary."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Deformations from user-written effects (CONTRACT §8) and gaps taken up by the unloaded
+"""Deformations from user-written effects (docs/custom-effects.md) and gaps taken up by the unloaded
 forces (docs/model.md §4), in the compiled core and the numpy reference.
 
 * The extra deformations add to the effects' causes and the pose is closed exactly: Rust and

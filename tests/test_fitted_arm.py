@@ -1,4 +1,4 @@
-"""A fitted model in the arm file (CONTRACT §7): ``[[effect]]`` and ``[fit]`` tables."""
+"""A fitted model in the arm file (docs/formats.md §2): ``[[effect]]`` and ``[fit]`` tables."""
 
 from __future__ import annotations
 

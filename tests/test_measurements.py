@@ -1,4 +1,4 @@
-"""Measurement files (CONTRACT §3) and the virtual test bench (eodarm.synth).
+"""Measurement files (docs/formats.md §3) and the virtual test bench (eodarm.synth).
 
 Promises tested here: a file written by eodarm reads back exactly; empty cells mean "not
 measured"; missing sigmas fall back to documented defaults and say so; every kind of bad input

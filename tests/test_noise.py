@@ -1,4 +1,4 @@
-"""Noise from repeats (CONTRACT §3): where a channel has no sigma, states measured more than
+"""Noise from repeats (docs/formats.md §3): where a channel has no sigma, states measured more than
 once give it the pooled standard deviation of their repeats.
 
 Promises tested here: the estimator is the pooled variance; on campaign-like data (repeats, no

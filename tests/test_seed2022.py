@@ -144,7 +144,7 @@ def test_the_tool_concludes_the_compliance_is_outside_the_actuator_bodies(
     ratio = np.nanmedian(np.abs(spring["dl_mm"])) / np.nanmedian(measured_dl)
     assert ratio > 10
     # With any three effects χ²/dof stays in the hundreds: nothing explains these data within
-    # their stated σ (CONTRACT §6: "unexplained"), so nothing is suggested. The set the BIC
+    # their stated σ (docs/formats.md §7: "unexplained"), so nothing is suggested. The set the BIC
     # prefers, and that the acceptance rule finds improves the model (held-out configurations
     # predicted better), is the bodies; with them in, the mounts.
     d1 = eodarm.diagnose(arm, m)

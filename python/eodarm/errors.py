@@ -40,7 +40,7 @@ class EffectError(EodarmError):
 
 
 class CustomEffectError(EffectError):
-    """A user-written effect (CONTRACT §8) failed: its function raised or returned something
+    """A user-written effect (custom-effects.md) failed: its function raised or returned something
     eodarm cannot use, or a file of effects did not load. The message is one line naming
     ``effect@place`` and the key (or the file); the original exception, if any, is chained."""
 

@@ -1,4 +1,4 @@
-"""The independent numpy reference implementation, under the name CONTRACT §5 gives it.
+"""The independent numpy reference implementation, as ``eodarm.reference``.
 
 It lives in :mod:`eodarm.model.reference`; ``solve(..., backend="numpy")`` runs it.
 """

@@ -1,6 +1,6 @@
 """The one rule for "suggested": when is a set of effects what the model is missing?
 
-CONTRACT §6: ``suggested`` is the smallest set of candidate effects that, added together with
+docs/formats.md §7: ``suggested`` is the smallest set of candidate effects that, added together with
 their parameters fitted, explains the data within noise and (with ≥ 3 configurations) does
 not predict held-out configurations worse than the model without it. :func:`accept` is that
 rule, and the only place it is written: :func:`eodarm.diagnose` searches sets with it, the

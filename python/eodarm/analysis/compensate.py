@@ -1,4 +1,5 @@
-"""Compensation (CONTRACT §9): the angles to command so that the payload does not move the point.
+"""Compensation (docs/compensation.md): the angles to command so that the payload does not
+move the point.
 
 A user commands a nominal pose (unloaded angles α⁰); under the payload the arm deflects and
 its measure point misses where the nominal pose puts it. :func:`compensate` returns the

@@ -1,4 +1,4 @@
-"""Compensation with user-written effects (CONTRACT §8, §9; docs/compensation.md §2).
+"""Compensation with user-written effects (docs/compensation.md §2).
 
 The core's batch Newton (:func:`eodarm.compensate`) evaluates the model inside the compiled
 iteration, where a user's Python function cannot be called. With user-written effects the

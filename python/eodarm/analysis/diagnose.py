@@ -55,7 +55,7 @@ TIE_ORDER = (
     "base_compliance",
     "actuator_compliance",
 )
-#: The verdicts of CONTRACT §6.
+#: The verdicts of docs/formats.md §7.
 VERDICTS = ("adequate", "missing", "unexplained")
 CONFUSION_CHI2 = 3.841458820694124  # 95 % point of χ² with 1 dof
 OUTLIER_Z = 4.0
@@ -120,7 +120,7 @@ class Candidate:
 
 @dataclass
 class Diagnosis:
-    """Result of :func:`diagnose`; ``to_json()`` is the CLI's JSON (CONTRACT §6).
+    """Result of :func:`diagnose`; ``to_json()`` is the CLI's JSON (docs/formats.md §7).
 
     ``verdict`` is one of :data:`VERDICTS`. With *missing*, ``suggested`` is the first set
     the rule accepted and ``acceptance`` its judgement. With *unexplained*, ``best_effort``

@@ -20,7 +20,7 @@ bounded linear least-squares problem. Residuals are whitened by the measurement 
 With ``model="fem"`` the channels come from the finite-element model (:mod:`eodarm.model.fem`) and
 the sensitivities from forward differences of it, one more FE solve per parameter.
 
-A user-written effect (CONTRACT §8) is fitted through its parameter itself, within its
+A user-written effect (docs/custom-effects.md) is fitted through its parameter itself, within its
 ``[lower, upper]``, starting from its ``start``; models that hold one are evaluated by
 :mod:`eodarm.analysis.sensitivity` (forward differences, the statics computed once).
 """
@@ -116,7 +116,7 @@ class Problem:
         self.obs = meas.values[use]
         self.sig = meas.sigma[use]
         self.n_values = int(use.sum())
-        #: The arm file's own effects (CONTRACT §7), held at their values in every evaluation
+        #: The arm file's own effects (docs/formats.md §2), held at their values in every evaluation
         #: unless the same effect@place is in the model being evaluated (then it is refitted).
         self.fixed = [(Slot.of(e), theta_from_param(e.name, e.value)) for e in arm.effects]
         self._custom: Any = None  # the evaluator of user-written effects, made on first use

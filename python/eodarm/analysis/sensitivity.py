@@ -1,4 +1,4 @@
-"""Channels and sensitivities of a model that holds user-written effects (CONTRACT §8).
+"""Channels and sensitivities of a model that holds user-written effects (docs/custom-effects.md).
 
 The compiled core's ``jacobian`` differentiates the catalogue's effects in one call, but it
 cannot call Python: a user-written effect reaches the core as extra deformations

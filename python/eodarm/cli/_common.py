@@ -87,7 +87,7 @@ def _valued_effect(spec: str, flag: str = "--add") -> Effect:
 
 
 def _effects_args(p: argparse.ArgumentParser) -> None:
-    """``--effects FILE.py``: user-written effects (CONTRACT §8), loaded before any effect is
+    """``--effects FILE.py``: user-written effects (custom-effects.md), loaded before any effect is
     parsed."""
     p.add_argument(
         "--effects",
@@ -524,7 +524,7 @@ def _plots(
 
 def data_command(sub: Any, name: str, helptext: str, desc: str) -> argparse.ArgumentParser:
     c = sub.add_parser(name, help=helptext, description=desc)
-    c.add_argument("measurements", metavar="MEAS.csv", help="measurement file (CONTRACT §3)")
+    c.add_argument("measurements", metavar="MEAS.csv", help="measurement file (docs/formats.md §3)")
     c.add_argument(
         "--arm",
         metavar="ARM.toml",

@@ -34,7 +34,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         "synth",
         help=HELP["synth"],
         description="Virtual test bench: solve the arm with hidden effects for configurations "
-        "× payloads, add Gaussian noise and write a measurement CSV (CONTRACT §3).",
+        "× payloads, add Gaussian noise and write a measurement CSV (docs/formats.md §3).",
     )
     p.add_argument("--arm", metavar="ARM.toml", help=ARM_HELP)
     poses = p.add_mutually_exclusive_group()

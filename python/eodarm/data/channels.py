@@ -1,4 +1,4 @@
-"""The measurement channels (CONTRACT §3): names, families, default noise levels.
+"""The measurement channels (docs/formats.md §3): names, families, default noise levels.
 
 ``dx_mm``, ``dy_mm`` (the measure point), ``dalphaK_deg`` (link K's absolute angle) and
 ``dlK_mm`` (actuator K's body as its own sensor sees it), in that fixed order.

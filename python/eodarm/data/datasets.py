@@ -149,7 +149,7 @@ def export(name: str, directory: str | Path) -> list[Path]:
 
 # ------------------------------------------------------------------ building seed2022
 def seed2022_measurements(tables: dict[str, Any]) -> Measurements:
-    """Tables 3 and 4 as a measurement file (CONTRACT §3).
+    """Tables 3 and 4 as a measurement file (docs/formats.md §3).
 
     * ``alphaK_deg``: Table 3's unloaded angles (configuration 3's α1 = 89.9, not Table 2's 0.1);
     * ``dalphaK_deg``: loaded − unloaded (Table 3), as printed (configuration 2's α1 rises);
@@ -230,7 +230,7 @@ def seed2022_published_dict() -> dict[str, Any]:
 
 
 def example_arm() -> Arm:
-    """The bundled example arm (``data/example_arm.toml``, CONTRACT §2)."""
+    """The bundled example arm (``data/example_arm.toml``, docs/formats.md §1)."""
     ref = resources.files("eodarm.data").joinpath("example_arm.toml")
     with resources.as_file(ref) as path:
         return Arm.from_toml(path)

@@ -1,4 +1,4 @@
-"""Measured deflections: reading, validating and writing the measurement file (CONTRACT §3).
+"""Measured deflections: reading, validating and writing the measurement file (docs/formats.md §3).
 
 A measurement file has one row per *state* (a configuration × a payload). Every value is a
 difference, loaded minus unloaded, measured on the arm whose unloaded angles the row gives.
@@ -397,7 +397,7 @@ class Measurements:
         return pd.DataFrame(data)
 
     def to_csv(self, path: str | Path | TextIO, sigma_columns: bool | None = None) -> None:
-        """Write the measurement file of CONTRACT §3.
+        """Write the measurement file of docs/formats.md §3.
 
         Columns: ``config``, ``alpha1_deg``…, ``mass_kg``, the measured channels, then the
         ``sigma_`` columns (unless ``sigma_columns`` — default :attr:`sigma_columns` — is

@@ -1,6 +1,6 @@
 """Pose files (CSV): the nominal poses to compensate, one per row.
 
-Columns, with the measurement file's names (CONTRACT §3): ``alpha1_deg`` … ``alphaN_deg``
+Columns, with the measurement file's names (docs/formats.md §3): ``alpha1_deg`` … ``alphaN_deg``
 (required: unloaded absolute angles), ``mass_kg`` (optional: the payload of each row) and
 ``config`` (optional: a label carried through). Other columns are ignored. A UTF-8 byte-order
 mark is accepted. Bad cells are refused with their line numbers, all in one message.

@@ -1,4 +1,4 @@
-"""Measurement files (CSV, CONTRACT §3) and pandas DataFrames read into :class:`Measurements`.
+"""Measurement files (docs/formats.md §3) and pandas DataFrames read into :class:`Measurements`.
 
 The reader turns a file or a DataFrame into a header and rows of cells; the checks and the
 assembly of every row are :class:`Measurements`' own (``eodarm.data.measurements``).
@@ -29,7 +29,7 @@ __all__ = ["from_dataframe", "read_measurements"]
 
 # ---------------------------------------------------------------------------- reading
 def read_measurements(path: str | Path | TextIO, n: int) -> Measurements:
-    """Read and validate a measurement file (CONTRACT §3) for an ``n``-link arm.
+    """Read and validate a measurement file (docs/formats.md §3) for an ``n``-link arm.
 
     Parameters
     ----------

@@ -1,10 +1,10 @@
-"""Arm description: loading, validating and exporting the arm file of CONTRACT §2.
+"""Arm description: loading, validating and exporting the arm file of docs/formats.md §1.
 
 An :class:`Arm` is immutable and always valid: every constructor goes through
 :meth:`Arm.from_dict`, which checks every key before anything is built, so nothing
 half-loaded is ever used.
 
-An arm file may carry a fitted model (CONTRACT §7): ``[[effect]]`` tables (effect, place,
+An arm file may carry a fitted model (docs/formats.md §2): ``[[effect]]`` tables (effect, place,
 parameter, optional standard error) become :attr:`Arm.effects`, and an optional ``[fit]``
 table keeps what the fit knew: the covariance of the fitted parameters, the data it was
 fitted to (name and SHA-256) and its χ²/dof (:class:`FitRecord`).
@@ -207,7 +207,7 @@ class EffectMark:
 
 @dataclass(frozen=True)
 class Arm:
-    """A planar arm of n links, each driven by a linear actuator (CONTRACT §2).
+    """A planar arm of n links, each driven by a linear actuator (docs/formats.md §1).
 
     Build one with :meth:`from_toml` or :meth:`from_dict`.
     """

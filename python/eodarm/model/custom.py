@@ -1,4 +1,4 @@
-"""User-written effects (CONTRACT §8): the registry, the state they read, their checks.
+"""User-written effects (docs/custom-effects.md): the registry, the state they read, their checks.
 
 A user describes a mechanism the catalogue lacks as a Python function of the arm's statics
 and registers it with :func:`custom_effect`::
@@ -115,7 +115,7 @@ def custom_effect(
     neutral: float | None = None,
     unit: str = "",
 ) -> Callable[[F], F]:
-    """Register a user-written effect (CONTRACT §8); use as a decorator.
+    """Register a user-written effect (docs/custom-effects.md); use as a decorator.
 
     Parameters
     ----------
@@ -250,7 +250,7 @@ def _same(frame: traceback.FrameSummary, path: Path) -> bool:
 # ---------------------------------------------------------------------------- the state
 @dataclass(frozen=True, eq=False)
 class EffectState:
-    """What a user effect reads: the undeformed statics of N states (CONTRACT §1, §8).
+    """What a user effect reads: the undeformed statics of N states (docs/model.md §1).
 
     Attributes
     ----------

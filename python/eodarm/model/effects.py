@@ -1,4 +1,4 @@
-"""The catalogue of physical effects (CONTRACT §4) and the :class:`Effect` value type."""
+"""The catalogue of physical effects (docs/model.md §4) and the :class:`Effect` value type."""
 
 from __future__ import annotations
 
@@ -34,7 +34,7 @@ __all__ = [
 ]
 
 #: Where a gap (``actuator_play``, ``joint_clearance``) sits in the unloaded state:
-#: ``"centred"`` (the whole offset appears under load, CONTRACT §4) or ``"taken_up"`` (the
+#: ``"centred"`` (the whole offset appears under load, docs/model.md §4) or ``"taken_up"`` (the
 #: unloaded forces already closed it; only the change of offset shows). docs/model.md §4.
 UNLOADED = ("centred", "taken_up")
 
@@ -208,7 +208,7 @@ class Effect:
         return self.key + (":taken_up" if self.unloaded == "taken_up" else "")
 
     def to_table(self) -> dict[str, Any]:
-        """The effect as an arm file's ``[[effect]]`` table (CONTRACT §7)."""
+        """The effect as an arm file's ``[[effect]]`` table (docs/formats.md §2)."""
         table: dict[str, Any] = {"effect": self.name, "at": self.at, self.kind.param: self.value}
         if self.unloaded != "centred":
             table["unloaded"] = self.unloaded
@@ -349,7 +349,7 @@ def effect_arrays(effects: Iterable[Effect], n: int) -> tuple[np.ndarray, np.nda
 
 def with_arm_effects(arm_effects: Sequence[Effect], effects: Any) -> list[Effect]:
     """The model of a solve: an arm file's effects, then ``effects`` on top of them (the same
-    effect@place given again replaces the file's, CONTRACT §7)."""
+    effect@place given again replaces the file's, docs/formats.md §2)."""
     given = as_effects(effects)
     keys = {e.key for e in given if isinstance(e, Effect)}
     return [e for e in arm_effects if e.key not in keys] + given

@@ -1,6 +1,6 @@
 """Independent numpy reference implementation of the eodarm model.
 
-Everything here is derived from ``docs/model.md`` (and ``CONTRACT.md``) alone; it is the
+Everything here is derived from ``docs/model.md`` (and ``docs/formats.md``) alone; it is the
 yardstick the compiled core is tested against, so where the document allows it, it uses a
 *different but equivalent* formulation:
 
@@ -352,7 +352,7 @@ def _bending_displacement(
 
 
 # ---------------------------------------------------------------------------- extras
-#: The extra deformations of user effects (CONTRACT §8) as whole-arm arrays: name → the shape
+#: The extra deformations of user effects (custom-effects.md) as whole-arm arrays: name → the shape
 #: of one pose's values ("n" the number of links). The same names as ``_core.solve``'s.
 EXTRA_SHAPES: dict[str, tuple[str | int, ...]] = {
     "extra_seen_mm": ("n",),
@@ -420,7 +420,7 @@ def solve_payload(
     self_weight : bool, default True
         Whether both states carry the link and actuator weights.
     extra : dict of str to array_like, optional
-        Deformations of user-written effects added to the effects' (CONTRACT §8), each
+        Deformations of user-written effects added to the effects' (docs/custom-effects.md), each
         optional: ``extra_seen_mm`` (N, n), ``extra_unseen_mm`` (N, n), ``extra_joint_mm``
         (N, n, 2), ``extra_tilt_rad`` (N,), ``extra_measure_mm`` (N, 2) (see ``_extras``).
     nan_on_failure : bool, default False
@@ -707,7 +707,7 @@ def solve(
     self_weight: bool = True,
     extra: Any = None,
 ) -> dict[str, FloatArray]:
-    """Response of the arm to a payload mass at the load point (CONTRACT §5, numpy backend).
+    """Response of the arm to a payload mass at the load point (numpy backend of ``solve``).
 
     Parameters
     ----------

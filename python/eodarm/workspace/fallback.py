@@ -60,7 +60,7 @@ def sweep_fallback(
 
     With ``model="fem"`` the cells are solved by the finite-element model instead
     (:func:`eodarm.model.fem.fem_solve_payload`, ``effects`` given as Effect values).
-    User-written effects (CONTRACT §8) among ``effects`` are computed here, once per place
+    User-written effects (custom-effects.md) among ``effects`` are computed here, once per place
     for the whole chunk, on the statics of its solvable cells, and given to the core as extra
     deformations (``codes``/``places``/``values`` hold the catalogue's effects only).
 

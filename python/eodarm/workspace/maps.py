@@ -115,7 +115,7 @@ def payload_capacity(
     stroke limit is reached at the smallest m ≥ 0 where it leaves
     [``min_length_mm``, ``max_length_mm``] (play jumps where F_i changes sign). The capacity is
     the smallest of these over every actuator and limit, capped at ``max_payload_kg``.
-    User-written effects (CONTRACT §8) do not change the forces; their length changes are not
+    User-written effects (custom-effects.md) do not change the forces; their length changes are not
     in the stroke limit (a warning says so).
 
     Poses that are not reachable unloaded (out of stroke, singular) have NaN, and so have

@@ -171,8 +171,8 @@ def sweep(
         link's absolute angle), through :func:`eodarm.inverse_kinematics` with ``elbow``
         (3-link arms). Targets out of reach are not ok and not reachable.
     mass_kg : payload masses, kg (1-D); each pose is solved under each.
-    effects : effects added to the baseline model (CONTRACT §4), built-in or user-written
-        (CONTRACT §8; these take the chunked path, each function called once per chunk, and
+    effects : effects added to the baseline model (docs/model.md §4), built-in or user-written
+        (custom-effects.md; these take the chunked path, each function called once per chunk, and
         a Dask worker must have them registered too, e.g. through the entry-point group).
     self_weight : include link and actuator weights in both states.
     reduce : ``{"op": "max"|"min"|"argmax"|"argmin", "dims": [...]}``: reduce the per-cell
@@ -448,7 +448,7 @@ def _dataset(setup: _Setup, result: Mapping[str, Any]) -> xr.Dataset:
         "grid": grid.kind,
         "g": arm.g,
         "reduce": f"{op} over {over}" if op else "none",
-        "Conventions": "eodarm CONTRACT: mm, N, kg, deg; y up; force compression positive",
+        "Conventions": "eodarm (docs/model.md): mm, N, kg, deg; y up; force compression positive",
     }
     if grid.kind == "lengths":
         assert grid.ref is not None
