@@ -142,7 +142,13 @@ class Problem:
             index = np.arange(self.meas.n_rows) if rows is None else np.asarray(rows).ravel()
             if k >= index.size:
                 raise
-            line = int(self.meas.line[int(index[k])])
+            row = int(index[k])
+            # a file's 1-based line, or the 0-based row of arrays given in memory
+            where = (
+                f"row {row}"
+                if self.meas.source.startswith("<")
+                else f"line {int(self.meas.line[row])}"
+            )
             under = ", ".join(  # the effects of the model that the state could not take
                 f"{s.spec} = {param_from_theta(s.name, float(t)):.4g} {s.kind.unit}".rstrip()
                 for s, t in [
@@ -151,7 +157,7 @@ class Problem:
                 ]
             )
             raise EodarmError(
-                f"{self.meas.source} line {line}: {str(exc)[m.end() :]}"
+                f"{self.meas.source} {where}: {str(exc)[m.end() :]}"
                 + (f" (with {under})" if under else "")
             ) from None
 
