@@ -599,3 +599,38 @@ def test_a_trial_step_the_model_cannot_solve_is_shortened_not_fatal(
     assert calls["n"] > 2
     assert got.estimate(0) == pytest.approx(want.estimate(0), rel=1e-6)
     assert got.chi2_per_dof == pytest.approx(want.chi2_per_dof, rel=1e-6)
+
+
+def test_a_fit_started_where_a_measured_state_cannot_close_starts_again_nearer_home() -> None:
+    """diagnose refits each candidate from its linearised estimate; on a heavily loaded pose
+    that estimate can lie where a measured state cannot be closed (a 20 000-row synthetic file
+    was refused whole for one such pose). The fit must back off towards the default start,
+    not refuse data that the baseline closes."""
+    from eodarm.data import datasets
+    from eodarm.model.effects import theta_from_param
+
+    arm = datasets.load("seed2022", tables=False).arm
+    alpha = np.array([[61.20214507, -30.98999411, 21.85215768], [90.0, 10.0, 0.0]])
+    mass = np.array([6.5, 6.5])
+    truth = eodarm.solve(arm, alpha, mass, strict=True)  # the baseline closes both states
+    start = theta_from_param("actuator_compliance", 300.0)  # N/mm: state 0 cannot close
+    with pytest.raises(ValueError, match="cannot close"):
+        eodarm.solve(
+            arm,
+            alpha,
+            mass,
+            [eodarm.Effect("actuator_compliance", "M3", stiffness_n_per_mm=300)],
+            strict=True,
+        )
+    meas = eodarm.Measurements.from_arrays(
+        config=["a", "b"],
+        alpha_deg=alpha,
+        mass_kg=mass,
+        values={"dy_mm": truth["dy_mm"], "dalpha3_deg": truth["dalpha_deg"][:, 2]},
+        sigma={"dy_mm": np.full(2, 0.02), "dalpha3_deg": np.full(2, 0.02)},
+    )
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", FitWarning)
+        res = fit(arm, meas, ["actuator_compliance@M3"], start=[start])
+    k = res.summary()["effects"][0]["estimate"]["stiffness_n_per_mm"]
+    assert k == pytest.approx(500.0, rel=1e-3)  # the baseline's own spring, recovered

@@ -781,18 +781,29 @@ def fit(
         ],
         dtype=float,
     )
-    if start is not None:
-        theta = np.asarray(start, dtype=float).copy()
     lo = np.array([prob.bounds(s)[0] for s in slots])
     hi = np.array([prob.bounds(s)[1] for s in slots])
-    theta = np.clip(theta, lo, hi)
+    default = np.clip(theta, lo, hi)
+    theta = default if start is None else np.clip(np.asarray(start, dtype=float), lo, hi)
 
     def at(th: npt.NDArray[np.float64]) -> tuple[Any, Any, float]:
         y, jac = prob.evaluate(list(zip(slots, th, strict=True)), slots)
         r = prob.whiten(y)
         return y, jac, float(r @ r)
 
-    y, jac, chi2 = at(theta)
+    # A given start (e.g. diagnose's linearised estimate) may lie outside the model's domain
+    # (a measured state that cannot be closed there): move it back towards the default start
+    # (the effects absent, or the file's values) until every state closes.
+    for lam in (0.5, 0.25, 0.125, 0.0625, 0.0):
+        try:
+            y, jac, chi2 = at(theta)
+            break
+        except EodarmError:
+            if start is None:
+                raise
+            theta = default + lam * (np.clip(np.asarray(start, dtype=float), lo, hi) - default)
+    else:
+        y, jac, chi2 = at(theta)
     it = 0
     for it in range(1, max_iter + 1):  # noqa: B007
         if not slots:
