@@ -34,6 +34,7 @@ _PUBLIC = {
     "inverse_kinematics": "eodarm.model.solver",
     "solve": "eodarm.model.solver",
     "solve_payload": "eodarm.model.solver",
+    "solve_sequence": "eodarm.model.solver",
     "stroke_violations": "eodarm.model.solver",
     "Measurements": "eodarm.data.measurements",
     "read_measurements": "eodarm.data.reader",
@@ -74,6 +75,7 @@ __all__ = [
     "read_measurements",
     "solve",
     "solve_payload",
+    "solve_sequence",
     "stroke_violations",
     "sweep",
 ]
@@ -107,6 +109,7 @@ if TYPE_CHECKING:
         inverse_kinematics,
         solve,
         solve_payload,
+        solve_sequence,
         stroke_violations,
     )
     from eodarm.workspace.sweep import sweep

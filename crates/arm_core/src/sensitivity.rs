@@ -20,8 +20,9 @@ mod general;
 
 use crate::arm::Arm;
 use crate::effects::{
-    ActuatorCompliance, ActuatorPlay, BaseCompliance, Effect, EffectSet, JointClearance,
-    LinkBending, MountCompliance, Unloaded, CODE_CLEARANCE_TAKEN_UP, CODE_PLAY_TAKEN_UP,
+    ActuatorCompliance, ActuatorFriction, ActuatorPlay, BaseCompliance, Effect, EffectSet,
+    JointClearance, JointFriction, LinkBending, MountCompliance, Unloaded, CODE_ACTUATOR_FRICTION,
+    CODE_CLEARANCE_TAKEN_UP, CODE_JOINT_FRICTION, CODE_PLAY_TAKEN_UP,
 };
 use crate::error::{ArmError, Result};
 use crate::solve::fast::Kernel;
@@ -32,7 +33,8 @@ use crate::solve::{check_input, BatchInput, SolveOptions};
 pub struct Place {
     /// Catalogue code: 0 actuator_compliance, 1 mount_compliance, 2 actuator_play,
     /// 3 joint_clearance, 4 link_bending, 5 base_compliance; 6 actuator_play and
-    /// 7 joint_clearance taken up by the unloaded forces ([`Unloaded::TakenUp`]).
+    /// 7 joint_clearance taken up by the unloaded forces ([`Unloaded::TakenUp`]); 8
+    /// actuator_friction and 9 joint_friction (θ the limit itself, N or N·mm).
     pub code: i64,
     /// 0-based place index (0 for the base).
     pub index: usize,
@@ -71,6 +73,14 @@ pub fn effect_from_theta(place: Place, theta: f64) -> Result<Effect> {
         }),
         5 => Effect::BaseCompliance(BaseCompliance {
             stiffness: inv(theta),
+        }),
+        CODE_ACTUATOR_FRICTION => Effect::ActuatorFriction(ActuatorFriction {
+            actuator: i,
+            friction: theta,
+        }),
+        CODE_JOINT_FRICTION => Effect::JointFriction(JointFriction {
+            joint: i,
+            torque: theta,
         }),
         c => {
             return Err(ArmError::InvalidEffect {

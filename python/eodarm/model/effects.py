@@ -81,6 +81,8 @@ CATALOGUE: dict[str, EffectKind] = {
         EffectKind("joint_clearance", 3, "O", "clearance_mm", "mm", False, True, 7),
         EffectKind("link_bending", 4, "L", "ei_n_mm2", "N·mm²", True, False),
         EffectKind("base_compliance", 5, "", "stiffness_nmm_per_rad", "N·mm/rad", True, False),
+        EffectKind("actuator_friction", 8, "M", "friction_n", "N", False, True),
+        EffectKind("joint_friction", 9, "O", "torque_nmm", "N·mm", False, True),
     )
 }
 

@@ -114,6 +114,8 @@ impl<const N: usize> SolveKernel<N> {
                 | Effect::JointClearance(_)
                 | Effect::LinkBending(_)
                 | Effect::BaseCompliance(_) => {}
+                // Friction is solved per sequence on the general path (`sequence.rs`).
+                Effect::ActuatorFriction(_) | Effect::JointFriction(_) => return None,
             }
         }
         Some(Self {
