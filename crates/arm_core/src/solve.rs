@@ -168,6 +168,22 @@ impl Workspace {
         extra: (&ExtraDeformations<'_>, usize),
         memory: &mut SequenceMemory,
     ) -> Result<()> {
+        self.prepare(arm, alpha, opts, row)?;
+        self.solve_prepared(arm, effects, payload, row, extra, memory)
+    }
+
+    /// The reference of a pose (angles in rad): its geometry, actuator lines and the forces
+    /// of the unloaded state, shared by every state of a sequence.
+    ///
+    /// # Errors
+    /// Singular poses, naming `row`.
+    pub(crate) fn prepare(
+        &mut self,
+        arm: &Arm,
+        alpha: &[f64],
+        opts: SolveOptions,
+        row: usize,
+    ) -> Result<()> {
         self.frames.fill(arm, alpha);
         self.lines.fill(&self.frames, row)?;
         solve_forces(
@@ -178,6 +194,22 @@ impl Workspace {
             V2::zeros(),
             &mut self.weight,
         );
+        Ok(())
+    }
+
+    /// One state of the pose [`Self::prepare`]d last (see [`Self::solve_state`]).
+    ///
+    /// # Errors
+    /// Triangles that cannot close, naming `row`.
+    pub(crate) fn solve_prepared(
+        &mut self,
+        arm: &Arm,
+        effects: &EffectSet,
+        payload: V2,
+        row: usize,
+        extra: (&ExtraDeformations<'_>, usize),
+        memory: &mut SequenceMemory,
+    ) -> Result<()> {
         solve_forces(
             arm,
             &self.frames,

@@ -156,19 +156,16 @@ fn run_chunk(
             *a = d.to_radians();
         }
         memory.reset();
+        // The reference's geometry and forces are the same for every state.
+        let prepared = ws.prepare(arm, &alpha, opts, row);
         for k in 0..s {
             let p = q * s + k;
             let payload = V2::new(input.payload_n[2 * p], input.payload_n[2 * p + 1]);
-            match ws.solve_state(
-                arm,
-                effects,
-                &alpha,
-                payload,
-                opts,
-                row,
-                (&none, 0),
-                &mut memory,
-            ) {
+            let solved = match &prepared {
+                Ok(()) => ws.solve_prepared(arm, effects, payload, row, (&none, 0), &mut memory),
+                Err(e) => Err(e.clone()),
+            };
+            match solved {
                 Ok(()) => write_row(&ws, &alpha, &mut out, p, n),
                 Err(e) if opts.nan_on_failure && e.is_pose_failure() => fill_nan(&mut out, p, n),
                 Err(e) => return Err(e),
