@@ -115,6 +115,9 @@ fn typical_theta(arm: &Arm, place: Place) -> f64 {
         0 | 1 => 1.0 / arm.actuators[place.index].stiffness,
         2 | 3 | CODE_PLAY_TAKEN_UP | CODE_CLEARANCE_TAKEN_UP => 0.1,
         4 => 1e-10,
+        // A friction's θ is its limit: a step of 0.01 N or 1 N·mm.
+        CODE_ACTUATOR_FRICTION => 10.0,
+        CODE_JOINT_FRICTION => 1000.0,
         _ => 1e-8,
     }
 }
@@ -271,7 +274,10 @@ impl Sets {
         sets.push(build(None)?);
         let mut steps = Vec::with_capacity(p);
         for &q in probes {
-            if q.index >= arm.n() || !(0..=CODE_CLEARANCE_TAKEN_UP).contains(&q.code) {
+            let known = (0..=CODE_CLEARANCE_TAKEN_UP).contains(&q.code)
+                || q.code == CODE_ACTUATOR_FRICTION
+                || q.code == CODE_JOINT_FRICTION;
+            if q.index >= arm.n() || !known {
                 return Err(ArmError::InvalidEffect {
                     effect: format!("code {} at index {}", q.code, q.index),
                     reason: format!("no such place on a {}-link arm", arm.n()),
