@@ -229,7 +229,8 @@ def test_zero_friction_is_the_frictionless_model(case, self_weight) -> None:
         arm, np.repeat(alpha, states, 0), masses.reshape(-1), without, self_weight=self_weight
     )
     for k in (*MOTION, "force_n"):
-        np.testing.assert_array_equal(a[k], b[k], err_msg=k)
+        # a runs the general path (it has frictions), b the block kernel: equal to rounding
+        np.testing.assert_allclose(a[k], b[k], rtol=1e-9, atol=EXACT_MM, err_msg=k)
         np.testing.assert_allclose(
             b[k].reshape(single[k].shape), single[k], rtol=1e-9, atol=EXACT_MM, err_msg=k
         )
