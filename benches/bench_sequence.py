@@ -213,12 +213,18 @@ def main() -> None:
     states = args.sequences * MASSES.size
     t_rust = best(lambda: eodarm.solve_sequence(arm, alpha, MASSES, EFFECTS))
     t_np = best(lambda: numpy_sequence(arm, alpha, MASSES))
+    frictionless = [e for e in EFFECTS if not e.name.endswith("_friction")]
+    t_free = best(lambda: eodarm.solve_sequence(arm, alpha, MASSES, frictionless))
     print(f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores")
     print(f"{args.sequences:,} sequences × {MASSES.size} states, every effect kind (8)")
     print(f"numpy version agrees with solve_sequence to {diff:.2g} mm")
     print(f"solve_sequence (rust): {t_rust:8.3f} s  {states / t_rust / 1e6:7.2f} M states/s")
     print(f"numpy version:         {t_np:8.3f} s  {states / t_np / 1e6:7.2f} M states/s")
     print(f"speed-up: {t_np / t_rust:.1f}×")
+    print(
+        f"without the two frictions (block kernel): {t_free:8.3f} s  "
+        f"{states / t_free / 1e6:7.2f} M states/s"
+    )
 
 
 if __name__ == "__main__":
