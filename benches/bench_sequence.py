@@ -37,7 +37,7 @@ EFFECTS = [
     eodarm.Effect("mount_compliance", "M2", stiffness_n_per_mm=4000.0),
     eodarm.Effect("actuator_play", "M3", play_mm=0.05),
     eodarm.Effect("joint_clearance", "O3", clearance_mm=0.15),
-    eodarm.Effect("link_bending", "L2", ei_n_mm2=2.0e10),
+    eodarm.Effect("link_bending", "L1", ei_n_mm2=2.0e10),
     eodarm.Effect("base_compliance", "base", stiffness_nmm_per_rad=5.0e8),
     eodarm.Effect("actuator_friction", "M1", friction_n=40.0),
     eodarm.Effect("joint_friction", "O3", torque_nmm=4000.0),
@@ -101,8 +101,8 @@ def numpy_sequence(arm: eodarm.Arm, alpha_deg: F, masses: F) -> dict[str, F]:
     play, clearance, ei, k_base = 0.05, 0.15, 2.0e10, 5.0e8
     lim_body = 40.0
     lim_joint = 4000.0 / np.abs(h[2])
-    # link 2's bending influence: loads at O_2 (x=0), A_2, B_2, next_2; points A_2, B_2, next_2
-    lk = arm.links[1]
+    # link 1's bending influence: loads at O_1 (x=0), A_1, B_1, next_1; points A_1, B_1, next_1
+    lk = arm.links[0]
     pts = np.array([lk.A, lk.B, lk.next], dtype=float)
     at = np.array([[0.0, 0.0], lk.A, lk.B, lk.next], dtype=float)
     xa = lk.A[0]
@@ -127,7 +127,6 @@ def numpy_sequence(arm: eodarm.Arm, alpha_deg: F, masses: F) -> dict[str, F]:
         # A Coulomb element keeps S within L of what it sees: S ← clip(S, x − L, x + L).
         x = df[2]
         held_j = np.clip(held_j, x - lim_joint, x + lim_joint)
-        couple3 = (x - held_j) * h[2]
         dr[2] = dr[2] - (held_j - x)[:, None] * e[2]
         df[2] = held_j
         held_b = np.clip(held_b, df[0] - lim_body, df[0] + lim_body)
@@ -144,21 +143,20 @@ def numpy_sequence(arm: eodarm.Arm, alpha_deg: F, masses: F) -> dict[str, F]:
         pn = np.hypot(*press.T)
         scale = np.where(pn >= ZERO_N, clearance / np.where(pn > 0, pn, 1.0), 0.0)
         off3 = press * scale[:, None]
-        # link 2's bending (global loads to its frame)
-        loads = [dr[1], df[1][:, None] * e[1], -df[2][:, None] * e[2], -dr[2]]
-        cpls = [0.0, 0.0, 0.0, -couple3]
+        # link 1's bending (global loads to its frame); no joint friction touches link 1
+        loads = [dr[0], df[0][:, None] * e[0], -df[1][:, None] * e[1], -dr[1]]
         shift = []
         beam_loads = []
-        for k, (fg, cp) in enumerate(zip(loads, cpls, strict=True)):
-            fl = rot(-alpha[:, 1], fg)
-            beam_loads.append((at[k, 0], fl[:, 1], -at[k, 1] * fl[:, 0] + cp))
+        for k, fg in enumerate(loads):
+            fl = rot(-alpha[:, 0], fg)
+            beam_loads.append((at[k, 0], fl[:, 1], -at[k, 1] * fl[:, 0]))
         w0 = sum(w(0.0, *bl) for bl in beam_loads)
         slope = (sum(w(xa, *bl) for bl in beam_loads) - w0) / xa
         for q in pts:
             v = (sum(w(q[0], *bl) for bl in beam_loads) - w0 - slope * q[0]) / ei
             dv = (sum(dw(q[0], *bl) for bl in beam_loads) - slope) / ei
             shift.append(np.stack([-q[1] * dv, v], axis=-1))
-        d_a2, d_b2, d_next2 = shift
+        d_a1, d_b1, d_next1 = shift
         dphi = cross(tilt0, np.broadcast_to([0.0, -p], (rows, 2))) / k_base
         # the exact closure, base to tip
         piv = ar["pivot"]
@@ -167,12 +165,12 @@ def numpy_sequence(arm: eodarm.Arm, alpha_deg: F, masses: F) -> dict[str, F]:
         a_prev = None
         for i in range(n):
             if i > 0:
-                nxt = ar["next"][i - 1] + (d_next2 if i - 1 == 1 else 0.0)
-                bb = ar["B"][i - 1] + (d_b2 if i - 1 == 1 else 0.0)
+                nxt = ar["next"][i - 1] + (d_next1 if i - 1 == 0 else 0.0)
+                bb = ar["B"][i - 1] + (d_b1 if i - 1 == 0 else 0.0)
                 o_prev = o_new
                 o_new = o_prev + rot(a_prev, nxt) + (off3 if i == 2 else 0.0)
                 b_new = o_prev + rot(a_prev, bb)
-            a_loc = ar["A"][i] + (d_a2 if i == 1 else np.zeros(2))
+            a_loc = ar["A"][i] + (d_a1 if i == 0 else np.zeros(2))
             rho = np.hypot(*np.broadcast_to(a_loc, (rows, 2)).T)
             dvec = b_new - o_new
             dd = np.hypot(*dvec.T)

@@ -28,13 +28,16 @@
 mod base;
 mod bending;
 mod clearance;
+mod friction;
 
 use base::Base;
 use bending::{Bending, Shifts};
 use clearance::Clearance;
+use friction::{Friction, Held};
 
+use super::sequence::SequenceInput;
 use super::status::pose_status;
-use super::{write_row, BatchInput, BatchOutput, SolveOptions, Workspace};
+use super::{write_row, BatchBuffers, BatchInput, BatchOutput, SolveOptions, Workspace};
 use crate::arm::Arm;
 use crate::effects::{Effect, EffectSet};
 use crate::error::Result;
@@ -58,6 +61,7 @@ pub(crate) struct SolveKernel<const N: usize> {
     clear: Clearance<N>,
     bend: Bending<N>,
     base: Base,
+    fric: Friction<N>,
     /// The arm's reach Σ|next_i| (validity).
     reach: f64,
     /// Force limits (N), +∞ where none.
@@ -81,6 +85,8 @@ pub(crate) struct SolveBlock<const N: usize> {
     fail: [bool; L],
     /// Status codes (docs/model.md §7).
     status: [u8; L],
+    /// Further body length a body friction leaves (mm; zero without one).
+    seen: [[f64; L]; N],
 }
 
 impl<const N: usize> SolveBlock<N> {
@@ -97,6 +103,7 @@ impl<const N: usize> SolveBlock<N> {
             dy: [0.0; L],
             fail: [false; L],
             status: [0; L],
+            seen: z,
         }
     }
 }
@@ -114,8 +121,7 @@ impl<const N: usize> SolveKernel<N> {
                 | Effect::JointClearance(_)
                 | Effect::LinkBending(_)
                 | Effect::BaseCompliance(_) => {}
-                // Friction is solved per sequence on the general path (`sequence.rs`).
-                Effect::ActuatorFriction(_) | Effect::JointFriction(_) => return None,
+                Effect::ActuatorFriction(_) | Effect::JointFriction(_) => {}
             }
         }
         Some(Self {
@@ -123,6 +129,7 @@ impl<const N: usize> SolveKernel<N> {
             clear: Clearance::new(effects),
             bend: Bending::new(arm, effects),
             base: Base::new(arm, effects),
+            fric: Friction::new(effects)?,
             reach: validity::reach(arm),
             fmax: std::array::from_fn(|i| arm.actuators[i].max_force.unwrap_or(f64::INFINITY)),
         })
@@ -144,6 +151,7 @@ impl<const N: usize> SolveKernel<N> {
         out: &mut BatchOutput<'_>,
         status: &mut [u8],
         p: usize,
+        held: Option<&mut Held<N>>,
     ) {
         struct Op<'a, 'o, const N: usize> {
             k: &'a SolveKernel<N>,
@@ -155,6 +163,7 @@ impl<const N: usize> SolveKernel<N> {
             out: &'a mut BatchOutput<'o>,
             status: &'a mut [u8],
             p: usize,
+            held: Option<&'a mut Held<N>>,
         }
         impl<const N: usize> pulp::WithSimd for Op<'_, '_, N> {
             type Output = ();
@@ -165,6 +174,12 @@ impl<const N: usize> SolveKernel<N> {
                 let trig = block_trig::<N>(self.alpha_deg, self.count);
                 let k = self.k;
                 k.fa.poses_sc_impl(&trig.0, &trig.1, &pay, self.pb);
+                if k.fric.any {
+                    // `solve` is a sequence of one state: a fresh memory.
+                    let mut fresh = Held::new();
+                    let held = self.held.unwrap_or(&mut fresh);
+                    k.fric.step(self.pb, held, &k.fa.body_c, &mut self.sb.seen);
+                }
                 k.close_any(&trig, &pay, self.pb, self.sb);
                 write_block(self.pb, self.sb, self.out, self.status, self.p, self.count);
             }
@@ -179,6 +194,7 @@ impl<const N: usize> SolveKernel<N> {
             out,
             status,
             p,
+            held,
         });
     }
 
@@ -275,7 +291,8 @@ impl<const N: usize> SolveKernel<N> {
             let du = ld(&pb.fu[i]);
             let fw = ld(&pb.fw[i]);
             let f = fw + du;
-            let dlen = fa.dlen::<PLAY, UP, F4>(i, du, f, fw);
+            let seen = ld(&sb.seen[i]);
+            let dlen = fa.dlen::<PLAY, UP, F4>(i, du, f, fw) + seen;
             let l = ld(&pb.len[i]);
             let (c, s, side) = (ld(&pb.c[i]), ld(&pb.s[i]), ld(&pb.side[i]));
             let (dc, rd, ra) = if GEOM {
@@ -358,7 +375,7 @@ impl<const N: usize> SolveKernel<N> {
             du.store(&mut sb.dforce[i], at);
             (ld(&pb.rw[0][i]) + ld(&pb.ru[0][i])).store(&mut sb.reaction[0][i], at);
             (ld(&pb.rw[1][i]) + ld(&pb.ru[1][i])).store(&mut sb.reaction[1][i], at);
-            (-du * bc).store(&mut sb.dl[i], at);
+            (-du * bc + seen).store(&mut sb.dl[i], at);
             dlen.store(&mut sb.dlength[i], at);
         }
         if far.any() {
@@ -488,6 +505,106 @@ impl Kernel {
     }
 }
 
+impl Kernel {
+    /// Solves the load sequences of `input` (see [`super::sequence`]) into `out` (rows
+    /// `q·S + s`) and `status`, [`L`] sequences at a time with each lane's friction memory
+    /// carried from state to state; returns the (chunk-local) sequences with a state the
+    /// kernel could not solve, for the general path to solve again.
+    pub(crate) fn sequences(
+        &self,
+        simd: pulp::Arch,
+        input: SequenceInput<'_>,
+        out: &mut BatchOutput<'_>,
+        status: &mut [u8],
+    ) -> Vec<usize> {
+        match self {
+            Self::F1(k) => k.sequences(simd, input, out, status),
+            Self::F2(k) => k.sequences(simd, input, out, status),
+            Self::F3(k) => k.sequences(simd, input, out, status),
+            Self::F4(k) => k.sequences(simd, input, out, status),
+            Self::F5(k) => k.sequences(simd, input, out, status),
+            Self::F6(k) => k.sequences(simd, input, out, status),
+        }
+    }
+}
+
+impl<const N: usize> SolveKernel<N> {
+    fn sequences(
+        &self,
+        simd: pulp::Arch,
+        input: SequenceInput<'_>,
+        out: &mut BatchOutput<'_>,
+        status: &mut [u8],
+    ) -> Vec<usize> {
+        let s = input.states;
+        let seqs = input.alpha_deg.len() / N;
+        let mut pb = PoseBlock::<N>::new();
+        let mut sb = SolveBlock::<N>::new();
+        let mut tmp = BatchBuffers::new(L, N);
+        let mut tst = [0u8; L];
+        let mut pay = [0.0; 2 * L];
+        let mut failed = Vec::new();
+        let mut q0 = 0;
+        while q0 < seqs {
+            let count = (seqs - q0).min(L);
+            let alpha = &input.alpha_deg[q0 * N..(q0 + count) * N];
+            let mut held = Held::<N>::new();
+            let mut bad = [false; L];
+            for st in 0..s {
+                for k in 0..count {
+                    let r = (q0 + k) * s + st;
+                    pay[2 * k] = input.payload_n[2 * r];
+                    pay[2 * k + 1] = input.payload_n[2 * r + 1];
+                }
+                let mut block_out = tmp.out();
+                let p = &pay[..2 * count];
+                self.block(
+                    simd,
+                    alpha,
+                    p,
+                    count,
+                    &mut pb,
+                    &mut sb,
+                    &mut block_out,
+                    &mut tst,
+                    0,
+                    Some(&mut held),
+                );
+                for k in 0..count {
+                    bad[k] |= sb.fail[k];
+                    let r = (q0 + k) * s + st;
+                    copy_row(&tmp, k, out, r, N);
+                    status[r] = tst[k];
+                }
+            }
+            failed.extend((0..count).filter(|&k| bad[k]).map(|k| q0 + k));
+            q0 += count;
+        }
+        failed
+    }
+}
+
+/// Copies row `k` of `from` into row `r` of `to` (`n` links).
+pub(crate) fn copy_row(
+    from: &BatchBuffers,
+    k: usize,
+    to: &mut BatchOutput<'_>,
+    r: usize,
+    n: usize,
+) {
+    let (a, b) = (k * n..(k + 1) * n, r * n..(r + 1) * n);
+    to.force_n[b.clone()].copy_from_slice(&from.force_n[a.clone()]);
+    to.dforce_n[b.clone()].copy_from_slice(&from.dforce_n[a.clone()]);
+    to.dalpha_deg[b.clone()].copy_from_slice(&from.dalpha_deg[a.clone()]);
+    to.dl_mm[b.clone()].copy_from_slice(&from.dl_mm[a.clone()]);
+    to.dlength_mm[b.clone()].copy_from_slice(&from.dlength_mm[a.clone()]);
+    to.length_mm[b].copy_from_slice(&from.length_mm[a]);
+    to.reaction_n[2 * r * n..2 * (r + 1) * n]
+        .copy_from_slice(&from.reaction_n[2 * k * n..2 * (k + 1) * n]);
+    to.dx_mm[r] = from.dx_mm[k];
+    to.dy_mm[r] = from.dy_mm[k];
+}
+
 /// What a chunk needs besides its rows: the model, for the lanes the kernel hands back.
 pub(crate) struct Ctx<'a> {
     pub(crate) arm: &'a Arm,
@@ -515,7 +632,7 @@ impl<const N: usize> SolveKernel<N> {
             let alpha = &input.alpha_deg[p * N..(p + count) * N];
             let payload = &input.payload_n[2 * p..2 * (p + count)];
             self.block(
-                simd, alpha, payload, count, &mut pb, &mut sb, &mut out, status, p,
+                simd, alpha, payload, count, &mut pb, &mut sb, &mut out, status, p, None,
             );
             for q in 0..count {
                 if sb.fail[q] {

@@ -79,9 +79,18 @@ pub fn solve_sequence(
         return super::solve_batch_status(arm, effects, batch, none, opts, out, status)
             .map_err(|e| sequence_row(e, s));
     }
+    // With friction: the block kernel, the general path for the arms and sets it lacks.
+    let kernel = super::fast::Kernel::new(arm, effects, opts.self_weight);
+    let simd = pulp::Arch::new();
+    let run =
+        |sub: SequenceInput<'_>, chunk: BatchOutput<'_>, st: &mut [u8], first: usize| match &kernel
+        {
+            Some(k) => run_kernel(k, simd, arm, effects, sub, opts, chunk, st, first),
+            None => run_chunk(arm, effects, sub, opts, chunk, st, first),
+        };
     let per_chunk = (CHUNK_STATES / s).max(1);
     if seqs <= per_chunk {
-        return run_chunk(arm, effects, input, opts, out, status, 0);
+        return run(input, out, status, 0);
     }
     let chunks = split_output(out, n, per_chunk * s);
     let errors: Vec<ArmError> = chunks
@@ -96,7 +105,7 @@ pub fn solve_sequence(
                 payload_n: &input.payload_n[2 * s * first..2 * s * (first + m)],
                 states: s,
             };
-            run_chunk(arm, effects, sub, opts, chunk, st, first).err()
+            run(sub, chunk, st, first).err()
         })
         .collect();
     match errors.into_iter().next() {
@@ -160,6 +169,40 @@ fn check(arm: &Arm, input: &SequenceInput<'_>) -> Result<usize> {
         }
     }
     Ok(seqs)
+}
+
+/// The sequences of one chunk on the block kernel; a sequence with a state the kernel could
+/// not solve is solved again by the general path (its error, or its NaN rows).
+#[allow(clippy::too_many_arguments)]
+fn run_kernel(
+    kernel: &super::fast::Kernel,
+    simd: pulp::Arch,
+    arm: &Arm,
+    effects: &EffectSet,
+    input: SequenceInput<'_>,
+    opts: SolveOptions,
+    mut out: BatchOutput<'_>,
+    status: &mut [u8],
+    first: usize,
+) -> Result<()> {
+    let n = arm.n();
+    let s = input.states;
+    let failed = kernel.sequences(simd, input, &mut out, status);
+    for q in failed {
+        let sub = SequenceInput {
+            alpha_deg: &input.alpha_deg[q * n..(q + 1) * n],
+            payload_n: &input.payload_n[2 * s * q..2 * s * (q + 1)],
+            states: s,
+        };
+        let mut one = crate::solve::BatchBuffers::new(s, n);
+        let mut st = vec![0u8; s];
+        run_chunk(arm, effects, sub, opts, one.out(), &mut st, first + q)?;
+        for k in 0..s {
+            super::fast::copy_row(&one, k, &mut out, q * s + k, n);
+        }
+        status[q * s..(q + 1) * s].copy_from_slice(&st);
+    }
+    Ok(())
 }
 
 /// The sequences of one chunk, in order; `first` is the index of its first sequence.
