@@ -128,3 +128,62 @@ fn a_monotonic_loading_is_the_deadband_of_each_state() {
         assert!((seq.dl_mm[3 * s + 1] + held / k).abs() < 1e-9);
     }
 }
+
+#[test]
+fn solve_with_frictions_is_the_same_on_the_kernel_and_the_general_path() {
+    use arm_core::effects::{ActuatorPlay, BaseCompliance, JointClearance, LinkBending, Unloaded};
+    let arm = example_arm();
+    let effects = vec![
+        friction(60.0),
+        Effect::JointFriction(JointFriction {
+            joint: 2,
+            torque: 3000.0,
+        }),
+        Effect::ActuatorFriction(ActuatorFriction {
+            actuator: 2,
+            friction: 15.0,
+        }),
+        Effect::ActuatorPlay(ActuatorPlay {
+            actuator: 2,
+            play: 0.05,
+            unloaded: Unloaded::TakenUp,
+        }),
+        Effect::JointClearance(JointClearance {
+            joint: 2,
+            clearance: 0.1,
+            unloaded: Unloaded::Centred,
+        }),
+        Effect::LinkBending(LinkBending { link: 0, ei: 2e10 }),
+        Effect::BaseCompliance(BaseCompliance { stiffness: 5e8 }),
+    ];
+    let set = EffectSet::new(&arm, effects).unwrap();
+    let rows = 40;
+    let alpha: Vec<f64> = (0..rows)
+        .flat_map(|r| {
+            let t = r as f64 / rows as f64;
+            [85.0 + 10.0 * t, 15.0 - 12.0 * t, -5.0 + 9.0 * t]
+        })
+        .collect();
+    // payloads of both signs and sizes, some within the deadbands
+    let payload: Vec<f64> = (0..rows)
+        .flat_map(|r| [0.0, -80.0 + 4.0 * r as f64])
+        .collect();
+    let input = BatchInput {
+        alpha_deg: &alpha,
+        payload_n: &payload,
+    };
+    let opts = SolveOptions::default();
+    let (mut a, mut b) = (BatchBuffers::new(rows, 3), BatchBuffers::new(rows, 3));
+    let (mut sa, mut sb) = (vec![0u8; rows], vec![0u8; rows]);
+    let none = ExtraDeformations::none;
+    arm_core::solve_batch_status(&arm, &set, input, none(), opts, a.out(), &mut sa).unwrap();
+    solve_batch_general(&arm, &set, input, none(), opts, b.out(), &mut sb).unwrap();
+    close(&a.dx_mm, &b.dx_mm, 1e-9);
+    close(&a.dy_mm, &b.dy_mm, 1e-9);
+    close(&a.dl_mm, &b.dl_mm, 1e-9);
+    close(&a.dlength_mm, &b.dlength_mm, 1e-9);
+    close(&a.dalpha_deg, &b.dalpha_deg, 1e-9);
+    close(&a.force_n, &b.force_n, 1e-9 * 1e3);
+    close(&a.reaction_n, &b.reaction_n, 1e-9 * 1e3);
+    assert_eq!(sa, sb);
+}
