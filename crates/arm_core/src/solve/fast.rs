@@ -536,52 +536,120 @@ impl<const N: usize> SolveKernel<N> {
         out: &mut BatchOutput<'_>,
         status: &mut [u8],
     ) -> Vec<usize> {
-        let s = input.states;
         let seqs = input.alpha_deg.len() / N;
-        let mut pb = PoseBlock::<N>::new();
-        let mut sb = SolveBlock::<N>::new();
-        let mut tmp = BatchBuffers::new(L, N);
-        let mut tst = [0u8; L];
-        let mut pay = [0.0; 2 * L];
+        let mut sc = SeqScratch {
+            pbx: PoseBlock::<N>::new(),
+            pby: PoseBlock::<N>::new(),
+            pb: PoseBlock::<N>::new(),
+            sb: SolveBlock::<N>::new(),
+            tmp: BatchBuffers::new(L, N),
+            tst: [0u8; L],
+        };
         let mut failed = Vec::new();
         let mut q0 = 0;
         while q0 < seqs {
             let count = (seqs - q0).min(L);
-            let alpha = &input.alpha_deg[q0 * N..(q0 + count) * N];
-            let mut held = Held::<N>::new();
-            let mut bad = [false; L];
-            for st in 0..s {
-                for k in 0..count {
-                    let r = (q0 + k) * s + st;
-                    pay[2 * k] = input.payload_n[2 * r];
-                    pay[2 * k + 1] = input.payload_n[2 * r + 1];
-                }
-                let mut block_out = tmp.out();
-                let p = &pay[..2 * count];
-                self.block(
-                    simd,
-                    alpha,
-                    p,
-                    count,
-                    &mut pb,
-                    &mut sb,
-                    &mut block_out,
-                    &mut tst,
-                    0,
-                    Some(&mut held),
-                );
-                for k in 0..count {
-                    bad[k] |= sb.fail[k];
-                    let r = (q0 + k) * s + st;
-                    copy_row(&tmp, k, out, r, N);
-                    status[r] = tst[k];
-                }
-            }
+            let bad = self.sequence_block(simd, input, q0, count, &mut sc, out, status);
             failed.extend((0..count).filter(|&k| bad[k]).map(|k| q0 + k));
             q0 += count;
         }
         failed
     }
+
+    /// Sequences `q0..q0 + count` through all their states: the poses' trigonometry and the
+    /// statics of a unit payload along x and along y once (the payload case is linear in the
+    /// payload), then per state the payload case scaled, the frictions stepped, the closure.
+    /// Returns which lanes failed in some state.
+    #[allow(clippy::too_many_arguments)]
+    fn sequence_block(
+        &self,
+        simd: pulp::Arch,
+        input: SequenceInput<'_>,
+        q0: usize,
+        count: usize,
+        sc: &mut SeqScratch<N>,
+        out: &mut BatchOutput<'_>,
+        status: &mut [u8],
+    ) -> [bool; L] {
+        struct Op<'a, 'o, const N: usize> {
+            k: &'a SolveKernel<N>,
+            input: SequenceInput<'a>,
+            q0: usize,
+            count: usize,
+            sc: &'a mut SeqScratch<N>,
+            out: &'a mut BatchOutput<'o>,
+            status: &'a mut [u8],
+        }
+        impl<const N: usize> pulp::WithSimd for Op<'_, '_, N> {
+            type Output = [bool; L];
+            #[inline(always)]
+            fn with_simd<S: pulp::Simd>(self, _simd: S) -> [bool; L] {
+                let (k, sc, count, q0) = (self.k, self.sc, self.count, self.q0);
+                let states = self.input.states;
+                let alpha = &self.input.alpha_deg[q0 * N..(q0 + count) * N];
+                let trig = block_trig::<N>(alpha, count);
+                let (one, zero) = ([1.0; L], [0.0; L]);
+                k.fa.poses_sc_impl(&trig.0, &trig.1, &[one, zero], &mut sc.pbx);
+                k.fa.poses_sc_impl(&trig.0, &trig.1, &[zero, one], &mut sc.pby);
+                let mut held = Held::<N>::new();
+                let mut bad = [false; L];
+                for st in 0..states {
+                    // Missing lanes repeat the last sequence.
+                    let mut pay = [[0.0; L]; 2];
+                    for j in 0..L {
+                        let r = (q0 + j.min(count - 1)) * states + st;
+                        pay[0][j] = self.input.payload_n[2 * r];
+                        pay[1][j] = self.input.payload_n[2 * r + 1];
+                    }
+                    sc.pb.clone_from(&sc.pbx);
+                    for i in 0..N {
+                        for j in 0..L {
+                            let (px, py) = (pay[0][j], pay[1][j]);
+                            sc.pb.fu[i][j] = px * sc.pbx.fu[i][j] + py * sc.pby.fu[i][j];
+                            for c in 0..2 {
+                                sc.pb.ru[c][i][j] =
+                                    px * sc.pbx.ru[c][i][j] + py * sc.pby.ru[c][i][j];
+                            }
+                        }
+                    }
+                    if k.fric.any {
+                        k.fric
+                            .step(&mut sc.pb, &mut held, &k.fa.body_c, &mut sc.sb.seen);
+                    }
+                    k.close_any(&trig, &pay, &sc.pb, &mut sc.sb);
+                    let mut tmp = sc.tmp.out();
+                    write_block(&sc.pb, &sc.sb, &mut tmp, &mut sc.tst, 0, count);
+                    for j in 0..count {
+                        bad[j] |= sc.sb.fail[j];
+                        let r = (q0 + j) * states + st;
+                        copy_row(&sc.tmp, j, self.out, r, N);
+                        self.status[r] = sc.tst[j];
+                    }
+                }
+                bad
+            }
+        }
+        simd.dispatch(Op {
+            k: self,
+            input,
+            q0,
+            count,
+            sc,
+            out,
+            status,
+        })
+    }
+}
+
+/// Scratch of [`SolveKernel::sequence_block`]: the unit payload cases, the state's block, a
+/// block's rows before they are copied to their sequences' rows.
+struct SeqScratch<const N: usize> {
+    pbx: PoseBlock<N>,
+    pby: PoseBlock<N>,
+    pb: PoseBlock<N>,
+    sb: SolveBlock<N>,
+    tmp: BatchBuffers,
+    tst: [u8; L],
 }
 
 /// Copies row `k` of `from` into row `r` of `to` (`n` links).

@@ -11,7 +11,7 @@
 use rayon::prelude::*;
 
 use super::status::pose_status;
-use super::{fill_nan, split_output, write_row, BatchInput, BatchOutput, SolveOptions, Workspace};
+use super::{fill_nan, split_output, write_row, BatchOutput, SolveOptions, Workspace};
 use crate::arm::Arm;
 use crate::effects::{EffectSet, ExtraDeformations, SequenceMemory};
 use crate::error::{ArmError, Result};
@@ -64,22 +64,7 @@ pub fn solve_sequence(
     if seqs == 0 || s == 0 {
         return Ok(());
     }
-    if !effects.has_friction() {
-        // Without friction nothing remembers: each state is a single loading from the
-        // reference (the gaps follow each state's own force), solved by the block kernel.
-        let alpha: Vec<f64> = (0..seqs)
-            .flat_map(|q| (0..s).map(move |_| q))
-            .flat_map(|q| input.alpha_deg[q * n..(q + 1) * n].iter().copied())
-            .collect();
-        let batch = BatchInput {
-            alpha_deg: &alpha,
-            payload_n: input.payload_n,
-        };
-        let none = ExtraDeformations::none();
-        return super::solve_batch_status(arm, effects, batch, none, opts, out, status)
-            .map_err(|e| sequence_row(e, s));
-    }
-    // With friction: the block kernel, the general path for the arms and sets it lacks.
+    // The block kernel, 16 sequences at a time; the general path for what it lacks.
     let kernel = super::fast::Kernel::new(arm, effects, opts.self_weight);
     let simd = pulp::Arch::new();
     let run =
@@ -112,21 +97,6 @@ pub fn solve_sequence(
         Some(e) => Err(e),
         None => Ok(()),
     }
-}
-
-/// An error of the flattened batch (row `q·S + s`) naming the sequence q instead.
-fn sequence_row(mut e: ArmError, states: usize) -> ArmError {
-    match &mut e {
-        ArmError::NonFinite { row, .. }
-        | ArmError::OutOfRange { row, .. }
-        | ArmError::Singular { row, .. }
-        | ArmError::ZeroLength { row, .. }
-        | ArmError::Unreachable { row, .. }
-        | ArmError::Mechanism { row, .. }
-        | ArmError::NoConvergence { row, .. } => *row /= states,
-        _ => {}
-    }
-    e
 }
 
 /// Checks shapes and finiteness; returns the number of sequences.
