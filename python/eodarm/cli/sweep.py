@@ -202,6 +202,12 @@ def _uncertainty_args(p: argparse.ArgumentParser) -> None:
         "(2 sigma at the compensated pose), compensation_residual_mm, compensation_status; "
         "with --plot, compensated_miss.png",
     )
+    p.add_argument(
+        "--cycle",
+        action="store_true",
+        help="add return_dx_mm, return_dy_mm: where each cell's measure point sits after "
+        "the cycle reference -> payload -> 0 (friction and gaps; -o OUT.nc, no --reduce)",
+    )
 
 
 def _cli_grid(args: argparse.Namespace, n: int) -> dict[str, Any]:
@@ -310,6 +316,10 @@ def run(args: argparse.Namespace) -> int:
     )
     if args.uncertainty or args.compensated_miss:
         kwargs.update(uncertainty=args.uncertainty, compensated_miss=args.compensated_miss)
+    if args.cycle:
+        if kind == "zarr":
+            raise EodarmError("--cycle is computed in memory: write -o OUT.nc")
+        kwargs.update(cycle=True)
     t0 = time.perf_counter()
     try:
         try:

@@ -133,6 +133,8 @@ def solve_sequence(
     effects: Effect | list[Effect] | tuple[Effect, ...] | None = None,
     backend: Backend = "rust",
     self_weight: bool = True,
+    *,
+    nan_on_failure: bool = False,
 ) -> Arrays:
     """N load sequences: each pose loaded and unloaded through S payloads from one reference.
 
@@ -156,6 +158,8 @@ def solve_sequence(
     backend : ``"rust"`` (compiled core) or ``"numpy"`` (the independent reference,
         ``eodarm.reference.solve_sequence``).
     self_weight : include link and actuator weights in the reference and every state.
+    nan_on_failure : give a state that cannot be solved (a singular pose, a triangle that
+        cannot close) NaN instead of raising (``backend="rust"``; a sweep's cells).
 
     Returns
     -------
@@ -188,6 +192,8 @@ def solve_sequence(
             "load sequences yet; use eodarm.solve for single loadings"
         )
     if backend == "numpy":
+        if nan_on_failure:
+            raise InputError("nan_on_failure is for backend='rust'")
         from eodarm.model import reference
 
         # The numpy reference solves sequences too (eodarm.reference.solve_sequence).
@@ -198,7 +204,7 @@ def solve_sequence(
     codes, places, values = effect_arrays(effs, arm.n)
     payload = np.ascontiguousarray(mass * -arm.g)
     res: Arrays = _core.solve_sequence(
-        _core_arm(arm), alpha, payload, codes, places, values, self_weight
+        _core_arm(arm), alpha, payload, codes, places, values, self_weight, nan_on_failure
     )
     return res
 
