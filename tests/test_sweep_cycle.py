@@ -54,3 +54,24 @@ def test_a_cycle_needs_every_cell() -> None:
     with pytest.raises(EodarmError, match="cycle=True"):
         reduce = {"op": "max", "dims": ["mass_kg"]}
         eodarm.sweep(arm, alpha_deg=GRID, mass_kg=[1.0], cycle=True, reduce=reduce)
+
+
+def test_cli_cycle_writes_the_return_and_its_map(tmp_path: Path) -> None:
+    import argparse
+
+    import xarray as xr
+
+    from eodarm.cli.sweep import add_parser
+
+    parser = argparse.ArgumentParser(prog="eodarm")
+    add_parser(parser.add_subparsers(dest="command"))
+    out, plots = tmp_path / "cycle.nc", tmp_path / "maps"
+    argv = ["sweep", "--arm", str(EXAMPLE), "--alpha1", "80:100:5", "--alpha2", "0:20:5"]
+    argv += ["--alpha3", "0", "--mass", "1,6.5", "--add", "actuator_friction@M2=60"]
+    argv += ["--cycle", "-o", str(out), "--plot", str(plots), "--no-progress"]
+    args = parser.parse_args(argv)
+    assert args.func(args) == 0
+    with xr.open_dataset(out) as ds:
+        assert ds["return_dy_mm"].attrs["units"] == "mm"
+        assert float(np.abs(ds["return_dy_mm"].sel(mass_kg=6.5)).min()) > 1e-3
+    assert (plots / "return_error.png").stat().st_size > 10_000

@@ -368,6 +368,7 @@ def run(args: argparse.Namespace) -> int:
                 prefix=args.plot_prefix,
             )
             written += _uncertainty_maps(args, arm, grid, effects, plot_mass, mass, reduce, ds)
+            written += _return_map(args, plot_mass, mass, ds)
         except KeyboardInterrupt:
             done = f": {out} is complete, the maps are not" if out else ""
             _one_line(f"interrupted while plotting into {args.plot}{done}")
@@ -403,6 +404,22 @@ def _uncertainty_maps(
         self_weight=not args.no_self_weight,
         prefix=args.plot_prefix,
     )
+
+
+def _return_map(
+    args: argparse.Namespace, plot_mass: float, mass: FloatArray, ds: xr.Dataset
+) -> list[Any]:
+    """return_error.png of --cycle: where the arm does not come back (none without it)."""
+    if not args.cycle or plot_mass not in mass:
+        return []
+    from pathlib import Path
+
+    from eodarm.viz.cycle_map import return_map
+
+    path = Path(args.plot) / f"{args.plot_prefix}return_error.png"
+    path.parent.mkdir(parents=True, exist_ok=True)
+    return_map(ds, plot_mass, path=path)
+    return [path]
 
 
 def _interrupted(exc: store.SweepInterrupted) -> str:
