@@ -75,3 +75,17 @@ def test_cli_cycle_writes_the_return_and_its_map(tmp_path: Path) -> None:
         assert ds["return_dy_mm"].attrs["units"] == "mm"
         assert float(np.abs(ds["return_dy_mm"].sel(mass_kg=6.5)).min()) > 1e-3
     assert (plots / "return_error.png").stat().st_size > 10_000
+
+
+def test_a_centred_gap_stays_along_the_self_weight_at_the_return() -> None:
+    """Without friction the return is the pose with no payload: a centred play closes along
+    the self-weight's force and stays there, whatever payload the cycle went to."""
+    arm = eodarm.Arm.from_toml(EXAMPLE)
+    play = [eodarm.Effect("actuator_play", "M3", play_mm=0.1)]
+    ds = eodarm.sweep(arm, alpha_deg=GRID, mass_kg=[1.0, 6.0], effects=play, cycle=True)
+    poses = np.stack(np.meshgrid(*GRID.values(), indexing="ij"), axis=-1).reshape(-1, 3)
+    rest = eodarm.solve(arm, poses, 0.0, play)
+    back = ds["return_dy_mm"].values.reshape(-1, 2)
+    for j in range(2):
+        np.testing.assert_allclose(back[:, j], rest["dy_mm"], rtol=0, atol=1e-9)
+    assert np.abs(back).min() > 1e-3

@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 
 from eodarm.model.arm import Arm
-from eodarm.model.effects import Effect
+from eodarm.model.effects import Effect, with_arm_effects
 
 __all__ = ["CHUNK", "add_return"]
 
@@ -53,6 +53,23 @@ def add_return(
     poses, masses = alpha.shape[0], mass.shape[0]
     out = {k: np.full((poses, masses), np.nan) for k in _ATTRS}
     good = np.flatnonzero(np.isfinite(alpha).all(axis=1))
+    kinds = {e.name for e in with_arm_effects(arm.effects, effs)}
+    if not kinds & {"actuator_friction", "joint_friction"}:
+        # Nothing remembers the payload: the return is the pose loaded with nothing (the gaps
+        # along the self-weight's force), the same for every payload: one state per pose.
+        for start in range(0, good.size, CHUNK):
+            p = good[start : start + CHUNK]
+            res = solve_sequence(
+                arm,
+                np.ascontiguousarray(alpha[p]),
+                [0.0],
+                effs,
+                self_weight=self_weight,
+                nan_on_failure=True,
+            )
+            out["return_dx_mm"][p] = res["dx_mm"][:, :1]
+            out["return_dy_mm"][p] = res["dy_mm"][:, :1]
+        return _store(ds, dims, out, poses, masses)
     # one sequence per cell: (pose, m) → states (m, 0)
     states = np.column_stack([mass, np.zeros_like(mass)])
     for start in range(0, good.size * masses, CHUNK):
@@ -68,6 +85,11 @@ def add_return(
         )
         out["return_dx_mm"][p, m] = res["dx_mm"][:, 1]
         out["return_dy_mm"][p, m] = res["dy_mm"][:, 1]
+    return _store(ds, dims, out, poses, masses)
+
+
+def _store(ds: Any, dims: list[str], out: dict[str, Any], poses: int, masses: int) -> Any:
+    """``ds`` with the returns ``out`` (poses × masses), NaN where a cell is not ok."""
     ok = ds["ok"].transpose(*dims, "mass_kg").values.reshape(poses, masses)
     shape = (*(ds.sizes[d] for d in dims), masses)
     for key, attrs in _ATTRS.items():
