@@ -162,9 +162,9 @@ pub const CODE_PLAY_TAKEN_UP: i64 = 6;
 /// Code of `joint_clearance` with [`Unloaded::TakenUp`] (3 is the centred one).
 pub const CODE_CLEARANCE_TAKEN_UP: i64 = 7;
 
-/// Code of `actuator_friction` (CONTRACT §10).
+/// Code of `actuator_friction` (docs/model.md §9).
 pub const CODE_ACTUATOR_FRICTION: i64 = 8;
-/// Code of `joint_friction` (CONTRACT §10).
+/// Code of `joint_friction` (docs/model.md §9).
 pub const CODE_JOINT_FRICTION: i64 = 9;
 
 /// Every effect of the catalogue.
@@ -190,8 +190,8 @@ pub enum Effect {
 
 impl Effect {
     /// Builds an effect from the binding's code (the order of the catalogue; 6 and 7 are
-    /// `actuator_play` and `joint_clearance` with [`Unloaded::TakenUp`], 8 and 9 the frictions), 0-based place
-    /// index and parameter value.
+    /// `actuator_play` and `joint_clearance` with [`Unloaded::TakenUp`], 8 and 9 the
+    /// frictions), 0-based place index and parameter value.
     ///
     /// # Errors
     /// [`ArmError::InvalidEffect`] for an unknown code.
