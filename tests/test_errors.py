@@ -260,10 +260,10 @@ def test_both_backends_refuse_the_same_nearly_singular_pose(arm: eodarm.Arm) -> 
 
 # ---------------------------------------------------------------------------- effects
 def test_unknown_effect_name() -> None:
-    msg = refused(eodarm.Effect, "joint_friction", "O2", friction=0.1)
-    assert "'joint_friction'" in msg and "joint_clearance" in msg  # lists what is known
-    msg = refused(eodarm.Effect.parse, "joint_friction@O2", friction=0.1)
-    assert "joint_friction" in msg
+    msg = refused(eodarm.Effect, "joint_wear", "O2", wear=0.1)
+    assert "'joint_wear'" in msg and "joint_clearance" in msg  # lists what is known
+    msg = refused(eodarm.Effect.parse, "joint_wear@O2", wear=0.1)
+    assert "joint_wear" in msg
 
 
 @pytest.mark.parametrize("backend", BACKENDS)
