@@ -273,6 +273,10 @@ def effect_value(
         value = draw(_log(lo, max(20000.0, 4.0 * lo)))
     elif name in ("actuator_play", "joint_clearance"):
         value = draw(_f(0.0, 0.3))
+    elif name == "actuator_friction":
+        value = draw(_f(0.0, 300.0))
+    elif name == "joint_friction":
+        value = draw(_f(0.0, 3.0e4))
     elif name == "link_bending":
         lo = max(1e8, (arm.links[i].ei_n_mm2 or 4e8) / 4.0)
         value = draw(_log(lo, max(1e11, 4.0 * lo)))

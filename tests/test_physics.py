@@ -102,7 +102,10 @@ def residuals(
 def test_every_link_is_in_equilibrium(case, self_weight, data) -> None:
     arm, alpha, _ = case
     payload = data.draw(payload_vectors(alpha.shape[0], g=arm.g), label="payload")
-    effects = data.draw(effects_for(arm), label="effects")
+    # A joint friction takes part of the force change, and a friction's solve runs on the
+    # general path (equal to rounding, not bits): test_friction.py checks their balance.
+    kinds = tuple(k for k in eodarm.CATALOGUE if not k.endswith("_friction"))
+    effects = data.draw(effects_for(arm, kinds), label="effects")
     out = eodarm.solve_payload(arm, alpha, payload, effects, self_weight=self_weight)
     net_f, net_m, scale = residuals(
         arm, alpha, payload, out["force_n"], out["reaction_n"], self_weight

@@ -17,6 +17,7 @@ __all__ = [
     "inverse_kinematics",
     "jacobian",
     "solve",
+    "solve_sequence",
     "statics",
     "sweep",
 ]
@@ -66,6 +67,22 @@ def solve(
     # a dict of arrays; typed Any so that callers may pass the extras as **kwargs
     out: Any = None,
 ) -> dict[str, npt.NDArray[Any]]: ...
+def solve_sequence(
+    arm: CoreArm,
+    alpha_deg: npt.NDArray[np.float64],
+    payload_n: npt.NDArray[np.float64],
+    codes: npt.NDArray[np.int64],
+    places: npt.NDArray[np.int64],
+    values: npt.NDArray[np.float64],
+    self_weight: bool,
+    nan_on_failure: bool = False,
+) -> dict[str, npt.NDArray[Any]]:
+    """N load sequences of S states. ``alpha_deg`` (N, n) C-contiguous float64; ``payload_n``
+    (N, S) the vertical payload force of each state (N, y up: ``-m·g``, as column 1 of
+    :func:`solve`'s ``payload_n``). Returns the keys of :func:`solve` with shape (N, S, ...),
+    relative to each sequence's reference, and ``status`` (N, S) uint8."""
+    ...
+
 def statics(
     arm: CoreArm,
     alpha_deg: npt.NDArray[np.float64],

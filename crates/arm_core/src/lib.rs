@@ -12,6 +12,8 @@
 //! * [`pose`]: the loaded pose, closed exactly;
 //! * [`solve`]: all of it for many poses at once, in parallel, with per-pose extra
 //!   deformations from user-written effects ([`solve_batch_extra`]);
+//! * [`solve_sequence`]: load sequences, the states of each loaded and unloaded in order from
+//!   one reference, with the friction elements' memory;
 //! * [`mod@sweep`]: poses × payloads in bounded memory, with per-group reductions (fast kernel);
 //! * [`compensate`]: the angles to command so that the loaded measure point lands on the
 //!   nominal one (Gauss–Newton on the exact model, minimum change for n > 3);
@@ -49,6 +51,7 @@ pub use effects::ExtraDeformations;
 pub use effects::{Effect, EffectSet, Mechanism};
 pub use error::{ArmError, Result};
 pub use geometry::V2;
+pub use solve::sequence::{solve_sequence, SequenceInput};
 pub use solve::{
     solve_batch, solve_batch_extra, solve_batch_general, solve_batch_status, BatchBuffers,
     BatchInput, BatchOutput, SolveOptions, Workspace,

@@ -23,8 +23,9 @@ pub use jacobian::{jacobian_batch, jacobian_batch_general};
 
 use crate::arm::Arm;
 use crate::effects::{
-    ActuatorCompliance, ActuatorPlay, BaseCompliance, Effect, EffectSet, JointClearance,
-    LinkBending, MountCompliance, Unloaded, CODE_CLEARANCE_TAKEN_UP, CODE_PLAY_TAKEN_UP,
+    ActuatorCompliance, ActuatorFriction, ActuatorPlay, BaseCompliance, Effect, EffectSet,
+    JointClearance, JointFriction, LinkBending, MountCompliance, Unloaded, CODE_ACTUATOR_FRICTION,
+    CODE_CLEARANCE_TAKEN_UP, CODE_JOINT_FRICTION, CODE_PLAY_TAKEN_UP,
 };
 use crate::error::{ArmError, Result};
 use crate::solve::{check_input, BatchInput};
@@ -34,7 +35,8 @@ use crate::solve::{check_input, BatchInput};
 pub struct Place {
     /// Catalogue code: 0 actuator_compliance, 1 mount_compliance, 2 actuator_play,
     /// 3 joint_clearance, 4 link_bending, 5 base_compliance; 6 actuator_play and
-    /// 7 joint_clearance taken up by the unloaded forces ([`Unloaded::TakenUp`]).
+    /// 7 joint_clearance taken up by the unloaded forces ([`Unloaded::TakenUp`]); 8
+    /// actuator_friction and 9 joint_friction (θ the limit itself, N or N·mm).
     pub code: i64,
     /// 0-based place index (0 for the base).
     pub index: usize,
@@ -74,6 +76,14 @@ pub fn effect_from_theta(place: Place, theta: f64) -> Result<Effect> {
         5 => Effect::BaseCompliance(BaseCompliance {
             stiffness: inv(theta),
         }),
+        CODE_ACTUATOR_FRICTION => Effect::ActuatorFriction(ActuatorFriction {
+            actuator: i,
+            friction: theta,
+        }),
+        CODE_JOINT_FRICTION => Effect::JointFriction(JointFriction {
+            joint: i,
+            torque: theta,
+        }),
         c => {
             return Err(ArmError::InvalidEffect {
                 effect: format!("code {c}"),
@@ -107,6 +117,9 @@ fn typical_theta(arm: &Arm, place: Place) -> f64 {
         0 | 1 => 1.0 / arm.actuators[place.index].stiffness,
         2 | 3 | CODE_PLAY_TAKEN_UP | CODE_CLEARANCE_TAKEN_UP => 0.1,
         4 => 1e-10,
+        // A friction's θ is its limit: a step of 0.01 N or 1 N·mm.
+        CODE_ACTUATOR_FRICTION => 10.0,
+        CODE_JOINT_FRICTION => 1000.0,
         _ => 1e-8,
     }
 }
@@ -211,7 +224,10 @@ impl Sets {
         sets.push(build(None)?);
         let mut steps = Vec::with_capacity(p);
         for &q in probes {
-            if q.index >= arm.n() || !(0..=CODE_CLEARANCE_TAKEN_UP).contains(&q.code) {
+            let known = (0..=CODE_CLEARANCE_TAKEN_UP).contains(&q.code)
+                || q.code == CODE_ACTUATOR_FRICTION
+                || q.code == CODE_JOINT_FRICTION;
+            if q.index >= arm.n() || !known {
                 return Err(ArmError::InvalidEffect {
                     effect: format!("code {} at index {}", q.code, q.index),
                     reason: format!("no such place on a {}-link arm", arm.n()),

@@ -9,6 +9,7 @@
 mod batch;
 pub(crate) mod fast;
 mod general;
+pub mod sequence;
 mod status;
 
 use rayon::prelude::*;

@@ -205,9 +205,13 @@ pub fn checks_load_rise(arm: &Arm, effects: &crate::effects::EffectSet) -> bool 
     effects.effects().iter().all(|e| match e {
         Effect::ActuatorPlay(_) | Effect::JointClearance(_) => false,
         Effect::LinkBending(b) => b.link != last,
-        Effect::ActuatorCompliance(_) | Effect::MountCompliance(_) | Effect::BaseCompliance(_) => {
-            true
-        }
+        // A friction only holds back part of a deformation the load makes (it dissipates;
+        // it stores no energy that could lift the load point above its reference).
+        Effect::ActuatorCompliance(_)
+        | Effect::MountCompliance(_)
+        | Effect::BaseCompliance(_)
+        | Effect::ActuatorFriction(_)
+        | Effect::JointFriction(_) => true,
     })
 }
 

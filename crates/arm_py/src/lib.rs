@@ -10,6 +10,7 @@ mod errors;
 mod fem;
 mod jacobian;
 mod kinematics;
+mod sequence;
 mod solve;
 mod sweep;
 
@@ -22,6 +23,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<convert::CoreArm>()?;
     m.add_function(wrap_pyfunction!(solve::solve, m)?)?;
     m.add_function(wrap_pyfunction!(solve::statics, m)?)?;
+    m.add_function(wrap_pyfunction!(sequence::solve_sequence, m)?)?;
     m.add_function(wrap_pyfunction!(fem::fem_solve, m)?)?;
     m.add_function(wrap_pyfunction!(sweep::py_sweep, m)?)?;
     m.add_function(wrap_pyfunction!(kinematics::forward, m)?)?;

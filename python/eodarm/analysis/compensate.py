@@ -76,6 +76,10 @@ def compensate(
     """The unloaded angles to command so that, under the payload, the model's measure point
     lands where the nominal pose puts it (and, n ≥ 3, the last link keeps its angle).
 
+    With a friction in the model (``actuator_friction``, ``joint_friction``) this compensates
+    the loading branch: the payload reached by loading from the unloaded pose, the frictions
+    holding nothing before (docs/model.md §9). After an unloading the arm sits elsewhere.
+
     Parameters
     ----------
     arm : the arm. Its own effects (``[[effect]]`` tables, :attr:`Arm.effects`) are part of

@@ -291,7 +291,8 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
         description="Compensate nominal poses for the payload: the unloaded angles to command "
         "so that, under the payload, the model's measure point lands where the nominal pose "
         "puts it (and, with 3 links or more, the last link keeps its angle). The arm file's "
-        "[[effect]] tables are part of the model (docs/compensation.md).",
+        "[[effect]] tables are part of the model. With friction it compensates the loading "
+        "branch: the payload reached by loading from the unloaded pose (docs/compensation.md).",
     )
     c.add_argument("--arm", metavar="ARM.toml", help=ARM_HELP)
     c.add_argument(

@@ -206,6 +206,12 @@ def _uncertainty_args(p: argparse.ArgumentParser) -> None:
         "(2 sigma at the compensated pose), compensation_residual_mm, compensation_status; "
         "with --plot, compensated_miss.png",
     )
+    p.add_argument(
+        "--cycle",
+        action="store_true",
+        help="add return_dx_mm, return_dy_mm: where each cell's measure point sits after "
+        "the cycle reference -> payload -> 0 (friction and gaps; -o OUT.nc, no --reduce)",
+    )
 
 
 def _cli_grid(args: argparse.Namespace, n: int) -> dict[str, Any]:
@@ -322,6 +328,10 @@ def run(args: argparse.Namespace) -> int:
         line = inadequacy_note(arm)
         if line:
             _note(line)
+    if args.cycle:
+        if kind == "zarr":
+            raise EodarmError("--cycle is computed in memory: write -o OUT.nc")
+        kwargs.update(cycle=True)
     t0 = time.perf_counter()
     try:
         try:
@@ -380,6 +390,7 @@ def run(args: argparse.Namespace) -> int:
                 if len(names) > 4:
                     step("uncertainty maps")
                 written += _uncertainty_maps(args, arm, grid, effects, plot_mass, mass, reduce, ds)
+                written += _return_map(args, plot_mass, mass, ds)
         except KeyboardInterrupt:
             done = f": {out} is complete, the maps are not" if out else ""
             _one_line(f"interrupted while plotting into {args.plot}{done}")
@@ -415,6 +426,22 @@ def _uncertainty_maps(
         self_weight=not args.no_self_weight,
         prefix=args.plot_prefix,
     )
+
+
+def _return_map(
+    args: argparse.Namespace, plot_mass: float, mass: FloatArray, ds: xr.Dataset
+) -> list[Any]:
+    """return_error.png of --cycle: where the arm does not come back (none without it)."""
+    if not args.cycle or plot_mass not in mass:
+        return []
+    from pathlib import Path
+
+    from eodarm.viz.cycle_map import return_map
+
+    path = Path(args.plot) / f"{args.plot_prefix}return_error.png"
+    path.parent.mkdir(parents=True, exist_ok=True)
+    return_map(ds, plot_mass, path=path)
+    return [path]
 
 
 def _interrupted(exc: store.SweepInterrupted) -> str:

@@ -144,6 +144,121 @@ def solve(
     )
 
 
+def solve_sequence(
+    arm: Arm,
+    alpha_deg: npt.ArrayLike,
+    mass_kg: npt.ArrayLike,
+    effects: Effect | list[Effect] | tuple[Effect, ...] | None = None,
+    backend: Backend = "rust",
+    self_weight: bool = True,
+    *,
+    nan_on_failure: bool = False,
+) -> Arrays:
+    """N load sequences: each pose loaded and unloaded through S payloads from one reference.
+
+    The reference of a sequence is its pose unloaded (self-weight only), in which the sensors
+    were zeroed; every state is relative to it, not to "this state unloaded". The friction
+    elements (``actuator_friction``, ``joint_friction``) hold what the states before let them
+    hold, and the gaps (``actuator_play``, ``joint_clearance``) are taken up along each
+    state's actual force (docs/model.md, "Load sequences and friction"). :func:`solve` is
+    the case S = 1.
+
+    Parameters
+    ----------
+    arm : the arm.
+    alpha_deg : (N, n) unloaded absolute link angles of the N sequences, degrees (a single
+        pose (n,) is N = 1).
+    mass_kg : (N, S) payload masses (kg, ≥ 0; 0 is the return to no payload) of the S states
+        after each reference, in the order they are applied; (S,) gives every sequence the
+        same payloads.
+    effects : effects added to the arm's (built-in only: a user-written effect holds no
+        history and is refused here).
+    backend : ``"rust"`` (compiled core) or ``"numpy"`` (the independent reference,
+        ``eodarm.reference.solve_sequence``).
+    self_weight : include link and actuator weights in the reference and every state.
+    nan_on_failure : give a state that cannot be solved (a singular pose, a triangle that
+        cannot close) NaN instead of raising (``backend="rust"``; a sweep's cells).
+
+    Returns
+    -------
+    dict of arrays, the keys of :func:`solve` with a state axis: ``force_n`` (N, S, n) actual
+    actuator forces (compression +, N), ``dx_mm``, ``dy_mm`` (N, S) measure-point
+    displacement from the reference (mm), ``dalpha_deg`` (N, S, n), ``dl_mm`` (N, S, n) body
+    length change as the actuator's sensor sees it (mm), and from the compiled core also
+    ``reaction_n`` (N, S, n, 2), ``dforce_n``, ``dlength_mm``, ``length_mm`` (N, S, n) and
+    ``status`` (N, S) uint8 (docs/model.md §7).
+
+    Raises
+    ------
+    ValueError
+        (an :class:`~eodarm.errors.EodarmError`) naming the sequence (and state) for a wrong
+        shape, a non-finite or negative mass, a singular pose or a triangle that cannot close.
+    """
+    check_arm(arm, "solve_sequence")
+    _check_backend(backend)
+    alpha = _poses(alpha_deg, arm.n, "alpha_deg")
+    rows = alpha.shape[0]
+    mass = _sequence_masses(mass_kg, rows)
+    check_output_memory(
+        2 * mass.size * (8 * (8 * arm.n + 2) + 1), f"solve_sequence of {mass.size:,} states"
+    )
+    effs = with_arm_effects(arm.effects, effects)
+    custom_effs = split_effects(effs)[1]
+    if custom_effs:
+        raise InputError(
+            f"custom effect {custom_effs[0].key}: user-written effects are not solved in "
+            "load sequences yet; use eodarm.solve for single loadings"
+        )
+    if backend == "numpy":
+        if nan_on_failure:
+            raise InputError("nan_on_failure is for backend='rust'")
+        from eodarm.model import reference
+
+        # The numpy reference solves sequences too (eodarm.reference.solve_sequence).
+        res = dict(
+            reference.solve_sequence(arm, alpha, mass, effects=effs, self_weight=self_weight)
+        )
+        n_seq, n_states = mass.shape
+        flat_alpha = np.repeat(alpha, n_states, axis=0)
+        flat_payload = np.stack([np.zeros(mass.size), -mass.ravel() * arm.g], axis=-1)
+        flat = {k: v.reshape(n_seq * n_states, *v.shape[2:]) for k, v in res.items()}
+        code = status(arm, flat_alpha, flat_payload, flat)
+        res["status"] = code.reshape(n_seq, n_states)  # type: ignore[assignment]
+        return res
+    from eodarm.model import native as _core
+
+    codes, places, values = effect_arrays(effs, arm.n)
+    payload = np.ascontiguousarray(mass * -arm.g)
+    seq: Arrays = _core.solve_sequence(
+        _core_arm(arm), alpha, payload, codes, places, values, self_weight, nan_on_failure
+    )
+    return seq
+
+
+def _sequence_masses(mass_kg: npt.ArrayLike, rows: int) -> npt.NDArray[np.float64]:
+    """The (N, S) payload masses of N sequences, from (N, S) or (S,), or an InputError naming
+    the shape, or the sequence and state of a non-finite or negative mass."""
+    try:
+        mass = np.asarray(real_array(mass_kg, "mass_kg"), dtype=float)
+    except (TypeError, ValueError, OverflowError) as exc:
+        if isinstance(exc, InputError):
+            raise
+        raise InputError("mass_kg: cannot be read as an array of finite numbers") from None
+    if mass.ndim == 1:
+        mass = np.broadcast_to(mass, (rows, mass.shape[0]))
+    if mass.ndim != 2 or mass.shape[0] != rows or mass.shape[1] == 0:
+        raise InputError(
+            f"mass_kg: expected shape ({rows}, S) or (S,) with S >= 1, got {np.shape(mass_kg)}"
+        )
+    bad = ~np.isfinite(mass) | (mass < 0)
+    if bad.any():
+        q, s = (int(v) for v in np.argwhere(bad)[0])
+        raise InputError(
+            f"mass_kg: sequence {q}, state {s}: expected a finite mass >= 0, got {mass[q, s]}"
+        )
+    return np.ascontiguousarray(mass, dtype=np.float64)
+
+
 def _payload_of(mass_kg: npt.ArrayLike, rows: int, g: float) -> npt.NDArray[np.float64]:
     """The (N, 2) payload force (0, −m·g) of per-row masses, or an InputError naming the row
     of a non-finite or negative mass."""
@@ -251,10 +366,6 @@ def _solve_payload(
         raise InputError("fem_options is for model='fem'")
     if uncertainty and (extras or custom_effs):
         raise InputError("uncertainty is propagated for the catalogue's effects only")
-    # TEMP (until the compiled core has the frictions): a model with a friction runs in the
-    # numpy reference.
-    if backend == "rust" and any(c in (8, 9) for c in codes.tolist()):
-        backend = "numpy"
     if backend == "rust":
         from eodarm.model import native as _core
 
@@ -305,48 +416,6 @@ def _solve_payload(
         from eodarm.model.uncertainty import prediction_sigma
 
         res.update(prediction_sigma(arm, alpha, payload, effs, self_weight))
-    return res
-
-
-def solve_sequence(
-    arm: Arm,
-    alpha_deg: npt.ArrayLike,
-    mass_kg: npt.ArrayLike,
-    effects: Effect | list[Effect] | tuple[Effect, ...] | None = None,
-    backend: Backend = "rust",
-    self_weight: bool = True,
-) -> Arrays:
-    """TEMP shim: N sequences of S payloads from each reference (docs/model.md); both backends
-    run the numpy reference until the compiled core has sequences.
-
-    Parameters
-    ----------
-    arm : the arm.
-    alpha_deg : (N, n) unloaded angles of each sequence, degrees.
-    mass_kg : (N, S) or (S,) payloads (kg) of the states after each reference, in order.
-    effects, backend, self_weight : as :func:`solve`.
-
-    Returns
-    -------
-    dict of arrays: the keys of :func:`solve` with shape (N, S, ...), relative to each
-    sequence's reference, and ``status`` (N, S).
-    """
-    check_arm(arm, "solve_sequence")
-    _check_backend(backend)
-    alpha = _poses(alpha_deg, arm.n, "alpha_deg")
-    mass = np.asarray(mass_kg, dtype=np.float64)
-    if mass.ndim == 1:
-        mass = np.broadcast_to(mass, (alpha.shape[0], mass.shape[0]))
-    mass = np.ascontiguousarray(mass, dtype=np.float64)
-    effs = with_arm_effects(arm.effects, effects)
-    from eodarm.model import reference
-
-    res = dict(reference.solve_sequence(arm, alpha, mass, effects=effs, self_weight=self_weight))
-    n_seq, n_states = mass.shape
-    flat_alpha = np.repeat(alpha, n_states, axis=0)
-    flat_payload = np.stack([np.zeros(mass.size), -mass.ravel() * arm.g], axis=-1)
-    flat = {k: v.reshape(n_seq * n_states, *v.shape[2:]) for k, v in res.items()}
-    res["status"] = status(arm, flat_alpha, flat_payload, flat).reshape(n_seq, n_states)  # type: ignore[assignment]
     return res
 
 

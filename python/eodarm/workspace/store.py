@@ -335,7 +335,7 @@ def sweep_to_netcdf(path: str | os.PathLike[str], arm: Arm, **kwargs: Any) -> xr
     """
     out = Path(path)
     previous = out.exists()
-    skip = ("progress", "scheduler", "uncertainty", "compensated_miss")  # not _prepare's
+    skip = ("progress", "scheduler", "uncertainty", "compensated_miss", "cycle")  # not _prepare's
     plan = {k: v for k, v in kwargs.items() if k not in skip}
     setup = _prepare(arm, **{**_DEFAULTS, **plan})
     limits.check_memory(setup.cells, setup.nbytes)

@@ -153,6 +153,7 @@ def sweep(
     fem_options: Mapping[str, Any] | None = None,
     uncertainty: bool = False,
     compensated_miss: bool = False,
+    cycle: bool = False,
 ) -> xr.Dataset:
     """Solve every pose of a grid under every payload, in chunks; an xarray Dataset.
 
@@ -207,6 +208,10 @@ def sweep(
         ``compensated_miss_mm`` (2σ of the loaded measure point at the compensated pose),
         ``compensation_residual_mm`` and ``compensation_status`` (a reduced sweep: the largest
         miss and residual of each group; :mod:`eodarm.workspace.compensated`).
+    cycle : also give ``return_dx_mm``, ``return_dy_mm`` per cell (mm): where the measure point
+        sits after the cycle reference → payload → 0, relative to the reference (friction and
+        gaps leave it off; docs/model.md §9). Analytic model, no reduction
+        (:mod:`eodarm.workspace.cycle`).
 
     Returns
     -------
@@ -257,6 +262,8 @@ def sweep(
     from eodarm.workspace import uncertainty as _unc
 
     _unc.check(setup.job, uncertainty, compensated_miss)
+    if cycle and (reduce is not None or model != "analytic"):
+        raise InputError("sweep: cycle=True gives every cell's return: analytic model, no reduce")
     extra = _unc.extra_nbytes(setup, uncertainty, compensated_miss)
     limits.check_memory(setup.cells, setup.nbytes + extra)
     job, block, step = setup.job, setup.job.block, setup.step
@@ -280,7 +287,12 @@ def sweep(
         finally:
             if bar is not None:
                 bar.close()
-    return _unc.add_outputs(_dataset(setup, result), setup, result, uncertainty, compensated_miss)
+    ds = _unc.add_outputs(_dataset(setup, result), setup, result, uncertainty, compensated_miss)
+    if cycle:
+        from eodarm.workspace.cycle import add_return
+
+        ds = add_return(ds, arm, effects, self_weight)
+    return ds
 
 
 # ---------------------------------------------------------------------------- the plan

@@ -28,9 +28,13 @@ struct AxisLoad {
     c: f64,
 }
 
+/// Loads a link carries at most: its joint, its actuator pin, the next actuator's pin and the
+/// next joint, and the friction couples of its two joints.
+const MAX_LOADS: usize = 6;
+
 /// Closed-form deflection of a beam under axis loads, supports at 0 and `xa`.
 struct Beam {
-    loads: [AxisLoad; 4],
+    loads: [AxisLoad; MAX_LOADS],
     len: usize,
     inv_ei: f64,
     w0: f64,
@@ -38,7 +42,7 @@ struct Beam {
 }
 
 impl Beam {
-    fn new(loads: [AxisLoad; 4], len: usize, ei: f64, xa: f64) -> Self {
+    fn new(loads: [AxisLoad; MAX_LOADS], len: usize, ei: f64, xa: f64) -> Self {
         let mut b = Self {
             loads,
             len,
@@ -113,7 +117,7 @@ impl LinkBending {
         for (p, at_p) in at.iter().enumerate() {
             // A force (f_x, f_y) at (x_p, y_p) is a transverse force f_y and a couple −y_p·f_x.
             for (j, (f, c)) in [(0.0, -at_p.y), (1.0, 0.0)].into_iter().enumerate() {
-                let mut loads = [AxisLoad::default(); 4];
+                let mut loads = [AxisLoad::default(); MAX_LOADS];
                 loads[0] = AxisLoad { x: at_p.x, f, c };
                 let beam = Beam::new(loads, 1, self.ei, link.a.x);
                 for (q, point) in points.iter().enumerate() {
@@ -137,24 +141,26 @@ impl Mechanism for LinkBending {
         let (k, arm, fr, d) = (self.link, ctx.arm, ctx.frames, ctx.delta);
         let n = arm.n();
         let link = &arm.links[k];
-        let mut loads = [AxisLoad::default(); 4];
+        let mut loads = [AxisLoad::default(); MAX_LOADS];
         let mut len = 0;
-        let mut push = |p: V2, f_global: V2| {
+        let mut push = |p: V2, f_global: V2, couple: f64| {
             let f = fr.to_local(k, f_global);
             loads[len] = AxisLoad {
                 x: p.x,
                 f: f.y,
-                c: -p.y * f.x,
+                c: -p.y * f.x + couple,
             };
             len += 1;
         };
-        push(V2::zeros(), d.r[k]);
-        push(link.a, d.f[k] * ctx.lines.e[k]);
+        // A joint friction's couple acts at its pin: on link k at O_k, and the opposite one
+        // at O_{k+1} (this link's `next`) on it as body k of joint k+1.
+        push(V2::zeros(), d.r[k], ctx.couple[k]);
+        push(link.a, d.f[k] * ctx.lines.e[k], 0.0);
         if k + 1 < n {
-            push(link.b, -d.f[k + 1] * ctx.lines.e[k + 1]);
-            push(link.next, -d.r[k + 1]);
+            push(link.b, -d.f[k + 1] * ctx.lines.e[k + 1], 0.0);
+            push(link.next, -d.r[k + 1], -ctx.couple[k + 1]);
         } else {
-            push(link.next, ctx.payload);
+            push(link.next, ctx.payload, 0.0);
         }
         let beam = Beam::new(loads, len, self.ei, link.a.x);
         let s = &mut def.pin_shift[k];

@@ -6,20 +6,26 @@
 //! at once. Adding an effect means one new module and one line in [`Effect`].
 
 mod actuator_compliance;
+mod actuator_friction;
 mod actuator_play;
 mod base_compliance;
 mod extra;
 mod joint_clearance;
+mod joint_friction;
 mod link_bending;
+mod memory;
 mod mount_compliance;
 
 pub use actuator_compliance::ActuatorCompliance;
+pub use actuator_friction::ActuatorFriction;
 pub use actuator_play::ActuatorPlay;
 pub use base_compliance::BaseCompliance;
 pub use extra::ExtraDeformations;
 pub use joint_clearance::JointClearance;
+pub use joint_friction::JointFriction;
 pub(crate) use link_bending::BendInfluence;
 pub use link_bending::LinkBending;
+pub use memory::{slip, SequenceMemory};
 pub use mount_compliance::MountCompliance;
 
 use crate::arm::Arm;
@@ -45,6 +51,9 @@ pub struct EffectContext<'a> {
     pub delta: &'a Forces,
     /// Payload force at the load point (N, global).
     pub payload: V2,
+    /// Friction couple on link i at O_i (N·mm, counter-clockwise +; the opposite one acts on
+    /// body i−1): zero without a joint friction ([`SequenceMemory::step`]).
+    pub couple: &'a [f64],
 }
 
 /// Displacements of a link's named points, in the link's own frame (mm).
@@ -153,6 +162,11 @@ pub const CODE_PLAY_TAKEN_UP: i64 = 6;
 /// Code of `joint_clearance` with [`Unloaded::TakenUp`] (3 is the centred one).
 pub const CODE_CLEARANCE_TAKEN_UP: i64 = 7;
 
+/// Code of `actuator_friction` (docs/model.md §9).
+pub const CODE_ACTUATOR_FRICTION: i64 = 8;
+/// Code of `joint_friction` (docs/model.md §9).
+pub const CODE_JOINT_FRICTION: i64 = 9;
+
 /// Every effect of the catalogue.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Effect {
@@ -168,12 +182,16 @@ pub enum Effect {
     LinkBending(LinkBending),
     /// `base_compliance@base`.
     BaseCompliance(BaseCompliance),
+    /// `actuator_friction@Mi`.
+    ActuatorFriction(ActuatorFriction),
+    /// `joint_friction@Oi`.
+    JointFriction(JointFriction),
 }
 
 impl Effect {
     /// Builds an effect from the binding's code (the order of the catalogue; 6 and 7 are
-    /// `actuator_play` and `joint_clearance` with [`Unloaded::TakenUp`]), 0-based place
-    /// index and parameter value.
+    /// `actuator_play` and `joint_clearance` with [`Unloaded::TakenUp`], 8 and 9 the
+    /// frictions), 0-based place index and parameter value.
     ///
     /// # Errors
     /// [`ArmError::InvalidEffect`] for an unknown code.
@@ -202,6 +220,14 @@ impl Effect {
                 ei: value,
             }),
             5 => Self::BaseCompliance(BaseCompliance { stiffness: value }),
+            CODE_ACTUATOR_FRICTION => Self::ActuatorFriction(ActuatorFriction {
+                actuator: index,
+                friction: value,
+            }),
+            CODE_JOINT_FRICTION => Self::JointFriction(JointFriction {
+                joint: index,
+                torque: value,
+            }),
             _ => {
                 return Err(ArmError::InvalidEffect {
                     effect: format!("code {code}"),
@@ -237,6 +263,8 @@ impl Effect {
             Self::JointClearance(e) => e,
             Self::LinkBending(e) => e,
             Self::BaseCompliance(e) => e,
+            Self::ActuatorFriction(e) => e,
+            Self::JointFriction(e) => e,
         }
     }
 }
@@ -300,6 +328,13 @@ impl EffectSet {
     /// The baseline model: no effect.
     pub fn empty() -> Self {
         Self::default()
+    }
+
+    /// Whether a friction element (with history) is among the effects.
+    pub fn has_friction(&self) -> bool {
+        self.effects
+            .iter()
+            .any(|e| matches!(e, Effect::ActuatorFriction(_) | Effect::JointFriction(_)))
     }
 
     /// The effects, in the order given.

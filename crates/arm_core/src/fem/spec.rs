@@ -86,6 +86,13 @@ impl FemSpec {
                 Effect::JointClearance(x) => spec.clearance[x.joint] = x.clearance,
                 Effect::LinkBending(x) => spec.sections[x.link].ei = Some(x.ei),
                 Effect::BaseCompliance(x) => spec.base_stiffness = Some(x.stiffness),
+                Effect::ActuatorFriction(_) | Effect::JointFriction(_) => {
+                    return Err(ArmError::InvalidEffect {
+                        effect: e.label(),
+                        reason: "the FE model has no friction; solve it with the analytic model"
+                            .into(),
+                    })
+                }
             }
         }
         // An infinite section or base stiffness is the same as none given: rigid.

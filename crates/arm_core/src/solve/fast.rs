@@ -28,13 +28,16 @@
 mod base;
 mod bending;
 mod clearance;
+mod friction;
 
 use base::Base;
 use bending::{Bending, Shifts};
 use clearance::Clearance;
+use friction::{Friction, Held};
 
+use super::sequence::SequenceInput;
 use super::status::pose_status;
-use super::{write_row, BatchInput, BatchOutput, SolveOptions, Workspace};
+use super::{write_row, BatchBuffers, BatchInput, BatchOutput, SolveOptions, Workspace};
 use crate::arm::Arm;
 use crate::effects::{Effect, EffectSet};
 use crate::error::Result;
@@ -55,6 +58,7 @@ pub(crate) struct SolveKernel<const N: usize> {
     clear: Clearance<N>,
     bend: Bending<N>,
     base: Base,
+    fric: Friction<N>,
     /// The arm's reach Σ|next_i| (validity).
     reach: f64,
     /// Force limits (N), +∞ where none.
@@ -78,6 +82,8 @@ pub(crate) struct SolveBlock<const N: usize> {
     fail: [bool; L],
     /// Status codes (docs/model.md §7).
     status: [u8; L],
+    /// Further body length a body friction leaves (mm; zero without one).
+    seen: [[f64; L]; N],
 }
 
 impl<const N: usize> SolveBlock<N> {
@@ -94,6 +100,7 @@ impl<const N: usize> SolveBlock<N> {
             dy: [0.0; L],
             fail: [false; L],
             status: [0; L],
+            seen: z,
         }
     }
 }
@@ -111,6 +118,7 @@ impl<const N: usize> SolveKernel<N> {
                 | Effect::JointClearance(_)
                 | Effect::LinkBending(_)
                 | Effect::BaseCompliance(_) => {}
+                Effect::ActuatorFriction(_) | Effect::JointFriction(_) => {}
             }
         }
         Some(Self {
@@ -118,6 +126,7 @@ impl<const N: usize> SolveKernel<N> {
             clear: Clearance::new(effects),
             bend: Bending::new(arm, effects),
             base: Base::new(arm, effects),
+            fric: Friction::new(effects)?,
             reach: validity::reach(arm),
             fmax: std::array::from_fn(|i| arm.actuators[i].max_force.unwrap_or(f64::INFINITY)),
         })
@@ -139,6 +148,7 @@ impl<const N: usize> SolveKernel<N> {
         out: &mut BatchOutput<'_>,
         status: &mut [u8],
         p: usize,
+        held: Option<&mut Held<N>>,
     ) {
         struct Op<'a, 'o, const N: usize> {
             k: &'a SolveKernel<N>,
@@ -150,6 +160,7 @@ impl<const N: usize> SolveKernel<N> {
             out: &'a mut BatchOutput<'o>,
             status: &'a mut [u8],
             p: usize,
+            held: Option<&'a mut Held<N>>,
         }
         impl<const N: usize> pulp::WithSimd for Op<'_, '_, N> {
             type Output = ();
@@ -160,6 +171,12 @@ impl<const N: usize> SolveKernel<N> {
                 let trig = block_trig::<N>(self.alpha_deg, self.count);
                 let k = self.k;
                 k.fa.poses_sc_impl(&trig.0, &trig.1, &pay, self.pb);
+                if k.fric.any {
+                    // `solve` is a sequence of one state: a fresh memory.
+                    let mut fresh = Held::new();
+                    let held = self.held.unwrap_or(&mut fresh);
+                    k.fric.step(self.pb, held, &k.fa.body_c, &mut self.sb.seen);
+                }
                 k.close_any(&trig, &pay, self.pb, self.sb);
                 write_block(self.pb, self.sb, self.out, self.status, self.p, self.count);
             }
@@ -174,6 +191,7 @@ impl<const N: usize> SolveKernel<N> {
             out,
             status,
             p,
+            held,
         });
     }
 
@@ -270,7 +288,8 @@ impl<const N: usize> SolveKernel<N> {
             let du = ld(&pb.fu[i]);
             let fw = ld(&pb.fw[i]);
             let f = fw + du;
-            let dlen = fa.dlen::<PLAY, UP, F4>(i, du, f, fw);
+            let seen = ld(&sb.seen[i]);
+            let dlen = fa.dlen::<PLAY, UP, F4>(i, du, f, fw) + seen;
             let l = ld(&pb.len[i]);
             let (c, s, side) = (ld(&pb.c[i]), ld(&pb.s[i]), ld(&pb.side[i]));
             let (dc, rd, ra) = if GEOM {
@@ -353,7 +372,7 @@ impl<const N: usize> SolveKernel<N> {
             du.store(&mut sb.dforce[i], at);
             (ld(&pb.rw[0][i]) + ld(&pb.ru[0][i])).store(&mut sb.reaction[0][i], at);
             (ld(&pb.rw[1][i]) + ld(&pb.ru[1][i])).store(&mut sb.reaction[1][i], at);
-            (-du * bc).store(&mut sb.dl[i], at);
+            (-du * bc + seen).store(&mut sb.dl[i], at);
             dlen.store(&mut sb.dlength[i], at);
         }
         if far.any() {
@@ -488,6 +507,174 @@ impl Kernel {
     }
 }
 
+impl Kernel {
+    /// Solves the load sequences of `input` (see [`super::sequence`]) into `out` (rows
+    /// `q·S + s`) and `status`, [`L`] sequences at a time with each lane's friction memory
+    /// carried from state to state; returns the (chunk-local) sequences with a state the
+    /// kernel could not solve, for the general path to solve again.
+    pub(crate) fn sequences(
+        &self,
+        simd: pulp::Arch,
+        input: SequenceInput<'_>,
+        out: &mut BatchOutput<'_>,
+        status: &mut [u8],
+    ) -> Vec<usize> {
+        match self {
+            Self::F1(k) => k.sequences(simd, input, out, status),
+            Self::F2(k) => k.sequences(simd, input, out, status),
+            Self::F3(k) => k.sequences(simd, input, out, status),
+            Self::F4(k) => k.sequences(simd, input, out, status),
+            Self::F5(k) => k.sequences(simd, input, out, status),
+            Self::F6(k) => k.sequences(simd, input, out, status),
+        }
+    }
+}
+
+impl<const N: usize> SolveKernel<N> {
+    fn sequences(
+        &self,
+        simd: pulp::Arch,
+        input: SequenceInput<'_>,
+        out: &mut BatchOutput<'_>,
+        status: &mut [u8],
+    ) -> Vec<usize> {
+        let seqs = input.alpha_deg.len() / N;
+        let mut sc = SeqScratch {
+            pbx: PoseBlock::<N>::new(),
+            pby: PoseBlock::<N>::new(),
+            pb: PoseBlock::<N>::new(),
+            sb: SolveBlock::<N>::new(),
+            tmp: BatchBuffers::new(L, N),
+            tst: [0u8; L],
+        };
+        let mut failed = Vec::new();
+        let mut q0 = 0;
+        while q0 < seqs {
+            let count = (seqs - q0).min(L);
+            let bad = self.sequence_block(simd, input, q0, count, &mut sc, out, status);
+            failed.extend((0..count).filter(|&k| bad[k]).map(|k| q0 + k));
+            q0 += count;
+        }
+        failed
+    }
+
+    /// Sequences `q0..q0 + count` through all their states: the poses' trigonometry and the
+    /// statics of a unit payload along x and along y once (the payload case is linear in the
+    /// payload), then per state the payload case scaled, the frictions stepped, the closure.
+    /// Returns which lanes failed in some state.
+    #[allow(clippy::too_many_arguments)]
+    fn sequence_block(
+        &self,
+        simd: pulp::Arch,
+        input: SequenceInput<'_>,
+        q0: usize,
+        count: usize,
+        sc: &mut SeqScratch<N>,
+        out: &mut BatchOutput<'_>,
+        status: &mut [u8],
+    ) -> [bool; L] {
+        struct Op<'a, 'o, const N: usize> {
+            k: &'a SolveKernel<N>,
+            input: SequenceInput<'a>,
+            q0: usize,
+            count: usize,
+            sc: &'a mut SeqScratch<N>,
+            out: &'a mut BatchOutput<'o>,
+            status: &'a mut [u8],
+        }
+        impl<const N: usize> pulp::WithSimd for Op<'_, '_, N> {
+            type Output = [bool; L];
+            #[inline(always)]
+            fn with_simd<S: pulp::Simd>(self, _simd: S) -> [bool; L] {
+                let (k, sc, count, q0) = (self.k, self.sc, self.count, self.q0);
+                let states = self.input.states;
+                let alpha = &self.input.alpha_deg[q0 * N..(q0 + count) * N];
+                let trig = block_trig::<N>(alpha, count);
+                let (one, zero) = ([1.0; L], [0.0; L]);
+                k.fa.poses_sc_impl(&trig.0, &trig.1, &[one, zero], &mut sc.pbx);
+                k.fa.poses_sc_impl(&trig.0, &trig.1, &[zero, one], &mut sc.pby);
+                let mut held = Held::<N>::new();
+                let mut bad = [false; L];
+                for st in 0..states {
+                    // Missing lanes repeat the last sequence.
+                    let mut pay = [[0.0; L]; 2];
+                    for j in 0..L {
+                        let r = (q0 + j.min(count - 1)) * states + st;
+                        pay[0][j] = self.input.payload_n[2 * r];
+                        pay[1][j] = self.input.payload_n[2 * r + 1];
+                    }
+                    sc.pb.clone_from(&sc.pbx);
+                    for i in 0..N {
+                        for j in 0..L {
+                            let (px, py) = (pay[0][j], pay[1][j]);
+                            sc.pb.fu[i][j] = px * sc.pbx.fu[i][j] + py * sc.pby.fu[i][j];
+                            for c in 0..2 {
+                                sc.pb.ru[c][i][j] =
+                                    px * sc.pbx.ru[c][i][j] + py * sc.pby.ru[c][i][j];
+                            }
+                        }
+                    }
+                    if k.fric.any {
+                        k.fric
+                            .step(&mut sc.pb, &mut held, &k.fa.body_c, &mut sc.sb.seen);
+                    }
+                    k.close_any(&trig, &pay, &sc.pb, &mut sc.sb);
+                    let mut tmp = sc.tmp.out();
+                    write_block(&sc.pb, &sc.sb, &mut tmp, &mut sc.tst, 0, count);
+                    for j in 0..count {
+                        bad[j] |= sc.sb.fail[j];
+                        let r = (q0 + j) * states + st;
+                        copy_row(&sc.tmp, j, self.out, r, N);
+                        self.status[r] = sc.tst[j];
+                    }
+                }
+                bad
+            }
+        }
+        simd.dispatch(Op {
+            k: self,
+            input,
+            q0,
+            count,
+            sc,
+            out,
+            status,
+        })
+    }
+}
+
+/// Scratch of [`SolveKernel::sequence_block`]: the unit payload cases, the state's block, a
+/// block's rows before they are copied to their sequences' rows.
+struct SeqScratch<const N: usize> {
+    pbx: PoseBlock<N>,
+    pby: PoseBlock<N>,
+    pb: PoseBlock<N>,
+    sb: SolveBlock<N>,
+    tmp: BatchBuffers,
+    tst: [u8; L],
+}
+
+/// Copies row `k` of `from` into row `r` of `to` (`n` links).
+pub(crate) fn copy_row(
+    from: &BatchBuffers,
+    k: usize,
+    to: &mut BatchOutput<'_>,
+    r: usize,
+    n: usize,
+) {
+    let (a, b) = (k * n..(k + 1) * n, r * n..(r + 1) * n);
+    to.force_n[b.clone()].copy_from_slice(&from.force_n[a.clone()]);
+    to.dforce_n[b.clone()].copy_from_slice(&from.dforce_n[a.clone()]);
+    to.dalpha_deg[b.clone()].copy_from_slice(&from.dalpha_deg[a.clone()]);
+    to.dl_mm[b.clone()].copy_from_slice(&from.dl_mm[a.clone()]);
+    to.dlength_mm[b.clone()].copy_from_slice(&from.dlength_mm[a.clone()]);
+    to.length_mm[b].copy_from_slice(&from.length_mm[a]);
+    to.reaction_n[2 * r * n..2 * (r + 1) * n]
+        .copy_from_slice(&from.reaction_n[2 * k * n..2 * (k + 1) * n]);
+    to.dx_mm[r] = from.dx_mm[k];
+    to.dy_mm[r] = from.dy_mm[k];
+}
+
 /// What a chunk needs besides its rows: the model, for the lanes the kernel hands back.
 pub(crate) struct Ctx<'a> {
     pub(crate) arm: &'a Arm,
@@ -515,7 +702,7 @@ impl<const N: usize> SolveKernel<N> {
             let alpha = &input.alpha_deg[p * N..(p + count) * N];
             let payload = &input.payload_n[2 * p..2 * (p + count)];
             self.block(
-                simd, alpha, payload, count, &mut pb, &mut sb, &mut out, status, p,
+                simd, alpha, payload, count, &mut pb, &mut sb, &mut out, status, p, None,
             );
             for q in 0..count {
                 if sb.fail[q] {

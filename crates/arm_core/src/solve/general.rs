@@ -3,7 +3,7 @@
 //! types, the block kernel and the batch drivers, which all use it.
 
 use crate::arm::Arm;
-use crate::effects::{Deformation, EffectContext, EffectSet, ExtraDeformations};
+use crate::effects::{Deformation, EffectContext, EffectSet, ExtraDeformations, SequenceMemory};
 use crate::error::Result;
 use crate::geometry::V2;
 use crate::kinematics::Frames;
@@ -52,6 +52,13 @@ pub struct Workspace {
     pub body_dl: Vec<f64>,
     /// Displacement of the measurement point (mm).
     pub dmeasure: V2,
+    /// Force change of each actuator's body spring (N): `delta.f` unless an actuator
+    /// friction holds part of it.
+    pub body_force: Vec<f64>,
+    /// Friction couple on link i at O_i (N·mm, counter-clockwise +).
+    pub couple: Vec<f64>,
+    /// The friction memory of a single loading (reset before each [`Self::solve_extra`]).
+    memory: SequenceMemory,
 }
 
 impl Workspace {
@@ -69,6 +76,9 @@ impl Workspace {
             new_alpha: vec![0.0; n],
             body_dl: vec![0.0; n],
             dmeasure: V2::zeros(),
+            body_force: vec![0.0; n],
+            couple: vec![0.0; n],
+            memory: SequenceMemory::new(n),
         }
     }
 
@@ -112,6 +122,48 @@ impl Workspace {
         row: usize,
         extra: (&ExtraDeformations<'_>, usize),
     ) -> Result<()> {
+        // A single loading is a sequence of one state from the reference.
+        let mut memory = std::mem::take(&mut self.memory);
+        memory.reset();
+        let r = self.solve_state(arm, effects, alpha, payload, opts, row, extra, &mut memory);
+        self.memory = memory;
+        r
+    }
+
+    /// One state of a load sequence: [`Self::solve_extra`] with the frictions' `memory` of the
+    /// states before it (fresh at the reference), which it advances to this state. Forces and
+    /// outputs are relative to the sequence's reference (self-weight only).
+    ///
+    /// # Errors
+    /// Singular poses and triangles that cannot close, naming `row`.
+    #[allow(clippy::too_many_arguments)]
+    pub fn solve_state(
+        &mut self,
+        arm: &Arm,
+        effects: &EffectSet,
+        alpha: &[f64],
+        payload: V2,
+        opts: SolveOptions,
+        row: usize,
+        extra: (&ExtraDeformations<'_>, usize),
+        memory: &mut SequenceMemory,
+    ) -> Result<()> {
+        self.prepare(arm, alpha, opts, row)?;
+        self.solve_prepared(arm, effects, payload, row, extra, memory)
+    }
+
+    /// The reference of a pose (angles in rad): its geometry, actuator lines and the forces
+    /// of the unloaded state, shared by every state of a sequence.
+    ///
+    /// # Errors
+    /// Singular poses, naming `row`.
+    pub(crate) fn prepare(
+        &mut self,
+        arm: &Arm,
+        alpha: &[f64],
+        opts: SolveOptions,
+        row: usize,
+    ) -> Result<()> {
         self.frames.fill(arm, alpha);
         self.lines.fill(&self.frames, row)?;
         solve_forces(
@@ -122,6 +174,22 @@ impl Workspace {
             V2::zeros(),
             &mut self.weight,
         );
+        Ok(())
+    }
+
+    /// One state of the pose [`Self::prepare`]d last (see [`Self::solve_state`]).
+    ///
+    /// # Errors
+    /// Triangles that cannot close, naming `row`.
+    pub(crate) fn solve_prepared(
+        &mut self,
+        arm: &Arm,
+        effects: &EffectSet,
+        payload: V2,
+        row: usize,
+        extra: (&ExtraDeformations<'_>, usize),
+        memory: &mut SequenceMemory,
+    ) -> Result<()> {
         solve_forces(
             arm,
             &self.frames,
@@ -129,6 +197,13 @@ impl Workspace {
             false,
             payload,
             &mut self.delta,
+        );
+        memory.step(
+            effects,
+            &self.lines,
+            &mut self.delta,
+            &mut self.body_force,
+            &mut self.couple,
         );
         self.loaded.set_sum(&self.weight, &self.delta);
         let ctx = EffectContext {
@@ -139,13 +214,14 @@ impl Workspace {
             loaded: &self.loaded,
             delta: &self.delta,
             payload,
+            couple: &self.couple,
         };
         effects.apply(&ctx, &mut self.def);
         if !extra.0.is_none() {
             extra.0.add_to(extra.1, &mut self.def);
         }
         for i in 0..arm.n() {
-            let body = -self.delta.f[i] * self.def.body_compliance[i] + self.def.seen_length[i];
+            let body = -self.body_force[i] * self.def.body_compliance[i] + self.def.seen_length[i];
             self.body_dl[i] = body;
             self.new_length[i] = self.lines.length[i] + body + self.def.extra_length[i];
         }

@@ -1,0 +1,222 @@
+//! Load sequences (docs/model.md, "Load sequences and friction"): N sequences of S states
+//! each, every state relative to its sequence's reference (the unloaded pose, self-weight
+//! only, in which the sensors were zeroed).
+//!
+//! Each state is one [`Workspace::solve_state`] with the sequence's [`SequenceMemory`], handed
+//! from one state to the next: the frictions hold what the states before let them hold, and
+//! the gaps are taken up along each state's own actual force. Sequences are independent and
+//! run in parallel (rayon over chunks of sequences); the states of one sequence run in order.
+//! A single loading (`solve`) is the case S = 1.
+
+use rayon::prelude::*;
+
+use super::status::pose_status;
+use super::{fill_nan, split_output, write_row, BatchOutput, SolveOptions, Workspace};
+use crate::arm::Arm;
+use crate::effects::{EffectSet, ExtraDeformations, SequenceMemory};
+use crate::error::{ArmError, Result};
+use crate::geometry::V2;
+use crate::kinematics::Frames;
+
+/// States per parallel work item (whole sequences of about this many states).
+const CHUNK_STATES: usize = 1024;
+
+/// Inputs of a batch of load sequences, row-major.
+#[derive(Debug, Clone, Copy)]
+pub struct SequenceInput<'a> {
+    /// Unloaded absolute angles (deg) of each sequence, `N × n`.
+    pub alpha_deg: &'a [f64],
+    /// Payload force at the load point (N, global) of each state after the reference,
+    /// `N × S × 2`.
+    pub payload_n: &'a [f64],
+    /// States per sequence, S ≥ 1.
+    pub states: usize,
+}
+
+/// Solves N load sequences of S states, filling `out` (N·S rows, sequence-major: row
+/// `q·S + s` is state s of sequence q) and `status` (N·S) in place. Every output is that
+/// state's: `force_n`, `reaction_n` the actual forces (the reference's plus what the springs
+/// and pins take), `dforce_n`, the displacements and length changes relative to the reference.
+///
+/// # Errors
+/// Wrong shapes or non-finite input naming the sequence; otherwise the error of the lowest
+/// failing sequence (singular, a triangle that cannot close: its row is the sequence's
+/// index), unless `opts.nan_on_failure` fills that state with NaN.
+pub fn solve_sequence(
+    arm: &Arm,
+    effects: &EffectSet,
+    input: SequenceInput<'_>,
+    opts: SolveOptions,
+    out: BatchOutput<'_>,
+    status: &mut [u8],
+) -> Result<()> {
+    let n = arm.n();
+    let s = input.states;
+    let seqs = check(arm, &input)?;
+    out.check(seqs * s, n)?;
+    if status.len() != seqs * s {
+        return Err(ArmError::Shape {
+            what: "status",
+            expected: seqs * s,
+            got: status.len(),
+        });
+    }
+    if seqs == 0 || s == 0 {
+        return Ok(());
+    }
+    // The block kernel, 16 sequences at a time; the general path for what it lacks.
+    let kernel = super::fast::Kernel::new(arm, effects, opts.self_weight);
+    let simd = pulp::Arch::new();
+    let run =
+        |sub: SequenceInput<'_>, chunk: BatchOutput<'_>, st: &mut [u8], first: usize| match &kernel
+        {
+            Some(k) => run_kernel(k, simd, arm, effects, sub, opts, chunk, st, first),
+            None => run_chunk(arm, effects, sub, opts, chunk, st, first),
+        };
+    let per_chunk = (CHUNK_STATES / s).max(1);
+    if seqs <= per_chunk {
+        return run(input, out, status, 0);
+    }
+    let chunks = split_output(out, n, per_chunk * s);
+    let errors: Vec<ArmError> = chunks
+        .into_par_iter()
+        .zip(status.par_chunks_mut(per_chunk * s))
+        .enumerate()
+        .filter_map(|(k, (chunk, st))| {
+            let first = k * per_chunk;
+            let m = chunk.dx_mm.len() / s;
+            let sub = SequenceInput {
+                alpha_deg: &input.alpha_deg[first * n..(first + m) * n],
+                payload_n: &input.payload_n[2 * s * first..2 * s * (first + m)],
+                states: s,
+            };
+            run(sub, chunk, st, first).err()
+        })
+        .collect();
+    match errors.into_iter().next() {
+        Some(e) => Err(e),
+        None => Ok(()),
+    }
+}
+
+/// Checks shapes and finiteness; returns the number of sequences.
+fn check(arm: &Arm, input: &SequenceInput<'_>) -> Result<usize> {
+    let n = arm.n();
+    let s = input.states;
+    if !input.alpha_deg.len().is_multiple_of(n) {
+        return Err(ArmError::Shape {
+            what: "alpha_deg",
+            expected: (input.alpha_deg.len() / n + 1) * n,
+            got: input.alpha_deg.len(),
+        });
+    }
+    let seqs = input.alpha_deg.len() / n;
+    if input.payload_n.len() != 2 * s * seqs {
+        return Err(ArmError::Shape {
+            what: "payload_n",
+            expected: 2 * s * seqs,
+            got: input.payload_n.len(),
+        });
+    }
+    for q in 0..seqs {
+        if !input.alpha_deg[q * n..(q + 1) * n]
+            .iter()
+            .all(|v| v.is_finite())
+        {
+            return Err(ArmError::NonFinite {
+                row: q,
+                what: "alpha_deg",
+            });
+        }
+        if !input.payload_n[2 * s * q..2 * s * (q + 1)]
+            .iter()
+            .all(|v| v.is_finite())
+        {
+            return Err(ArmError::NonFinite {
+                row: q,
+                what: "payload",
+            });
+        }
+    }
+    Ok(seqs)
+}
+
+/// The sequences of one chunk on the block kernel; a sequence with a state the kernel could
+/// not solve is solved again by the general path (its error, or its NaN rows).
+#[allow(clippy::too_many_arguments)]
+fn run_kernel(
+    kernel: &super::fast::Kernel,
+    simd: pulp::Arch,
+    arm: &Arm,
+    effects: &EffectSet,
+    input: SequenceInput<'_>,
+    opts: SolveOptions,
+    mut out: BatchOutput<'_>,
+    status: &mut [u8],
+    first: usize,
+) -> Result<()> {
+    let n = arm.n();
+    let s = input.states;
+    let failed = kernel.sequences(simd, input, &mut out, status);
+    for q in failed {
+        let sub = SequenceInput {
+            alpha_deg: &input.alpha_deg[q * n..(q + 1) * n],
+            payload_n: &input.payload_n[2 * s * q..2 * s * (q + 1)],
+            states: s,
+        };
+        let mut one = crate::solve::BatchBuffers::new(s, n);
+        let mut st = vec![0u8; s];
+        run_chunk(arm, effects, sub, opts, one.out(), &mut st, first + q)?;
+        for k in 0..s {
+            super::fast::copy_row(&one, k, &mut out, q * s + k, n);
+        }
+        status[q * s..(q + 1) * s].copy_from_slice(&st);
+    }
+    Ok(())
+}
+
+/// The sequences of one chunk, in order; `first` is the index of its first sequence.
+fn run_chunk(
+    arm: &Arm,
+    effects: &EffectSet,
+    input: SequenceInput<'_>,
+    opts: SolveOptions,
+    mut out: BatchOutput<'_>,
+    status: &mut [u8],
+    first: usize,
+) -> Result<()> {
+    let n = arm.n();
+    let s = input.states;
+    let mut ws = Workspace::new(arm);
+    let mut memory = SequenceMemory::new(n);
+    let mut loaded = Frames::new(n);
+    let reach = crate::validity::reach(arm);
+    let lift = crate::validity::checks_load_rise(arm, effects);
+    let mut alpha = vec![0.0; n];
+    let none = ExtraDeformations::none();
+    for q in 0..out.dx_mm.len() / s {
+        let row = first + q;
+        for (a, d) in alpha.iter_mut().zip(&input.alpha_deg[q * n..(q + 1) * n]) {
+            *a = d.to_radians();
+        }
+        memory.reset();
+        // The reference's geometry and forces are the same for every state.
+        let prepared = ws.prepare(arm, &alpha, opts, row);
+        for k in 0..s {
+            let p = q * s + k;
+            let payload = V2::new(input.payload_n[2 * p], input.payload_n[2 * p + 1]);
+            let solved = match &prepared {
+                Ok(()) => ws.solve_prepared(arm, effects, payload, row, (&none, 0), &mut memory),
+                Err(e) => Err(e.clone()),
+            };
+            match solved {
+                Ok(()) => write_row(&ws, &alpha, &mut out, p, n),
+                Err(e) if opts.nan_on_failure && e.is_pose_failure() => fill_nan(&mut out, p, n),
+                Err(e) => return Err(e),
+            }
+            let down = payload.y < 0.0;
+            status[p] = pose_status(arm, &ws.frames, &mut loaded, &out, p, down, reach, lift);
+        }
+    }
+    Ok(())
+}

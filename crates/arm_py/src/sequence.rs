@@ -1,0 +1,90 @@
+//! `solve_sequence`: N load sequences of S states each, relative to each sequence's reference
+//! (see `eodarm.solve_sequence` and `arm_core::solve_sequence`).
+
+use crate::convert::{effect_set, matrix, CoreArm};
+use crate::errors::{value_error, PyArmError};
+use arm_core::{BatchBuffers, SequenceInput, SolveOptions};
+use numpy::{
+    IntoPyArray, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods,
+};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+
+/// Solves N sequences of S states; returns a dict of float64 arrays `force_n`, `dforce_n`,
+/// `dalpha_deg`, `dl_mm`, `dlength_mm`, `length_mm` (N, S, n), `reaction_n` (N, S, n, 2),
+/// `dx_mm`, `dy_mm` (N, S) and the uint8 `status` (N, S), every state relative to its
+/// sequence's reference. `payload_n` (N, S) is the vertical component (N, y up) of the
+/// payload force of each state, as column 1 of `solve`'s `payload_n`: `−m·g` for a mass m.
+#[pyfunction]
+#[pyo3(signature = (arm, alpha_deg, payload_n, codes, places, values, self_weight, nan_on_failure=false))]
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn solve_sequence<'py>(
+    py: Python<'py>,
+    arm: &CoreArm,
+    alpha_deg: PyReadonlyArray2<'py, f64>,
+    payload_n: PyReadonlyArray2<'py, f64>,
+    codes: PyReadonlyArray1<'py, i64>,
+    places: PyReadonlyArray1<'py, i64>,
+    values: PyReadonlyArray1<'py, f64>,
+    self_weight: bool,
+    nan_on_failure: bool,
+) -> PyResult<Bound<'py, PyDict>> {
+    let arm = &arm.inner;
+    let n = arm.n();
+    let (alpha, seqs) = matrix(&alpha_deg, "alpha_deg", n)?;
+    let shape = payload_n.shape();
+    let (rows, states) = (shape[0], shape[1]);
+    if rows != seqs {
+        return Err(value_error(format!(
+            "payload_n: expected {seqs} rows like alpha_deg, got {rows}"
+        )));
+    }
+    if states == 0 {
+        return Err(value_error(
+            "payload_n: a sequence needs at least one state".into(),
+        ));
+    }
+    let py_payload = payload_n
+        .as_slice()
+        .map_err(|_| value_error("payload_n: array must be C-contiguous".into()))?;
+    let effects = effect_set(arm, &codes, &places, &values, true)?;
+    let opts = SolveOptions {
+        self_weight,
+        nan_on_failure,
+    };
+    let total = seqs * states;
+    let mut b = BatchBuffers::new(total, n);
+    let mut status = vec![0u8; total];
+    py.detach(|| {
+        let mut payload = vec![0.0; 2 * total];
+        for (p, y) in payload.chunks_exact_mut(2).zip(py_payload) {
+            p[1] = *y;
+        }
+        let input = SequenceInput {
+            alpha_deg: alpha,
+            payload_n: &payload,
+            states,
+        };
+        arm_core::solve_sequence(arm, &effects, input, opts, b.out(), &mut status)
+    })
+    .map_err(PyArmError)?;
+    let per_link = |v: Vec<f64>| v.into_pyarray(py).reshape([seqs, states, n]);
+    let per_state = |v: Vec<f64>| v.into_pyarray(py).reshape([seqs, states]);
+    let out = PyDict::new(py);
+    out.set_item("force_n", per_link(b.force_n)?)?;
+    out.set_item(
+        "reaction_n",
+        b.reaction_n
+            .into_pyarray(py)
+            .reshape([seqs, states, n, 2])?,
+    )?;
+    out.set_item("dforce_n", per_link(b.dforce_n)?)?;
+    out.set_item("dx_mm", per_state(b.dx_mm)?)?;
+    out.set_item("dy_mm", per_state(b.dy_mm)?)?;
+    out.set_item("dalpha_deg", per_link(b.dalpha_deg)?)?;
+    out.set_item("dl_mm", per_link(b.dl_mm)?)?;
+    out.set_item("dlength_mm", per_link(b.dlength_mm)?)?;
+    out.set_item("length_mm", per_link(b.length_mm)?)?;
+    out.set_item("status", status.into_pyarray(py).reshape([seqs, states])?)?;
+    Ok(out)
+}
