@@ -1,4 +1,4 @@
-//! Compensation (CONTRACT §9): the unloaded angles to command instead of a nominal pose, so
+//! Compensation (docs/compensation.md): the unloaded angles to command instead of a nominal pose, so
 //! that under the payload the model's measure point lands where the nominal pose puts it and,
 //! for n ≥ 3, the last link keeps its nominal absolute angle.
 //!

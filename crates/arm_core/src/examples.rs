@@ -1,4 +1,4 @@
-//! The example arm of CONTRACT §2 and the seed paper's arm: fixtures for tests, benchmarks
+//! The example arm of docs/formats.md §1 and the seed paper's arm: fixtures for tests, benchmarks
 //! and examples.
 //!
 //! The numbers are those of `examples/example_arm.toml` in the repository (the Python package

@@ -1,4 +1,4 @@
-//! The loaded pose, closed exactly (CONTRACT §1): body by body from the chassis, each actuator
+//! The loaded pose, closed exactly (docs/model.md §1): body by body from the chassis, each actuator
 //! triangle is closed with its changed length and its moved pins. Nothing is linearised.
 
 use crate::arm::Arm;

@@ -103,7 +103,7 @@ pub fn solve_batch(
 }
 
 /// [`solve_batch`] with per-pose deformations from outside the catalogue (user effects,
-/// CONTRACT §8) added to the built-in effects' before each pose is closed.
+/// docs/custom-effects.md) added to the built-in effects' before each pose is closed.
 ///
 /// # Errors
 /// The error of the lowest failing row (shape, non-finite, singular, unreachable); a wrong

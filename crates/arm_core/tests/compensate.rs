@@ -1,4 +1,4 @@
-//! Compensation (CONTRACT §9): the compensated pose, solved under the payload, puts the
+//! Compensation (docs/compensation.md): the compensated pose, solved under the payload, puts the
 //! measure point on the nominal one (and keeps the last link's angle for n ≥ 3); no load, no
 //! change; the change is the smallest one for n > 3; stroke limits, singular poses and bad
 //! input are reported.

@@ -1,4 +1,4 @@
-//! Deformations from outside the catalogue (user effects, CONTRACT §8) and gaps taken up by
+//! Deformations from outside the catalogue (user effects, docs/custom-effects.md) and gaps taken up by
 //! the unloaded forces (docs/model.md §4): an extra deformation equal to a built-in effect's
 //! cause gives that effect's result; zero extras change nothing; bad extras are refused naming
 //! the array and row; the batch statics are the solver's; a taken-up gap gives no deflection

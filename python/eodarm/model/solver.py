@@ -1,4 +1,4 @@
-"""The public solvers: loaded pose, kinematics, inverse kinematics (CONTRACT §5).
+"""The public solvers: loaded pose, kinematics, inverse kinematics (docs/model.md).
 
 Every function takes and returns numpy arrays for many poses at once and dispatches to the
 compiled core (``backend="rust"``, the default) or to the numpy reference
@@ -63,7 +63,7 @@ def solve(
     arm : the arm.
     alpha_deg : (N, n) unloaded absolute link angles, degrees (a single pose (n,) is N = 1).
     mass_kg : payload mass, kg; scalar or (N,). Its weight ``m·g`` acts downward.
-    effects : effects added to the baseline model (CONTRACT §4), built-in or user-written
+    effects : effects added to the baseline model (docs/model.md §4), built-in or user-written
         (:func:`eodarm.custom_effect`; their functions are called once each, on the statics of
         the N poses, and what they return is added to ``extra``).
     backend : ``"rust"`` (compiled core) or ``"numpy"`` (independent reference).
@@ -73,7 +73,7 @@ def solve(
         agrees with the analytic model to first order in the load; compiled core only.
     fem_options : with ``model="fem"``: ``elements_per_link`` (default 8) and
         ``moment_samples`` (101).
-    extra : deformations of user-written effects (CONTRACT §8) added to the effects', each
+    extra : deformations of user-written effects (custom-effects.md) added to the effects', each
         optional, global frame: ``extra_seen_mm`` (N, n) pin-to-pin length change that the
         actuator's sensor sees, ``extra_unseen_mm`` (N, n) one it does not see,
         ``extra_joint_mm`` (N, n, 2) offset of link i's pin centre at O_i, ``extra_tilt_rad``
@@ -449,7 +449,7 @@ def statics(
     backend: Backend = "rust",
     self_weight: bool = True,
 ) -> Arrays:
-    """Forces of both states of N poses on the undeformed geometry (CONTRACT §1, §8).
+    """Forces of both states of N poses on the undeformed geometry (docs/model.md §1).
 
     Returns
     -------

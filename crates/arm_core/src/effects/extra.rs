@@ -1,5 +1,5 @@
 //! Deformations given from outside the catalogue, per pose: what user-written effects
-//! (CONTRACT §8) return. They add to the causes of the built-in effects, and the loaded pose
+//! (docs/custom-effects.md) return. They add to the causes of the built-in effects, and the loaded pose
 //! is then closed exactly with all of them (docs/model.md §4, "External deformations").
 
 use super::Deformation;

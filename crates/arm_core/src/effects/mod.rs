@@ -1,4 +1,4 @@
-//! The catalogue of physical effects (CONTRACT §4), one module each.
+//! The catalogue of physical effects (docs/model.md §4), one module each.
 //!
 //! An effect never moves anything itself: it adds its *cause* to a [`Deformation`] (a length
 //! change, a pin offset, a pin displacement field, a chassis tilt) computed from the statics
@@ -121,7 +121,7 @@ impl Deformation {
     }
 }
 
-/// What the unloaded state did to a gap (actuator play, joint clearance): CONTRACT §4 and
+/// What the unloaded state did to a gap (actuator play, joint clearance): docs/model.md §4 and
 /// docs/model.md §4.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub enum Unloaded {

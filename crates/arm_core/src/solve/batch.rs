@@ -159,3 +159,15 @@ pub(crate) fn fill_nan(out: &mut BatchOutput<'_>, p: usize, n: usize) {
     out.dx_mm[p] = f64::NAN;
     out.dy_mm[p] = f64::NAN;
 }
+
+/// Inputs of a batch of load sequences, row-major.
+#[derive(Debug, Clone, Copy)]
+pub struct SequenceInput<'a> {
+    /// Unloaded absolute angles (deg) of each sequence, `N × n`.
+    pub alpha_deg: &'a [f64],
+    /// Payload force at the load point (N, global) of each state after the reference,
+    /// `N × S × 2`.
+    pub payload_n: &'a [f64],
+    /// States per sequence, S ≥ 1.
+    pub states: usize,
+}

@@ -35,7 +35,7 @@ use bending::{Bending, Shifts};
 use clearance::Clearance;
 use friction::{Friction, Held};
 
-use super::sequence::SequenceInput;
+use super::batch::SequenceInput;
 use super::status::pose_status;
 use super::{write_row, BatchBuffers, BatchInput, BatchOutput, SolveOptions, Workspace};
 use crate::arm::Arm;

@@ -10,6 +10,7 @@
 
 use rayon::prelude::*;
 
+pub use super::batch::SequenceInput;
 use super::status::pose_status;
 use super::{fill_nan, split_output, write_row, BatchOutput, SolveOptions, Workspace};
 use crate::arm::Arm;
@@ -20,18 +21,6 @@ use crate::kinematics::Frames;
 
 /// States per parallel work item (whole sequences of about this many states).
 const CHUNK_STATES: usize = 1024;
-
-/// Inputs of a batch of load sequences, row-major.
-#[derive(Debug, Clone, Copy)]
-pub struct SequenceInput<'a> {
-    /// Unloaded absolute angles (deg) of each sequence, `N × n`.
-    pub alpha_deg: &'a [f64],
-    /// Payload force at the load point (N, global) of each state after the reference,
-    /// `N × S × 2`.
-    pub payload_n: &'a [f64],
-    /// States per sequence, S ≥ 1.
-    pub states: usize,
-}
 
 /// Solves N load sequences of S states, filling `out` (N·S rows, sequence-major: row
 /// `q·S + s` is state s of sequence q) and `status` (N·S) in place. Every output is that

@@ -1,5 +1,5 @@
 //! The statics of both states for many poses at once, without solving the loaded pose: what
-//! user-written effects read (CONTRACT §8, `EffectState`). The numbers are those of
+//! user-written effects read (docs/custom-effects.md, `EffectState`). The numbers are those of
 //! [`crate::solve_batch`] (same recursion, same order of operations).
 
 use rayon::prelude::*;
