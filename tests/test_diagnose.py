@@ -3,6 +3,7 @@ nothing is invented, sets beat greedy choices, confusions are named, outliers ar
 
 from __future__ import annotations
 
+import itertools
 import json
 import math
 import subprocess
@@ -249,7 +250,10 @@ def test_cli_diagnose_json_is_exactly_the_contract(two_hidden_csv: str) -> None:
             keys.add("unloaded")
         assert set(entry) == keys
     chi = [e["chi2_per_dof"] for e in doc["ranking"]]
-    assert chi == sorted(chi)
+    # best first; χ² equal to 1e-9 of the largest are ties (ordered by the tie rule, e.g. the
+    # two frictions of one actuator, which a single loading cannot tell apart)
+    tie = 1e-9 * max(chi)
+    assert all(b >= a - tie for a, b in itertools.pairwise(chi))
 
 
 def test_cli_fit_json_with_cv(two_hidden_csv: str) -> None:

@@ -7,7 +7,6 @@ from __future__ import annotations
 
 import json
 import math
-import warnings
 from pathlib import Path
 
 import numpy as np
@@ -124,9 +123,8 @@ def test_records_recover_the_values_and_diagnose_finds_the_hidden_effect(
     camp = write_synth_campaign(tmp_path / "rehearsal", recs)
     out = tmp_path / "meas.csv"
     assert main(["records", str(camp), "-o", str(out)]) == 0
-    with warnings.catch_warnings():  # today's reader ignores `step` with a note (docs/records.md)
-        warnings.simplefilter("ignore", UserWarning)
-        meas = read_measurements(out, arm.n)
+    meas = read_measurements(out, arm.n)  # each record's rows one load sequence
+    assert meas.has_sequences
     assert meas.n_rows == 4 * (len(SEQUENCE) - 1)
     truth = channel_values(
         eodarm.solve(arm, meas.alpha_deg, meas.mass_kg, effects=hidden), meas.channels
@@ -138,6 +136,36 @@ def test_records_recover_the_values_and_diagnose_finds_the_hidden_effect(
     d = diagnose(arm, meas, advise=False)
     assert [s.key for s in d.suggested] == ["mount_compliance@M2"]
     assert d.ranking[0].fit.estimate(0) == pytest.approx(k, rel=0.05)
+
+
+def test_rehearsal_records_of_an_arm_with_friction_keep_its_memory(tmp_path: Path) -> None:
+    """A hidden joint friction: the rehearsal records follow the load cycle as one sequence
+    (eodarm.solve_sequence), so the arm does not come back at the final 0 kg, and the file
+    that records writes holds that loop within its stated errors."""
+    arm = ARMS["seed-like"]()
+    hidden = [eodarm.Effect("joint_friction", "O2", torque_nmm=20000.0)]
+    alpha = solvable_configs(arm, 2, hidden)
+    recs = synth_records(arm, alpha, SEQUENCE, hidden=hidden, seed=5)
+    camp = write_synth_campaign(tmp_path / "rehearsal", recs)
+    out = tmp_path / "meas.csv"
+    assert main(["records", str(camp), "-o", str(out)]) == 0
+    meas = read_measurements(out, arm.n)
+    seq = eodarm.solve_sequence(arm, alpha, SEQUENCE[1:], effects=hidden)
+    truth = np.concatenate(
+        [
+            channel_values({k: v[q] for k, v in seq.items()}, meas.channels)
+            for q in range(len(alpha))
+        ]
+    )
+    z = (meas.values - truth) / meas.sigma
+    assert np.nanmax(np.abs(z)) < 5.0
+    # what friction leaves at the return is real and seen: far beyond its error, and not
+    # what a single loading of 0 kg would say (nothing)
+    back = np.asarray(meas.mass_kg) == 0.0
+    col = meas.channels.index("dy_mm")
+    left = seq["dy_mm"][:, -1]
+    assert np.all(np.abs(left) > 10 * meas.sigma[back, col])
+    assert np.allclose(meas.values[back, col], left, atol=5 * meas.sigma[back, col].max())
 
 
 # ---------------------------------------------------------------------- the command

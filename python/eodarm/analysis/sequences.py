@@ -158,9 +158,11 @@ class SequenceEvaluator:
                 self_weight=self.self_weight,
             )
             ch = _stack(out)
-        except EodarmError:
+        except ValueError as exc:  # EodarmError from Python, CoreError from the compiled core
             if not nan_on_failure:
-                raise
+                if isinstance(exc, EodarmError):
+                    raise
+                raise EodarmError(str(exc)) from None  # the fit's backtracking catches these
             ch = self._one_by_one(effects)
         y = np.zeros((self.meas.n_rows, ch.shape[-1]))
         live = self.seq >= 0
@@ -182,7 +184,7 @@ class SequenceEvaluator:
                     effects=effects,
                     self_weight=self.self_weight,
                 )
-            except EodarmError:
+            except ValueError:  # EodarmError or the compiled core's CoreError
                 continue
             ch[k] = _stack(out)[0]
         return ch

@@ -6,7 +6,7 @@ sampled at ``rate_hz`` with a little jitter. What the sensors read:
 * each channel's **offset** (the sensors are not zeroed: a constant of a few hundred noise
   units);
 * the **model's values** of every state, loaded once from the reference
-  (:func:`state_values`, ``eodarm.solve`` with the hidden effects);
+  (:func:`state_values`, ``eodarm.solve_sequence`` with the hidden effects);
 * between two states, a **hand on the plate**: a pressing force of 1–3 kg that rises and
   falls over about a second with a tremor, then the new weight lands and the arm **rings
   into the new level** (a damped 4–8 Hz oscillation of a time constant of about 0.1 s);
@@ -33,7 +33,7 @@ from eodarm.data.records import RecordSpec, write_campaign, write_record
 from eodarm.errors import EodarmError
 from eodarm.model.arm import Arm
 from eodarm.model.effects import Effect, as_effects
-from eodarm.model.solver import solve
+from eodarm.model.solver import solve_sequence
 
 __all__ = ["SynthRecord", "state_values", "synth_records", "write_synth_campaign"]
 
@@ -68,23 +68,26 @@ def state_values(
     """The model's values (K, S, C) of each configuration's states, relative to its
     reference (the first state), every channel of the arm.
 
-    Each state is loaded once from the unloaded reference (``eodarm.solve``); the reference's
-    own payload is subtracted. Effects with memory (friction, a gap that stays where it was
-    pushed) need the whole sequence instead: where ``eodarm.solve_sequence`` exists, the one
-    call below becomes (its keys are (K, S − 1, …), relative to each reference)::
-
-        out = solve_sequence(arm, alpha_deg, np.asarray(sequence[1:]), effects=...)
-        out = {key: a.reshape(k * (s - 1), *a.shape[2:]) for key, a in out.items()}
-        vals = channel_values(out, names).reshape(k, s - 1, -1)
-        return np.concatenate([np.zeros((k, 1, vals.shape[2])), vals], axis=1)
+    The states are one load sequence from the unloaded reference
+    (:func:`eodarm.solve_sequence`), so friction holds what the states before let it hold and
+    a gap stays where the last force pushed it (docs/model.md §9). When the sequence starts
+    at 0 kg (the usual zeroed reference) that first state *is* the reference; otherwise the
+    first state is a loaded one and the others are taken relative to it.
     """
-    k, s = alpha_deg.shape[0], len(sequence)
+    k = alpha_deg.shape[0]
     names = channel_names(arm.n)
-    rows_alpha = np.repeat(alpha_deg, s, axis=0)
-    rows_mass = np.tile(np.asarray(sequence, dtype=float), k)
-    # the one call to the model (see above for the sequence of an arm with memory)
-    out = solve(arm, rows_alpha, rows_mass, effects=as_effects(hidden), self_weight=self_weight)
-    vals = channel_values(out, names).reshape(k, s, -1)
+    seq = np.asarray(sequence, dtype=float)
+    zero_first = seq[0] == 0.0
+    after = seq[1:] if zero_first else seq
+    effects = as_effects(hidden)
+    if after.size == 0:
+        return np.zeros((k, 1, len(names)))
+    out = solve_sequence(arm, alpha_deg, after, effects=effects, self_weight=self_weight)
+    s = after.size
+    flat = {key: a.reshape(k * s, *a.shape[2:]) for key, a in out.items()}
+    vals = channel_values(flat, names).reshape(k, s, -1)
+    if zero_first:
+        return np.concatenate([np.zeros((k, 1, vals.shape[2])), vals], axis=1)
     return vals - vals[:, :1, :]
 
 

@@ -171,8 +171,10 @@ def solve_sequence(
     mass_kg : (N, S) payload masses (kg, ≥ 0; 0 is the return to no payload) of the S states
         after each reference, in the order they are applied; (S,) gives every sequence the
         same payloads.
-    effects : effects added to the arm's (built-in only: a user-written effect holds no
-        history and is refused here).
+    effects : effects added to the arm's. A user-written effect holds no history: each state
+        sees it loaded once from the sequence's reference, and such a model is solved by the
+        numpy reference whatever ``backend`` says (the compiled core takes no user
+        deformations in sequences).
     backend : ``"rust"`` (compiled core) or ``"numpy"`` (the independent reference,
         ``eodarm.reference.solve_sequence``).
     self_weight : include link and actuator weights in the reference and every state.
@@ -205,10 +207,15 @@ def solve_sequence(
     effs = with_arm_effects(arm.effects, effects)
     custom_effs = split_effects(effs)[1]
     if custom_effs:
-        raise InputError(
-            f"custom effect {custom_effs[0].key}: user-written effects are not solved in "
-            "load sequences yet; use eodarm.solve for single loadings"
-        )
+        # A user-written effect holds no history: each state sees it loaded once from the
+        # sequence's reference. Its deformations are computed in Python, state by state,
+        # which the numpy reference does (the compiled core takes no extras in sequences).
+        if nan_on_failure:
+            raise InputError(
+                f"custom effect {custom_effs[0].key}: a sequence with user-written effects is "
+                "solved by the numpy reference, which has no nan_on_failure"
+            )
+        backend = "numpy"
     if backend == "numpy":
         if nan_on_failure:
             raise InputError("nan_on_failure is for backend='rust'")
