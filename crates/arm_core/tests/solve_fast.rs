@@ -2,11 +2,12 @@
 //! pose, `solve_batch_general`): random arms of 1–5 links, random poses and payloads, every
 //! built-in effect kind alone and combined, both gap modes, with and without self-weight.
 //!
-//! Tolerances: 1e-9 mm on lengths and displacements, 1e-9 deg on angles, 1e-9 relative on
-//! forces. The two paths compute the same model with different formulas (cheap degree
-//! trigonometry and rotations composed without cancellation against libm sin/cos, acos and
-//! atan2), so they agree to rounding, ≈ 1e-13 mm on these arms; 1e-9 leaves room for the
-//! conditioning of poses near the edge of the generated ranges.
+//! Tolerances: 1e-9 mm on lengths, 1e-8 mm on the measure point's displacement (see
+//! `worst`), 1e-9 deg on angles, 1e-9 relative on forces. The two paths compute the same
+//! model with different formulas (cheap degree trigonometry and rotations composed without
+//! cancellation against libm sin/cos, acos and atan2), so they agree to rounding, ≈ 1e-13 mm
+//! on these arms; the tolerances leave room for the conditioning of poses near the edge of
+//! the generated ranges.
 
 #![allow(clippy::unwrap_used, clippy::needless_range_loop)] // test code: a failure should panic
 use arm_core::effects::{
@@ -224,20 +225,24 @@ fn worst(a: &BatchBuffers, b: &BatchBuffers) -> (f64, &'static str) {
             .map(|(p, q)| (p - q).abs() / (1.0 + q.abs()))
             .fold(0.0, f64::max)
     };
+    // The measure point's displacement gets 1e-8 mm: a clearance c offsets a pin along the
+    // direction of a force change, and where that change is tiny (a payload near zero on a
+    // soft five-link arm) its direction is known only to rounding over |ΔF|, which c turns into
+    // ~1e-9 mm (proptest found dy 1.05e-9 mm apart at a sag of 1e-9 mm). Still 1e-5 µm.
     let fields = [
-        ("force_n", rel(&a.force_n, &b.force_n)),
-        ("reaction_n", rel(&a.reaction_n, &b.reaction_n)),
-        ("dforce_n", rel(&a.dforce_n, &b.dforce_n)),
-        ("dx_mm", abs(&a.dx_mm, &b.dx_mm)),
-        ("dy_mm", abs(&a.dy_mm, &b.dy_mm)),
-        ("dalpha_deg", abs(&a.dalpha_deg, &b.dalpha_deg)),
-        ("dl_mm", abs(&a.dl_mm, &b.dl_mm)),
-        ("dlength_mm", abs(&a.dlength_mm, &b.dlength_mm)),
-        ("length_mm", abs(&a.length_mm, &b.length_mm)),
+        ("force_n", rel(&a.force_n, &b.force_n), 1e-9),
+        ("reaction_n", rel(&a.reaction_n, &b.reaction_n), 1e-9),
+        ("dforce_n", rel(&a.dforce_n, &b.dforce_n), 1e-9),
+        ("dx_mm", abs(&a.dx_mm, &b.dx_mm), 1e-8),
+        ("dy_mm", abs(&a.dy_mm, &b.dy_mm), 1e-8),
+        ("dalpha_deg", abs(&a.dalpha_deg, &b.dalpha_deg), 1e-9),
+        ("dl_mm", abs(&a.dl_mm, &b.dl_mm), 1e-9),
+        ("dlength_mm", abs(&a.dlength_mm, &b.dlength_mm), 1e-9),
+        ("length_mm", abs(&a.length_mm, &b.length_mm), 1e-9),
     ];
     fields
         .into_iter()
-        .map(|(name, d)| (d / 1e-9, name))
+        .map(|(name, d, tol)| (d / tol, name))
         .fold(
             (0.0, ""),
             |m, x| if x.0 > m.0 || x.0.is_nan() { x } else { m },
@@ -333,4 +338,10 @@ fn failing_poses_fail_as_in_the_general_path() {
     // angles, a deflection too large to trust.
     assert_eq!(st[5], arm_core::Status::NearSingular.code());
     assert_eq!(st[11], arm_core::Status::LargeDeflection.code());
+}
+
+/// The case proptest found: a five-link arm with every effect, one pose nearly unloaded.
+#[test]
+fn a_nearly_unloaded_pose_with_a_clearance_agrees_to_its_conditioning() {
+    check(6758891565372335672, 5, true, false, false, false);
 }
