@@ -14,12 +14,15 @@ from typing import Any
 import numpy as np
 
 from eodarm.model.arm import Arm
-from eodarm.model.effects import Effect, with_arm_effects
+from eodarm.model.effects import Effect, split_effects, with_arm_effects
 
 __all__ = ["CHUNK", "add_return"]
 
 #: Sequences per call of the core (bounds the temporary outputs: ~1 kB per sequence).
 CHUNK = 65_536
+#: The effects that leave the arm off its reference after a cycle: the frictions (what they
+#: hold) and the gaps (a centred gap stays where the self-weight pushes it).
+MEMORY = frozenset({"actuator_friction", "joint_friction", "actuator_play", "joint_clearance"})
 
 _ATTRS = {
     "return_dx_mm": {
@@ -42,13 +45,20 @@ def add_return(
 
     n = arm.n
     dims = [d for d in ds["dx_mm"].dims if d != "mass_kg"]
+    effs = None if effects is None else [effects] if isinstance(effects, Effect) else list(effects)
+    model = with_arm_effects(arm.effects, effs)
+    if not {e.name for e in model} & MEMORY and not split_effects(model)[1]:
+        # Nothing holds anything and no gap is left off-centre: an elastic arm unloaded is
+        # its reference, so every cell comes back exactly (docs/model.md §9).
+        poses = int(np.prod([ds.sizes[d] for d in dims]))
+        zero = {k: np.zeros((poses, ds.sizes["mass_kg"])) for k in _ATTRS}
+        return _store(ds, dims, zero, poses, ds.sizes["mass_kg"])
     if "alpha_deg" in ds:
         alpha = ds["alpha_deg"].transpose(*dims, "link").values.reshape(-1, n)
     else:
         mesh = np.meshgrid(*[ds[d].values for d in dims], indexing="ij")
         by_name = dict(zip(dims, (m.ravel() for m in mesh), strict=True))
         alpha = np.stack([by_name[f"alpha{i + 1}"] for i in range(n)], axis=1)
-    effs = None if effects is None else [effects] if isinstance(effects, Effect) else list(effects)
     mass = np.asarray(ds["mass_kg"].values, dtype=float)
     poses, masses = alpha.shape[0], mass.shape[0]
     out = {k: np.full((poses, masses), np.nan) for k in _ATTRS}
