@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import argparse
 import html
-import textwrap
 from pathlib import Path
 from typing import Any
 
@@ -174,8 +173,7 @@ def _run(args: argparse.Namespace, step: Any) -> int:
     for line in answer_lines(answer):
         print(line)
     solver = "analytic" if mk["model"] == "analytic" else f"fem {mk['fem_options'] or {}}"
-    for line in textwrap.wrap(f"model: {solver}; stopped: {inv.stopped}", 92):
-        _note(line)
+    _note(f"model: {solver}; stopped: {inv.stopped}")  # _note wraps, continuation indented
     _note(f"wrote {out}")
     _note(f'next: open {out}; the fitted arm file is in it ("Take the model with you")')
     return 0
