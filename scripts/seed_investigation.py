@@ -19,7 +19,8 @@ from typing import Any
 import numpy as np
 
 import eodarm
-from eodarm.analysis.fit import FitWarning, cross_validate, fit
+from eodarm.analysis.crossval import cross_validate
+from eodarm.analysis.fit import FitWarning, fit
 from eodarm.data import datasets
 
 ROOT = Path(__file__).resolve().parent.parent

@@ -17,7 +17,8 @@ import numpy as np
 
 import eodarm
 from eodarm.analysis import calibrate
-from eodarm.analysis.fit import FitWarning, compare, cross_validate, fit
+from eodarm.analysis.crossval import cross_validate
+from eodarm.analysis.fit import FitWarning, compare, fit
 from eodarm.data import datasets
 
 BODIES = [f"actuator_compliance@M{i}" for i in (1, 2, 3)]

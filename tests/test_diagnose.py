@@ -19,8 +19,9 @@ import eodarm
 from arms import ARMS, example_arm
 from eodarm.analysis.acceptance import accept
 from eodarm.analysis.consistency import chi2_p_value, effective_nu, fit_p_value, lr_threshold
+from eodarm.analysis.crossval import cross_validate
 from eodarm.analysis.diagnose import all_slots, diagnose
-from eodarm.analysis.fit import FitWarning, cross_validate, fit
+from eodarm.analysis.fit import FitWarning, fit
 from eodarm.analysis.residuals import residual_pattern
 from eodarm.analysis.synth import random_configs, synth
 from eodarm.data.measurements import default_sigma

@@ -17,7 +17,8 @@ from hypothesis import strategies as st
 
 import eodarm
 from arms import example_arm, seed_like_arm, two_link_arm
-from eodarm.analysis.fit import FitWarning, compare, cross_validate, fit
+from eodarm.analysis.crossval import cross_validate
+from eodarm.analysis.fit import FitWarning, compare, fit
 from eodarm.analysis.synth import synth
 from eodarm.cli import main
 from eodarm.data import datasets

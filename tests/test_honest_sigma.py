@@ -20,7 +20,9 @@ import numpy as np
 import pytest
 
 import eodarm
-from eodarm.analysis.fit import FitWarning, robust_fit, settle
+from eodarm.analysis.fit import FitWarning
+from eodarm.analysis.handover import fitted_arm, settle
+from eodarm.analysis.outliers import robust_fit
 from eodarm.analysis.synth import random_configs, synth
 from eodarm.data import datasets
 from eodarm.data.measurements import Measurements
@@ -38,7 +40,7 @@ def fitted_file(arm: eodarm.Arm, meas: Measurements, model: list[str]) -> eodarm
         warnings.simplefilter("ignore", FitWarning)
         res, flagged = robust_fit(arm, meas, model)
         final = settle(res, exclude=flagged if flagged.any() else None)
-    return eodarm.Arm.from_dict(tomllib.loads(final.fitted_arm().to_toml()))
+    return eodarm.Arm.from_dict(tomllib.loads(fitted_arm(final).to_toml()))
 
 
 def held_out_coverage(

@@ -15,7 +15,8 @@ import pytest
 
 import eodarm
 from eodarm.analysis import calibrate
-from eodarm.analysis.fit import FitWarning, cross_validate, fit
+from eodarm.analysis.crossval import cross_validate
+from eodarm.analysis.fit import FitWarning, fit
 from eodarm.data import datasets
 
 ROOT = Path(__file__).resolve().parent.parent

@@ -34,7 +34,9 @@ def fitted() -> eodarm.Arm:
     alpha = random_configs(arm, 16, np.random.default_rng(8))
     meas = synth(arm, alpha, [1.5, 5.0, 6.5], hidden=HIDDEN, seed=8)
     res = fit(arm, meas, ["mount_compliance@M2", "joint_clearance@O3"])
-    return res.fitted_arm(data="synthetic.csv")
+    from eodarm.analysis.handover import fitted_arm
+
+    return fitted_arm(res, data="synthetic.csv")
 
 
 def _poses() -> np.ndarray:

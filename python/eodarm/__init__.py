@@ -96,8 +96,9 @@ def __dir__() -> list[str]:
 
 if TYPE_CHECKING:
     from eodarm.analysis.compensate import compensate
+    from eodarm.analysis.crossval import cross_validate
     from eodarm.analysis.diagnose import Diagnosis, diagnose
-    from eodarm.analysis.fit import FitResult, cross_validate, fit
+    from eodarm.analysis.fit import FitResult, fit
     from eodarm.data.measurements import Measurements
     from eodarm.data.reader import read_measurements
     from eodarm.model.arm import Actuator, Arm, Link

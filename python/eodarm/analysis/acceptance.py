@@ -15,7 +15,7 @@ is **accepted** when
     its upper bound was not *found*, it only rides along;
 (c) with ≥ 3 configurations, it predicts held-out configurations no worse than the baseline:
     leaving one configuration out at a time, fitting without it and predicting it
-    (:func:`~eodarm.analysis.fit.cross_validate`), the RMS of the held-out residuals in units
+    (:func:`~eodarm.analysis.crossval.cross_validate`), the RMS of the held-out residuals in units
     of σ over every measured channel is not larger than the baseline's. Channels of
     different units are weighed by their σ, as in the fit itself.
 
@@ -40,7 +40,8 @@ from typing import Any
 import numpy as np
 
 from eodarm.analysis.consistency import P_PASS, fit_p_value
-from eodarm.analysis.fit import FitResult, FitWarning, cross_validate
+from eodarm.analysis.crossval import cross_validate
+from eodarm.analysis.fit import FitResult, FitWarning
 from eodarm.model.effects import Slot
 
 __all__ = ["MIN_CV_CONFIGS", "Acceptance", "accept", "bic", "held_out"]
@@ -57,7 +58,7 @@ def bic(fit: FitResult) -> float:
 def held_out(fit: FitResult) -> dict[str, Any]:
     """Leave-one-configuration-out cross-validation of a fit's model, on the cells it used.
 
-    The dict of :func:`~eodarm.analysis.fit.cross_validate` plus ``"z_rms"``: the RMS of the
+    The dict of :func:`~eodarm.analysis.crossval.cross_validate` plus ``"z_rms"``: the RMS of the
     held-out residuals in units of σ over every used cell.
     """
     prob = fit.problem

@@ -37,7 +37,8 @@ import numpy.typing as npt
 
 from eodarm.analysis.acceptance import MIN_CV_CONFIGS, Acceptance, accept, bic, held_out
 from eodarm.analysis.consistency import P_PASS, effective_nu, fit_p_value, lr_threshold
-from eodarm.analysis.fit import FitResult, FitWarning, Problem, fit, outlier_table, peel_outliers
+from eodarm.analysis.fit import FitResult, FitWarning, Problem, fit
+from eodarm.analysis.outliers import outlier_table, peel_outliers
 from eodarm.data.measurements import Measurements, default_sigma
 from eodarm.errors import EodarmError
 from eodarm.model.arm import Arm
@@ -339,7 +340,7 @@ def _without_outliers(
     kw: dict[str, Any],
 ) -> tuple[Diagnosis, list[dict[str, Any]]]:
     """Leave out the cells > 4σ off the best model, and diagnose again (a few rounds at most:
-    :func:`eodarm.analysis.fit.peel_outliers`).
+    :func:`eodarm.analysis.outliers.peel_outliers`).
 
     Accepted only if, with at most 2 % of the values left out, the best model then explains
     the rest within the noise; otherwise the first diagnosis stands and nothing is flagged.

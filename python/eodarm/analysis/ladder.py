@@ -13,8 +13,9 @@ from typing import Any
 
 import numpy as np
 
+from eodarm.analysis.crossval import cross_validate
 from eodarm.analysis.diagnose import Diagnosis
-from eodarm.analysis.fit import FitResult, FitWarning, cross_validate, fit
+from eodarm.analysis.fit import FitResult, FitWarning, fit
 from eodarm.data.measurements import Measurements
 from eodarm.errors import EodarmError, InputError
 from eodarm.model.arm import Arm

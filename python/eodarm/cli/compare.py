@@ -57,7 +57,7 @@ def _by(result: FitResult, key: str) -> dict[str, dict[str, float]]:
 
 
 def _worst(result: FitResult, k: int = 8) -> list[dict[str, Any]]:
-    from eodarm.analysis.fit import outlier_table
+    from eodarm.analysis.outliers import outlier_table
 
     z = np.abs(result.z)
     z[~result.problem.use] = np.nan
@@ -70,7 +70,8 @@ def _worst(result: FitResult, k: int = 8) -> list[dict[str, Any]]:
 
 
 def run(args: argparse.Namespace) -> int:
-    from eodarm.analysis.fit import FitWarning, outlier_table, robust_fit
+    from eodarm.analysis.fit import FitWarning
+    from eodarm.analysis.outliers import outlier_table, robust_fit
     from eodarm.analysis.sequences import hysteresis
 
     arm = _load_arm(args.arm, args.measurements)

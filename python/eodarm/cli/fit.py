@@ -33,16 +33,10 @@ from eodarm.errors import EodarmError
 def run(args: argparse.Namespace) -> int:
     import warnings
 
-    from eodarm.analysis.fit import (
-        FitWarning,
-        check_validity,
-        compare,
-        cross_validate,
-        model_inadequacy,
-        outlier_table,
-        robust_fit,
-        settle,
-    )
+    from eodarm.analysis.crossval import cross_validate
+    from eodarm.analysis.fit import FitWarning, check_validity, compare
+    from eodarm.analysis.handover import model_inadequacy, settle
+    from eodarm.analysis.outliers import outlier_table, robust_fit
 
     if args.output:
         _check_output(args)
@@ -210,11 +204,12 @@ def _write_fitted(res: Any, inad: Any, path: str, data: str) -> dict[str, Any]:
     import os
     from pathlib import Path
 
+    from eodarm.analysis.handover import fitted_arm
     from eodarm.model.uncertainty import inadequacy_note
     from eodarm.viz.format import value
 
     digest = hashlib.sha256(Path(data).read_bytes()).hexdigest()
-    fitted = res.fitted_arm(data=Path(data).name, data_sha256=digest, inadequacy=inad)
+    fitted = fitted_arm(res, data=Path(data).name, data_sha256=digest, inadequacy=inad)
     source = Path(res.problem.arm.source)
     template = None
     if source.suffix == ".toml" and source.is_file():
@@ -228,10 +223,11 @@ def _write_fitted(res: Any, inad: Any, path: str, data: str) -> dict[str, Any]:
     bounded = []
     for e, mark in fitted.bounded():
         unit = e.kind.unit
+        limit = float("nan") if mark.limit is None else mark.limit  # a bound carries its limit
         if mark.bound == "lower":
-            what = f"stiffer than {value(mark.limit, unit, 3)} (95 %): treated as rigid"
+            what = f"stiffer than {value(limit, unit, 3)} (95 %): treated as rigid"
         else:
-            what = f"at most {value(mark.limit, unit, 3)} (95 %): treated as absent"
+            what = f"at most {value(limit, unit, 3)} (95 %): treated as absent"
         _note(f"{e.key} not determined: {what} in {out}")
         bounded.append(
             {

@@ -73,6 +73,14 @@ from typing import TYPE_CHECKING, Any, TextIO
 import numpy as np
 import numpy.typing as npt
 
+from eodarm.data.cells import (
+    Cell,
+    _cells_of,
+    _did_you_mean,
+    _label,
+    _number,
+    _show,
+)
 from eodarm.data.channels import (
     _CHANNEL,
     DEFAULT_SIGMA,
@@ -90,6 +98,7 @@ from eodarm.data.noise import (
     sequence_state_groups,
     state_groups,
 )
+from eodarm.data.sequences import _check_sequences, _reference_rows
 from eodarm.errors import EodarmError
 
 if TYPE_CHECKING:
@@ -123,12 +132,8 @@ MIN_SIGMA_FRACTION = 1e-6
 MAX_LISTED = 10
 
 _ALPHA = re.compile(r"^alpha([1-9][0-9]*)_deg$")
-_NUMBER = re.compile(r"^[+-]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][+-]?[0-9]+)?$")
 _IS_IT = " (is it '{}'?)"
-_DECIMAL_COMMA = re.compile(r"^[+-]?[0-9]*,[0-9]+$")
-_NONFINITE = {"nan", "+nan", "-nan", "inf", "+inf", "-inf", "infinity", "+infinity", "-infinity"}
 
-Cell = str | float | None
 FloatArray = npt.NDArray[np.float64]
 
 
@@ -718,134 +723,3 @@ def build(
         step=step if has_step else None,
         reference=reference,
     )
-
-
-def _did_you_mean(name: str, known: Sequence[str], form: str = " (did you mean '{}'?)") -> str:
-    """`` (did you mean 'x'?)`` for the closest of ``known`` to a misspelled ``name``
-    (difflib's ratio ≥ 0.75, case ignored), or nothing."""
-    import difflib
-
-    lower = {k.lower(): k for k in known}
-    close = difflib.get_close_matches(name.strip().lower(), list(lower), n=1, cutoff=0.75)
-    return form.format(lower[close[0]]) if close else ""
-
-
-def _cells_of(body: Sequence[tuple[int, Sequence[Cell]]], j: int | None) -> list[Cell]:
-    """Column ``j`` of every row (None where the row is short or there is no column)."""
-    return [cells[j] if j is not None and j < len(cells) else None for _, cells in body]
-
-
-def _first_rows(config: Sequence[str], step: npt.NDArray[np.int64]) -> dict[str, int]:
-    """Each label's row with the lowest step."""
-    first: dict[str, int] = {}
-    for r, label in enumerate(config):
-        if label not in first or step[r] < step[first[label]]:
-            first[label] = r
-    return first
-
-
-def _check_sequences(
-    config: Sequence[str],
-    alpha: FloatArray,
-    mass: FloatArray,
-    step: npt.NDArray[np.int64],
-    step_given: npt.NDArray[np.bool_],
-    values: FloatArray,
-    line: npt.NDArray[np.int64],
-    step_cells: Sequence[Cell],
-) -> list[str]:
-    """The rules of a file with a ``step`` column: every problem, one entry per bad row.
-
-    A step that is empty while others are given (a partly empty column), a step that repeats
-    within a label, a label whose rows have different angles, a written reference row (the
-    first of its label, mass 0) whose channels are not all 0 or empty.
-    """
-    bad: list[str] = []
-    for empty in np.flatnonzero(~step_given).tolist():
-        bad.append(
-            f"line {line[empty]}: step is empty (the step column must be filled in every row)"
-        )
-    if bad:
-        return bad
-    seen: dict[tuple[str, int], int] = {}
-    first_angles: dict[str, int] = {}
-    for r, label in enumerate(config):
-        key = (label, int(step[r]))
-        if key in seen:
-            bad.append(
-                f"line {line[r]}: step {_show(step_cells[r])} repeats within config '{label}' "
-                f"(line {line[seen[key]]})"
-            )
-        else:
-            seen[key] = r
-        f = first_angles.setdefault(label, r)
-        if not np.array_equal(alpha[r], alpha[f]):
-            bad.append(
-                f"line {line[r]}: config '{label}' is one sequence, its angles must be those of "
-                f"line {line[f]} ({', '.join(f'{a:g}' for a in alpha[r])} vs "
-                f"{', '.join(f'{a:g}' for a in alpha[f])})"
-            )
-    for label, r in _first_rows(config, step).items():
-        v = values[r]
-        if mass[r] == 0 and np.any(np.isfinite(v) & (v != 0)):
-            c = int(np.flatnonzero(np.isfinite(v) & (v != 0))[0])
-            bad.append(
-                f"line {line[r]}: the reference row of config '{label}' (mass 0 before any "
-                f"load) must read 0 or be empty; {channel_names(alpha.shape[1])[c]} is {v[c]:g}"
-            )
-    return bad
-
-
-def _reference_rows(
-    config: Sequence[str],
-    mass: FloatArray,
-    step: npt.NDArray[np.int64],
-    values: FloatArray,
-) -> npt.NDArray[np.bool_]:
-    """(N,) the written reference rows: the first row of a label, with mass 0."""
-    out = np.zeros(len(config), dtype=bool)
-    for r in _first_rows(config, step).values():
-        out[r] = mass[r] == 0
-    return out
-
-
-def _label(cell: Cell) -> str:
-    if cell is None or (isinstance(cell, float) and math.isnan(cell)):
-        return ""
-    return cell if isinstance(cell, str) else repr(cell)
-
-
-def _show(cell: Cell, limit: int = 40) -> str:
-    """A cell as an error message shows it: one line (control characters and newlines of a
-    quoted cell escaped), at most ``limit`` characters."""
-    text = repr(cell) if isinstance(cell, float) else str(cell).strip()
-    text = text.encode("unicode_escape").decode("ascii") if not text.isprintable() else text
-    return text if len(text) <= limit else text[: limit - 1] + "…"
-
-
-def _number(cell: Cell) -> tuple[float | None, str]:
-    """(value, "") for a number, (None, "") for an empty cell, (None, why) otherwise."""
-    if cell is None:
-        return None, ""
-    if isinstance(cell, float):
-        if math.isnan(cell):
-            return None, ""
-        if math.isinf(cell):
-            return None, f"'{cell!r}' is not finite"
-        return cell, ""
-    text = cell.strip()
-    if not text:
-        return None, ""
-    if _NUMBER.match(text):
-        x = float(text)
-        if math.isinf(x):
-            return None, f"'{_show(text)}' is not finite"
-        return x, ""
-    if text.lower() in _NONFINITE:
-        return None, f"'{text}' is not finite"
-    if _DECIMAL_COMMA.match(text):
-        return (
-            None,
-            f"'{_show(text)}' is not a number (a decimal comma? write {text.replace(',', '.')})",
-        )
-    return None, f"'{_show(text)}' is not a number"

@@ -23,6 +23,7 @@ from typing import Any, NoReturn
 import numpy as np
 
 from eodarm.errors import ArgumentTypeError, ArmFileError, EffectError
+from eodarm.model.arm_toml import over_template, render
 from eodarm.model.effects import Effect, effect_from_table
 
 __all__ = ["Actuator", "Arm", "EffectMark", "FitRecord", "Link", "check_arm"]
@@ -483,26 +484,12 @@ class Arm:
         with its ``[[effect]]`` tables and ``[fit]`` table brought up to date, so that the
         user's comments and layout survive; otherwise the arm is rendered afresh.
         """
+        mine = self.to_dict()
         if template is not None:
-            kept = _over_template(self, template)
+            kept = over_template(mine, template, lambda plain: Arm.from_dict(plain).to_dict())
             if kept is not None:
                 return kept
-        d = self.to_dict()
-        lines = [f"name = {_toml_value(d['name'])}", f"g = {_toml_value(d['g'])}", "", "[base]"]
-        lines += [f"{k} = {_toml_value(v)}" for k, v in d["base"].items()]
-        for i, lk in enumerate(d["link"]):
-            lines += ["", f"[[link]]  # link {i + 1}"]
-            lines += [f"{k} = {_toml_value(v)}" for k, v in lk.items()]
-        for i, a in enumerate(d["actuator"]):
-            lines += ["", f"[[actuator]]  # actuator {i + 1}"]
-            lines += [f"{k} = {_toml_value(v)}" for k, v in a.items()]
-        for i, e in enumerate(d.get("effect", [])):
-            lines += ["", f"[[effect]]  # effect {i + 1}"]
-            lines += [f"{k} = {_toml_value(v)}" for k, v in e.items()]
-        if "fit" in d:
-            lines += ["", "[fit]  # the fit that wrote the effects above"]
-            lines += [f"{k} = {_toml_value(v)}" for k, v in d["fit"].items()]
-        return "\n".join(lines) + "\n"
+        return render(mine)
 
     def replace(self, **changes: Any) -> Arm:
         """A validated copy with top-level fields changed (e.g. ``B0=(240.0, -35.0)``)."""
@@ -560,76 +547,6 @@ def _effect_table(e: Effect, stderr: float | None, mark: EffectMark | None) -> d
     """An ``[[effect]]`` table: the effect, its standard error and how far it is determined."""
     table = e.to_table() | ({} if stderr is None else {"stderr": stderr})
     return table | (mark.to_table() if mark is not None else {})
-
-
-def _over_template(arm: Arm, template: str) -> str | None:
-    """``template`` (an arm file's text) with ``arm``'s effects and ``[fit]`` written into it,
-    its comments and layout kept; ``None`` when the template describes another arm."""
-    import tomlkit
-    from tomlkit.exceptions import TOMLKitError
-
-    try:
-        doc = tomlkit.parse(template)
-        plain = doc.unwrap()
-        old = Arm.from_dict({k: v for k, v in plain.items() if k not in ("effect", "fit")})
-    except (TOMLKitError, ArmFileError, ValueError):
-        return None
-    mine = arm.to_dict()
-    theirs = old.to_dict()
-    if any(mine[k] != theirs[k] for k in ("name", "g", "base", "link", "actuator")):
-        return None
-    tables = mine.get("effect", [])
-    existing = doc.get("effect")
-    by_key: dict[str, Any] = {}
-    if isinstance(existing, tomlkit.items.AoT):
-        for t in existing:
-            by_key.setdefault(f"{t.get('effect')}@{t.get('at')}", t)
-    aot = tomlkit.aot()
-    for new in tables:
-        t = by_key.get(f"{new['effect']}@{new['at']}")
-        if t is None:
-            t = tomlkit.table()
-        for key in [k for k in t if k not in new]:
-            del t[key]  # a stale standard error or mark
-        for key, val in new.items():
-            t[key] = val
-        aot.append(t)
-    if "effect" in doc:
-        del doc["effect"]
-    if "fit" in doc:
-        del doc["fit"]
-    if tables:
-        doc["effect"] = aot
-    if "fit" in mine:
-        fit = tomlkit.table()
-        fit.comment("the fit that wrote the effects above")
-        for key, val in mine["fit"].items():
-            if isinstance(val, dict):
-                inline = tomlkit.inline_table()
-                inline.update(val)
-                fit[key] = inline
-            else:
-                fit[key] = val
-        doc["fit"] = fit
-    text = tomlkit.dumps(doc)
-    return text if text.endswith("\n") else text + "\n"
-
-
-def _toml_value(v: Any) -> str:
-    if isinstance(v, dict):
-        return "{ " + ", ".join(f"{k} = {_toml_value(x)}" for k, x in v.items()) + " }"
-    if isinstance(v, str):
-        return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
-    if isinstance(v, list):
-        return "[" + ", ".join(_toml_value(x) for x in v) + "]"
-    if isinstance(v, bool):
-        return "true" if v else "false"
-    if isinstance(v, int):
-        return str(v)
-    x = float(v)
-    if math.isinf(x):  # a rigid effect (infinite stiffness) or an unknown error
-        return "inf" if x > 0 else "-inf"
-    return repr(x)
 
 
 def _effects(

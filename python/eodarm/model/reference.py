@@ -25,6 +25,7 @@ from numpy.typing import ArrayLike, NDArray
 from eodarm.errors import EffectError, InputError
 from eodarm.model.arm import Arm
 from eodarm.model.effects import Effect, as_effects, effect_arrays, split_effects, with_arm_effects
+from eodarm.model.reference_friction import held_forces
 from eodarm.model.reference_geometry import (
     _angle,
     _as_float,
@@ -472,7 +473,7 @@ def solve_payload(
     if custom_effs:
         ext = _custom_extras(arm, alpha_d, payload, geo, st, custom_effs, self_weight, ext)
     # Loaded once from the reference: every friction element starts with S = 0 (the deadband).
-    held = _held_forces(par, st, np.zeros((n_rows, n)), np.zeros((n_rows, n)))
+    held = held_forces(par, st, np.zeros((n_rows, n)), np.zeros((n_rows, n)))
     return _respond(arr, par, geo, alpha, st, payload, ext, held, nan_on_failure=nan_on_failure)
 
 
@@ -502,54 +503,6 @@ def _custom_extras(
     return custom.add_extras(ext, custom.extras_of(custom_effs, state))
 
 
-def _slip(held: FloatArray, wanted: FloatArray, limit: FloatArray) -> FloatArray:
-    """One step of a Coulomb (elastic–perfectly plastic) friction element.
-
-    The spring in parallel with the friction holds ``held`` (N); the force it would take
-    without friction is now ``wanted``. While the friction can carry the difference,
-    ``|wanted − held| ≤ limit``, the spring keeps ``held`` (sticking); otherwise the element
-    slips until the friction carries exactly its limit: ``wanted − limit·sign(wanted − held)``.
-    A limit of 0 gives ``wanted`` (no friction); from ``held = 0`` one step gives the deadband
-    ``sign(wanted)·max(0, |wanted| − limit)``.
-    """
-    d = wanted - held
-    return np.where(np.abs(d) <= limit, held, wanted - limit * np.sign(d))
-
-
-def _held_forces(
-    par: dict[str, Any],
-    st: dict[str, FloatArray],
-    joint_prev: FloatArray,
-    body_prev: FloatArray,
-) -> dict[str, FloatArray]:
-    """What each actuator's parts carry at one state, given the friction state before it.
-
-    Parameters
-    ----------
-    par : the effect parameters (``_effect_params``).
-    st : the state's statics on the undeformed geometry (``_statics``): ``dforce_n`` ΔF_i (N)
-        is the frictionless force change from the reference, ``h`` the signed moment arm
-        h_i = (A_i − O_i) × e_i (mm) of actuator i about O_i.
-    joint_prev, body_prev : (N, n) the force change held before this state by the whole
-        actuator against the joint friction, and by the body spring against the actuator
-        friction (both 0 at the reference).
-
-    Returns
-    -------
-    dict: ``joint`` (N, n) S_joint, the actuator's force change (mount, play, and the input of
-    the body's friction): ΔF_i filtered by the joint friction of O_i, limit T_i/|h_i|;
-    ``body`` (N, n) S_body, the body spring's force change: S_joint filtered by the actuator
-    friction; ``couple`` (N, n) the friction couple (ΔF_i − S_joint,i)·h_i (N·mm, counter-
-    clockwise +) on link i, the opposite one acting on body i−1.
-    """
-    df = st["dforce_n"]
-    h = st["h"]
-    joint_limit = par["joint_friction"][None, :] / np.abs(h)
-    s_joint = _slip(joint_prev, df, joint_limit)
-    s_body = _slip(body_prev, s_joint, np.broadcast_to(par["actuator_friction"], df.shape))
-    return {"joint": s_joint, "body": s_body, "couple": (df - s_joint) * h}
-
-
 def _respond(
     arr: dict[str, Any],
     par: dict[str, Any],
@@ -564,11 +517,11 @@ def _respond(
 ) -> dict[str, FloatArray]:
     """The loaded pose of one state from its statics and what the frictions hold (model §4–§5).
 
-    ``held`` comes from :func:`_held_forces`. The actuator's actual force is the reference's
-    plus S_joint; the body spring deforms with S_body, the mount with S_joint, a play sits on
-    the side of the actual force. The joint reaction R_i changes by −δ_i with
-    δ_i = (S_joint,i − ΔF_i)·e_i (the change of the actuator's force on link i), so a clearance
-    sits along the actual reaction; link bending sees the actual force changes and the friction
+    ``held`` comes from ``reference_friction.held_forces``. The actuator's actual force is the
+    reference's plus S_joint; the body spring deforms with S_body, the mount with S_joint, a
+    play sits on the side of the actual force. The joint reaction R_i changes by −δ_i with δ_i =
+    (S_joint,i − ΔF_i)·e_i (the change of the actuator's force on link i), so a clearance sits
+    along the actual reaction; link bending sees the actual force changes and the friction
     couples. Without friction every one of these is the frictionless value.
     """
     n_rows, n = geo["length_mm"].shape
@@ -757,8 +710,8 @@ def solve_sequence(
       undeformed geometry, as :func:`solve_payload`);
     * ``joint_friction`` at O_i (limit L = T_i/|h_i|, h_i = (A_i − O_i) × e_i the moment arm
       of actuator i about O_i in the unloaded pose): the whole actuator holds S_joint, updated
-      from the previous state by the Coulomb rule of :func:`_slip` with input ΔF_i; the
-      friction couple (ΔF_i − S_joint)·h_i acts on link i and its opposite on body i−1;
+      from the previous state by the Coulomb rule of ``reference_friction.slip`` with input
+      ΔF_i; the friction couple (ΔF_i − S_joint)·h_i acts on link i and its opposite on body i−1;
     * ``actuator_friction`` at M_i (limit ``friction_n``): the body spring holds S_body, the
       same rule with input S_joint (ΔF_i without joint friction); the mount and the play
       take S_joint, the actual force is F_i,ref + S_joint;
@@ -825,7 +778,7 @@ def solve_sequence(
             ext = _extras(None, n_rows, n)
             if custom_effs:
                 ext = _custom_extras(arm, alpha_d, payload, geo, st, custom_effs, self_weight, ext)
-            held = _held_forces(par, st, joint, body)
+            held = held_forces(par, st, joint, body)
             states.append(_respond(arr, par, geo, alpha, st, payload, ext, held))
         except InputError as exc:
             raise InputError(f"{exc} (state {s + 1} of the sequence)") from None

@@ -37,8 +37,9 @@ from typing import Any
 import numpy as np
 
 from eodarm._version import __version__
+from eodarm.analysis.crossval import cross_validate
 from eodarm.analysis.diagnose import Diagnosis
-from eodarm.analysis.fit import FitResult, FitWarning, cross_validate
+from eodarm.analysis.fit import FitResult, FitWarning
 from eodarm.analysis.ladder import build_ladder, check_same_model, model_name, solver_keywords
 from eodarm.data.measurements import Measurements, default_sigma
 from eodarm.errors import EodarmError

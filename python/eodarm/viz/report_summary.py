@@ -434,11 +434,11 @@ def handover_section(
     setup: str | None = None,
 ) -> list[str]:
     """The fitted arm file as a download link and the commands that reproduce and use it."""
-    from eodarm.analysis.fit import settle
+    from eodarm.analysis.handover import fitted_arm, settle
 
     outliers = np.isfinite(meas.values) & ~fit.problem.use
     final = settle(fit, exclude=outliers if outliers.any() else None)
-    fitted = final.fitted_arm(data=str(meas.source))
+    fitted = fitted_arm(final, data=str(meas.source))
     template = None
     source = Path(arm.source)
     if source.suffix == ".toml" and source.is_file():

@@ -1,0 +1,88 @@
+"""The rules of a measurement file with a ``step`` column: each ``config`` label one load
+sequence (docs/formats.md §4)."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+import numpy.typing as npt
+
+from eodarm.data.cells import Cell, _show
+from eodarm.data.channels import channel_names
+
+FloatArray = npt.NDArray[np.float64]
+
+
+def _first_rows(config: Sequence[str], step: npt.NDArray[np.int64]) -> dict[str, int]:
+    """Each label's row with the lowest step."""
+    first: dict[str, int] = {}
+    for r, label in enumerate(config):
+        if label not in first or step[r] < step[first[label]]:
+            first[label] = r
+    return first
+
+
+def _check_sequences(
+    config: Sequence[str],
+    alpha: FloatArray,
+    mass: FloatArray,
+    step: npt.NDArray[np.int64],
+    step_given: npt.NDArray[np.bool_],
+    values: FloatArray,
+    line: npt.NDArray[np.int64],
+    step_cells: Sequence[Cell],
+) -> list[str]:
+    """The rules of a file with a ``step`` column: every problem, one entry per bad row.
+
+    A step that is empty while others are given (a partly empty column), a step that repeats
+    within a label, a label whose rows have different angles, a written reference row (the
+    first of its label, mass 0) whose channels are not all 0 or empty.
+    """
+    bad: list[str] = []
+    for empty in np.flatnonzero(~step_given).tolist():
+        bad.append(
+            f"line {line[empty]}: step is empty (the step column must be filled in every row)"
+        )
+    if bad:
+        return bad
+    seen: dict[tuple[str, int], int] = {}
+    first_angles: dict[str, int] = {}
+    for r, label in enumerate(config):
+        key = (label, int(step[r]))
+        if key in seen:
+            bad.append(
+                f"line {line[r]}: step {_show(step_cells[r])} repeats within config '{label}' "
+                f"(line {line[seen[key]]})"
+            )
+        else:
+            seen[key] = r
+        f = first_angles.setdefault(label, r)
+        if not np.array_equal(alpha[r], alpha[f]):
+            bad.append(
+                f"line {line[r]}: config '{label}' is one sequence, its angles must be those of "
+                f"line {line[f]} ({', '.join(f'{a:g}' for a in alpha[r])} vs "
+                f"{', '.join(f'{a:g}' for a in alpha[f])})"
+            )
+    for label, r in _first_rows(config, step).items():
+        v = values[r]
+        if mass[r] == 0 and np.any(np.isfinite(v) & (v != 0)):
+            c = int(np.flatnonzero(np.isfinite(v) & (v != 0))[0])
+            bad.append(
+                f"line {line[r]}: the reference row of config '{label}' (mass 0 before any "
+                f"load) must read 0 or be empty; {channel_names(alpha.shape[1])[c]} is {v[c]:g}"
+            )
+    return bad
+
+
+def _reference_rows(
+    config: Sequence[str],
+    mass: FloatArray,
+    step: npt.NDArray[np.int64],
+    values: FloatArray,
+) -> npt.NDArray[np.bool_]:
+    """(N,) the written reference rows: the first row of a label, with mass 0."""
+    out = np.zeros(len(config), dtype=bool)
+    for r in _first_rows(config, step).values():
+        out[r] = mass[r] == 0
+    return out
