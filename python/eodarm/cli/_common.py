@@ -45,7 +45,7 @@ def _load_arm(path: str | None, measurements: str | None = None) -> Arm:
 
     if measurements is None:
         arm = datasets.bundled_arm(DEFAULT_DATASET)
-        _held_note(f"no --arm: used the bundled {DEFAULT_DATASET} arm '{arm.name}' ({arm.n} links)")
+        _note(f"no --arm: used the bundled {DEFAULT_DATASET} arm '{arm.name}' ({arm.n} links)")
         return arm
     name = datasets.dataset_of(measurements)
     if name is None:
@@ -54,7 +54,7 @@ def _load_arm(path: str | None, measurements: str | None = None) -> Arm:
             "bundled data have a known arm)"
         )
     arm = datasets.bundled_arm(name)
-    _held_note(f"no --arm: these are the bundled {name} data; used their arm '{arm.name}'")
+    _note(f"no --arm: these are the bundled {name} data; used their arm '{arm.name}'")
     return arm
 
 
@@ -172,11 +172,6 @@ HOLD = [False]
 #: The command line's parser factory (``eodarm.cli._parser``), handed over by ``main`` so that
 #: this module need not import the package that imports it (no import cycle).
 PARSER: list[Callable[[Sequence[str]], argparse.ArgumentParser]] = []
-
-
-def _held_note(msg: str) -> None:
-    """A note held until the command has succeeded (the same as :func:`_note`)."""
-    _note(msg)
 
 
 def _read(
@@ -622,7 +617,7 @@ def run_records(
         results = analyse_campaign(camp, allow_drift, min_duration_s, on_record=draw)
     finally:
         if drawn:
-            _held_note(f"drew {len(drawn)} records into {plot_dir}")
+            _note(f"drew {len(drawn)} records into {plot_dir}")
     channels = list(dict.fromkeys(c for r in results for c in r.channels))
     rows = [row for r in results for row in r.rows]
 
@@ -630,7 +625,7 @@ def run_records(
         write_rows(target, camp.n, rows, channels)
 
     if any(r.spec.masses_kg[0] != 0 for r in results):
-        _held_note(
+        _note(
             "a record's reference carries a payload (masses_kg[0] > 0): its rows are relative "
             "to that loaded reference"
         )
