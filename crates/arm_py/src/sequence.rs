@@ -2,11 +2,10 @@
 //! (see `eodarm.solve_sequence` and `arm_core::solve_sequence`).
 
 use crate::convert::{effect_set, matrix, CoreArm};
-use crate::errors::{value_error, PyArmError};
-use arm_core::{BatchBuffers, SequenceInput, SolveOptions};
-use numpy::{
-    IntoPyArray, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods,
-};
+use crate::errors::value_error;
+use crate::solve::{fill_out, new_out};
+use arm_core::{SequenceInput, SolveOptions};
+use numpy::{PyReadonlyArray1, PyReadonlyArray2, PyUntypedArray, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
@@ -53,38 +52,27 @@ pub(crate) fn solve_sequence<'py>(
         nan_on_failure,
     };
     let total = seqs * states;
-    let mut b = BatchBuffers::new(total, n);
-    let mut status = vec![0u8; total];
-    py.detach(|| {
-        let mut payload = vec![0.0; 2 * total];
-        for (p, y) in payload.chunks_exact_mut(2).zip(py_payload) {
-            p[1] = *y;
-        }
-        let input = SequenceInput {
-            alpha_deg: alpha,
-            payload_n: &payload,
-            states,
-        };
-        arm_core::solve_sequence(arm, &effects, input, opts, b.out(), &mut status)
-    })
-    .map_err(PyArmError)?;
-    let per_link = |v: Vec<f64>| v.into_pyarray(py).reshape([seqs, states, n]);
-    let per_state = |v: Vec<f64>| v.into_pyarray(py).reshape([seqs, states]);
+    let mut payload = vec![0.0; 2 * total];
+    for (p, y) in payload.chunks_exact_mut(2).zip(py_payload) {
+        p[1] = *y;
+    }
+    let input = SequenceInput {
+        alpha_deg: alpha,
+        payload_n: &payload,
+        states,
+    };
+    // numpy allocates the outputs (huge pages for large arrays), as for `solve`; the rows
+    // are the states, sequence-major, reshaped below to (N, S, ...) views.
+    let flat = new_out(py, total, n)?;
+    fill_out(py, &flat, total, n, |batch, st| {
+        arm_core::solve_sequence(arm, &effects, input, opts, batch, st)
+    })?;
     let out = PyDict::new(py);
-    out.set_item("force_n", per_link(b.force_n)?)?;
-    out.set_item(
-        "reaction_n",
-        b.reaction_n
-            .into_pyarray(py)
-            .reshape([seqs, states, n, 2])?,
-    )?;
-    out.set_item("dforce_n", per_link(b.dforce_n)?)?;
-    out.set_item("dx_mm", per_state(b.dx_mm)?)?;
-    out.set_item("dy_mm", per_state(b.dy_mm)?)?;
-    out.set_item("dalpha_deg", per_link(b.dalpha_deg)?)?;
-    out.set_item("dl_mm", per_link(b.dl_mm)?)?;
-    out.set_item("dlength_mm", per_link(b.dlength_mm)?)?;
-    out.set_item("length_mm", per_link(b.length_mm)?)?;
-    out.set_item("status", status.into_pyarray(py).reshape([seqs, states])?)?;
+    for (key, value) in flat.iter() {
+        let a = value.cast_into::<PyUntypedArray>()?;
+        let mut shape = vec![seqs, states];
+        shape.extend_from_slice(&a.shape()[1..]);
+        out.set_item(key, a.call_method1("reshape", (shape,))?)?;
+    }
     Ok(out)
 }

@@ -132,39 +132,54 @@ pub(crate) fn solve<'py>(
         Some(dict) => dict,
         None => new_out(py, rows, n)?,
     };
-    {
-        let (mut arrays, mut status) = borrow_out(&dict, rows, n)?;
-        let mut slices = Vec::with_capacity(arrays.len());
-        for a in arrays.iter_mut() {
-            slices.push(
-                a.as_slice_mut()
-                    .map_err(|e| value_error(format!("out: {e}")))?,
-            );
-        }
-        let st = status
-            .as_slice_mut()
-            .map_err(|e| value_error(format!("out: {e}")))?;
-        let mut it = slices.into_iter();
-        let mut next = || it.next().unwrap_or_default();
-        let batch = BatchOutput {
-            force_n: next(),
-            reaction_n: next(),
-            dforce_n: next(),
-            dx_mm: next(),
-            dy_mm: next(),
-            dalpha_deg: next(),
-            dl_mm: next(),
-            dlength_mm: next(),
-            length_mm: next(),
-        };
-        py.detach(|| arm_core::solve_batch_status(arm, &effects, input, extra, opts, batch, st))
-            .map_err(PyArmError)?;
-    }
+    fill_out(py, &dict, rows, n, |batch, st| {
+        arm_core::solve_batch_status(arm, &effects, input, extra, opts, batch, st)
+    })?;
     Ok(dict)
 }
 
+/// Runs `solve` (without the GIL) on the arrays of `dict` (checked by [`borrow_out`]) lent as
+/// one [`BatchOutput`] and its status.
+pub(crate) fn fill_out<'py, F>(
+    py: Python<'py>,
+    dict: &Bound<'py, PyDict>,
+    rows: usize,
+    n: usize,
+    solve: F,
+) -> PyResult<()>
+where
+    F: FnOnce(BatchOutput<'_>, &mut [u8]) -> arm_core::Result<()> + Send,
+{
+    let (mut arrays, mut status) = borrow_out(dict, rows, n)?;
+    let mut slices = Vec::with_capacity(arrays.len());
+    for a in arrays.iter_mut() {
+        slices.push(
+            a.as_slice_mut()
+                .map_err(|e| value_error(format!("out: {e}")))?,
+        );
+    }
+    let st = status
+        .as_slice_mut()
+        .map_err(|e| value_error(format!("out: {e}")))?;
+    let mut it = slices.into_iter();
+    let mut next = || it.next().unwrap_or_default();
+    let batch = BatchOutput {
+        force_n: next(),
+        reaction_n: next(),
+        dforce_n: next(),
+        dx_mm: next(),
+        dy_mm: next(),
+        dalpha_deg: next(),
+        dl_mm: next(),
+        dlength_mm: next(),
+        length_mm: next(),
+    };
+    py.detach(|| solve(batch, st)).map_err(PyArmError)?;
+    Ok(())
+}
+
 /// Zeroed numpy output arrays of `solve` for `rows` poses of an `n`-link arm.
-fn new_out(py: Python<'_>, rows: usize, n: usize) -> PyResult<Bound<'_, PyDict>> {
+pub(crate) fn new_out(py: Python<'_>, rows: usize, n: usize) -> PyResult<Bound<'_, PyDict>> {
     let d = PyDict::new(py);
     for (key, code) in OUT_KEYS {
         d.set_item(

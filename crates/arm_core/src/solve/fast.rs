@@ -544,8 +544,7 @@ impl<const N: usize> SolveKernel<N> {
             pby: PoseBlock::<N>::new(),
             pb: PoseBlock::<N>::new(),
             sb: SolveBlock::<N>::new(),
-            tmp: BatchBuffers::new(L, N),
-            tst: [0u8; L],
+            pay: Vec::new(),
         };
         let mut failed = Vec::new();
         let mut q0 = 0;
@@ -593,17 +592,24 @@ impl<const N: usize> SolveKernel<N> {
                 let (one, zero) = ([1.0; L], [0.0; L]);
                 k.fa.poses_sc_impl(&trig.0, &trig.1, &[one, zero], &mut sc.pbx);
                 k.fa.poses_sc_impl(&trig.0, &trig.1, &[zero, one], &mut sc.pby);
+                // Only the payload case changes from state to state.
+                sc.pb.clone_from(&sc.pbx);
                 let mut held = Held::<N>::new();
                 let mut bad = [false; L];
-                for st in 0..states {
-                    // Missing lanes repeat the last sequence.
-                    let mut pay = [[0.0; L]; 2];
-                    for j in 0..L {
-                        let r = (q0 + j.min(count - 1)) * states + st;
-                        pay[0][j] = self.input.payload_n[2 * r];
-                        pay[1][j] = self.input.payload_n[2 * r + 1];
+                // The block's payloads by state, its lanes' rows being contiguous; missing
+                // lanes repeat the last sequence.
+                let rows = &self.input.payload_n[2 * q0 * states..2 * (q0 + count) * states];
+                sc.pay.clear();
+                sc.pay.resize(states, [[0.0; L]; 2]);
+                for j in 0..L {
+                    let lane = &rows[2 * j.min(count - 1) * states..][..2 * states];
+                    for (pay, xy) in sc.pay.iter_mut().zip(lane.chunks_exact(2)) {
+                        pay[0][j] = xy[0];
+                        pay[1][j] = xy[1];
                     }
-                    sc.pb.clone_from(&sc.pbx);
+                }
+                for st in 0..states {
+                    let pay = sc.pay[st];
                     for i in 0..N {
                         for j in 0..L {
                             let (px, py) = (pay[0][j], pay[1][j]);
@@ -619,14 +625,11 @@ impl<const N: usize> SolveKernel<N> {
                             .step(&mut sc.pb, &mut held, &k.fa.body_c, &mut sc.sb.seen);
                     }
                     k.close_any(&trig, &pay, &sc.pb, &mut sc.sb);
-                    let mut tmp = sc.tmp.out();
-                    write_block(&sc.pb, &sc.sb, &mut tmp, &mut sc.tst, 0, count);
                     for j in 0..count {
                         bad[j] |= sc.sb.fail[j];
-                        let r = (q0 + j) * states + st;
-                        copy_row(&sc.tmp, j, self.out, r, N);
-                        self.status[r] = sc.tst[j];
                     }
+                    let row = |j: usize| (q0 + j) * states + st;
+                    scatter_block(&sc.pb, &sc.sb, self.out, self.status, count, row);
                 }
                 bad
             }
@@ -643,15 +646,48 @@ impl<const N: usize> SolveKernel<N> {
     }
 }
 
-/// Scratch of [`SolveKernel::sequence_block`]: the unit payload cases, the state's block, a
-/// block's rows before they are copied to their sequences' rows.
+/// Scratch of [`SolveKernel::sequence_block`]: the unit payload cases and the state's block.
 struct SeqScratch<const N: usize> {
     pbx: PoseBlock<N>,
     pby: PoseBlock<N>,
     pb: PoseBlock<N>,
     sb: SolveBlock<N>,
-    tmp: BatchBuffers,
-    tst: [u8; L],
+    /// The block's payloads (x, y per lane) by state.
+    pay: Vec<[[f64; L]; 2]>,
+}
+
+/// Writes lane `j < count` of a solved block to output row `row(j)` (a sequence's state:
+/// the lanes' rows are `S` apart).
+#[inline(always)]
+fn scatter_block<const N: usize>(
+    pb: &PoseBlock<N>,
+    sb: &SolveBlock<N>,
+    out: &mut BatchOutput<'_>,
+    status: &mut [u8],
+    count: usize,
+    row: impl Fn(usize) -> usize,
+) {
+    for j in 0..count {
+        let r = row(j);
+        let at = r * N..(r + 1) * N;
+        let (force, dforce) = (&mut out.force_n[at.clone()], &mut out.dforce_n[at.clone()]);
+        let (dalpha, dl) = (&mut out.dalpha_deg[at.clone()], &mut out.dl_mm[at.clone()]);
+        let (dlength, len) = (&mut out.dlength_mm[at.clone()], &mut out.length_mm[at]);
+        let reaction = &mut out.reaction_n[2 * r * N..2 * (r + 1) * N];
+        for i in 0..N {
+            force[i] = sb.force[i][j];
+            dforce[i] = sb.dforce[i][j];
+            dalpha[i] = sb.dalpha[i][j];
+            dl[i] = sb.dl[i][j];
+            dlength[i] = sb.dlength[i][j];
+            len[i] = pb.len[i][j];
+            reaction[2 * i] = sb.reaction[0][i][j];
+            reaction[2 * i + 1] = sb.reaction[1][i][j];
+        }
+        out.dx_mm[r] = sb.dx[j];
+        out.dy_mm[r] = sb.dy[j];
+        status[r] = sb.status[j];
+    }
 }
 
 /// Copies row `k` of `from` into row `r` of `to` (`n` links).
