@@ -421,9 +421,12 @@ fn taken_up_codes_in_every_path() {
         &mut jac,
     )
     .unwrap();
+    // The Jacobian's path and the block kernel close the triangles by different formulas
+    // (the kernel without the cancellation of cos′ − cos where no geometric effect touches a
+    // link): they agree to rounding carried by ~1 m levers, ~1e-12 mm; 1e-9 mm bounds it.
     for r in 0..2 {
-        assert!((y[r * c] - solved.dx_mm[r]).abs() < 1e-12);
-        assert!((y[r * c + 1] - solved.dy_mm[r]).abs() < 1e-12);
+        assert!((y[r * c] - solved.dx_mm[r]).abs() < 1e-9);
+        assert!((y[r * c + 1] - solved.dy_mm[r]).abs() < 1e-9);
     }
 
     let set = EffectSet::new_unchecked(&arm, vec![clear]).unwrap();

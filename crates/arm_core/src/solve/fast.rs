@@ -63,6 +63,11 @@ pub(crate) struct SolveKernel<const N: usize> {
     reach: f64,
     /// Force limits (N), +∞ where none.
     fmax: [f64; N],
+    /// Per link i: D_i = B_{i−1} − O_i changes (joint i's clearance, body i−1 bends); link
+    /// i's pin a_i moves in its frame (link i bends). Where neither, link i closes as without
+    /// geometric effects.
+    d_moves: [bool; N],
+    a_moves: [bool; N],
 }
 
 /// Per-pose results of a block (`[link][lane]`).
@@ -121,10 +126,14 @@ impl<const N: usize> SolveKernel<N> {
                 Effect::ActuatorFriction(_) | Effect::JointFriction(_) => {}
             }
         }
+        let clear = Clearance::new(effects);
+        let bend = Bending::new(arm, effects);
         Some(Self {
             fa: FastArm::with_lengths(arm, effects, self_weight)?,
-            clear: Clearance::new(effects),
-            bend: Bending::new(arm, effects),
+            d_moves: std::array::from_fn(|i| clear.at(i) || (i > 0 && bend.bends(i - 1))),
+            a_moves: std::array::from_fn(|i| bend.bends(i)),
+            clear,
+            bend,
             base: Base::new(arm, effects),
             fric: Friction::new(effects)?,
             reach: validity::reach(arm),
@@ -292,7 +301,10 @@ impl<const N: usize> SolveKernel<N> {
             let dlen = fa.dlen::<PLAY, UP, F4>(i, du, f, fw) + seen;
             let l = ld(&pb.len[i]);
             let (c, s, side) = (ld(&pb.c[i]), ld(&pb.s[i]), ld(&pb.side[i]));
-            let (dc, rd, ra) = if GEOM {
+            // The links that no geometric effect touches close as without them.
+            let (dm, am) = (GEOM && self.d_moves[i], GEOM && self.a_moves[i]);
+            let (mut dn, mut dn2, mut rd) = (F4::splat(dl0), F4::splat(dl0 * dl0), None);
+            if dm {
                 // D′ = R(Δα_{i−1})·(D + δ): δ from body i−1's bending and joint i's offset.
                 let (ux, uy) = (ld(&u[0][i]), ld(&u[1][i]));
                 let cc = 1.0 + cm;
@@ -307,35 +319,37 @@ impl<const N: usize> SolveKernel<N> {
                 }
                 let (vx, vy) = (ld(&pb.d[0][i]), ld(&pb.d[1][i]));
                 let (nx, ny) = (vx + ddx, vy + ddy);
-                let dn2 = nx * nx + ny * ny;
-                let dn = dn2.sqrt();
+                dn2 = nx * nx + ny * ny;
+                dn = dn2.sqrt();
                 let inv = 1.0 / (dl0 * dn);
                 let rds = (vx * ddy - vy * ddx) * inv;
-                let rdc = cos_m1(rds, (dl0 * dl0 + vx * ddx + vy * ddy) * inv);
+                rd = Some((rds, cos_m1(rds, (dl0 * dl0 + vx * ddx + vy * ddy) * inv)));
+            }
+            let (mut rp, mut rp2, mut ra) = (F4::splat(rho), F4::splat(rho * rho), None);
+            if am {
                 // a′ = a + Δa, in link i's frame.
                 let (sx, sy) = (ld(&sh.a[0][i]), ld(&sh.a[1][i]));
                 let (px, py) = (ax + sx, ay + sy);
-                let rp2 = px * px + py * py;
-                let rp = rp2.sqrt();
+                rp2 = px * px + py * py;
+                rp = rp2.sqrt();
                 let inva = 1.0 / (rho * rp);
                 let ras = (ax * sy - ay * sx) * inva;
-                let rac = cos_m1(ras, (rho * rho + ax * sx + ay * sy) * inva);
+                ra = Some((ras, cos_m1(ras, (rho * rho + ax * sx + ay * sy) * inva)));
+            }
+            let dc = if dm || am {
                 let lp = l + dlen;
-                let cp = (rp2 + dn2 - lp * lp) / (2.0 * rp * dn);
-                (cp - c, (rds, rdc), (ras, rac))
+                (rp2 + dn2 - lp * lp) / (2.0 * rp * dn) - c
             } else {
-                (
-                    -dlen * (2.0 * l + dlen) * hr,
-                    (F4::ZERO, F4::ZERO),
-                    (F4::ZERO, F4::ZERO),
-                )
+                -dlen * (2.0 * l + dlen) * hr
             };
             let tr = Turn::of(c, s, dc);
             fail = fail | !tr.closes;
             let (mut ts, mut tc) = (side * tr.sin, tr.cos_m1);
-            if GEOM {
-                (ts, tc) = compose(rd.0, rd.1, ts, tc);
-                (ts, tc) = compose(ts, tc, -ra.0, ra.1);
+            if let Some((s, c)) = rd {
+                (ts, tc) = compose(s, c, ts, tc);
+            }
+            if let Some((s, c)) = ra {
+                (ts, tc) = compose(ts, tc, -s, c);
             }
             let (ns, nc) = compose(sr, cm, ts, tc);
             // The rigid loaded triangle (docs/model.md §7) turned by the relative turn of
@@ -348,7 +362,8 @@ impl<const N: usize> SolveKernel<N> {
             let (gx, gy) = (ld(&pb.gx[i]), ld(&pb.gy[i]));
             dx = dx + (nc * gx - ns * gy);
             dy = dy + (ns * gx + nc * gy);
-            if GEOM {
+            if am {
+                // the bent link's next pin (the measure point on the last link)
                 let (qx, qy) = if i + 1 < N {
                     (ld(&sh.next[0][i]), ld(&sh.next[1][i]))
                 } else {
@@ -358,10 +373,10 @@ impl<const N: usize> SolveKernel<N> {
                 let (hx, hy) = rot(ns, 1.0 + nc, [g.0, g.1]);
                 dx = dx + hx;
                 dy = dy + hy;
-                if i + 1 < N {
-                    dx = dx + ld(&u[0][i + 1]);
-                    dy = dy + ld(&u[1][i + 1]);
-                }
+            }
+            if GEOM && i + 1 < N && self.clear.at(i + 1) {
+                dx = dx + ld(&u[0][i + 1]);
+                dy = dy + ld(&u[1][i + 1]);
             }
             far = far | !(Lane::le(ts.abs(), ASIN_SERIES_MAX) & Lane::gt(1.0 + tc, 0.0));
             turn[0][i] = ts;

@@ -50,6 +50,11 @@ impl<const N: usize> Bending<N> {
         Self { links, any }
     }
 
+    /// Link `i` bends (its pins move in its frame).
+    pub(crate) fn bends(&self, i: usize) -> bool {
+        self.links[i].is_some()
+    }
+
     /// Fills `out` with the pin displacements of the bent links (the rigid ones stay zero).
     /// `sn`, `cs`: sin and cos of the unloaded link angles; `pay`: the payload (N, global).
     #[inline(always)]

@@ -45,6 +45,11 @@ impl<const N: usize> Clearance<N> {
     /// Adds the global offset of every joint's pin, `[x or y][joint][lane]`, to `u`: along the
     /// force −R_i that link i presses on body i−1 in the loaded state (minus the unloaded
     /// one's, taken up).
+    /// Joint `i` has a clearance (its pin centre moves).
+    pub(crate) fn at(&self, i: usize) -> bool {
+        self.c[i] != 0.0
+    }
+
     #[inline(always)]
     pub(crate) fn offsets(&self, pb: &PoseBlock<N>, u: &mut [[[f64; L]; N]; 2]) {
         for i in 0..N {
