@@ -142,7 +142,8 @@ def report_paragraph(final: Any, meas: Any) -> str:
         f"parameters alone give {np.nanmin(sig_p):.2f}–{np.nanmax(sig_p):.2f} mm (docs/model.md, "
         f"Prediction errors). The measured sag farthest from the prediction, "
         f"{meas.config[k]} at {meas.mass_kg[k]:g} kg, {abs(miss[k]):.1f} mm off, is then "
-        f"{abs(miss[k]) / sig[k]:.1f}σ away rather than {abs(miss[k]) / sig_p[k]:.1f}σ."
+        f"{abs(miss[k]) / sig[k]:.1f}σ away (σ {sig[k]:.2f} mm) rather than "
+        f"{abs(miss[k]) / sig_p[k]:.1f}σ (the parameters' {sig_p[k]:.2f} mm)."
     )
     return text + "\n"
 
