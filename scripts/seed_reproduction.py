@@ -207,20 +207,28 @@ def main() -> None:
         f"({only_b0.value[0]:.0f}, {only_b0.value[1]:.0f}) mm and the forces still miss by up "
         f"to {np.abs(only_b0.residual).max():.0f} N.\n"
     )
+    pin_sigma = min(r["prior_sigma"] for r in cal.table())
     w(
         "So the calibration (`eodarm.analysis.calibrate.calibrate_geometry`, least squares "
         "through the "
         "compiled statics, each number pulled towards its printed value by a prior σ) also "
         "frees the doubtful numbers: the paper's g, the payload point on arm 3, the garbled "
         "cells A1 (`A180.9465`) and B2 (`B2−1280`), the clearly printed pins (σ = their "
-        "rounding, 0.5 mm), and one lumped weight at O3: F1 and F2 carry constant offsets that "
+        f"rounding, {pin_sigma:g} mm), and one lumped weight at O3: F1 and F2 carry constant "
+        "offsets that "
         "no geometry gives with self-weight off (NOTES.md, Table 5), and a weight acting at "
         "joint O3 (link 3's mass at its own joint: no moment about O3, so F3 stays "
         "proportional to the payload, as printed) is the one load that produces exactly them. "
-        "Force σ = 0.05 N (the printed 0.1 N rounding).\n"
+        f"Force σ = {cal.force_sigma:g} N (half the printed 0.1 N step).\n"
     )
+    table = cal.table()
+    post = {r["key"]: r["posterior_sigma"] for r in table}
+    calv = {r["key"]: r["calibrated"] for r in table}
+    printed_v = {r["key"]: r["printed"] for r in table}
+    o3_load = calv["link[3].mass_kg"] * calv["g"]
+    max_moved = max(abs(r["moved"]) for r in table if not r["identified"])
     rows = []
-    for r in cal.table():
+    for r in table:
         rows.append(
             [
                 f"`{r['key']}`",
@@ -253,13 +261,18 @@ def main() -> None:
         f"{np.abs(res).max():.3f} N (RMS {rms(res):.3f} N), within the printed rounding.\n"
     )
     w(
-        "**What Table 5 identifies:** B0 (x to ±4 mm, y to ±27 mm: the actuator line is "
+        f"**What Table 5 identifies:** B0 (x to ±{post['base.B0.x']:.0f} mm, y to "
+        f"±{post['base.B0.y']:.0f} mm: the actuator line is "
         "nearly horizontal, so its height is weakly constrained), the payload point on arm 3 "
-        "(x = 299 mm, i.e. the measurement point's abscissa, **not** O4 at 400 mm), the "
-        "paper's g (10.0 m/s², jointly with the lever: F3 fixes only g·x, F2 separates them "
-        "through the 400 mm of arm 2), and the 28.8 N at O3. **What it cannot identify:** the "
+        f"(x = {calv['link[3].next.x']:.0f} mm, i.e. the measurement point's abscissa, **not** "
+        f"O4 at {printed_v['link[3].next.x']:.0f} mm), the "
+        f"paper's g ({calv['g']:.1f} m/s², jointly with the lever: F3 fixes only g·x, F2 "
+        "separates them through the "
+        f"{printed_v['link[2].next.x']:.0f} mm of arm 2), and the {o3_load:.1f} N at O3. "
+        "**What it cannot identify:** the "
         "garbled cells A1 and B2 and the other printed pins are *consistent* with Table 5 (they "
-        "moved by less than 0.2 mm, within their rounding) but not pinned down beyond their "
+        f"moved by at most {max_moved:.2f} mm, within their rounding) but not pinned down "
+        "beyond their "
         "prior; the centres of mass C1–C3, every mass, every stiffness and O1 do not enter "
         "Table 5 at all.\n"
     )
@@ -277,8 +290,9 @@ def main() -> None:
     for i in range(len(labels)):
         rows.append([labels[i], *f_paper[i], *exact[i], *ours[i]])
     w(
-        "Paper vs the calibrated reconstruction (g = 10, the 28.8 N at O3) and vs the data "
-        "set's `arm.toml` with self-weight off (g = 9.81, so 1.9 % lower, and no O3 load):\n"
+        f"Paper vs the calibrated reconstruction (g = {calv['g']:.2f}, the {o3_load:.1f} N at "
+        f"O3) and vs the data set's `arm.toml` with self-weight off (g = {arm.g:g}, so "
+        f"{100 * (1 - arm.g / calv['g']):.1f} % lower, and no O3 load):\n"
     )
     w(
         md_table(
