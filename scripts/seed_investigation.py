@@ -21,6 +21,7 @@ import numpy as np
 import eodarm
 from eodarm.analysis.crossval import cross_validate
 from eodarm.analysis.fit import FitWarning, fit
+from eodarm.analysis.workflow import investigate
 from eodarm.data import datasets
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -54,6 +55,8 @@ def models() -> list[tuple[str, list[str]]]:
             [*BEST, *(f"actuator_friction@M{k}" for k in (1, 2, 3))],
         )
     )
+    for k in (1, 2, 3):
+        ms.append((f"+ joint_friction@O{k}", [*BEST, f"joint_friction@O{k}"]))
     for k in (1, 2, 3):
         ms.append((f"+ mount_preload@M{k} (user)", [*BEST, f"mount_preload@M{k}"]))
     ms.append(
@@ -134,11 +137,20 @@ def run(angles: bool = True) -> dict[str, Any]:
         cv = cross_validate(arm, meas, eff, start=r.theta if eff else None) if eff else None
         und = [f"{r.slots[i].spec} ({why})" for i, why in r.undetermined()]
         bounds = [r.slots[i].spec for i in range(len(r.slots)) if r.at_bound[i]]
-        extra = [
-            f"{r.slots[i].spec}={r.estimate(i):.3g}±{r.stderr(i):.2g}"
+        loose = dict(r.undetermined())
+        added = [
+            {
+                "spec": r.slots[i].spec,
+                "estimate": r.estimate(i),
+                "stderr": r.stderr(i),
+                "unit": r.slots[i].kind.unit,
+                "at_bound": bool(r.at_bound[i]),
+                "undetermined": loose.get(i),
+            }
             for i in range(len(r.slots))
             if r.slots[i].spec not in BEST
         ]
+        extra = [f"{a['spec']}={a['estimate']:.3g}±{a['stderr']:.2g} {a['unit']}" for a in added]
         rows.append(
             {
                 "label": label,
@@ -150,6 +162,7 @@ def run(angles: bool = True) -> dict[str, Any]:
                 "estimates": "; ".join(extra),
                 "undetermined": und,
                 "at_bound": bounds,
+                "added": added,
             }
         )
     return {"rows": rows, "line": line}
@@ -215,6 +228,7 @@ def section(arm: eodarm.Arm | None = None, meas: eodarm.Measurements | None = No
     with _w.catch_warnings():
         _w.simplefilter("ignore", FitWarning)
         d = eodarm.diagnose(arm, meas, model=BEST)
+        inv = investigate(arm, meas)  # what `eodarm report --effects ...` runs
     be = ", ".join(s.key for s in (d.best_effort or [])) or "the model as it is"
     acc = d.acceptance
     be_cv = acc.cv["rms"]["dy_mm"] if acc is not None and acc.cv is not None else float("nan")
@@ -235,25 +249,45 @@ def section(arm: eodarm.Arm | None = None, meas: eodarm.Measurements | None = No
     r1, r0 = sol["reaction_n"], sol0["reaction_n"]
     cosang = (r1 * r0).sum(-1) / np.linalg.norm(r1, axis=-1) / np.linalg.norm(r0, axis=-1)
     turn = np.degrees(np.arccos(np.clip(cosang, -1, 1))).max(0)
+    from seed_reproduction import best_candidate, judged, refusal
+
     pre = [r for r in thr if "friction" not in r["label"]]
     singles = [r for r in pre if "M1–M3" not in r["label"]]
-    zs = []
-    for r in singles:
-        est, err = r["estimates"].split("=")[1].split("±")
-        zs.append(abs(float(est)) / float(err))
-    max_z = max(zs)
+    max_z = max(abs(a["estimate"]) / a["stderr"] for r in singles for a in r["added"])
     m3 = next(r for r in singles if r["label"].startswith("+ mount_preload@M3"))
     gain = [k for k in m3["per_config"] if m3["per_config"][k] < best["per_config"][k] - 0.005]
     better_line = [k for k in line["per_config"] if best["per_config"][k] < line["per_config"][k]]
     worse_line = [k for k in line["per_config"] if best["per_config"][k] >= line["per_config"][k]]
+    act_fr = by["+ actuator_friction@M1–M3"]
+    joint_fr = [r for r in full if r["label"].startswith("+ joint_friction@")]
     bf = d.best_effort_fit
     be_vals = (
         ", ".join(
-            f"{s.key} {bf.estimate(i):.2g}" for i, s in enumerate(bf.slots) if s.key not in BEST
+            f"{s.key} {bf.estimate(i):.2g} {s.kind.unit}"
+            for i, s in enumerate(bf.slots)
+            if s.key not in BEST
         )
         if bf is not None
         else ""
     )
+
+    def name(r: dict[str, Any]) -> str:
+        return r["label"][2:].replace(" (user)", "")
+
+    def versus(rows: list[dict[str, Any]]) -> str:
+        """How each model's held-out sag compares with §4's best."""
+        worse = [r for r in rows if r["cv"] > best["cv"] + 5e-3]
+        if len(worse) == len(rows):
+            word = "every one of them makes the held-out sag *worse*"
+        elif not worse:
+            word = "none of them makes the held-out sag worse"
+        else:
+            word = f"{len(worse)} of {len(rows)} make the held-out sag *worse*"
+        return (
+            f"{word} ("
+            + ", ".join(f"{name(r)} {r['cv']:.2f}" for r in rows)
+            + f" mm against {best['cv']:.2f})"
+        )
 
     w: list[str] = []
     w.append("## 6. Thresholds, taken-up gaps and a line through zero\n")
@@ -269,9 +303,12 @@ def section(arm: eodarm.Arm | None = None, meas: eodarm.Measurements | None = No
         "threshold does (the first newtons move less than the rest: friction, stiction, a "
         "preload). So the models below add to §4's best (bodies + mounts) the taken-up "
         "variants of play and clearance (model.md §4: the self-weight has already closed the "
-        "gap, so only a reversal of a force shows) and the built-in "
-        "`actuator_friction` (loaded once: a deadband in the actuator body, seen by its "
-        "sensor) and two user-written threshold effects, `mount_preload` / `joint_preload` "
+        "gap, so only a reversal of a force shows), the two built-in frictions, each loaded "
+        "once from the unloaded state and so a deadband (docs/model.md, load sequences and "
+        "friction): `actuator_friction` in the actuator body, seen by its sensor, and "
+        "`joint_friction`, a torque in the pin that holds the first newtons of the whole "
+        "actuator's force change, body and mount, and two user-written threshold effects, "
+        "`mount_preload` / `joint_preload` "
         "([examples/thresholds.py](../examples/thresholds.py): a mount or a joint that holds "
         "the first newtons of a force change, i.e. a constant relief δ against the "
         "deformation once the change passes a threshold, unseen by the motor sensors).\n"
@@ -291,6 +328,8 @@ def section(arm: eodarm.Arm | None = None, meas: eodarm.Measurements | None = No
         + ", ".join(f"{k} {v:.2f}" for k, v in best["per_config"].items())
         + " mm.\n"
     )
+    o1 = by["+ joint_clearance@O1:taken_up"]["added"][0]
+    fr_move = act_fr["cv"] - best["cv"]
     w.append(
         "**What each mechanism does.** The taken-up gaps fit to zero (at their bound) in every "
         "place: "
@@ -301,18 +340,28 @@ def section(arm: eodarm.Arm | None = None, meas: eodarm.Measurements | None = No
         "and its standard error infinite. The joint forces turn by at most "
         + ", ".join(f"{t:.0f}°" for t in turn)
         + " at O1, O2, O3 between the two states, so a taken-up clearance could move the pins a "
-        "little, but the data want none (O1: 0 ± "
-        f"{by['+ joint_clearance@O1:taken_up']['estimates'].split('±')[1]} mm). The friction "
-        "deadband in the actuator bodies "
-        f"({by['+ actuator_friction@M1–M3']['estimates']}) changes nothing: it can only "
+        f"little, but the data want none (O1: {o1['estimate']:.2g} ± {o1['stderr']:.2g} "
+        f"{o1['unit']}). The friction deadband in the actuator bodies "
+        f"({act_fr['estimates']}) "
+        + (
+            f"leaves the held-out sag where it was ({act_fr['cv']:.2f} mm against {best['cv']:.2f})"
+            if abs(fr_move) < 0.02
+            else f"moves the held-out sag by {fr_move:+.2f} mm"
+        )
+        + ": it can only "
         "give back what the bodies themselves deform, and their own sensors say that is "
-        "micrometres. The preload reliefs in the mounts and joints come out at "
+        "micrometres. The joint frictions reach the mounts too, and come out at "
+        + ", ".join(r["estimates"] for r in joint_fr)
+        + "; "
+        + versus(joint_fr)
+        + ". The preload reliefs in the mounts and joints come out at "
         + ", ".join(r["estimates"] for r in singles)
-        + f" mm, none more than {max_z:.1f} standard errors from zero, and every one of them "
-        "makes the held-out sag *worse* ("
-        + ", ".join(f"{r['label'][2:].replace(' (user)', '')} {r['cv']:.2f}" for r in pre)
-        + f" mm against {best['cv']:.2f}). {m3['label'][2:].replace(' (user)', '')}, "
-        "for instance, predicts configurations "
+        + f", none more than {max_z:.1f} standard errors from zero (the standard errors "
+        f"are scaled by √(χ²/dof), about {np.sqrt(best['chi2_per_dof']):.0f} here, as every "
+        "fit's are where the model misses its data by more than their σ: docs/model.md §8; "
+        "the Δχ² of the diagnosis below are on the stated σ), and "
+        + versus(pre)
+        + f". {name(m3)}, for instance, predicts configurations "
         + ", ".join(f"{k} {m3['per_config'][k]:.2f}" for k in gain)
         + " mm (without it "
         + ", ".join(f"{best['per_config'][k]:.2f}" for k in gain)
@@ -322,32 +371,72 @@ def section(arm: eodarm.Arm | None = None, meas: eodarm.Measurements | None = No
         "together with the three angles and the motor sensors, and a relief that lowers the "
         "light-payload sag also moves the angles.\n"
     )
+    sig = [c for c in d.ranking if c.delta_chi2 > d.significance]
+    lead = ", ".join(f"{c.slot.spec} (Δχ² {c.delta_chi2:.1f})" for c in d.ranking[:3])
+    if sig:
+        sig_txt = (
+            f"; {len(sig)} of the {len(d.ranking)} lower χ² beyond the {d.significance:.1f} "
+            "that the diagnosis requires of a real effect, and the rule refuses each of them "
+            "alone: "
+            + "; ".join(
+                f"{c.slot.spec}: "
+                + (refusal(a) if (a := judged(d, [c.slot.key])) is not None else "not judged")
+                for c in sig
+            )
+        )
+    else:
+        sig_txt = ", " + best_candidate(
+            d.ranking[0].slot.key, d.ranking[0].delta_chi2, d.significance, len(d.ranking), None
+        )
+    same = [s.key for s in inv.final_model] == BEST
     w.append(
         f"**The diagnosis with these effects** (`eodarm diagnose ... --add` the six "
         "compliances `--effects examples/thresholds.py`, "
         f"{len(d.ranking)} candidates): verdict *{d.verdict}*. The ranking is led by "
-        f"{', '.join(c.slot.key for c in d.ranking[:3])}, none significant; the best "
-        f"effort by BIC is {be}, with parameters of millimetres that largely cancel each other "
-        f"({be_vals} mm) and which predicts held-out sag "
-        f"to {be_cv:.2f} mm, worse than without it; the acceptance rule refuses it. "
-        "The tool is right to say *unexplained*. `eodarm report --effects examples/thresholds.py` "
-        "takes the same path (the bodies, then the mounts) and "
-        "stops there with the same best effort, which does not improve the model.\n"
+        f"{lead}{sig_txt}. The best effort by BIC is {be}, with parameters {be_vals}, "
+        f"which predicts held-out sag to {be_cv:.2f} mm against {best['cv']:.2f} without it"
+        + (f"; the rule: {refusal(acc)}" if acc is not None and not acc.improves else "")
+        + ". `eodarm report --effects examples/thresholds.py` "
+        + (
+            "takes the same path (the bodies, then the mounts) and stops there: "
+            if same
+            else "ends at " + ", ".join(s.key for s in inv.final_model) + ": "
+        )
+        + f"{inv.stopped}.\n"
     )
+    na_fit_und = list(best_na["undetermined"])
+    na_bound = best_na.get("at_bound", [])
     w.append(
         "**Without the angle channels** (fitted to the sag and the motor sensors only, the "
         "same models; `python scripts/seed_investigation.py` prints the table): bodies + mounts "
         f"fit the sag in-sample to {best_na['rms']:.2f} mm but hold out to "
-        f"{best_na['cv']:.2f} mm, worse than with the angles ({best['cv']:.2f}), and no added "
+        f"{best_na['cv']:.2f} mm, "
+        + ("worse" if best_na["cv"] > best["cv"] else "better")
+        + f" than with the angles ({best['cv']:.2f}), and no added "
         "effect brings it below "
         f"{min(r['cv'] for r in noang[1:] if r['n'] > 0):.2f} mm. The measured angles are "
-        "what keeps the physics from overfitting the 15 sags.\n"
+        "what keeps the physics from overfitting the 15 sags"
+        + (
+            ": without them the fit flags " + ", ".join(na_fit_und) + " as not determined"
+            if na_fit_und
+            else ""
+        )
+        + (" and " + ", ".join(na_bound) + " runs to its bound" if na_bound else "")
+        + ".\n"
+    )
+    top_added = list(top["added"]) if top is not best else []
+    loose_top = [a for a in top_added if a["at_bound"] or a["undetermined"]]
+    top_note = (
+        ", whose added parameters are all at their bound or not determined by the data: "
+        "it is §4's best in effect"
+        if top_added and len(loose_top) == len(top_added)
+        else ""
     )
     verdict_line = (
         "Some models beat the line: " + ", ".join(beats_line)
         if beats_line
         else f"**Nothing beats the line through zero** ({line['cv']:.2f} mm): the best physics "
-        f"model held out is {top['label']} at {top['cv']:.2f} mm"
+        f"model held out is {top['label']} at {top['cv']:.2f} mm{top_note}"
     )
     w.append(
         f"**Conclusion.** {verdict_line}; "
@@ -363,19 +452,28 @@ def section(arm: eodarm.Arm | None = None, meas: eodarm.Measurements | None = No
         "and the measured sag of configurations 4 and 5 disagree under rigid kinematics); 15 "
         "states cannot say which.\n"
     )
+    confused = "; ".join(
+        f"`{x}` and `{y}` cannot be told apart on the measured channels (the diagnosis: a "
+        f"{a['channel']['channel']} channel would separate them"
+        + (f", or {a['memory']}" if a.get("memory") else "")
+        + ")"
+        for a in d.advice
+        for x, y in [a["pair"]]
+    )
     w.append(
         "**Where the data cannot tell.** 5 configurations × 3 payloads is 15 states, and "
         "`eodarm fit` flags as not determined (relative standard error above 100 % or "
         "correlation beyond 0.95) in at least one of these models: "
         + ", ".join(f"`{u}`" for u in undetermined)
-        + ". The stiffnesses of actuator bodies 2 and 3 are only bounded from below (the motor "
-        "sensors read micrometres); each preload relief is within about one standard error of "
-        "zero; `mount_preload@M3` and `joint_preload@O3` cannot be told apart on the measured "
-        "channels (the diagnosis: a dx channel would separate them); the threshold force F_T "
-        "of examples/thresholds.py is not determined at all, because every force change of "
-        "every state is far above it. Without the angles, mounts 2 and 3 are correlated "
-        "beyond 0.95 and mount 1 runs to its bound. The one-slope line has no such problem, "
-        "which is part of why it predicts as well as it does: on 15 states, one parameter is "
-        "hard to beat.\n"
+        + ". The stiffnesses of "
+        + ", ".join(f"`{u.split(' (')[0]}`" for u in best["undetermined"])
+        + " are only bounded from below (the motor "
+        f"sensors read micrometres); each preload relief is within {max_z:.1f} standard errors "
+        "of zero; "
+        + (confused + "; " if confused else "")
+        + "the threshold force F_T of examples/thresholds.py is not determined at all, because "
+        "every force change of every state is far above it. The one-slope line has no such "
+        "problem, which is part of why it predicts as well as it does: on 15 states, one "
+        "parameter is hard to beat.\n"
     )
     return "\n".join(w)

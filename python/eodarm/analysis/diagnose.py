@@ -129,6 +129,9 @@ class Diagnosis:
     fit, ``best_effort_cv`` its leave-one-configuration-out cross-validation (≥ 3
     configurations) and ``acceptance`` its judgement by the same rule, every criterion
     evaluated. ``examined`` lists the judgement of every set looked at, in search order.
+    ``significance`` is the Δχ² a single candidate must exceed to improve the baseline
+    significantly (the Bonferroni-corrected likelihood-ratio threshold or the BIC penalty
+    ln N, whichever is larger; docs/diagnosis.md, step 4).
     """
 
     model: list[Slot]
@@ -146,6 +149,7 @@ class Diagnosis:
     best_effort_cv: Mapping[str, Any] | None = None
     acceptance: Acceptance | None = None
     examined: list[Acceptance] = field(default_factory=list)
+    significance: float = math.nan
 
     @property
     def suggested_explains(self) -> bool:
@@ -441,7 +445,8 @@ def _diagnose_pass(
     # Confusions, on the linearised columns with the model's columns projected out.
     _confusions(ranking, cands, an[:, :m], an[:, m:], norms[m:], prob, max(lrt, math.log(n_val)))
     best1 = ranking[0] if ranking else None
-    significant = best1 is not None and best1.delta_chi2 > max(lrt, math.log(n_val))
+    threshold = max(lrt, math.log(n_val))
+    significant = best1 is not None and best1.delta_chi2 > threshold
     explained = p_base >= P_PASS
 
     # Sets, smallest first and better χ² first within a size, judged by the one rule.
@@ -490,6 +495,7 @@ def _diagnose_pass(
         best_effort_fit=best_effort,
         acceptance=accepted,
         examined=examined,
+        significance=threshold,
     )
 
 

@@ -9,8 +9,9 @@ models with their in-sample and cross-validated errors.
 Every decision is the one rule of :func:`eodarm.analysis.acceptance.accept`, as the
 diagnosis made it: a round whose verdict is *missing* adds its suggested set; a round whose
 verdict is *unexplained* adds its best effort only when the rule finds that it *improves*
-the model (away from its bounds, held-out configurations predicted no worse, lower BIC),
-and otherwise the investigation stops and says why.
+the model (away from its bounds, held-out configurations predicted no worse, lower BIC,
+every added parameter determined by the data), and otherwise the investigation stops and
+says why.
 """
 
 from __future__ import annotations
@@ -66,12 +67,12 @@ def investigate(
     A round with the verdict *missing* adds its suggested set. A round with the verdict
     *unexplained* adds its best effort (the set the BIC prefers) only if the rule of
     :func:`~eodarm.analysis.acceptance.accept` finds that it improves the model: every
-    parameter away from its bounds, held-out configurations (≥ 3) predicted no worse, and a
-    lower BIC. The investigation stops when the verdict is *adequate*, when an unexplained
-    round has nothing that improves the model (the reason is in ``stopped``), or after
-    ``max_rounds``. Each step of the ladder is the round's own joint fit of all its effects,
-    with its leave-one-configuration-out cross-validation when ``cv`` and there are two or
-    more configurations.
+    parameter away from its bounds, held-out configurations (≥ 3) predicted no worse, a
+    lower BIC, and every added parameter determined by the data. The investigation stops
+    when the verdict is *adequate*, when an unexplained round has nothing that improves the
+    model (the reason is in ``stopped``), or after ``max_rounds``. Each step of the ladder is
+    the round's own joint fit of all its effects, with its leave-one-configuration-out
+    cross-validation when ``cv`` and there are two or more configurations.
 
     ``solver_model`` (``"analytic"`` or ``"fem"``) and ``fem_options`` choose the model that
     predicts the channels in every diagnosis, fit and cross-validation, as in

@@ -217,8 +217,9 @@ def diagnosis_section(meas: Measurements, d: Diagnosis, main: str, unit: str) ->
             "and (c) with three or more configurations, it predicts held-out configurations "
             "(each left out of the fit in turn) no worse than the baseline, in RMS "
             "residual/σ over every measured channel. Sets are judged smallest first, better "
-            "χ² first; the first accepted is suggested. “Improves”: (b) and (c) hold and "
-            "the BIC falls, a step toward an explanation but not one.</p>",
+            "χ² first; the first accepted is suggested. “Improves”: (b) and (c) hold, "
+            "the BIC falls and the data determine every added parameter (relative standard "
+            "error ≤ 100 %), a step toward an explanation but not one.</p>",
             _examined_table(d),
         ]
     out += [
