@@ -431,6 +431,16 @@ def main() -> None:
     t_light = best(lambda: numpy_sequence(arm, alpha, MASSES, full=False))
     frictionless = [e for e in EFFECTS if not e.name.endswith("_friction")]
     t_free = best(lambda: eodarm.solve_sequence(arm, alpha, MASSES, frictionless))
+    # The floor of any implementation that returns fresh arrays: allocating the outputs and
+    # writing every element once, nothing computed.
+    shapes = {k: (v.shape[2:], v.dtype) for k, v in full.items()}
+    shapes["status"] = ((), np.dtype(np.uint8))
+    n_seq = args.sequences
+
+    def outputs_only() -> list[F]:
+        return [np.ones((n_seq, MASSES.size, *sh), dtype=dt) for sh, dt in shapes.values()]
+
+    t_floor = best(outputs_only)
     print(f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores")
     print(f"{args.sequences:,} sequences × {MASSES.size} states, every effect kind (8)")
     worst = max(diffs.values())
@@ -456,6 +466,12 @@ def main() -> None:
     print(
         f"without the two frictions (block kernel): {t_free:8.3f} s  "
         f"{states / t_free / 1e6:7.2f} M states/s"
+    )
+    mb = sum(np.prod(sh, dtype=int) * dt.itemsize for sh, dt in shapes.values()) * states / 1e6
+    print(
+        f"allocating and writing the {len(shapes)} outputs alone ({mb:.0f} MB, nothing "
+        f"computed): {t_floor:8.3f} s, so no version returning fresh arrays can be more than "
+        f"{t_np / t_floor:.0f}× the numpy one"
     )
 
 

@@ -89,3 +89,25 @@ def test_a_gap_or_a_user_deformation_leaves_the_rule_out(pendulum: eodarm.Arm) -
     for backend in ("rust", "numpy"):
         out = eodarm.solve(pendulum, ALPHA, 24.0, [SOFT], backend=backend, extra=user)
         assert out["status"][0] == 0, backend
+
+
+@pytest.mark.parametrize("backend", ["rust", "numpy"])
+@pytest.mark.parametrize(
+    "friction",
+    [
+        eodarm.Effect("actuator_friction", "M1", friction_n=1e-3),
+        eodarm.Effect("joint_friction", "O1", torque_nmm=1e-2),
+    ],
+    ids=lambda e: e.name,
+)
+def test_a_friction_keeps_the_rule(pendulum: eodarm.Arm, backend: str, friction: object) -> None:
+    """A friction only holds back part of what the load deforms: it dissipates and stores no
+    energy that could lift the point, so the rule applies with it, in both backends, for a
+    single loading and for a sequence."""
+    out = eodarm.solve(pendulum, ALPHA, 24.0, [SOFT, friction], backend=backend)
+    assert _load_rise(pendulum, out) > 5 * MAX_LOAD_RISE_MM
+    assert out["status"][0] == LARGE
+    seq = eodarm.solve_sequence(
+        pendulum, ALPHA, [8.0, 24.0, 8.0], [SOFT, friction], backend=backend
+    )
+    assert seq["status"][0].tolist() == [0, LARGE, 0]

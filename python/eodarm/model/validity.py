@@ -80,7 +80,9 @@ MAX_LOAD_RISE_MM = 1e-3
 def checks_load_rise(arm: Arm, effects: Any) -> bool:
     """Whether the load point's rise is checked with these effects (the core's
     ``validity::checks_load_rise``): no gap (play, clearance), no user-written effect, the last
-    link not bending (the load point is known through the rigid last link)."""
+    link not bending (the load point is known through the rigid last link). A friction keeps
+    the check: it only holds back part of what the load deforms (it dissipates, and stores no
+    energy that could lift the point above its reference)."""
     for e in effects:
         name = getattr(e, "name", "")
         if name in ("actuator_play", "joint_clearance"):
@@ -92,6 +94,8 @@ def checks_load_rise(arm: Arm, effects: Any) -> bool:
             "mount_compliance",
             "link_bending",
             "base_compliance",
+            "actuator_friction",
+            "joint_friction",
         ):
             return False  # a user-written effect
     return True
