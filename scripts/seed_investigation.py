@@ -111,6 +111,17 @@ def without_angles(meas: eodarm.Measurements) -> eodarm.Measurements:
         return eodarm.read_measurements(path, meas.alpha_deg.shape[1])
 
 
+def _estimate(a: dict) -> str:
+    """``spec=estimate±stderr unit``, or the estimate marked at its bound or not determined
+    (no standard error printed as if known)."""
+    value = f"{a['spec']}={a['estimate']:.3g} {a['unit']}"
+    if a["at_bound"]:
+        return f"{value} (at its bound)"
+    if a["undetermined"]:
+        return f"{value} (not determined: {a['undetermined']})"
+    return f"{a['spec']}={a['estimate']:.3g}±{a['stderr']:.2g} {a['unit']}"
+
+
 def run(angles: bool = True) -> dict[str, Any]:
     warnings.simplefilter("ignore", FitWarning)
     _load_effects()
@@ -150,7 +161,7 @@ def run(angles: bool = True) -> dict[str, Any]:
             for i in range(len(r.slots))
             if r.slots[i].spec not in BEST
         ]
-        extra = [f"{a['spec']}={a['estimate']:.3g}±{a['stderr']:.2g} {a['unit']}" for a in added]
+        extra = [_estimate(a) for a in added]
         rows.append(
             {
                 "label": label,
