@@ -246,3 +246,31 @@ def test_a_return_is_solved_where_only_the_unloaded_pose_is_over_a_limit() -> No
     np.testing.assert_allclose(
         ds["return_dy_mm"].values.ravel(), seq["dy_mm"][:, 1], rtol=0, atol=1e-9
     )
+
+
+def _slack_at_rest(state: eodarm.EffectState, i: int, slack_mm: float) -> dict:
+    """A user effect that lengthens a compressed actuator by ``slack_mm`` when its force is
+    back at the reference's, and does nothing under load: the return cannot close."""
+    rest = np.abs(state.force_n[:, i] - state.force0_n[:, i]) < 1e-6
+    return {"actuator_unseen_mm": np.where(rest & (state.force0_n[:, i] > 0), slack_mm, 0.0)}
+
+
+def test_a_user_effect_whose_return_cannot_close_gives_nan_there() -> None:
+    """With a user-written effect the cycles are solved by the numpy reference, which raises
+    on a pose it cannot close: the sweep gives NaN for those cells (as for any cell whose
+    cycle cannot be solved) and the return everywhere else, instead of failing."""
+    arm = eodarm.Arm.from_toml(EXAMPLE)
+    grid = {"alpha1": [80.0, 100.0, 120.0], "alpha2": [-30.0, 0.0, 15.0, 40.0], "alpha3": [0.0]}
+    eodarm.custom_effect("slack_at_rest", places="M", parameter="slack_mm")(_slack_at_rest)
+    try:
+        effects = [eodarm.Effect("slack_at_rest", "M2", slack_mm=5000.0)]
+        ds = eodarm.sweep(arm, alpha_deg=grid, mass_kg=[1.5, 6.5], effects=effects, cycle=True)
+    finally:
+        custom.unregister("slack_at_rest")
+    poses = np.stack(np.meshgrid(*grid.values(), indexing="ij"), -1).reshape(-1, 3)
+    pushed = statics(arm, poses, np.zeros(len(poses)))["force0_n"][:, 1] > 0
+    ok = ds["ok"].values.reshape(-1, 2)
+    back = ds["return_dy_mm"].values.reshape(-1, 2)
+    assert ok[pushed].any() and ok[~pushed].any()
+    assert np.isnan(back[ok & pushed[:, None]]).all()  # 5 m longer: the triangle cannot close
+    assert np.isfinite(back[ok & ~pushed[:, None]]).all()
