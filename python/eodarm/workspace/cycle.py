@@ -67,6 +67,8 @@ def add_return(ds: Any, job: _Job) -> Any:
         zero = np.zeros(poses)
         return _store(ds, job, ok, {k: zero for k in _ATTRS})
     if not kinds & FRICTIONS and not users:
+        # Gaps alone: every cell of a pose returns to the pose loaded with 0 kg, which the
+        # sweep's own kernel solves, for the whole grid at once.
         return _store(ds, job, ok, _rest(ds, job, ok))
     out = {k: np.full((poses, masses), np.nan) for k in _ATTRS}
     if not kinds & FRICTIONS:
