@@ -3,17 +3,22 @@
 
 from __future__ import annotations
 
+import contextlib
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 import eodarm
+from arms import example_arm, four_link_core_arm, two_link_arm
 from eodarm.errors import EodarmError
+from eodarm.model import custom
 from eodarm.model.solver import statics
+from eodarm.model.validity import STATUS
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "example_arm.toml"
 GRID = {"alpha1": [80.0, 90.0, 100.0], "alpha2": [0.0, 15.0], "alpha3": [0.0, 5.0]}
+RETURNS = ("return_dx_mm", "return_dy_mm")
 
 
 def test_an_elastic_arm_comes_back_everywhere() -> None:
@@ -96,3 +101,176 @@ def test_a_centred_gap_stays_along_the_self_weight_at_the_return() -> None:
     for j in range(2):
         np.testing.assert_allclose(back[:, j], rest["dy_mm"], rtol=0, atol=1e-9)
     assert np.abs(back).min() > 1e-3
+
+
+# ---------------------------------------------------------------------------- gaps alone
+def _limited_two_link() -> eodarm.Arm:
+    """The two-link arm with actuator 1 limited to 500 N: at alpha1 = 120° its self-weight
+    force (≈ 510 N at alpha2 = −40°) is over the limit and a 5 kg payload brings it back
+    under, so a cell there is ok while the same pose with no payload is not."""
+    d = two_link_arm().to_dict()
+    d["actuator"][0]["max_force_n"] = 500.0
+    return eodarm.Arm.from_dict(d, source="two-link, limited")
+
+
+def _press(r: np.ndarray) -> np.ndarray:
+    norm = np.linalg.norm(r, axis=-1, keepdims=True)
+    return np.where(norm >= 1e-9, -r / np.where(norm > 0, norm, 1.0), 0.0)
+
+
+def _user_clearance(state: eodarm.EffectState, i: int, c: float) -> dict:
+    """A centred joint clearance written by a user: the pin sits c along the reaction."""
+    return {"joint_offset_mm": c * _press(state.reaction_n[:, i])}
+
+
+GAP_CASES = {
+    "3 links, play": (
+        example_arm,
+        {
+            "alpha_deg": {
+                "alpha1": [80.0, 110.0, 135.0],
+                "alpha2": [-30.0, 15.0],
+                "alpha3": [0.0, 5.0],
+            }
+        },
+        [("actuator_play", "M2", {"play_mm": 0.05})],
+    ),
+    "3 links, both gaps and a compliance": (
+        example_arm,
+        {
+            "alpha_deg": {
+                "alpha1": [80.0, 110.0, 135.0],
+                "alpha2": [-30.0, 15.0],
+                "alpha3": [0.0, 5.0],
+            }
+        },
+        [
+            ("joint_clearance", "O2", {"clearance_mm": 0.1}),
+            ("actuator_play", "M3", {"play_mm": 0.1}),
+            ("mount_compliance", "M1", {"stiffness_n_per_mm": 3000.0}),
+        ],
+    ),
+    "3 links, lengths grid": (
+        example_arm,
+        {"lengths": {"l1": [240.0, 300.0, 360.0], "l2": [450.0, 480.0], "l3": [535.0]}},
+        [
+            ("joint_clearance", "O3", {"clearance_mm": 0.1}),
+            ("actuator_play", "M1", {"play_mm": 0.05}),
+        ],
+    ),
+    "2 links, clearance and compliance": (
+        _limited_two_link,
+        {"alpha_deg": {"alpha1": [60.0, 90.0, 120.0], "alpha2": [-40.0, 0.0, 30.0]}},
+        [
+            ("joint_clearance", "O1", {"clearance_mm": 0.08}),
+            ("actuator_compliance", "M2", {"stiffness_n_per_mm": 2000.0}),
+        ],
+    ),
+    "4 links, play, clearance and bending": (
+        four_link_core_arm,
+        {
+            "alpha_deg": {
+                "alpha1": [70.0, 100.0],
+                "alpha2": [-20.0, 10.0],
+                "alpha3": [-10.0, 0.0],
+                "alpha4": [0.0, 10.0],
+            }
+        },
+        [
+            ("actuator_play", "M4", {"play_mm": 0.05}),
+            ("joint_clearance", "O3", {"clearance_mm": 0.1}),
+            ("link_bending", "L2", {"ei_n_mm2": 2e9}),
+        ],
+    ),
+    "3 links, a user-written clearance and a play": (
+        example_arm,
+        {"alpha_deg": {"alpha1": [80.0, 110.0, 135.0], "alpha2": [-30.0, 15.0], "alpha3": [0.0]}},
+        [
+            ("user_clearance", "O2", {"clearance_mm": 0.1}),
+            ("actuator_play", "M2", {"play_mm": 0.05}),
+        ],
+    ),
+}
+
+
+@pytest.mark.parametrize("case", list(GAP_CASES))
+def test_a_gap_cycle_is_each_cell_loaded_then_unloaded(case: str) -> None:
+    """Without friction a sweep's return is found without solving each cell's cycle (the
+    pose at no payload, docs/sweeps.md); it must still be that cycle, reference → m → 0,
+    solved: for every cell that is ok, NaN for the others. 1e-9 mm: the sweep's kernel and
+    the sequence kernel close the pose by separate iterations, which agree to ~1e-10 mm
+    (tests/test_sweep.py holds the sweep to solve by the same 1e-9 mm)."""
+    make, grid, specs = GAP_CASES[case]
+    arm = make()
+    mass = [1.5, 5.0, 20.0]
+    with contextlib.ExitStack() as stack:
+        if any(name == "user_clearance" for name, _, _ in specs):
+            eodarm.custom_effect("user_clearance", places="O", parameter="clearance_mm")(
+                _user_clearance
+            )
+            stack.callback(custom.unregister, "user_clearance")
+        effects = [eodarm.Effect(name, place, **kw) for name, place, kw in specs]
+        ds = eodarm.sweep(arm, **grid, mass_kg=mass, effects=effects, cycle=True, progress=False)
+        n, dims = arm.n, [d for d in ds["ok"].dims if d != "mass_kg"]
+        if "alpha_deg" in ds:
+            poses = ds["alpha_deg"].transpose(*dims, "link").values.reshape(-1, n)
+        else:
+            poses = np.stack(np.meshgrid(*grid["alpha_deg"].values(), indexing="ij"), -1)
+            poses = poses.reshape(-1, n)
+        ok = ds["ok"].transpose(*dims, "mass_kg").values.reshape(-1, len(mass))
+        assert ok.any() and not ok.all()  # the grid has cells of both kinds
+        got = {k: ds[k].transpose(*dims, "mass_kg").values.reshape(ok.shape) for k in RETURNS}
+        for j, m in enumerate(mass):
+            rows = ok[:, j]
+            seq = eodarm.solve_sequence(arm, poses[rows], [m, 0.0], effects=effects)
+            for key, out in got.items():
+                np.testing.assert_allclose(
+                    out[rows, j], seq[key[len("return_") :]][:, 1], rtol=0, atol=1e-9, err_msg=key
+                )
+                assert np.isnan(out[~rows, j]).all(), key
+    assert np.hypot(got["return_dx_mm"], got["return_dy_mm"])[ok].max() > 1e-3  # a gap moved it
+
+
+def test_a_return_is_solved_where_only_the_unloaded_pose_is_over_a_limit() -> None:
+    """The return of a cell is defined by its cycle, not by the validity of the pose at no
+    payload: where the self-weight alone is over an actuator's force limit but the loaded
+    cell is ok, the return is still given (solved as a sequence)."""
+    arm = _limited_two_link()
+    grid = {"alpha1": [120.0], "alpha2": [-40.0]}
+    play = [eodarm.Effect("actuator_play", "M2", play_mm=0.05)]
+    rest = eodarm.sweep(arm, alpha_deg=grid, mass_kg=[0.0], effects=play, progress=False)
+    assert STATUS[int(rest["status"].values.ravel()[0])] == "over_force"
+    ds = eodarm.sweep(arm, alpha_deg=grid, mass_kg=[5.0], effects=play, cycle=True)
+    assert bool(ds["ok"].values.ravel()[0])
+    seq = eodarm.solve_sequence(arm, [[120.0, -40.0]], [5.0, 0.0], effects=play)
+    np.testing.assert_allclose(
+        ds["return_dy_mm"].values.ravel(), seq["dy_mm"][:, 1], rtol=0, atol=1e-9
+    )
+
+
+def _slack_at_rest(state: eodarm.EffectState, i: int, slack_mm: float) -> dict:
+    """A user effect that lengthens a compressed actuator by ``slack_mm`` when its force is
+    back at the reference's, and does nothing under load: the return cannot close."""
+    rest = np.abs(state.force_n[:, i] - state.force0_n[:, i]) < 1e-6
+    return {"actuator_unseen_mm": np.where(rest & (state.force0_n[:, i] > 0), slack_mm, 0.0)}
+
+
+def test_a_user_effect_whose_return_cannot_close_gives_nan_there() -> None:
+    """With a user-written effect the cycles are solved by the numpy reference, which raises
+    on a pose it cannot close: the sweep gives NaN for those cells (as for any cell whose
+    cycle cannot be solved) and the return everywhere else, instead of failing."""
+    arm = eodarm.Arm.from_toml(EXAMPLE)
+    grid = {"alpha1": [80.0, 100.0, 120.0], "alpha2": [-30.0, 0.0, 15.0, 40.0], "alpha3": [0.0]}
+    eodarm.custom_effect("slack_at_rest", places="M", parameter="slack_mm")(_slack_at_rest)
+    try:
+        effects = [eodarm.Effect("slack_at_rest", "M2", slack_mm=5000.0)]
+        ds = eodarm.sweep(arm, alpha_deg=grid, mass_kg=[1.5, 6.5], effects=effects, cycle=True)
+    finally:
+        custom.unregister("slack_at_rest")
+    poses = np.stack(np.meshgrid(*grid.values(), indexing="ij"), -1).reshape(-1, 3)
+    pushed = statics(arm, poses, np.zeros(len(poses)))["force0_n"][:, 1] > 0
+    ok = ds["ok"].values.reshape(-1, 2)
+    back = ds["return_dy_mm"].values.reshape(-1, 2)
+    assert ok[pushed].any() and ok[~pushed].any()
+    assert np.isnan(back[ok & pushed[:, None]]).all()  # 5 m longer: the triangle cannot close
+    assert np.isfinite(back[ok & ~pushed[:, None]]).all()

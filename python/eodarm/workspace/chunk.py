@@ -2,10 +2,11 @@
 
 :mod:`eodarm.workspace.sweep` (which runs the chunks), :mod:`eodarm.workspace.uncertainty`
 and :mod:`eodarm.workspace.compensated` (which add the σ and the compensated miss to a
-sweep's cells, solving chunks again unreduced) all need :class:`_Job`, :class:`_Setup` and
-:func:`_chunk`; they sit here, below the three, so that none of them imports another that
-imports it back (docs/architecture.md, "No cycles"). The sweep re-exports them under their
-old names.
+sweep's cells, solving chunks again unreduced) and :mod:`eodarm.workspace.cycle` (which
+sweeps the grid again at no payload) all need :class:`_Job`, :class:`_Setup`, :func:`_chunk`
+and :func:`_core_grid_sweep`; they sit here, below them, so that none of them imports another
+that imports it back (docs/architecture.md, "No cycles"). The sweep re-exports them under
+their old names.
 """
 
 from __future__ import annotations
@@ -19,6 +20,7 @@ import numpy.typing as npt
 
 from eodarm.model.arm import Arm
 from eodarm.model.effects import Effect, effect_arrays
+from eodarm.model.solver import _core_arm
 from eodarm.model.validity import STATUS
 from eodarm.workspace.fallback import kernel, placeholder
 from eodarm.workspace.grid import Grid
@@ -95,6 +97,39 @@ def _chunk(job: _Job, start: int, stop: int) -> dict[str, npt.NDArray[Any]]:
         if job.grid.kind != "alpha":
             res["alpha_deg"] = np.asarray(pose_alpha, dtype=float)
     return res
+
+
+def _core_grid_sweep(
+    job: _Job,
+    start: int,
+    count: int,
+    out: dict[str, npt.NDArray[Any]],
+    progress: Any = None,
+    chunk_rows: int | None = None,
+) -> None:
+    """Poses [start, start + count) of the job's angle grid, solved by the core into ``out``."""
+    from eodarm.model import native as _core
+
+    codes, places, values = effect_arrays(job.effects, job.arm.n)
+    m = job.mass.shape[0]
+    axes = [np.ascontiguousarray(c, dtype=float) for c in job.grid.coords]
+    _core.sweep(
+        _core_arm(job.arm),
+        None,
+        job.mass,
+        codes,
+        places,
+        values,
+        job.self_weight,
+        job.op,
+        m * job.block if job.op else 1,
+        job.threads,
+        grid=(axes, list(job.grid.columns), start, count),
+        out=out,
+        mask_unreachable=job.mask_unreachable,
+        progress=progress,
+        chunk_rows=chunk_rows,
+    )
 
 
 @dataclass(frozen=True)

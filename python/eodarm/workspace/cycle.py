@@ -4,25 +4,42 @@ Each cell (pose, payload m) is the sequence reference → m → 0: the arm zeroe
 loaded with m, unloaded again. ``return_dx_mm``, ``return_dy_mm`` are the measure point at the
 return relative to the reference: zero for an elastic arm, what the frictions hold (and where
 the gaps sit after the payload pushed them) otherwise.
+
+Three cases, from the cheapest:
+
+* nothing holds anything and no gap can be left off-centre: the return is exactly zero;
+* gaps without friction (catalogue effects only): nothing remembers the payload, so the
+  return of every cell of a pose is that pose loaded with 0 kg, the gaps taken up along the
+  self-weight's force. That is the plain sweep's answer at a payload of 0 kg (a single
+  loading is a sequence of one state), so the grid is swept again by the compiled core at
+  ``mass_kg = [0]`` and its (dx, dy) broadcast over the payloads;
+* otherwise (a friction, or a user-written effect), :func:`eodarm.solve_sequence` of each
+  cell's states (m, 0), or of the single state (0) per pose when no friction is involved.
 """
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+import dataclasses
 from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 
-from eodarm.model.arm import Arm
-from eodarm.model.effects import Effect, split_effects, with_arm_effects
+from eodarm.errors import InputError
+from eodarm.model.effects import split_effects
+from eodarm.workspace.chunk import _chunk, _core_grid_sweep, _Job
 
 __all__ = ["CHUNK", "add_return"]
 
-#: Sequences per call of the core (bounds the temporary outputs: ~1 kB per sequence).
+FloatArray = npt.NDArray[np.float64]
+
+#: Sequences (or poses) per call of the core (bounds the temporary outputs: ~1 kB each).
 CHUNK = 65_536
+#: The effects that remember the payload after it came off.
+FRICTIONS = frozenset({"actuator_friction", "joint_friction"})
 #: The effects that leave the arm off its reference after a cycle: the frictions (what they
 #: hold) and the gaps (a centred gap stays where the self-weight pushes it).
-MEMORY = frozenset({"actuator_friction", "joint_friction", "actuator_play", "joint_clearance"})
+MEMORY = FRICTIONS | {"actuator_play", "joint_clearance"}
 
 _ATTRS = {
     "return_dx_mm": {
@@ -36,73 +53,147 @@ _ATTRS = {
 }
 
 
-def add_return(
-    ds: Any, arm: Arm, effects: Effect | Iterable[Effect] | None, self_weight: bool
-) -> Any:
-    """``ds`` (an unreduced sweep) with ``return_dx_mm`` and ``return_dy_mm`` per cell (mm),
-    NaN where the cell is not ok or its cycle cannot be solved."""
-    from eodarm.model.solver import solve_sequence
-
-    n = arm.n
-    dims = [d for d in ds["dx_mm"].dims if d != "mass_kg"]
-    effs = None if effects is None else [effects] if isinstance(effects, Effect) else list(effects)
-    model = with_arm_effects(arm.effects, effs)
-    if not {e.name for e in model} & MEMORY and not split_effects(model)[1]:
+def add_return(ds: Any, job: _Job) -> Any:
+    """``ds`` (the unreduced sweep of ``job``) with ``return_dx_mm`` and ``return_dy_mm`` per
+    cell (mm), NaN where the cell is not ok or its cycle cannot be solved."""
+    dims = list(job.grid.names)
+    poses, masses = job.grid.size, int(job.mass.shape[0])
+    ok = np.asarray(ds["ok"].transpose(*dims, "mass_kg").values).reshape(poses, masses)
+    kinds = {e.name for e in job.effects}
+    users = split_effects(job.effects)[1]
+    if not kinds & MEMORY and not users:
         # Nothing holds anything and no gap is left off-centre: an elastic arm unloaded is
         # its reference, so every cell comes back exactly (docs/model.md §9).
-        poses = int(np.prod([ds.sizes[d] for d in dims]))
-        zero = {k: np.zeros((poses, ds.sizes["mass_kg"])) for k in _ATTRS}
-        return _store(ds, dims, zero, poses, ds.sizes["mass_kg"])
-    if "alpha_deg" in ds:
-        alpha = ds["alpha_deg"].transpose(*dims, "link").values.reshape(-1, n)
-    else:
-        mesh = np.meshgrid(*[ds[d].values for d in dims], indexing="ij")
-        by_name = dict(zip(dims, (m.ravel() for m in mesh), strict=True))
-        alpha = np.stack([by_name[f"alpha{i + 1}"] for i in range(n)], axis=1)
-    mass = np.asarray(ds["mass_kg"].values, dtype=float)
-    poses, masses = alpha.shape[0], mass.shape[0]
+        zero = np.zeros(poses)
+        return _store(ds, job, ok, {k: zero for k in _ATTRS})
+    if not kinds & FRICTIONS and not users:
+        # Gaps alone: every cell of a pose returns to the pose loaded with 0 kg, which the
+        # sweep's own kernel solves, for the whole grid at once.
+        return _store(ds, job, ok, _rest(ds, job, ok))
     out = {k: np.full((poses, masses), np.nan) for k in _ATTRS}
-    good = np.flatnonzero(np.isfinite(alpha).all(axis=1))
-    kinds = {e.name for e in with_arm_effects(arm.effects, effs)}
-    if not kinds & {"actuator_friction", "joint_friction"}:
-        # Nothing remembers the payload: the return is the pose loaded with nothing (the gaps
-        # along the self-weight's force), the same for every payload: one state per pose.
-        for start in range(0, good.size, CHUNK):
-            p = good[start : start + CHUNK]
-            res = solve_sequence(
-                arm,
-                np.ascontiguousarray(alpha[p]),
-                [0.0],
-                effs,
-                self_weight=self_weight,
-                nan_on_failure=True,
-            )
-            out["return_dx_mm"][p] = res["dx_mm"][:, :1]
-            out["return_dy_mm"][p] = res["dy_mm"][:, :1]
-        return _store(ds, dims, out, poses, masses)
-    # one sequence per cell: (pose, m) → states (m, 0)
-    states = np.column_stack([mass, np.zeros_like(mass)])
-    for start in range(0, good.size * masses, CHUNK):
-        cells = np.arange(start, min(start + CHUNK, good.size * masses))
-        p, m = good[cells // masses], cells % masses
-        res = solve_sequence(
-            arm,
-            np.ascontiguousarray(alpha[p]),
-            states[m],
-            effs,
-            self_weight=self_weight,
-            nan_on_failure=True,
+    if not kinds & FRICTIONS:
+        # Nothing remembers the payload: the return is the pose loaded with nothing, the same
+        # for every payload: one state per pose (of the poses with a cell to fill).
+        p = np.flatnonzero(ok.any(axis=1))
+        dx, dy = _solve_rows(ds, job, p, np.zeros((p.size, 1)))
+        out["return_dx_mm"][p] = dx[:, None]
+        out["return_dy_mm"][p] = dy[:, None]
+        return _store(ds, job, ok, out)
+    # one sequence per ok cell: (pose, m) → states (m, 0)
+    cells = np.flatnonzero(ok.ravel())
+    p, m = cells // masses, cells % masses
+    states = np.column_stack([job.mass[m], np.zeros(cells.size)])
+    dx, dy = _solve_rows(ds, job, p, states)
+    out["return_dx_mm"][p, m] = dx
+    out["return_dy_mm"][p, m] = dy
+    return _store(ds, job, ok, out)
+
+
+def _rest(ds: Any, job: _Job, ok: npt.NDArray[np.bool_]) -> dict[str, FloatArray]:
+    """Every pose's (dx, dy) loaded with 0 kg, as the plain sweep solves it (mm, (poses,)).
+
+    The sweep's own path at ``mass_kg = [0]``: the core walks an angle grid itself; other
+    grids go through :func:`_chunk`. Where that cell is not ok (NaN) but a loaded cell of
+    the pose is, the return is solved as before, by :func:`eodarm.solve_sequence`, so that
+    the validity limits of the unloaded state never hide a return.
+    """
+    size, n = job.grid.size, job.arm.n
+    job0 = dataclasses.replace(job, mass=np.zeros(1), op=None, block=1)
+    dx, dy, ok0 = np.empty(size), np.empty(size), np.empty(size, dtype=bool)
+    if job.grid.kind == "alpha":
+        # the outputs that are not needed go to one scratch buffer, reused chunk by chunk
+        step = min(CHUNK, size)
+        scratch = np.empty(3 * step * n)
+        for a in range(0, size, step):
+            b = min(a + step, size)
+            k = (b - a) * n
+            out = {
+                "force_n": scratch[:k],
+                "dx_mm": dx[a:b],
+                "dy_mm": dy[a:b],
+                "dalpha_deg": scratch[step * n : step * n + k],
+                "dl_mm": scratch[2 * step * n : 2 * step * n + k],
+                "ok": ok0[a:b],
+            }
+            _core_grid_sweep(job0, a, b - a, out)
+    else:
+        for a in range(0, size, CHUNK):
+            b = min(a + CHUNK, size)
+            res = _chunk(job0, a, b)
+            dx[a:b] = res["dx_mm"][:, 0]
+            dy[a:b] = res["dy_mm"][:, 0]
+            ok0[a:b] = res["ok"][:, 0]
+    redo = np.flatnonzero(~ok0)
+    redo = redo[ok[redo].any(axis=1)]
+    if redo.size:
+        dx[redo], dy[redo] = _solve_rows(ds, job, redo, np.zeros((redo.size, 1)))
+    return {"return_dx_mm": dx, "return_dy_mm": dy}
+
+
+def _poses(ds: Any, job: _Job, idx: npt.NDArray[np.intp]) -> FloatArray:
+    """The unloaded angles (k, n) of the flat poses ``idx`` of the sweep's grid, degrees."""
+    grid, n = job.grid, job.arm.n
+    if grid.kind != "alpha":
+        alpha = ds["alpha_deg"].transpose(*grid.names, "link").values.reshape(-1, n)
+        return np.ascontiguousarray(alpha[idx], dtype=float)
+    out = np.empty((idx.size, n))
+    for col, coord, ix in zip(
+        grid.columns, grid.coords, np.unravel_index(idx, grid.shape), strict=True
+    ):
+        out[:, col] = coord[ix]
+    return out
+
+
+def _solve_rows(
+    ds: Any, job: _Job, idx: npt.NDArray[np.intp], states: FloatArray
+) -> tuple[FloatArray, FloatArray]:
+    """(dx, dy) in mm at the last of ``states`` (k, S) of the sequences of the poses ``idx``,
+    NaN where a sequence cannot be solved; ``CHUNK`` sequences per call."""
+    dx, dy = np.empty(idx.size), np.empty(idx.size)
+    for a in range(0, idx.size, CHUNK):
+        b = min(a + CHUNK, idx.size)
+        dx[a:b], dy[a:b] = _solve_sequences(job, _poses(ds, job, idx[a:b]), states[a:b])
+    return dx, dy
+
+
+def _solve_sequences(
+    job: _Job, alpha: FloatArray, states: FloatArray
+) -> tuple[FloatArray, FloatArray]:
+    """(dx, dy) at the last state of each sequence, NaN where it cannot be solved.
+
+    The compiled core marks those itself; a model with a user-written effect is solved by the
+    numpy reference, which raises instead: the rows are then halved until the ones that
+    cannot be solved are alone (an error of the user's function is not caught).
+    """
+    from eodarm.model.solver import solve_sequence
+
+    users = bool(split_effects(job.effects)[1])
+    kw: dict[str, Any] = {"self_weight": job.self_weight, "nan_on_failure": not users}
+    if not alpha.shape[0]:
+        return np.empty(0), np.empty(0)
+    try:
+        res = solve_sequence(job.arm, alpha, states, list(job.effects), **kw)
+    except InputError:
+        if not users:
+            raise
+        if alpha.shape[0] == 1:
+            return np.full(1, np.nan), np.full(1, np.nan)
+        h = alpha.shape[0] // 2
+        (x0, y0), (x1, y1) = (
+            _solve_sequences(job, alpha[:h], states[:h]),
+            _solve_sequences(job, alpha[h:], states[h:]),
         )
-        out["return_dx_mm"][p, m] = res["dx_mm"][:, 1]
-        out["return_dy_mm"][p, m] = res["dy_mm"][:, 1]
-    return _store(ds, dims, out, poses, masses)
+        return np.concatenate([x0, x1]), np.concatenate([y0, y1])
+    return np.asarray(res["dx_mm"][:, -1]), np.asarray(res["dy_mm"][:, -1])
 
 
-def _store(ds: Any, dims: list[str], out: dict[str, Any], poses: int, masses: int) -> Any:
-    """``ds`` with the returns ``out`` (poses × masses), NaN where a cell is not ok."""
-    ok = ds["ok"].transpose(*dims, "mass_kg").values.reshape(poses, masses)
-    shape = (*(ds.sizes[d] for d in dims), masses)
+def _store(ds: Any, job: _Job, ok: npt.NDArray[np.bool_], out: dict[str, FloatArray]) -> Any:
+    """``ds`` with the returns ``out`` (poses × masses, or per pose for every payload),
+    NaN where a cell is not ok."""
+    dims = list(job.grid.names)
+    shape = (*job.grid.shape, ok.shape[1])
     for key, attrs in _ATTRS.items():
-        values = np.where(ok, out[key], np.nan).reshape(shape)
+        v = out[key]
+        values = np.where(ok, v if v.ndim == 2 else v[:, None], np.nan).reshape(shape)
         ds[key] = ([*dims, "mass_kg"], values, attrs)
     return ds

@@ -42,10 +42,9 @@ import numpy.typing as npt
 from eodarm.errors import InputError
 from eodarm.model.arm import Arm, check_arm
 from eodarm.model.effects import Effect, effect_arrays, split_effects, with_arm_effects
-from eodarm.model.solver import _core_arm
 from eodarm.model.validity import STATUS
 from eodarm.workspace import cluster, limits
-from eodarm.workspace.chunk import CELL_VARS, _chunk, _Job, _Setup
+from eodarm.workspace.chunk import CELL_VARS, _chunk, _core_grid_sweep, _Job, _Setup
 from eodarm.workspace.fallback import REDUCE_OPS
 from eodarm.workspace.grid import Grid, coord_attrs, make_grid, masses_axis
 
@@ -291,7 +290,7 @@ def sweep(
     if cycle:
         from eodarm.workspace.cycle import add_return
 
-        ds = add_return(ds, arm, effects, self_weight)
+        ds = add_return(ds, job)
     return ds
 
 
@@ -501,39 +500,6 @@ def _core_walks(job: _Job) -> bool:
     path, since the core's kernel cannot call Python)."""
     return (
         job.model == "analytic" and job.grid.kind == "alpha" and not split_effects(job.effects)[1]
-    )
-
-
-def _core_grid_sweep(
-    job: _Job,
-    start: int,
-    count: int,
-    out: dict[str, npt.NDArray[Any]],
-    progress: Any = None,
-    chunk_rows: int | None = None,
-) -> None:
-    """Poses [start, start + count) of the job's angle grid, solved by the core into ``out``."""
-    from eodarm.model import native as _core
-
-    codes, places, values = effect_arrays(job.effects, job.arm.n)
-    m = job.mass.shape[0]
-    axes = [np.ascontiguousarray(c, dtype=float) for c in job.grid.coords]
-    _core.sweep(
-        _core_arm(job.arm),
-        None,
-        job.mass,
-        codes,
-        places,
-        values,
-        job.self_weight,
-        job.op,
-        m * job.block if job.op else 1,
-        job.threads,
-        grid=(axes, list(job.grid.columns), start, count),
-        out=out,
-        mask_unreachable=job.mask_unreachable,
-        progress=progress,
-        chunk_rows=chunk_rows,
     )
 
 
