@@ -426,7 +426,18 @@ def _diagnose_pass(
                 np.array([base.theta[j] if j < m else prob.neutral(probes[j]) for j in cols])
                 + d / norms[cols]
             )
-            cache[st] = fit(arm, meas, slots, problem=prob, start=start)
+            res = fit(arm, meas, slots, problem=prob, start=start)
+            if res.chi2 > base.chi2 * (1 + 1e-9) + 1e-9:
+                # The linearised start was a poor one (a friction that sticks there, a gap
+                # that changes sides) and the fit, which only takes steps that lower χ², got
+                # stuck above the model without the set: start again from that model (the
+                # set's effects absent), which it can only improve on, and keep the better.
+                nested = np.array(
+                    [base.theta[j] if j < m else prob.neutral(probes[j]) for j in cols]
+                )
+                again = fit(arm, meas, slots, problem=prob, start=nested)
+                res = again if again.chi2 < res.chi2 else res
+            cache[st] = res
         return cache[st]
 
     singles: list[tuple[int, ...]] = [(c,) for c in range(k)]
