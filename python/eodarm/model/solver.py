@@ -229,9 +229,7 @@ def solve_sequence(
         flat_alpha = np.repeat(alpha, n_states, axis=0)
         flat_payload = np.stack([np.zeros(mass.size), -mass.ravel() * arm.g], axis=-1)
         flat = {k: v.reshape(n_seq * n_states, *v.shape[2:]) for k, v in res.items()}
-        code = status(
-            arm, flat_alpha, flat_payload, flat, load_rise=checks_load_rise(arm, effs)
-        )
+        code = status(arm, flat_alpha, flat_payload, flat, load_rise=checks_load_rise(arm, effs))
         res["status"] = code.reshape(n_seq, n_states)  # type: ignore[assignment]
         return res
     from eodarm.model import native as _core
