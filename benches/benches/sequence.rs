@@ -9,11 +9,8 @@
 use std::hint::black_box;
 use std::time::Duration;
 
-use arm_benches::{example_arm, ok, uniform};
-use arm_core::effects::{
-    ActuatorCompliance, ActuatorFriction, ActuatorPlay, BaseCompliance, JointClearance,
-    JointFriction, LinkBending, MountCompliance, Unloaded,
-};
+use arm_benches::{example_arm, ok, six_kinds, uniform};
+use arm_core::effects::{ActuatorFriction, JointFriction};
 use arm_core::{Arm, BatchBuffers, Effect, EffectSet, SequenceInput, SolveOptions};
 use criterion::{criterion_group, criterion_main, Criterion, SamplingMode, Throughput};
 
@@ -21,41 +18,18 @@ use criterion::{criterion_group, criterion_main, Criterion, SamplingMode, Throug
 const SEQUENCES: usize = 100_000;
 const MASSES: [f64; 8] = [0.0, 1.5, 5.0, 6.5, 5.0, 1.5, 0.0, 3.0];
 
-/// The effects of `benches/bench_sequence.py`: one of every kind.
+/// The effects of `benches/bench_sequence.py`: one of every kind (link 1 bent, so that the
+/// joint friction at O3 is not beside a bent link), both frictions included.
 fn every_kind(arm: &Arm) -> EffectSet {
-    let effects = vec![
-        Effect::ActuatorCompliance(ActuatorCompliance {
-            actuator: 0,
-            stiffness: 1500.0,
-        }),
-        Effect::MountCompliance(MountCompliance {
-            actuator: 1,
-            stiffness: 4000.0,
-        }),
-        Effect::ActuatorPlay(ActuatorPlay {
-            actuator: 2,
-            play: 0.05,
-            unloaded: Unloaded::Centred,
-        }),
-        Effect::JointClearance(JointClearance {
-            joint: 2,
-            clearance: 0.15,
-            unloaded: Unloaded::Centred,
-        }),
-        Effect::LinkBending(LinkBending {
-            link: 0,
-            ei: 2.0e10,
-        }),
-        Effect::BaseCompliance(BaseCompliance { stiffness: 5.0e8 }),
-        Effect::ActuatorFriction(ActuatorFriction {
-            actuator: 0,
-            friction: 40.0,
-        }),
-        Effect::JointFriction(JointFriction {
-            joint: 2,
-            torque: 4000.0,
-        }),
-    ];
+    let mut effects = six_kinds(0);
+    effects.push(Effect::ActuatorFriction(ActuatorFriction {
+        actuator: 0,
+        friction: 40.0,
+    }));
+    effects.push(Effect::JointFriction(JointFriction {
+        joint: 2,
+        torque: 4000.0,
+    }));
     ok(EffectSet::new(arm, effects), "effect set")
 }
 

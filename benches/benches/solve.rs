@@ -5,12 +5,8 @@
 use std::hint::black_box;
 use std::time::Duration;
 
-use arm_benches::{example_arm, ok, uniform, v};
-use arm_core::effects::{
-    ActuatorCompliance, ActuatorPlay, BaseCompliance, JointClearance, LinkBending, MountCompliance,
-    Unloaded,
-};
-use arm_core::{Arm, BatchBuffers, BatchInput, Effect, EffectSet, SolveOptions, Workspace};
+use arm_benches::{example_arm, ok, six_kinds, uniform, v};
+use arm_core::{Arm, BatchBuffers, BatchInput, EffectSet, SolveOptions, Workspace};
 use criterion::{
     criterion_group, criterion_main, BenchmarkId, Criterion, SamplingMode, Throughput,
 };
@@ -18,39 +14,10 @@ use criterion::{
 /// Batch sizes (poses per call).
 const SIZES: [usize; 3] = [1_000, 10_000, 100_000];
 
-/// One effect of each of the six kinds, with plausible values for the example arm.
+/// One effect of each of the six kinds (link 2 bent), with plausible values for the example
+/// arm (`arm_benches::six_kinds`).
 fn all_effects(arm: &Arm) -> EffectSet {
-    ok(
-        EffectSet::new(
-            arm,
-            vec![
-                Effect::ActuatorCompliance(ActuatorCompliance {
-                    actuator: 0,
-                    stiffness: 1500.0,
-                }),
-                Effect::MountCompliance(MountCompliance {
-                    actuator: 1,
-                    stiffness: 4000.0,
-                }),
-                Effect::ActuatorPlay(ActuatorPlay {
-                    actuator: 2,
-                    play: 0.05,
-                    unloaded: Unloaded::Centred,
-                }),
-                Effect::JointClearance(JointClearance {
-                    joint: 2,
-                    clearance: 0.15,
-                    unloaded: Unloaded::Centred,
-                }),
-                Effect::LinkBending(LinkBending {
-                    link: 1,
-                    ei: 2.0e10,
-                }),
-                Effect::BaseCompliance(BaseCompliance { stiffness: 5.0e8 }),
-            ],
-        ),
-        "effect set",
-    )
+    ok(EffectSet::new(arm, six_kinds(1)), "effect set")
 }
 
 /// `rows` reproducible poses: α ∈ [60, 110] × [0, 30] × [−10, 10] degrees, payload masses

@@ -1,7 +1,11 @@
 //! Shared set-up of the criterion benchmarks of arm_core (`benches/`): the example arm of
 //! `examples/example_arm.toml` (from `arm_core::examples`) and reproducible poses.
 
-use arm_core::V2;
+use arm_core::effects::{
+    ActuatorCompliance, ActuatorPlay, BaseCompliance, JointClearance, LinkBending, MountCompliance,
+    Unloaded,
+};
+use arm_core::{Effect, V2};
 
 /// Unwraps a core result; a benchmark set up wrongly should stop loudly, naming the step.
 pub fn ok<T>(r: arm_core::Result<T>, what: &str) -> T {
@@ -42,4 +46,37 @@ pub fn angles(rows: usize) -> Vec<f64> {
         alpha.push(uniform(-10.0, 10.0));
     }
     alpha
+}
+
+/// One effect of each of the six kinds of the catalogue without memory, with plausible values
+/// for the example arm: `actuator_compliance@M1` (1500 N/mm), `mount_compliance@M2`
+/// (4000 N/mm), `actuator_play@M3` (0.05 mm, centred), `joint_clearance@O3` (0.15 mm,
+/// centred), `link_bending` of link `bent` (0-based; EI 2e10 N·mm²), `base_compliance`
+/// (5e8 N·mm/rad).
+pub fn six_kinds(bent: usize) -> Vec<Effect> {
+    vec![
+        Effect::ActuatorCompliance(ActuatorCompliance {
+            actuator: 0,
+            stiffness: 1500.0,
+        }),
+        Effect::MountCompliance(MountCompliance {
+            actuator: 1,
+            stiffness: 4000.0,
+        }),
+        Effect::ActuatorPlay(ActuatorPlay {
+            actuator: 2,
+            play: 0.05,
+            unloaded: Unloaded::Centred,
+        }),
+        Effect::JointClearance(JointClearance {
+            joint: 2,
+            clearance: 0.15,
+            unloaded: Unloaded::Centred,
+        }),
+        Effect::LinkBending(LinkBending {
+            link: bent,
+            ei: 2.0e10,
+        }),
+        Effect::BaseCompliance(BaseCompliance { stiffness: 5.0e8 }),
+    ]
 }
