@@ -879,7 +879,9 @@ fn run_kernel(
         Kernel::F5(k) => run_fast(plan.simd, k, plan, pose0, poses, alpha, out, sink),
         Kernel::F6(k) => run_fast(plan.simd, k, plan, pose0, poses, alpha, out, sink),
         Kernel::Exact => {
-            let s = exact.get_or_insert_with(|| fallback::Scratch::new(plan.arm));
+            let s = exact.get_or_insert_with(|| {
+                fallback::Scratch::new(plan.arm, plan.effects, plan.self_weight)
+            });
             fallback::run(
                 plan.arm,
                 plan.effects,

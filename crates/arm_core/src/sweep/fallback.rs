@@ -1,17 +1,22 @@
-//! The per-cell path of the sweep: [`Workspace::solve`] for every cell, for the effects that
-//! the block kernel does not cover (clearance, bending, base tilt) and for long arms.
+//! The per-cell path of the sweep, for the effects that the sweep's block kernel does not
+//! cover (clearance, bending, base tilt, frictions) and for long arms.
 //!
-//! The status of each cell is [`validity::classify`] of the checks on the unloaded pose and
-//! on the solved cell (the loaded triangles' sides from the loaded angles, as
-//! `eodarm.model.validity` does); a cell whose pose is out of stroke or near singular is not
-//! solved, and one whose triangle cannot close is a large deflection.
+//! The checks of each unloaded pose come first: a cell whose pose is out of stroke or near
+//! singular is not solved. The cells of the other poses are solved, for arms of up to six
+//! links, by `solve`'s block kernel ([`crate::solve::fast`]: every built-in effect, [`L`]
+//! cells at a time, each cell a single loading from its reference), which gives each cell's
+//! status in the same pass; otherwise, and for a cell that kernel hands back, by
+//! [`Workspace::solve`] with the status [`validity::classify`] of the checks on the unloaded
+//! pose and on the solved cell (the loaded triangles' sides from the loaded angles, as
+//! `eodarm.model.validity` does). A cell whose triangle cannot close is a large deflection.
 
 use super::cells::PoseOut;
 use super::reduce::{n_fields, Sink};
 use crate::arm::Arm;
 use crate::effects::EffectSet;
 use crate::kinematics::Frames;
-use crate::solve::{SolveOptions, Workspace};
+use crate::solve::fast::{Ctx, Kernel};
+use crate::solve::{BatchBuffers, BatchInput, BatchOutput, SolveOptions, Workspace};
 use crate::statics::ActuatorLines;
 use crate::validity::{self, Checks, Status};
 use crate::V2;
@@ -26,11 +31,34 @@ pub(crate) struct Scratch {
     rad: Vec<f64>,
     rad_loaded: Vec<f64>,
     v: Vec<f64>,
+    /// `solve`'s block kernel (arms of up to six links) and its rows.
+    block: Option<Block>,
+}
+
+/// The cells of a chunk's regular poses as rows of `solve`'s block kernel.
+struct Block {
+    kernel: Kernel,
+    simd: pulp::Arch,
+    /// Per row: the sweep's row, its pose (index in the chunk) and its mass (kg).
+    rows: Vec<(usize, usize, f64)>,
+    alpha: Vec<f64>,
+    payload: Vec<f64>,
+    out: BatchBuffers,
+    status: Vec<u8>,
 }
 
 impl Scratch {
-    pub fn new(arm: &Arm) -> Self {
+    pub fn new(arm: &Arm, effects: &EffectSet, self_weight: bool) -> Self {
         let n = arm.n();
+        let block = Kernel::new(arm, effects, self_weight).map(|kernel| Block {
+            kernel,
+            simd: pulp::Arch::new(),
+            rows: Vec::new(),
+            alpha: Vec::new(),
+            payload: Vec::new(),
+            out: BatchBuffers::new(0, n),
+            status: Vec::new(),
+        });
         Self {
             ws: Workspace::new(arm),
             frames: Frames::new(n),
@@ -39,6 +67,7 @@ impl Scratch {
             rad: vec![0.0; n],
             rad_loaded: vec![0.0; n],
             v: vec![0.0; n_fields(n)],
+            block,
         }
     }
 }
@@ -97,25 +126,164 @@ pub(crate) fn run(
         if !out.ey.is_empty() {
             out.ey[p] = s.frames.joint[n].y;
         }
+        let pose_code = validity::classify(pose_checks);
+        if let Some(b) = s.block.as_mut().filter(|_| pose_code == Status::Ok) {
+            // solved below, with the chunk's other regular poses
+            for (j, &m) in mass.iter().enumerate() {
+                b.rows.push((pose * masses + j, p, m));
+                b.alpha.extend_from_slice(deg);
+                b.payload.extend_from_slice(&[0.0, -m * arm.g]);
+            }
+            continue;
+        }
         for (j, &m) in mass.iter().enumerate() {
             let row = pose * masses + j;
-            let payload = V2::new(0.0, -m * arm.g);
             // Poses out of stroke or near singular are not ok whatever the cell: not solved
             // (so `mask_unreachable` has nothing to add).
-            let mut code = validity::classify(pose_checks);
-            if code == Status::Ok {
-                code = if s
-                    .ws
-                    .solve(arm, effects, &s.rad, payload, opts, pose)
-                    .is_ok()
-                {
-                    cell_status(arm, s, pose_checks, m * arm.g > 0.0, reach, lift)
-                } else {
-                    Status::LargeDeflection // the loaded triangle cannot close
-                };
-            }
+            let code = if pose_code == Status::Ok {
+                solve_cell(arm, effects, s, pose, m, pose_checks, opts, reach, lift)
+            } else {
+                pose_code
+            };
             sink.cell(row, code.code(), &s.v);
         }
+    }
+    if s.block.is_some() {
+        run_block(
+            arm,
+            effects,
+            self_weight,
+            pose0,
+            alpha,
+            sink,
+            s,
+            reach,
+            lift,
+        );
+    }
+}
+
+/// The status of a regular pose's cell (`pose`, mass `m`) solved by [`Workspace::solve`]
+/// into `s.v`.
+#[allow(clippy::too_many_arguments)]
+fn solve_cell(
+    arm: &Arm,
+    effects: &EffectSet,
+    s: &mut Scratch,
+    pose: usize,
+    m: f64,
+    pose_checks: Checks,
+    opts: SolveOptions,
+    reach: f64,
+    lift: bool,
+) -> Status {
+    let payload = V2::new(0.0, -m * arm.g);
+    if s.ws
+        .solve(arm, effects, &s.rad, payload, opts, pose)
+        .is_ok()
+    {
+        cell_status(arm, s, pose_checks, m * arm.g > 0.0, reach, lift)
+    } else {
+        Status::LargeDeflection // the loaded triangle cannot close
+    }
+}
+
+/// Solves the cells gathered in `s.block` with `solve`'s block kernel and writes them to
+/// `sink`. A cell the kernel could not close is a large deflection; a cell whose status the
+/// kernel finds out of stroke or near singular on a pose whose own checks passed (the two
+/// computations of a limit can differ in the last bit) is solved again per cell, as is every
+/// cell if the kernel returns an error.
+#[allow(clippy::too_many_arguments)]
+fn run_block(
+    arm: &Arm,
+    effects: &EffectSet,
+    self_weight: bool,
+    pose0: usize,
+    alpha: &[f64],
+    sink: &mut Sink<'_, '_>,
+    s: &mut Scratch,
+    reach: f64,
+    lift: bool,
+) {
+    let n = arm.n();
+    let Some(mut b) = s.block.take() else { return };
+    let rows = b.rows.len();
+    let opts = SolveOptions {
+        self_weight,
+        nan_on_failure: true,
+    };
+    if b.out.dx_mm.len() < rows {
+        b.out = BatchBuffers::new(rows, n);
+    }
+    b.status.clear();
+    b.status.resize(rows, 0);
+    let ctx = Ctx { arm, effects, opts };
+    let input = BatchInput {
+        alpha_deg: &b.alpha,
+        payload_n: &b.payload,
+    };
+    let solved = rows > 0
+        && b.kernel
+            .chunk(
+                b.simd,
+                &ctx,
+                input,
+                first_rows(&mut b.out, rows, n),
+                &mut b.status,
+                pose0,
+            )
+            .is_ok();
+    let per_cell = SolveOptions {
+        self_weight,
+        nan_on_failure: false,
+    };
+    let pose_code =
+        |code: u8| code == Status::OutOfStroke.code() || code == Status::NearSingular.code();
+    for (k, &(row, p, m)) in b.rows.iter().enumerate() {
+        let o = &b.out;
+        if solved && !pose_code(b.status[k]) {
+            let v = &mut s.v;
+            v[..n].copy_from_slice(&o.force_n[k * n..(k + 1) * n]);
+            v[n] = o.dx_mm[k];
+            v[n + 1] = o.dy_mm[k];
+            v[n + 2..2 * n + 2].copy_from_slice(&o.dalpha_deg[k * n..(k + 1) * n]);
+            v[2 * n + 2..].copy_from_slice(&o.dl_mm[k * n..(k + 1) * n]);
+            let code = if o.dx_mm[k].is_nan() {
+                Status::LargeDeflection.code() // the loaded triangle cannot close
+            } else {
+                b.status[k]
+            };
+            sink.cell(row, code, v);
+            continue;
+        }
+        // per cell, as above
+        let deg = &alpha[p * n..(p + 1) * n];
+        for (r, d) in s.rad.iter_mut().zip(deg) {
+            *r = d.to_radians();
+        }
+        s.frames.fill(arm, &s.rad);
+        let (pose, checks) = (pose0 + p, Checks::default()); // the pose's checks passed
+        let code = solve_cell(arm, effects, s, pose, m, checks, per_cell, reach, lift);
+        sink.cell(row, code.code(), &s.v);
+    }
+    b.rows.clear();
+    b.alpha.clear();
+    b.payload.clear();
+    s.block = Some(b);
+}
+
+/// The first `rows` rows of `buf` (`n` links) as a batch's outputs.
+fn first_rows(buf: &mut BatchBuffers, rows: usize, n: usize) -> BatchOutput<'_> {
+    BatchOutput {
+        force_n: &mut buf.force_n[..rows * n],
+        reaction_n: &mut buf.reaction_n[..2 * rows * n],
+        dforce_n: &mut buf.dforce_n[..rows * n],
+        dx_mm: &mut buf.dx_mm[..rows],
+        dy_mm: &mut buf.dy_mm[..rows],
+        dalpha_deg: &mut buf.dalpha_deg[..rows * n],
+        dl_mm: &mut buf.dl_mm[..rows * n],
+        dlength_mm: &mut buf.dlength_mm[..rows * n],
+        length_mm: &mut buf.length_mm[..rows * n],
     }
 }
 
