@@ -245,3 +245,53 @@ def test_monotonic_loading_is_single_loadings_on_random_arms(case, data) -> None
         one = reference.solve(arm, alpha, np.full(alpha.shape[0], m), effects=free)
         for key in KEYS:
             _close(seq[key][:, s], one[key], 1e-8)
+
+
+@pytest.mark.parametrize("make_arm", [two_link_arm, example_arm, four_link_arm])
+def test_cycle_returns_are_where_each_cycle_ends(make_arm) -> None:  # type: ignore[no-untyped-def]
+    """``cycle_returns`` (what ``sweep(..., cycle=True)`` uses with frictions) gives, for
+    every pose and mass, the last state of ``solve_sequence(..., [m, 0])``: the same numbers
+    (the same compiled path, 1e-12 mm allows the rounding of nothing else), and a friction
+    that holds leaves the arm off its reference."""
+    from eodarm.model.solver import cycle_returns
+
+    arm = make_arm()
+    n = arm.n
+    effects = [
+        eodarm.Effect("actuator_friction", f"M{n}", friction_n=60.0),
+        eodarm.Effect("joint_friction", "O1", torque_nmm=4000.0),
+        eodarm.Effect("joint_clearance", f"O{n}", clearance_mm=0.1),
+    ]
+    alpha = random_configs(arm, 6, np.random.default_rng(n))
+    mass = np.array([0.0, 1.5, 6.5])
+    dx, dy = cycle_returns(arm, alpha, mass, effects)
+    assert dx.shape == dy.shape == (6, 3)
+    for j, m in enumerate(mass):
+        seq = eodarm.solve_sequence(arm, alpha, [m, 0.0], effects)
+        np.testing.assert_allclose(dx[:, j], seq["dx_mm"][:, 1], rtol=0, atol=1e-12)
+        np.testing.assert_allclose(dy[:, j], seq["dy_mm"][:, 1], rtol=0, atol=1e-12)
+    assert np.abs(dy[:, 2]).max() > 1e-3
+
+
+def test_cycle_returns_refuses_what_it_cannot_take() -> None:
+    from eodarm.errors import InputError
+    from eodarm.model.solver import cycle_returns
+
+    arm = example_arm()
+    fric = eodarm.Effect("actuator_friction", "M2", friction_n=60.0)
+    with pytest.raises(InputError, match="row 1"):
+        cycle_returns(arm, [[90.0, 10.0, 0.0], [90.0, np.nan, 0.0]], [1.5], [fric])
+    with pytest.raises(InputError, match="mass_kg"):
+        cycle_returns(arm, [[90.0, 10.0, 0.0]], [-1.0], [fric])
+    from eodarm.model import custom
+
+    def nudge(state: eodarm.EffectState, i: int, mm: float) -> dict:
+        return {"unseen_mm": np.full(state.force_n.shape[0], mm)}
+
+    eodarm.custom_effect("nudge", places="M", parameter="mm")(nudge)
+    try:
+        user = eodarm.Effect("nudge", "M2", mm=0.1)
+        with pytest.raises(InputError, match="custom effect nudge@M2"):
+            cycle_returns(arm, [[90.0, 10.0, 0.0]], [1.5], [fric, user])
+    finally:
+        custom.unregister("nudge")

@@ -12,6 +12,7 @@ __all__ = [
     "CoreError",
     "angles_from_lengths",
     "compensate",
+    "cycle_returns",
     "fem_solve",
     "forward",
     "inverse_kinematics",
@@ -81,6 +82,20 @@ def solve_sequence(
     (N, S) the vertical payload force of each state (N, y up: ``-m·g``, as column 1 of
     :func:`solve`'s ``payload_n``). Returns the keys of :func:`solve` with shape (N, S, ...),
     relative to each sequence's reference, and ``status`` (N, S) uint8."""
+    ...
+
+def cycle_returns(
+    arm: CoreArm,
+    alpha_deg: npt.NDArray[np.float64],
+    mass_kg: npt.NDArray[np.float64],
+    codes: npt.NDArray[np.int64],
+    places: npt.NDArray[np.int64],
+    values: npt.NDArray[np.float64],
+    self_weight: bool,
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+    """Where each cell (pose p, mass m_j) comes back to after reference → m_j → 0: ``(dx,
+    dy)`` (P, M) mm from the reference, NaN where the cycle cannot be solved. ``alpha_deg``
+    (P, n) and ``mass_kg`` (M,) C-contiguous float64."""
     ...
 
 def statics(

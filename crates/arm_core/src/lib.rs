@@ -51,7 +51,7 @@ pub use effects::ExtraDeformations;
 pub use effects::{Effect, EffectSet, Mechanism};
 pub use error::{ArmError, Result};
 pub use geometry::V2;
-pub use solve::sequence::{solve_sequence, SequenceInput};
+pub use solve::sequence::{cycle_returns, solve_sequence, SequenceInput};
 pub use solve::{
     solve_batch, solve_batch_extra, solve_batch_general, solve_batch_status, BatchBuffers,
     BatchInput, BatchOutput, SolveOptions, Workspace,

@@ -187,3 +187,78 @@ fn solve_with_frictions_is_the_same_on_the_kernel_and_the_general_path() {
     close(&a.reaction_n, &b.reaction_n, 1e-9 * 1e3);
     assert_eq!(sa, sb);
 }
+
+/// `cycle_returns` is the last state of `solve_sequence`'s `[m, 0]` for every pose and mass:
+/// on the block kernel (3 links) and on the general path (a joint friction beside a bent
+/// link), exactly (the same numbers by the same path); a non-finite angle is named.
+#[test]
+fn cycle_returns_are_the_last_state_of_each_cycle() {
+    use arm_core::effects::{JointClearance, LinkBending, Unloaded};
+    let arm = example_arm();
+    let masses = [0.0, 1.5, 6.5, 20.0];
+    let mut alpha: Vec<f64> = (0..9)
+        .flat_map(|r| {
+            let t = r as f64 / 9.0;
+            [80.0 + 20.0 * t, 20.0 - 25.0 * t, -8.0 + 12.0 * t]
+        })
+        .collect();
+    alpha.extend_from_slice(&[90.0, 10.0, 0.0]);
+    let clearance = Effect::JointClearance(JointClearance {
+        joint: 1,
+        clearance: 0.1,
+        unloaded: Unloaded::Centred,
+    });
+    let joint = Effect::JointFriction(JointFriction {
+        joint: 1,
+        torque: 4000.0,
+    });
+    let bent = Effect::LinkBending(LinkBending { link: 1, ei: 2e10 });
+    for effects in [
+        vec![friction(60.0), joint.clone(), clearance.clone()],
+        vec![friction(60.0), joint, bent], // the general path
+    ] {
+        let set = EffectSet::new(&arm, effects).unwrap();
+        let poses = alpha.len() / 3;
+        let (mut dx, mut dy) = (vec![0.0; poses * 4], vec![0.0; poses * 4]);
+        arm_core::cycle_returns(&arm, &set, &alpha, &masses, true, &mut dx, &mut dy).unwrap();
+        for p in 0..poses {
+            for (j, m) in masses.iter().enumerate() {
+                let payload = [0.0, -m * arm.g, 0.0, 0.0];
+                let input = SequenceInput {
+                    alpha_deg: &alpha[3 * p..3 * p + 3],
+                    payload_n: &payload,
+                    states: 2,
+                };
+                let mut b = BatchBuffers::new(2, 3);
+                let mut status = [0u8; 2];
+                let opts = SolveOptions {
+                    self_weight: true,
+                    nan_on_failure: true,
+                };
+                solve_sequence(&arm, &set, input, opts, b.out(), &mut status).unwrap();
+                let r = p * 4 + j;
+                assert_eq!(
+                    dx[r].to_bits(),
+                    b.dx_mm[1].to_bits(),
+                    "dx of pose {p}, {m} kg"
+                );
+                assert_eq!(
+                    dy[r].to_bits(),
+                    b.dy_mm[1].to_bits(),
+                    "dy of pose {p}, {m} kg"
+                );
+            }
+        }
+        // something came back off the reference
+        assert!(dy.iter().any(|d| d.abs() > 1e-3));
+    }
+    // a non-finite angle is named
+    let set = EffectSet::new(&arm, vec![friction(60.0)]).unwrap();
+    let (mut dx, mut dy) = (vec![0.0; 8], vec![0.0; 8]);
+    let bad = [90.0, 10.0, 0.0, 90.0, f64::NAN, 0.0];
+    let err = arm_core::cycle_returns(&arm, &set, &bad, &masses, true, &mut dx, &mut dy);
+    assert!(
+        matches!(err, Err(arm_core::ArmError::NonFinite { row: 1, .. })),
+        "{err:?}"
+    );
+}

@@ -24,6 +24,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(solve::solve, m)?)?;
     m.add_function(wrap_pyfunction!(solve::statics, m)?)?;
     m.add_function(wrap_pyfunction!(sequence::solve_sequence, m)?)?;
+    m.add_function(wrap_pyfunction!(sequence::cycle_returns, m)?)?;
     m.add_function(wrap_pyfunction!(fem::fem_solve, m)?)?;
     m.add_function(wrap_pyfunction!(sweep::py_sweep, m)?)?;
     m.add_function(wrap_pyfunction!(kinematics::forward, m)?)?;

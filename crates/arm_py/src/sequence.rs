@@ -2,10 +2,13 @@
 //! (see `eodarm.solve_sequence` and `arm_core::solve_sequence`).
 
 use crate::convert::{effect_set, matrix, CoreArm};
-use crate::errors::value_error;
+use crate::errors::{value_error, PyArmError};
 use crate::solve::{fill_out, new_out};
 use arm_core::{SequenceInput, SolveOptions};
-use numpy::{PyReadonlyArray1, PyReadonlyArray2, PyUntypedArray, PyUntypedArrayMethods};
+use numpy::{
+    IntoPyArray, PyArray2, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArray,
+    PyUntypedArrayMethods,
+};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
@@ -75,4 +78,42 @@ pub(crate) fn solve_sequence<'py>(
         out.set_item(key, a.call_method1("reshape", (shape,))?)?;
     }
     Ok(out)
+}
+
+/// `(dx, dy)` of [`cycle_returns`].
+type Returns<'py> = (Bound<'py, PyArray2<f64>>, Bound<'py, PyArray2<f64>>);
+
+/// Where each cell (pose p, mass m_j) comes back to after its load cycle reference → m_j → 0
+/// (see `arm_core::cycle_returns`): `(dx, dy)`, float64 arrays (P, M) in mm relative to the
+/// reference, NaN where the cycle cannot be solved. `alpha_deg` (P, n), `mass_kg` (M,).
+#[pyfunction]
+#[pyo3(signature = (arm, alpha_deg, mass_kg, codes, places, values, self_weight))]
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn cycle_returns<'py>(
+    py: Python<'py>,
+    arm: &CoreArm,
+    alpha_deg: PyReadonlyArray2<'py, f64>,
+    mass_kg: PyReadonlyArray1<'py, f64>,
+    codes: PyReadonlyArray1<'py, i64>,
+    places: PyReadonlyArray1<'py, i64>,
+    values: PyReadonlyArray1<'py, f64>,
+    self_weight: bool,
+) -> PyResult<Returns<'py>> {
+    let arm = &arm.inner;
+    let n = arm.n();
+    let (alpha, poses) = matrix(&alpha_deg, "alpha_deg", n)?;
+    let mass = mass_kg
+        .as_slice()
+        .map_err(|_| value_error("mass_kg: array must be C-contiguous".into()))?;
+    let effects = effect_set(arm, &codes, &places, &values, true)?;
+    let m = mass.len();
+    let (mut dx, mut dy) = (vec![0.0; poses * m], vec![0.0; poses * m]);
+    py.detach(|| {
+        arm_core::cycle_returns(arm, &effects, alpha, mass, self_weight, &mut dx, &mut dy)
+    })
+    .map_err(PyArmError)?;
+    Ok((
+        dx.into_pyarray(py).reshape([poses, m])?,
+        dy.into_pyarray(py).reshape([poses, m])?,
+    ))
 }

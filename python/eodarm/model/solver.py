@@ -32,6 +32,7 @@ from eodarm.model.validity import checks_load_rise, quiet_rows, status
 
 __all__ = [
     "angles_from_lengths",
+    "cycle_returns",
     "forward",
     "inverse_kinematics",
     "solve",
@@ -240,6 +241,48 @@ def solve_sequence(
         _core_arm(arm), alpha, payload, codes, places, values, self_weight, nan_on_failure
     )
     return seq
+
+
+def cycle_returns(
+    arm: Arm,
+    alpha_deg: npt.ArrayLike,
+    mass_kg: npt.ArrayLike,
+    effects: Effect | list[Effect] | tuple[Effect, ...] | None = None,
+    self_weight: bool = True,
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+    """Where the measure point comes back to after each cell's load cycle, on the compiled
+    core: for every pose p and payload mass m_j, the sequence reference → m_j → 0 and the
+    measure point at its end relative to the reference, ``dx``, ``dy`` (P, M) in mm, NaN where
+    the cycle cannot be solved. The same numbers as the last state of
+    :func:`solve_sequence` with the states ``[m_j, 0]``, without its other outputs (what
+    ``sweep(..., cycle=True)`` needs). Built-in effects only (a user-written effect is an
+    :class:`~eodarm.errors.InputError`: :func:`solve_sequence` solves those).
+
+    Parameters
+    ----------
+    arm : the arm.
+    alpha_deg : (P, n) unloaded absolute link angles, degrees.
+    mass_kg : (M,) payload masses, kg (≥ 0).
+    effects : effects added to the arm's.
+    self_weight : include link and actuator weights.
+    """
+    check_arm(arm, "cycle_returns")
+    alpha = _poses(alpha_deg, arm.n, "alpha_deg")
+    mass = _sequence_masses(np.atleast_1d(np.asarray(mass_kg, dtype=float)), 1)[0]
+    effs = with_arm_effects(arm.effects, effects)
+    users = split_effects(effs)[1]
+    if users:
+        raise InputError(
+            f"custom effect {users[0].key}: cycle_returns takes built-in effects only "
+            "(solve_sequence solves user-written ones)"
+        )
+    from eodarm.model import native as _core
+
+    codes, places, values = effect_arrays(effs, arm.n)
+    dx, dy = _core.cycle_returns(
+        _core_arm(arm), alpha, np.ascontiguousarray(mass), codes, places, values, self_weight
+    )
+    return np.asarray(dx), np.asarray(dy)
 
 
 def _sequence_masses(mass_kg: npt.ArrayLike, rows: int) -> npt.NDArray[np.float64]:

@@ -13,8 +13,10 @@ Three cases, from the cheapest:
   self-weight's force. That is the plain sweep's answer at a payload of 0 kg (a single
   loading is a sequence of one state), so the grid is swept again by the compiled core at
   ``mass_kg = [0]`` and its (dx, dy) broadcast over the payloads;
-* otherwise (a friction, or a user-written effect), :func:`eodarm.solve_sequence` of each
-  cell's states (m, 0), or of the single state (0) per pose when no friction is involved.
+* a friction (built-in effects only): every cell's cycle (m, 0) on the compiled core, which
+  keeps only where it ends (:func:`eodarm.model.solver.cycle_returns`);
+* a user-written effect: :func:`eodarm.solve_sequence` of each cell's states (m, 0), or of
+  the single state (0) per pose when no friction is involved.
 """
 
 from __future__ import annotations
@@ -78,6 +80,17 @@ def add_return(ds: Any, job: _Job) -> Any:
         dx, dy = _solve_rows(ds, job, p, np.zeros((p.size, 1)))
         out["return_dx_mm"][p] = dx[:, None]
         out["return_dy_mm"][p] = dy[:, None]
+        return _store(ds, job, ok, out)
+    if not users:
+        # Frictions, built-in effects: every cycle (pose, m) → (m, 0) on the compiled core,
+        # which keeps only where each one ends (of the poses with a cell to fill).
+        from eodarm.model.solver import cycle_returns
+
+        p = np.flatnonzero(ok.any(axis=1))
+        dx, dy = cycle_returns(
+            job.arm, _poses(ds, job, p), job.mass, list(job.effects), job.self_weight
+        )
+        out["return_dx_mm"][p], out["return_dy_mm"][p] = dx, dy
         return _store(ds, job, ok, out)
     # one sequence per ok cell: (pose, m) → states (m, 0)
     cells = np.flatnonzero(ok.ravel())

@@ -524,23 +524,26 @@ impl Kernel {
 
 impl Kernel {
     /// Solves the load sequences of `input` (see [`super::sequence`]) into `out` (rows
-    /// `q·S + s`) and `status`, [`L`] sequences at a time with each lane's friction memory
-    /// carried from state to state; returns the (chunk-local) sequences with a state the
-    /// kernel could not solve, for the general path to solve again.
+    /// `q·S + s`; with `last_only` only each sequence's last state, row `q`) and `status`,
+    /// [`L`] sequences at a time with each lane's friction memory carried from state to
+    /// state; returns the (chunk-local) sequences with a state the kernel could not solve,
+    /// for the general path to solve again.
     pub(crate) fn sequences(
         &self,
         simd: pulp::Arch,
         input: SequenceInput<'_>,
         out: &mut BatchOutput<'_>,
         status: &mut [u8],
+        last_only: bool,
     ) -> Vec<usize> {
+        let l = last_only;
         match self {
-            Self::F1(k) => k.sequences(simd, input, out, status),
-            Self::F2(k) => k.sequences(simd, input, out, status),
-            Self::F3(k) => k.sequences(simd, input, out, status),
-            Self::F4(k) => k.sequences(simd, input, out, status),
-            Self::F5(k) => k.sequences(simd, input, out, status),
-            Self::F6(k) => k.sequences(simd, input, out, status),
+            Self::F1(k) => k.sequences(simd, input, out, status, l),
+            Self::F2(k) => k.sequences(simd, input, out, status, l),
+            Self::F3(k) => k.sequences(simd, input, out, status, l),
+            Self::F4(k) => k.sequences(simd, input, out, status, l),
+            Self::F5(k) => k.sequences(simd, input, out, status, l),
+            Self::F6(k) => k.sequences(simd, input, out, status, l),
         }
     }
 }
@@ -552,6 +555,7 @@ impl<const N: usize> SolveKernel<N> {
         input: SequenceInput<'_>,
         out: &mut BatchOutput<'_>,
         status: &mut [u8],
+        last_only: bool,
     ) -> Vec<usize> {
         let seqs = input.alpha_deg.len() / N;
         let mut sc = SeqScratch {
@@ -565,7 +569,8 @@ impl<const N: usize> SolveKernel<N> {
         let mut q0 = 0;
         while q0 < seqs {
             let count = (seqs - q0).min(L);
-            let bad = self.sequence_block(simd, input, q0, count, &mut sc, out, status);
+            let bad =
+                self.sequence_block(simd, input, (q0, count), &mut sc, out, status, last_only);
             failed.extend((0..count).filter(|&k| bad[k]).map(|k| q0 + k));
             q0 += count;
         }
@@ -575,17 +580,18 @@ impl<const N: usize> SolveKernel<N> {
     /// Sequences `q0..q0 + count` through all their states: the poses' trigonometry and the
     /// statics of a unit payload along x and along y once (the payload case is linear in the
     /// payload), then per state the payload case scaled, the frictions stepped, the closure.
-    /// Returns which lanes failed in some state.
+    /// Returns which lanes failed in some state. With `last_only` only the last state is
+    /// written, to row `q` of sequence q.
     #[allow(clippy::too_many_arguments)]
     fn sequence_block(
         &self,
         simd: pulp::Arch,
         input: SequenceInput<'_>,
-        q0: usize,
-        count: usize,
+        (q0, count): (usize, usize),
         sc: &mut SeqScratch<N>,
         out: &mut BatchOutput<'_>,
         status: &mut [u8],
+        last_only: bool,
     ) -> [bool; L] {
         struct Op<'a, 'o, const N: usize> {
             k: &'a SolveKernel<N>,
@@ -595,6 +601,7 @@ impl<const N: usize> SolveKernel<N> {
             sc: &'a mut SeqScratch<N>,
             out: &'a mut BatchOutput<'o>,
             status: &'a mut [u8],
+            last_only: bool,
         }
         impl<const N: usize> pulp::WithSimd for Op<'_, '_, N> {
             type Output = [bool; L];
@@ -643,8 +650,13 @@ impl<const N: usize> SolveKernel<N> {
                     for j in 0..count {
                         bad[j] |= sc.sb.fail[j];
                     }
-                    let row = |j: usize| (q0 + j) * states + st;
-                    scatter_block(&sc.pb, &sc.sb, self.out, self.status, count, row);
+                    if !self.last_only {
+                        let row = |j: usize| (q0 + j) * states + st;
+                        scatter_block(&sc.pb, &sc.sb, self.out, self.status, count, row);
+                    } else if st + 1 == states {
+                        let row = |j: usize| q0 + j;
+                        scatter_block(&sc.pb, &sc.sb, self.out, self.status, count, row);
+                    }
                 }
                 bad
             }
@@ -657,6 +669,7 @@ impl<const N: usize> SolveKernel<N> {
             sc,
             out,
             status,
+            last_only,
         })
     }
 }

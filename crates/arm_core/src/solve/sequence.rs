@@ -12,7 +12,9 @@ use rayon::prelude::*;
 
 pub use super::batch::SequenceInput;
 use super::status::pose_status;
-use super::{fill_nan, split_output, write_row, BatchOutput, SolveOptions, Workspace};
+use super::{
+    fill_nan, split_output, write_row, BatchBuffers, BatchOutput, SolveOptions, Workspace,
+};
 use crate::arm::Arm;
 use crate::effects::{EffectSet, ExtraDeformations, SequenceMemory};
 use crate::error::{ArmError, Result};
@@ -146,7 +148,7 @@ fn run_kernel(
 ) -> Result<()> {
     let n = arm.n();
     let s = input.states;
-    let failed = kernel.sequences(simd, input, &mut out, status);
+    let failed = kernel.sequences(simd, input, &mut out, status, false);
     for q in failed {
         let sub = SequenceInput {
             alpha_deg: &input.alpha_deg[q * n..(q + 1) * n],
@@ -208,4 +210,111 @@ fn run_chunk(
         }
     }
     Ok(())
+}
+
+/// Cells per parallel work item of [`cycle_returns`] (whole poses).
+const CYCLE_CELLS: usize = 4096;
+
+/// Where the measure point comes back to after each cell's load cycle (docs/model.md, "Load
+/// sequences and friction"): for pose p (`alpha_deg` row, degrees) and payload mass m_j
+/// (`mass_kg`, kg, downward), the sequence reference → m_j → 0, and `dx[p·M + j]`,
+/// `dy[p·M + j]` (mm) the measure point at its last state relative to the reference; NaN
+/// where the cycle cannot be solved (a singular pose, a triangle that cannot close). The same
+/// as the last state of [`solve_sequence`] with states `[m_j, 0]`, without the other outputs.
+///
+/// # Errors
+/// Wrong shapes or a non-finite angle or mass (naming the pose, or the mass's index).
+pub fn cycle_returns(
+    arm: &Arm,
+    effects: &EffectSet,
+    alpha_deg: &[f64],
+    mass_kg: &[f64],
+    self_weight: bool,
+    dx: &mut [f64],
+    dy: &mut [f64],
+) -> Result<()> {
+    let n = arm.n();
+    let m = mass_kg.len();
+    if !alpha_deg.len().is_multiple_of(n) {
+        return Err(ArmError::Shape {
+            what: "alpha_deg",
+            expected: (alpha_deg.len() / n + 1) * n,
+            got: alpha_deg.len(),
+        });
+    }
+    let poses = alpha_deg.len() / n;
+    for (what, got) in [("dx", dx.len()), ("dy", dy.len())] {
+        if got != poses * m {
+            return Err(ArmError::Shape {
+                what,
+                expected: poses * m,
+                got,
+            });
+        }
+    }
+    if let Some(p) =
+        (0..poses).find(|p| !alpha_deg[p * n..(p + 1) * n].iter().all(|v| v.is_finite()))
+    {
+        return Err(ArmError::NonFinite {
+            row: p,
+            what: "alpha_deg",
+        });
+    }
+    if let Some(j) = mass_kg.iter().position(|v| !v.is_finite()) {
+        return Err(ArmError::NonFinite {
+            row: j,
+            what: "mass_kg",
+        });
+    }
+    if poses == 0 || m == 0 {
+        return Ok(());
+    }
+    let kernel = super::fast::Kernel::new(arm, effects, self_weight);
+    let simd = pulp::Arch::new();
+    let opts = SolveOptions {
+        self_weight,
+        nan_on_failure: true,
+    };
+    let per_chunk = (CYCLE_CELLS / m).max(1) * m;
+    dx.par_chunks_mut(per_chunk)
+        .zip(dy.par_chunks_mut(per_chunk))
+        .enumerate()
+        .try_for_each(|(k, (dx, dy))| {
+            let (p0, cells) = (k * per_chunk / m, dx.len());
+            let mut alpha = Vec::with_capacity(cells * n);
+            let mut payload = Vec::with_capacity(4 * cells);
+            for p in p0..p0 + cells / m {
+                for &mass in mass_kg {
+                    alpha.extend_from_slice(&alpha_deg[p * n..(p + 1) * n]);
+                    payload.extend_from_slice(&[0.0, -mass * arm.g, 0.0, 0.0]);
+                }
+            }
+            let input = SequenceInput {
+                alpha_deg: &alpha,
+                payload_n: &payload,
+                states: 2,
+            };
+            let mut last = BatchBuffers::new(cells, n);
+            let mut status = vec![0u8; cells];
+            let general: Vec<usize> = match &kernel {
+                Some(kern) => kern.sequences(simd, input, &mut last.out(), &mut status, true),
+                None => (0..cells).collect(),
+            };
+            dx.copy_from_slice(&last.dx_mm);
+            dy.copy_from_slice(&last.dy_mm);
+            // the general path, for what the kernel does not solve: both states, the last kept
+            let mut one = BatchBuffers::new(2, n);
+            let mut st = [0u8; 2];
+            for q in general {
+                let sub = SequenceInput {
+                    alpha_deg: &alpha[q * n..(q + 1) * n],
+                    payload_n: &payload[4 * q..4 * (q + 1)],
+                    states: 2,
+                };
+                run_chunk(arm, effects, sub, opts, one.out(), &mut st, p0 + q / m)?;
+                dx[q] = one.dx_mm[1];
+                dy[q] = one.dy_mm[1];
+            }
+            Ok(())
+        })
 }
