@@ -2,8 +2,8 @@
 
 A sweep cell (pose p, mass j) must be the pose solved alone under that payload: the same
 forces, deflections, angle changes and sensor readings, whichever kernel the core picks (the
-vectorised block kernel for the baseline and the length-only effects, ``Workspace::solve`` per
-cell for the others). Cells that cannot be solved are NaN with ``ok`` false; reductions equal
+sweep's block kernel for the baseline and the length-only effects, ``solve``'s block kernel for
+the others, frictions included, and ``Workspace::solve`` per cell beyond six links). Cells that cannot be solved are NaN with ``ok`` false; reductions equal
 numpy's; Ctrl-C stops a running sweep and a sweep that is not interrupted runs to the end.
 """
 
@@ -25,7 +25,7 @@ import eodarm
 from eodarm import _core
 from eodarm.model.effects import effect_arrays
 from eodarm.model.solver import _core_arm
-from strategies import arm_and_poses, effects_for
+from strategies import ALL_KINDS, FRICTIONS, arm_and_poses, effects_for
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "example_arm.toml"
 CELL_KEYS = ("force_n", "dx_mm", "dy_mm", "dalpha_deg", "dl_mm")
@@ -97,13 +97,16 @@ def assert_close(got: np.ndarray, want: np.ndarray, key: str) -> None:
     self_weight=st.booleans(),
     n_mass=st.integers(1, 4),
     length_only=st.booleans(),
+    friction=st.booleans(),
     data=st.data(),
 )
 def test_sweep_cells_equal_solve_on_both_backends(
-    case, self_weight, n_mass, length_only, data
+    case, self_weight, n_mass, length_only, friction, data
 ) -> None:
     arm, alpha, _ = case
     kinds = ("actuator_compliance", "mount_compliance", "actuator_play") if length_only else None
+    if friction:  # each cell a single loading from its reference: what a friction lets through
+        kinds = (*(kinds or ALL_KINDS), *FRICTIONS)
     effects = data.draw(effects_for(arm, kinds) if kinds else effects_for(arm), label="effects")
     mass = np.array(data.draw(st.lists(st.floats(0.0, 8.0), min_size=n_mass, max_size=n_mass)))
     got = core_sweep(arm, alpha, mass, effects, self_weight)
