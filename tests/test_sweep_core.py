@@ -3,8 +3,9 @@
 A sweep cell (pose p, mass j) must be the pose solved alone under that payload: the same
 forces, deflections, angle changes and sensor readings, whichever kernel the core picks (the
 sweep's block kernel for the baseline and the length-only effects, ``solve``'s block kernel for
-the others, frictions included, and ``Workspace::solve`` per cell beyond six links). Cells that cannot be solved are NaN with ``ok`` false; reductions equal
-numpy's; Ctrl-C stops a running sweep and a sweep that is not interrupted runs to the end.
+the others, frictions included, and ``Workspace::solve`` per cell beyond six links). Cells
+that cannot be solved are NaN with ``ok`` false; reductions equal numpy's; Ctrl-C stops a
+running sweep and a sweep that is not interrupted runs to the end.
 """
 
 from __future__ import annotations
