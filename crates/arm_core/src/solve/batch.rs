@@ -92,6 +92,22 @@ impl BatchBuffers {
             length_mm: &mut self.length_mm,
         }
     }
+
+    /// The first `rows` rows (`n` links) as the solver's output slices: buffers sized once
+    /// for the largest of several batches.
+    pub(crate) fn first_rows(&mut self, rows: usize, n: usize) -> BatchOutput<'_> {
+        BatchOutput {
+            force_n: &mut self.force_n[..rows * n],
+            reaction_n: &mut self.reaction_n[..2 * rows * n],
+            dforce_n: &mut self.dforce_n[..rows * n],
+            dx_mm: &mut self.dx_mm[..rows],
+            dy_mm: &mut self.dy_mm[..rows],
+            dalpha_deg: &mut self.dalpha_deg[..rows * n],
+            dl_mm: &mut self.dl_mm[..rows * n],
+            dlength_mm: &mut self.dlength_mm[..rows * n],
+            length_mm: &mut self.length_mm[..rows * n],
+        }
+    }
 }
 
 impl BatchOutput<'_> {

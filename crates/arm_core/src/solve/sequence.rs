@@ -146,22 +146,47 @@ fn run_kernel(
     status: &mut [u8],
     first: usize,
 ) -> Result<()> {
+    let failed = kernel.sequences(simd, input, &mut out, status, false);
+    solve_again(
+        arm, effects, input, opts, failed, &mut out, status, first, false,
+    )
+}
+
+/// Solves the sequences `again` of `input` (chunk-local; `first` is the index of its first
+/// sequence) on the general path, one at a time, and writes their rows of `out` and
+/// `status`: every state (rows `q·S + s`), or with `last_only` the last one (row `q`).
+#[allow(clippy::too_many_arguments)]
+fn solve_again(
+    arm: &Arm,
+    effects: &EffectSet,
+    input: SequenceInput<'_>,
+    opts: SolveOptions,
+    again: impl IntoIterator<Item = usize>,
+    out: &mut BatchOutput<'_>,
+    status: &mut [u8],
+    first: usize,
+    last_only: bool,
+) -> Result<()> {
     let n = arm.n();
     let s = input.states;
-    let failed = kernel.sequences(simd, input, &mut out, status, false);
-    for q in failed {
+    let mut one = BatchBuffers::new(s, n);
+    let mut st = vec![0u8; s];
+    for q in again {
         let sub = SequenceInput {
             alpha_deg: &input.alpha_deg[q * n..(q + 1) * n],
             payload_n: &input.payload_n[2 * s * q..2 * s * (q + 1)],
             states: s,
         };
-        let mut one = crate::solve::BatchBuffers::new(s, n);
-        let mut st = vec![0u8; s];
         run_chunk(arm, effects, sub, opts, one.out(), &mut st, first + q)?;
-        for k in 0..s {
-            super::fast::copy_row(&one, k, &mut out, q * s + k, n);
+        if last_only {
+            super::fast::copy_row(&one, s - 1, out, q, n);
+            status[q] = st[s - 1];
+        } else {
+            for k in 0..s {
+                super::fast::copy_row(&one, k, out, q * s + k, n);
+            }
+            status[q * s..(q + 1) * s].copy_from_slice(&st);
         }
-        status[q * s..(q + 1) * s].copy_from_slice(&st);
     }
     Ok(())
 }
@@ -276,13 +301,18 @@ pub fn cycle_returns(
         nan_on_failure: true,
     };
     let per_chunk = (CYCLE_CELLS / m).max(1) * m;
+    // Per thread: the chunk's sequences, and the outputs of their last states.
+    let scratch = || {
+        let out = BatchBuffers::new(per_chunk, n);
+        (Vec::new(), Vec::new(), out, vec![0u8; per_chunk])
+    };
     dx.par_chunks_mut(per_chunk)
         .zip(dy.par_chunks_mut(per_chunk))
         .enumerate()
-        .try_for_each(|(k, (dx, dy))| {
+        .try_for_each_init(scratch, |(alpha, payload, last, status), (k, (dx, dy))| {
             let (p0, cells) = (k * per_chunk / m, dx.len());
-            let mut alpha = Vec::with_capacity(cells * n);
-            let mut payload = Vec::with_capacity(4 * cells);
+            alpha.clear();
+            payload.clear();
             for p in p0..p0 + cells / m {
                 for &mass in mass_kg {
                     alpha.extend_from_slice(&alpha_deg[p * n..(p + 1) * n]);
@@ -290,31 +320,30 @@ pub fn cycle_returns(
                 }
             }
             let input = SequenceInput {
-                alpha_deg: &alpha,
-                payload_n: &payload,
+                alpha_deg: alpha,
+                payload_n: payload,
                 states: 2,
             };
-            let mut last = BatchBuffers::new(cells, n);
-            let mut status = vec![0u8; cells];
-            let general: Vec<usize> = match &kernel {
-                Some(kern) => kern.sequences(simd, input, &mut last.out(), &mut status, true),
+            let mut out = last.first_rows(cells, n);
+            let status = &mut status[..cells];
+            let again: Vec<usize> = match &kernel {
+                Some(kern) => kern.sequences(simd, input, &mut out, status, true),
                 None => (0..cells).collect(),
             };
-            dx.copy_from_slice(&last.dx_mm);
-            dy.copy_from_slice(&last.dy_mm);
-            // the general path, for what the kernel does not solve: both states, the last kept
-            let mut one = BatchBuffers::new(2, n);
-            let mut st = [0u8; 2];
-            for q in general {
-                let sub = SequenceInput {
-                    alpha_deg: &alpha[q * n..(q + 1) * n],
-                    payload_n: &payload[4 * q..4 * (q + 1)],
-                    states: 2,
-                };
-                run_chunk(arm, effects, sub, opts, one.out(), &mut st, p0 + q / m)?;
-                dx[q] = one.dx_mm[1];
-                dy[q] = one.dy_mm[1];
-            }
+            // sequence q of the chunk is pose p0 + q / M: errors name the sequence p0·M + q
+            solve_again(
+                arm,
+                effects,
+                input,
+                opts,
+                again,
+                &mut out,
+                status,
+                p0 * m,
+                true,
+            )?;
+            dx.copy_from_slice(out.dx_mm);
+            dy.copy_from_slice(out.dy_mm);
             Ok(())
         })
 }

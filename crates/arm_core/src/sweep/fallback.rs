@@ -16,7 +16,7 @@ use crate::arm::Arm;
 use crate::effects::EffectSet;
 use crate::kinematics::Frames;
 use crate::solve::fast::{Ctx, Kernel};
-use crate::solve::{BatchBuffers, BatchInput, BatchOutput, SolveOptions, Workspace};
+use crate::solve::{BatchBuffers, BatchInput, SolveOptions, Workspace};
 use crate::statics::ActuatorLines;
 use crate::validity::{self, Checks, Status};
 use crate::V2;
@@ -228,7 +228,7 @@ fn run_block(
                 b.simd,
                 &ctx,
                 input,
-                first_rows(&mut b.out, rows, n),
+                b.out.first_rows(rows, n),
                 &mut b.status,
                 pose0,
             )
@@ -270,21 +270,6 @@ fn run_block(
     b.alpha.clear();
     b.payload.clear();
     s.block = Some(b);
-}
-
-/// The first `rows` rows of `buf` (`n` links) as a batch's outputs.
-fn first_rows(buf: &mut BatchBuffers, rows: usize, n: usize) -> BatchOutput<'_> {
-    BatchOutput {
-        force_n: &mut buf.force_n[..rows * n],
-        reaction_n: &mut buf.reaction_n[..2 * rows * n],
-        dforce_n: &mut buf.dforce_n[..rows * n],
-        dx_mm: &mut buf.dx_mm[..rows],
-        dy_mm: &mut buf.dy_mm[..rows],
-        dalpha_deg: &mut buf.dalpha_deg[..rows * n],
-        dl_mm: &mut buf.dl_mm[..rows * n],
-        dlength_mm: &mut buf.dlength_mm[..rows * n],
-        length_mm: &mut buf.length_mm[..rows * n],
-    }
 }
 
 /// The status of the cell just solved in `s.ws` (its values written into `s.v`).
