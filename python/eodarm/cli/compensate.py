@@ -250,9 +250,9 @@ def run(args: argparse.Namespace) -> int:
             "length_mm": _json_list(out["length_mm"]),
             "residual_mm": _json_list(out["residual_mm"]),
             "status": [str(s) for s in out["status"]],
-            "branch": "loading",
-            "hysteresis_mm": _json_list(hysteresis),
         }
+        if has_branch(arm, effects):  # friction or a gap: the answer is the loading branch's
+            doc |= {"branch": "loading", "hysteresis_mm": _json_list(hysteresis)}
         if predicted is not None:
             doc["predicted_miss_mm"] = _json_list(predicted)
         json.dump(doc, sys.stdout)

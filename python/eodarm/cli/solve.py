@@ -132,24 +132,25 @@ def run(args: argparse.Namespace) -> int:
             + ", ".join(f"{k} {v}" for k, v in counts.items() if k != "ok")
             + f" of {len(out['status'])} poses"
         )
-    memory = False
+    memory = branch = False
     if args.uncertainty:
-        from eodarm.model.hysteresis import band, has_memory
+        from eodarm.model.hysteresis import band, has_branch, has_memory
         from eodarm.model.uncertainty import inadequacy_note
 
         line = inadequacy_note(arm)
         if line:
             _note(line)
         # σ is the loading branch's; the band is how far the other branch lies from it
-        memory = has_memory(arm, effects)
-        out["hysteresis_mm"] = band(arm, alpha, mass, effects, not args.no_self_weight)
+        memory, branch = has_memory(arm, effects), has_branch(arm, effects)
+        if branch:
+            out["hysteresis_mm"] = band(arm, alpha, mass, effects, not args.no_self_weight)
     if args.json:
         doc = {
             "arm": arm.name,
             "model": _model_keys(arm, effects),
             "solver_model": args.model,
             "self_weight": not args.no_self_weight,
-            **({"branch": "loading"} if args.uncertainty else {}),
+            **({"branch": "loading"} if branch else {}),
             "poses": [
                 {
                     "alpha_deg": alpha[i].tolist(),

@@ -8,6 +8,7 @@ backends refuse bad input with the same one-line message naming the row.
 
 from __future__ import annotations
 
+import re
 from collections.abc import Mapping
 from typing import Any
 
@@ -229,11 +230,18 @@ def solve_sequence(
         from eodarm.model import reference
 
         # The numpy reference solves sequences too (eodarm.reference.solve_sequence).
-        res = dict(
-            reference.solve_sequence(
-                arm, alpha, mass, effects=effs, self_weight=self_weight, nan_on_failure=not strict
+        try:
+            res = dict(
+                reference.solve_sequence(
+                    arm, alpha, mass, effs, self_weight=self_weight, nan_on_failure=not strict
+                )
             )
-        )
+        except InputError as exc:  # named as the compiled core's are
+            found = re.fullmatch(r"pose row (\d+): (.*) \(state (\d+) of the sequence\)", str(exc))
+            if found is None:
+                raise
+            q, s = int(found.group(1)), int(found.group(3)) - 1
+            raise InputError(f"{_state_words(q, s, mass)}: {found.group(2)}") from None
         n_seq, n_states = mass.shape
         flat_alpha = np.repeat(alpha, n_states, axis=0)
         flat_payload = np.stack([np.zeros(mass.size), -mass.ravel() * arm.g], axis=-1)
@@ -258,8 +266,6 @@ def _core_sequence(
 ) -> Arrays:
     """:func:`solve_sequence` on the compiled core; its refusals as :class:`InputError`
     naming the sequence and, for a state that cannot be closed, the state."""
-    import re
-
     from eodarm.model import native as _core
 
     codes, places, values = effect_arrays(effs, arm.n)
@@ -279,17 +285,22 @@ def _core_sequence(
         if found is None:
             raise InputError(f"solve_sequence: {text}") from None
         q, reason = int(found.group(1)), found.group(2)
-        where = f"sequence {q}"
+        state = None
         if q < alpha.shape[0]:  # which state: the sequence again, each failed state NaN
             try:
                 one = run(alpha[q : q + 1], payload[q : q + 1], True)
                 bad = np.flatnonzero(np.isnan(np.asarray(one["dy_mm"])[0]))
-                if bad.size:
-                    s = int(bad[0])
-                    where += f", state {s} (mass_kg[{q}, {s}] = {mass[q, s]:g} kg)"
+                state = int(bad[0]) if bad.size else None
             except _core.CoreError:
                 pass  # singular unloaded: every state fails alike, the sequence says it
-        raise InputError(f"{where}: {reason}") from None
+        raise InputError(f"{_state_words(q, state, mass)}: {reason}") from None
+
+
+def _state_words(q: int, s: int | None, mass: npt.NDArray[np.float64]) -> str:
+    """``sequence 3, state 1 (mass_kg[3, 1] = 90 kg)``: where a sequence failed."""
+    if s is None:
+        return f"sequence {q}"
+    return f"sequence {q}, state {s} (mass_kg[{q}, {s}] = {mass[q, s]:g} kg)"
 
 
 def cycle_returns(
@@ -540,8 +551,6 @@ def _refuse_unloaded_singular(
 
     The failed rows' statics without payload are solved again (numpy reference, few rows):
     they fail only for a pose that is singular on its undeformed geometry."""
-    import re
-
     failed = np.flatnonzero(np.isnan(np.asarray(res["dy_mm"])))
     if failed.size == 0:
         return
