@@ -29,7 +29,7 @@ import sys
 import threading
 from collections.abc import Iterator
 from pathlib import Path
-from typing import IO, Any
+from typing import IO, Any, BinaryIO, Literal, TextIO, overload
 
 __all__ = [
     "KILL_AT_ENV",
@@ -201,6 +201,24 @@ class Batch:
     def __init__(self) -> None:
         self._files: list[tuple[Path, Path, IO[Any] | None]] = []
 
+    @overload
+    def open(
+        self,
+        path: str | os.PathLike[str],
+        mode: Literal["w"] = "w",
+        encoding: str | None = "utf-8",
+        newline: str | None = None,
+    ) -> TextIO: ...
+
+    @overload
+    def open(
+        self,
+        path: str | os.PathLike[str],
+        mode: Literal["wb"],
+        encoding: str | None = "utf-8",
+        newline: str | None = None,
+    ) -> BinaryIO: ...
+
     def open(
         self,
         path: str | os.PathLike[str],
@@ -283,12 +301,10 @@ def atomic_files() -> Iterator[Batch]:
 
 @contextlib.contextmanager
 def atomic_write(
-    path: str | os.PathLike[str],
-    mode: str = "w",
-    encoding: str | None = "utf-8",
-    newline: str | None = None,
-) -> Iterator[IO[Any]]:
-    """``with atomic_write(path) as f:`` — ``f`` is a temporary sibling of ``path``, renamed
-    over it when the block ends normally; removed, with ``path`` untouched, if it raises."""
+    path: str | os.PathLike[str], encoding: str | None = "utf-8", newline: str | None = None
+) -> Iterator[TextIO]:
+    """``with atomic_write(path) as f:`` — ``f`` is a text file, a temporary sibling of
+    ``path``, renamed over it when the block ends normally; removed, with ``path``
+    untouched, if it raises. (Binary files and several at once: :func:`atomic_files`.)"""
     with atomic_files() as batch:
-        yield batch.open(path, mode, encoding, newline)
+        yield batch.open(path, "w", encoding, newline)
