@@ -28,27 +28,12 @@ import pytest
 from eodarm import atomic
 from eodarm.cli import main
 from eodarm.data.datasets import bundled_arm_path
+from test_door import cli, one_line
 
 SEED_ARM = bundled_arm_path("seed2022")
 SEED = SEED_ARM.with_name("measurements.csv")
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "example_arm.toml"
 PREVIOUS = "the previous result, which must survive\n" * 40
-
-
-def cli(capsys: pytest.CaptureFixture[str], *argv: Any) -> tuple[int, str, str]:
-    capsys.readouterr()
-    code = main([str(a) for a in argv])
-    out = capsys.readouterr()
-    return code, out.out, out.err
-
-
-def one_line(code: int, err: str) -> str:
-    """A refusal: exit 2 and exactly one line on stderr."""
-    lines = err.splitlines()
-    assert code == 2, err
-    assert len(lines) == 1, err
-    assert lines[0].startswith("eodarm: error: "), err
-    return lines[0]
 
 
 def leftovers(folder: Path) -> list[str]:

@@ -37,6 +37,7 @@ import numpy.typing as npt
 
 from eodarm.atomic import (
     KILL_AT_ENV,
+    _fsync_path,
     _kill_point,
     _remove,
     clean_leftovers,
@@ -165,6 +166,7 @@ def save(ds: xr.Dataset, path: str | os.PathLike[str]) -> None:
                 ds.to_zarr(tmp, mode="w", consolidated=True)
         else:
             _netcdf3(ds).to_netcdf(tmp, engine="scipy")
+            _fsync_path(tmp)  # on disk before it replaces a previous result
         _kill_point("save-written")
         replace(tmp, out)
     except KeyboardInterrupt:
