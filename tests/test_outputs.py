@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import errno
 import os
+import stat
 import subprocess
 import sys
 from collections.abc import Callable, Iterator
@@ -139,6 +140,7 @@ def test_an_existing_output_is_refused_without_force_and_replaced_with_it(
 ) -> None:
     out = work / out_name(c)
     out.write_text(PREVIOUS)
+    out.chmod(0o640)
     code, _, err = cli(capsys, *c.argv(out.name))
     line = one_line(code, err)
     assert f"{c.flag} {out.name}: exists; give --force" in line
@@ -146,6 +148,7 @@ def test_an_existing_output_is_refused_without_force_and_replaced_with_it(
     code, _, err = cli(capsys, *c.argv(out.name), "--force")
     assert code == 0, err
     assert out.read_text() != PREVIOUS and out.stat().st_size > 0
+    assert stat.S_IMODE(out.stat().st_mode) == 0o640  # the previous file's permissions
     assert leftovers(work) == []
 
 

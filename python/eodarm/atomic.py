@@ -234,12 +234,6 @@ class Batch:
         self._files[-1] = (out, tmp, f)
         return f
 
-    def path(self, path: str | os.PathLike[str]) -> Path:
-        """Where to write ``path``'s content by other means (a library that takes a path)."""
-        tmp = self._add(path)[1]
-        _remove(tmp)
-        return tmp
-
     def _add(self, path: str | os.PathLike[str]) -> tuple[Path, Path]:
         out = Path(path)
         if any(o == out for o, _, _ in self._files):
@@ -256,8 +250,6 @@ class Batch:
                 f.flush()
                 os.fsync(f.fileno())
                 f.close()
-            else:
-                _fsync_path(tmp)
             with contextlib.suppress(OSError):  # a previous file's permissions are kept
                 os.chmod(tmp, stat.S_IMODE(os.stat(out).st_mode))
         _kill_point("atomic-written")
