@@ -103,6 +103,11 @@ class Candidate:
     delta_chi2: float
     confused_with: list[str] = field(default_factory=list)
 
+    def __repr__(self) -> str:
+        from eodarm.analysis.diagnosis_display import candidate_repr
+
+        return candidate_repr(self)
+
     def to_json(self) -> dict[str, Any]:
         i = self.fit.slots.index(self.slot)
         value = self.fit.estimate(i)
@@ -110,7 +115,7 @@ class Candidate:
             "effect": self.slot.name,
             "at": self.slot.at,
             "estimate": {self.slot.kind.param: value if math.isfinite(value) else None},
-            "rms": self.fit.rms(),
+            "rms": dict(self.fit.rms),
             "chi2_per_dof": self.fit.chi2_per_dof,
             "confused_with": list(self.confused_with),
         }
@@ -151,6 +156,16 @@ class Diagnosis:
     examined: list[Acceptance] = field(default_factory=list)
     significance: float = math.nan
 
+    def __repr__(self) -> str:
+        from eodarm.analysis.diagnosis_display import diagnosis_repr
+
+        return diagnosis_repr(self)
+
+    def _repr_html_(self) -> str:
+        from eodarm.analysis.diagnosis_display import diagnosis_html
+
+        return diagnosis_html(self)
+
     @property
     def suggested_explains(self) -> bool:
         """Whether a set is suggested, i.e. accepted by the rule (it explains the data within
@@ -167,7 +182,7 @@ class Diagnosis:
         out: dict[str, Any] = {
             "model": [s.spec for s in self.model],
             "baseline": {
-                "rms": self.baseline.rms(),
+                "rms": dict(self.baseline.rms),
                 "chi2_per_dof": self.baseline.chi2_per_dof,
             },
             "verdict": self.verdict,

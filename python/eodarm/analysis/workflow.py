@@ -95,7 +95,7 @@ def investigate(
         return {
             "label": label,
             "effects": [s.key for s in res.slots],
-            "rms": res.rms(),
+            "rms": dict(res.rms),
             "cv_rms": dict(cvr["rms"]) if cvr else None,
             "cv": cvr if do_cv else None,
             "cv_chi2": cv_chi2,

@@ -35,7 +35,6 @@ def run(args: argparse.Namespace) -> int:
 
     from eodarm.analysis.crossval import cross_validate
     from eodarm.analysis.fit import FitWarning, check_validity, compare
-    from eodarm.analysis.handover import model_inadequacy, settle
     from eodarm.analysis.outliers import outlier_table, robust_fit
 
     if args.output:
@@ -79,9 +78,10 @@ def run(args: argparse.Namespace) -> int:
         for i, why in undetermined
     ]
     if args.output:
-        final = settle(res, exclude=flagged if flagged.any() else None)
-        inad = model_inadequacy(final)
-        doc["fitted_file"] = _write_fitted(final, inad, args.output, args.measurements)
+        # the fit settled, its inadequacy and the [fit] table: FitResult.to_arm, the same
+        # arm a script gets (the outliers robust_fit left out stay out)
+        fitted = res.to_arm(data=args.measurements)
+        doc["fitted_file"] = _write_fitted(fitted, res.problem.arm, args.output)
     if args.json:
         print(json.dumps(doc, allow_nan=False))
     else:
@@ -172,22 +172,18 @@ def _print_fit(
         )
 
 
-def _write_fitted(res: Any, inad: Any, path: str, data: str) -> dict[str, Any]:
+def _write_fitted(fitted: Any, arm: Any, path: str) -> dict[str, Any]:
     """The fitted arm file, whole or not at all (eodarm.atomic). The input
-    arm file's text is the template, so its comments and layout survive. Says in a line
-    each what was fixed at a bound and when the model does not explain its data; returns
-    that for the JSON output (``bounded``, ``explained``, ``sigma_model``)."""
-    import hashlib
+    arm file's text (``arm.source``) is the template, so its comments and layout survive.
+    Says in a line each what was fixed at a bound and when the model does not explain its
+    data; returns that for the JSON output (``bounded``, ``explained``, ``sigma_model``)."""
     from pathlib import Path
 
-    from eodarm.analysis.handover import fitted_arm
     from eodarm.atomic import atomic_write
     from eodarm.model.uncertainty import inadequacy_note
     from eodarm.viz.format import value
 
-    digest = hashlib.sha256(Path(data).read_bytes()).hexdigest()
-    fitted = fitted_arm(res, data=Path(data).name, data_sha256=digest, inadequacy=inad)
-    source = Path(res.problem.arm.source)
+    source = Path(arm.source)
     template = None
     if source.suffix == ".toml" and source.is_file():
         template = source.read_text(encoding="utf-8-sig")
@@ -217,11 +213,12 @@ def _write_fitted(res: Any, inad: Any, path: str, data: str) -> dict[str, Any]:
     line = inadequacy_note(fitted)
     if line:
         _note(line)
+    record = fitted.fit
     return {
         "path": str(out),
         "bounded": bounded,
-        "explained": inad.explained,
-        "sigma_model": inad.sigma_model,
+        "explained": record.explained,
+        "sigma_model": dict(record.sigma_model),
     }
 
 

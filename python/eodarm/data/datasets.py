@@ -80,6 +80,20 @@ class Dataset:
     measurements: Measurements
     tables: dict[str, Any] = field(default_factory=dict)
 
+    def __repr__(self) -> str:
+        from eodarm import reprs
+
+        tables = ", ".join(self.tables) or "not loaded"
+        return reprs.block(
+            f"Dataset {self.name}: {self.description}",
+            [
+                f"arm: '{self.arm.name}', {self.arm.n} links (calibrated; also arm_published)",
+                f"measurements: {self.measurements.n_rows} states ({self.measurements.source})",
+                f"tables: {tables}",
+                f"files: {self.root}",
+            ],
+        )
+
     @property
     def notes(self) -> str:
         return (self.root / "NOTES.md").read_text(encoding="utf-8")

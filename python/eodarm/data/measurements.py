@@ -182,6 +182,9 @@ class Measurements:
         degrees of freedom, or ``"default"`` with the reason). Read-only mapping. A
         :meth:`subset` keeps the records (and sigmas) estimated on the whole data: the noise
         is a property of the instrument, not of the rows selected.
+    sha256 : SHA-256 (hex) of the file's bytes as they were read, for the ``[fit]`` table
+        of a model fitted to them (``data_sha256``); empty for data that did not come whole
+        from one file (arrays, a DataFrame, a :meth:`subset`).
     """
 
     source: str
@@ -202,6 +205,7 @@ class Measurements:
     step: npt.NDArray[np.int64] | None = None
     # None means "no reference rows"; __post_init__ replaces it by the (N,) array
     reference: npt.NDArray[np.bool_] = field(default=None)  # type: ignore[arg-type]
+    sha256: str = ""
 
     def __post_init__(self) -> None:
         n = int(self.n)
@@ -267,6 +271,16 @@ class Measurements:
         object.__setattr__(self, "sigma_columns", bool(self.sigma_columns))
 
     # ------------------------------------------------------------------ views
+    def __repr__(self) -> str:
+        from eodarm.data.display import measurements_repr
+
+        return measurements_repr(self)
+
+    def _repr_html_(self) -> str:
+        from eodarm.data.display import measurements_html
+
+        return measurements_html(self)
+
     @property
     def n_rows(self) -> int:
         """Number of states (rows)."""
@@ -381,6 +395,7 @@ class Measurements:
             sigma_pooled=self.sigma_pooled[idx],
             step=None if self.step is None else self.step[idx],
             reference=self.reference[idx],
+            sha256="",  # no longer the whole file's data
         )
 
     def to_dataframe(self) -> pd.DataFrame:
@@ -535,8 +550,10 @@ def build(
     *,
     unknown_is_error: bool = False,
     stacklevel: int = 3,
+    sha256: str = "",
 ) -> Measurements:
-    """Validate a table (header + rows of cells) and build :class:`Measurements`."""
+    """Validate a table (header + rows of cells) and build :class:`Measurements`
+    (``sha256``: of the file's bytes, :attr:`Measurements.sha256`)."""
     channels = channel_names(n)
     chan_set = set(channels)
     alphas = [f"alpha{i + 1}_deg" for i in range(n)]
@@ -723,4 +740,5 @@ def build(
         noise=noise,
         step=step if has_step else None,
         reference=reference,
+        sha256=sha256,
     )

@@ -7,6 +7,7 @@ assembly of every row are :class:`Measurements`' own (``eodarm.data.measurements
 from __future__ import annotations
 
 import csv
+import hashlib
 import io
 import math
 import warnings
@@ -23,18 +24,21 @@ if TYPE_CHECKING:
     import pandas as pd
 
 from eodarm.data.measurements import Cell, MeasurementFileError, Measurements, build
+from eodarm.errors import ArgumentTypeError
+from eodarm.model.arm import Arm
 
 __all__ = ["from_dataframe", "read_measurements"]
 
 
 # ---------------------------------------------------------------------------- reading
-def read_measurements(path: str | Path | TextIO, n: int) -> Measurements:
-    """Read and validate a measurement file (docs/formats.md §3) for an ``n``-link arm.
+def read_measurements(path: str | Path | TextIO, arm: Arm | int) -> Measurements:
+    """Read and validate a measurement file (docs/formats.md §3) for an arm.
 
     Parameters
     ----------
     path : file name, or an open text (or binary, UTF-8) file.
-    n : number of links of the arm (``arm.n``).
+    arm : the arm the data were measured on (:class:`~eodarm.model.arm.Arm`), or its number
+        of links ``n``: the file's channels are those of an ``n``-link arm.
 
     Returns
     -------
@@ -46,14 +50,15 @@ def read_measurements(path: str | Path | TextIO, n: int) -> Measurements:
     MeasurementFileError
         If the file cannot be read, is empty or header-only, misses a required column, has a
         column for a link beyond ``n``, or has bad rows (all of them listed in one message with
-        their lines and columns).
+        their lines and columns); :class:`~eodarm.errors.ArgumentTypeError` (one line) for an
+        ``arm`` that is neither an Arm nor a number of links.
 
     Warns
     -----
     UserWarning
         Once, listing the columns that are not part of the contract (they are ignored).
     """
-    channel_names(n)
+    n = links_of(arm, "read_measurements")
     if isinstance(path, (str, Path)):
         source = str(path)
         try:
@@ -66,6 +71,7 @@ def read_measurements(path: str | Path | TextIO, n: int) -> Measurements:
     else:
         source = str(getattr(path, "name", "<stream>"))
         raw = _read_capped(path, source)
+    digest = hashlib.sha256(raw).hexdigest() if isinstance(raw, bytes) else ""
     if isinstance(raw, bytes):
         try:
             raw = raw.decode("utf-8-sig")
@@ -109,7 +115,20 @@ def read_measurements(path: str | Path | TextIO, n: int) -> Measurements:
             UserWarning,
             stacklevel=2,
         )
-    return build(header, list(body), n, source, stacklevel=3)
+    return build(header, list(body), n, source, stacklevel=3, sha256=digest)
+
+
+def links_of(arm: Arm | int, where: str) -> int:
+    """The number of links of ``arm``: an :class:`~eodarm.model.arm.Arm`'s ``n``, or a
+    number of links itself (the older way of calling the readers)."""
+    if isinstance(arm, Arm):
+        return arm.n
+    if isinstance(arm, bool) or not isinstance(arm, (int, np.integer)):
+        raise ArgumentTypeError(
+            f"{where}: arm must be an eodarm.Arm (or its number of links), got {type(arm).__name__}"
+        )
+    channel_names(int(arm))  # an integer >= 1, or one line saying so
+    return int(arm)
 
 
 #: Largest measurement file read, bytes: about 600 000 rows of the seed's 19 columns, far
@@ -159,8 +178,9 @@ def _delimiter(text: str, source: str) -> str:
     return ","
 
 
-def from_dataframe(df: pd.DataFrame, n: int, source: str = "<DataFrame>") -> Measurements:
-    """Measurements from a pandas DataFrame with the file's columns, validated like a file.
+def from_dataframe(df: pd.DataFrame, arm: Arm | int, source: str = "<DataFrame>") -> Measurements:
+    """Measurements from a pandas DataFrame with the file's columns, validated like a file,
+    for ``arm`` (an :class:`~eodarm.model.arm.Arm` or its number of links).
 
     ``NaN``/``None`` cells are empty cells; string cells are parsed as in a file; numbers are
     taken as they are. Row r is reported as line r + 2 (as if written to a CSV with its header),
@@ -169,7 +189,7 @@ def from_dataframe(df: pd.DataFrame, n: int, source: str = "<DataFrame>") -> Mea
     """
     import pandas as pd
 
-    channel_names(n)
+    n = links_of(arm, "from_dataframe")
     cols = list(df.columns)
     header = [c if isinstance(c, str) else repr(c) for c in cols]
     lines: list[int]

@@ -151,6 +151,11 @@ class FitRecord:
             kin = [v for c, v in known.items() if c[:6] == channel[:6] and c.endswith("_deg")]
         return max(kin) if kin else math.nan
 
+    def __repr__(self) -> str:
+        from eodarm.model.arm_display import record_repr
+
+        return record_repr(self)
+
     def matrix(self) -> np.ndarray:
         """The covariance as a (P, P) float array."""
         k = len(self.parameters)
@@ -359,6 +364,16 @@ class Arm:
         )
 
     # ------------------------------------------------------------------ views
+    def __repr__(self) -> str:
+        from eodarm.model.arm_display import arm_repr
+
+        return arm_repr(self)
+
+    def _repr_html_(self) -> str:
+        from eodarm.model.arm_display import arm_html
+
+        return arm_html(self)
+
     @property
     def n(self) -> int:
         """Number of links (and actuators)."""
