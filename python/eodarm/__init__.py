@@ -46,6 +46,9 @@ _PUBLIC = {
     "compensate": "eodarm.analysis.compensate",
     "sweep": "eodarm.workspace.sweep",
 }
+#: Public modules under their own name, imported on first use too: ``eodarm.datasets.load``,
+#: ``eodarm.reference.solve``.
+_MODULES = ("datasets", "reference")
 
 __all__ = [
     "CATALOGUE",
@@ -82,6 +85,8 @@ __all__ = [
 
 
 def __getattr__(name: str) -> Any:
+    if name in _MODULES:
+        return importlib.import_module(f"eodarm.{name}")  # the import binds it here
     where = _PUBLIC.get(name)
     if where is None:
         raise AttributeError(f"module 'eodarm' has no attribute '{name}'")
@@ -91,10 +96,11 @@ def __getattr__(name: str) -> Any:
 
 
 def __dir__() -> list[str]:
-    return sorted({*globals(), *_PUBLIC})
+    return sorted({*globals(), *_PUBLIC, *_MODULES})
 
 
 if TYPE_CHECKING:
+    from eodarm import datasets, reference
     from eodarm.analysis.compensate import compensate
     from eodarm.analysis.crossval import cross_validate
     from eodarm.analysis.diagnose import Diagnosis, diagnose
