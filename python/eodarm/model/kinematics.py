@@ -65,14 +65,20 @@ def _check_backend(backend: str) -> None:
         raise InputError(f"backend must be 'rust' or 'numpy', got {backend!r}")
 
 
-def _poses(values: npt.ArrayLike, n: int, name: str) -> npt.NDArray[np.float64]:
-    """(N, n) contiguous float64, or a clear InputError naming the shape or the row."""
+def _floats(values: npt.ArrayLike, name: str, what: str) -> npt.NDArray[np.float64]:
+    """``values`` as a float64 array, or an InputError: ``<name>: cannot be read as <what>``
+    (or :func:`~eodarm.model.kinds.real_array`'s own refusal of booleans, text …)."""
     try:
-        a = np.asarray(real_array(values, name), dtype=float)
+        return np.asarray(real_array(values, name), dtype=float)
     except (TypeError, ValueError, OverflowError) as exc:
         if isinstance(exc, InputError):
             raise
-        raise InputError(f"{name}: cannot be read as an array of finite numbers") from None
+        raise InputError(f"{name}: cannot be read as {what}") from None
+
+
+def _poses(values: npt.ArrayLike, n: int, name: str) -> npt.NDArray[np.float64]:
+    """(N, n) contiguous float64, or a clear InputError naming the shape or the row."""
+    a = _floats(values, name, "an array of finite numbers")
     if a.ndim == 1 and a.shape[0] == n:
         a = a[None, :]
     if a.ndim != 2 or a.shape[1] != n:
@@ -118,12 +124,9 @@ def _core_arm(arm: Arm) -> Any:
 
 
 def _per_row(values: npt.ArrayLike, rows: int, name: str) -> npt.NDArray[np.float64]:
-    try:
-        a = np.asarray(real_array(values, name), dtype=float)
-    except (TypeError, ValueError, OverflowError) as exc:
-        if isinstance(exc, InputError):
-            raise
-        raise InputError(f"{name}: cannot be read as finite numbers") from None
+    """(rows,) finite float64 of a scalar or (rows,) ``values``, or an InputError naming the
+    shape or the row."""
+    a = _floats(values, name, "finite numbers")
     if a.ndim == 0:
         a = np.full(rows, float(a))
     if a.shape != (rows,):
@@ -142,12 +145,7 @@ def _poses_and_masses(
     mass (a scalar or (1,)) N rows, N poses with N masses N rows; anything else is an
     InputError naming both shapes (docs/python.md, "Broadcasting")."""
     alpha = _poses(alpha_deg, n, "alpha_deg")
-    try:
-        mass = np.asarray(real_array(mass_kg, "mass_kg"), dtype=float)
-    except (TypeError, ValueError, OverflowError) as exc:
-        if isinstance(exc, InputError):
-            raise
-        raise InputError("mass_kg: cannot be read as finite numbers") from None
+    mass = _floats(mass_kg, "mass_kg", "finite numbers")
     rows = alpha.shape[0]
     if mass.ndim == 1 and mass.shape[0] not in (1, rows) and rows == 1:
         rows = mass.shape[0]

@@ -179,7 +179,9 @@ def solve_payload(
     out: Mapping[str, npt.NDArray[Any]] | None = None,
     strict: bool = False,
 ) -> Arrays:
-    """Like :func:`solve`, with any payload force vector (N, 2) in N at the load point."""
+    """Like :func:`solve`, with any payload force vector (N, 2) in N at the load point; one
+    pose with (M, 2) payloads is that pose under each (M rows), one payload (2,) or (1, 2)
+    goes with every pose."""
     check_arm(arm, "solve_payload")
     _check_memory(alpha_deg, arm.n, payload_n)
     return _solve_payload(
