@@ -407,7 +407,7 @@ def test_a_decimal_comma_is_named_as_such(tmp_path: Path) -> None:
     path.write_text(text.replace("115.6", "115,6", 1))
     with pytest.warns(UserWarning), pytest.raises(MeasurementFileError) as err:
         read_measurements(path, 3)
-    assert "line 2: alpha1_deg '115,6' is not a number (a decimal comma? write 115.6)" in str(
+    assert "line 2: alpha1_deg '115,6': a decimal comma? (write 115.6)" in str(
         err.value
     )
 

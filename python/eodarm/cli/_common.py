@@ -426,6 +426,23 @@ def _free_name(name: str) -> str:
     return str(p)
 
 
+def file_part(label: str, taken: set[str] | None = None) -> str:
+    """A label (a configuration's, say) as part of a file name: every character but
+    letters, digits, ``.``, ``-`` and ``_`` becomes ``_`` (a ``/`` would name a folder, a
+    NUL no file at all), cut to 60 characters. With ``taken`` (the parts given so far, to
+    which the new one is added), ``-2``, ``-3`` … make two labels that differ only in such
+    characters two files."""
+    import re
+
+    base = re.sub(r"[^A-Za-z0-9._-]", "_", str(label))[:60].lstrip(".") or "_"
+    name, k = base, 2
+    while taken is not None and name in taken:
+        name, k = f"{base}-{k}", k + 1
+    if taken is not None:
+        taken.add(name)
+    return name
+
+
 def _force_arg(p: argparse.ArgumentParser, what: str) -> None:
     """``--force``: overwrite ``what`` (refused without it; docs/terminal.md, "Nothing
     overwritten without asking")."""

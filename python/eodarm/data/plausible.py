@@ -46,6 +46,7 @@ import numpy.typing as npt
 
 from eodarm.data.channels import channel_values
 from eodarm.data.measurements import MAX_LISTED, MeasurementFileError, Measurements
+from eodarm.errors import listing, show_source
 from eodarm.model.arm import Arm
 
 __all__ = ["GRAMS_FACTOR", "RADIAN_CHI2_RATIO", "check_states", "own_mass_kg"]
@@ -160,11 +161,12 @@ def _check_radians(arm: Arm, meas: Measurements, self_weight: bool) -> None:
         why = ""
     if why:
         raise MeasurementFileError(
-            f"{meas.source}: every alphaK_deg is within ±2π: the angles look like radians "
+            f"{show_source(meas.source)}: every alphaK_deg is within ±2π: the angles look like "
+            "radians "
             f"({example}; {why}); give degrees (multiply by 180/π)"
         )
     warnings.warn(
-        f"{meas.source}: every alphaK_deg is within ±2π, read as degrees ({example}); "
+        f"{show_source(meas.source)}: every alphaK_deg is within ±2π, read as degrees ({example}); "
         "convert them if they are radians",
         UserWarning,
         stacklevel=3,
@@ -234,16 +236,19 @@ def check_states(arm: Arm, meas: Measurements, self_weight: bool = True) -> None
             bad[int(r)] = f"mass_kg {mass[r]:g}: {why} under this load{hint}"
     if bad:
         order = sorted(bad)
-        listed = "; ".join(f"line {int(lines[r])}: {bad[r]}" for r in order[:MAX_LISTED])
+        where = show_source(meas.source)
         if len(order) == 1:
             raise MeasurementFileError(
-                f"{meas.source} line {int(lines[order[0]])}: {bad[order[0]]} (a data or "
+                f"{where} line {int(lines[order[0]])}: {bad[order[0]]} (a data or "
                 "geometry problem, not the model's)"
             )
-        more = "; …and more" if len(order) > MAX_LISTED else ""
+        counted = f"{'at least ' if len(order) > MAX_LISTED else ''}{len(order)}"
         raise MeasurementFileError(
-            f"{meas.source}: {len(order)} states that this arm cannot take, a data or "
-            f"geometry problem, not the model's: {listed}{more}"
+            listing(
+                f"{where}: {counted} states that this arm cannot take, a data or geometry "
+                "problem, not the model's",
+                [f"line {int(lines[r])}: {bad[r]}" for r in order],
+            )
         )
     if out is None or "status" not in out:
         return
@@ -257,8 +262,10 @@ def check_states(arm: Arm, meas: Measurements, self_weight: bool = True) -> None
             grams = suspects[ok]
             if grams.size:
                 warnings.warn(
-                    f"{meas.source}: under mass_kg the deflection leaves the model's validity "
-                    f"on line(s) {', '.join(str(int(lines[r])) for r in grams[:MAX_LISTED])}"
+                    f"{show_source(meas.source)}: under mass_kg the deflection leaves the "
+                    "model's validity on line(s) "
+                    f"{', '.join(str(int(lines[r])) for r in grams[:3])}"
+                    f"{' …' if grams.size > 3 else ''}"
                     f" (e.g. {mass[grams[0]]:g} kg); are the masses in grams?",
                     UserWarning,
                     stacklevel=2,

@@ -52,16 +52,16 @@ def _check_sequences(
         key = (label, int(step[r]))
         if key in seen:
             bad.append(
-                f"line {line[r]}: step {_show(step_cells[r])} repeats within config '{label}' "
-                f"(line {line[seen[key]]})"
+                f"line {line[r]}: step {_show(step_cells[r])} repeats within config "
+                f"'{_show(label)}' (line {line[seen[key]]})"
             )
         else:
             seen[key] = r
         f = first_angles.setdefault(label, r)
         if not np.array_equal(alpha[r], alpha[f]):
             bad.append(
-                f"line {line[r]}: config '{label}' is one sequence, its angles must be those of "
-                f"line {line[f]} ({', '.join(f'{a:g}' for a in alpha[r])} vs "
+                f"line {line[r]}: config '{_show(label)}' is one sequence, its angles must be "
+                f"those of line {line[f]} ({', '.join(f'{a:g}' for a in alpha[r])} vs "
                 f"{', '.join(f'{a:g}' for a in alpha[f])})"
             )
     for label, r in _first_rows(config, step).items():
@@ -69,7 +69,7 @@ def _check_sequences(
         if mass[r] == 0 and np.any(np.isfinite(v) & (v != 0)):
             c = int(np.flatnonzero(np.isfinite(v) & (v != 0))[0])
             bad.append(
-                f"line {line[r]}: the reference row of config '{label}' (mass 0 before any "
+                f"line {line[r]}: the reference row of config '{_show(label)}' (mass 0 before any "
                 f"load) must read 0 or be empty; {channel_names(alpha.shape[1])[c]} is {v[c]:g}"
             )
     return bad
