@@ -614,6 +614,7 @@ def run_records(
         raise EodarmError(f"--min-duration must be > 0 s, got {min_duration_s}")
     camp = read_campaign(campaign)
     drawn: list[str] = []
+    parts: set[str] = set()  # the labels' parts of the figures' names
     draw = None
     if plot_dir or record_figures is not None:
         from eodarm.viz.records_plot import MAX_REPORT_RECORDS, record_figure, record_html
@@ -624,7 +625,7 @@ def run_records(
 
         def draw(record: Any, result: Any) -> None:
             if out is not None:
-                p = out / f"record_{result.spec.config}.png"
+                p = out / f"record_{file_part(result.spec.config, parts)}.png"
                 record_figure(record, result, path=p)
                 drawn.append(str(p))
             if record_figures is not None and len(record_figures) < MAX_REPORT_RECORDS:

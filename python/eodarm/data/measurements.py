@@ -98,7 +98,7 @@ from eodarm.data.noise import (
     sequence_state_groups,
     state_groups,
 )
-from eodarm.data.sequences import _check_sequences, _reference_rows
+from eodarm.data.sequences import _check_sequences, _reference_rows, sequence_rows
 from eodarm.errors import EodarmError, listing, show, show_source
 
 if TYPE_CHECKING:
@@ -305,12 +305,7 @@ class Measurements:
         """
         if self.step is None:
             return [np.array([r], dtype=np.int64) for r in range(self.n_rows)]
-        out = []
-        for label in self.configs:
-            rows = np.flatnonzero((self.config == label) & ~self.reference)
-            if rows.size:
-                out.append(rows[np.argsort(self.step[rows], kind="stable")].astype(np.int64))
-        return out
+        return sequence_rows(self.config, self.step, self.reference)
 
     @property
     def defaulted(self) -> tuple[str, ...]:
