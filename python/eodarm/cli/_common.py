@@ -199,6 +199,50 @@ def _read(
     return meas
 
 
+class _Hinted:
+    """A context whose refusals carry a hint first in their one line (reusable)."""
+
+    def __init__(self, hint: str | None) -> None:
+        self.hint = hint
+
+    def __enter__(self) -> _Hinted:
+        return self
+
+    def __exit__(self, kind: Any, exc: BaseException | None, tb: Any) -> None:
+        if self.hint is None or not isinstance(exc, (EodarmError, ValueError)):
+            return  # ValueError: the core's errors
+        from eodarm.errors import MESSAGE_ROOM, show
+
+        text = f"{self.hint}; {' '.join(str(exc).split())}"  # the likely cause first
+        raise EodarmError(show(text, MESSAGE_ROOM)) from None
+
+
+def _payload_hint(arm: Arm, masses: Sequence[float] | np.ndarray, flag: str = "--mass") -> _Hinted:
+    """The payload hint of :func:`eodarm.data.plausible.payload_hint` for the largest of
+    ``masses`` (``--mass 5000``: is it grams?): a note (held until the command succeeds),
+    and a context whose refusals carry the hint first in their one line:
+    ``with _payload_hint(arm, masses): ...``."""
+    from eodarm.data.plausible import payload_hint
+
+    heavy = float(np.max(masses)) if len(masses) else 0.0
+    hint = payload_hint(heavy, arm)
+    if hint is not None:
+        hint = f"{flag} {hint}"
+        _note(hint)
+    return _Hinted(hint)
+
+
+def _check_data(meas: Measurements, arm: Arm, self_weight: bool, model_kw: Any) -> list[Any]:
+    """The mistakes the data look like (:func:`eodarm.analysis.datacheck.check_data`), each
+    said in a note on stderr (``check the data: …``); the checks, for the JSON."""
+    from eodarm.analysis.datacheck import check_data
+
+    checks = check_data(arm, meas, self_weight, **model_kw)
+    for c in checks:
+        _note(f"check the data: {c.message}")
+    return checks
+
+
 def _unit(channel: str) -> str:
     return "deg" if channel.endswith("_deg") else "mm"
 

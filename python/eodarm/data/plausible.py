@@ -49,7 +49,7 @@ from eodarm.data.measurements import MAX_LISTED, MeasurementFileError, Measureme
 from eodarm.errors import listing, show_source
 from eodarm.model.arm import Arm
 
-__all__ = ["GRAMS_FACTOR", "RADIAN_CHI2_RATIO", "check_states", "own_mass_kg"]
+__all__ = ["GRAMS_FACTOR", "RADIAN_CHI2_RATIO", "check_states", "own_mass_kg", "payload_hint"]
 
 #: The radian reading of angles within ±2π must explain the measured deflections this many
 #: times better (in χ²) than the degree reading for the file to be refused as radians.
@@ -120,6 +120,30 @@ def _chi2(meas: Measurements, out: dict[str, Any] | None, failed: dict[int, str]
 def own_mass_kg(arm: Arm) -> float:
     """The arm's own mass, kg: its links and actuators."""
     return float(sum(x.mass_kg for x in arm.links) + sum(x.mass_kg for x in arm.actuators))
+
+
+def payload_hint(mass_kg: float, arm: Arm) -> str | None:
+    """One line when a payload is more than the arm can plausibly carry, else None.
+
+    The rule: a payload above :data:`GRAMS_FACTOR` (10) times the arm's own mass (its links
+    and actuators, :func:`own_mass_kg`). Arms of this kind carry a fraction of their own
+    weight (the seed's 10 kg arm, 6.5 kg); ten times it loads every actuator and pin far
+    beyond what they were sized for. When ``mass_kg / 1000`` is within that limit the mass
+    was most probably written in grams, and the line says so: ``5000 kg is over 10 times
+    the arm's own 10.1 kg: is it grams? (5 kg)``; the caller puts in front what names the
+    mass (``--mass``, ``masses_kg[3]``, ``line 7 mass_kg``). An arm file without masses (own
+    mass 0) gives no hint. A warning, not a refusal: a light arm with a heavy payload is
+    possible, and the states it cannot take are refused on their own (``check_states``, the
+    solver).
+    """
+    own = own_mass_kg(arm)
+    limit = GRAMS_FACTOR * own
+    if not (own > 0 and math.isfinite(mass_kg) and mass_kg > limit):
+        return None
+    line = f"{mass_kg:g} kg is over {GRAMS_FACTOR:g} times the arm's own {own:.3g} kg"
+    if mass_kg / 1000.0 <= limit:
+        return f"{line}: is it grams? ({mass_kg / 1000.0:g} kg)"
+    return f"{line}: check its unit (kg)"
 
 
 def _outside(out: dict[str, Any] | None, failed: dict[int, str], rows: int) -> int:

@@ -123,7 +123,22 @@ def read_measurements(path: str | Path | TextIO, n: int) -> Measurements:
             UserWarning,
             stacklevel=2,
         )
-    return build(header, list(body), n, source, stacklevel=3)
+    return _with_values(build(header, list(body), n, source, stacklevel=3), name, header)
+
+
+def _with_values(meas: Measurements, name: str, header: list[str]) -> Measurements:
+    """``meas``, refused in one line when it holds no measured value: every cell of its
+    channel columns is empty (or it has none), and nothing could be compared or fitted (a
+    fit of nothing has χ² = 0 and would "explain" it)."""
+    if meas.n_values:
+        return meas
+    cols = [c for c in meas.channels if c in header]
+    what = (
+        f"every cell of {', '.join(cols[:3])}{' …' if len(cols) > 3 else ''} is empty"
+        if cols
+        else "it has no channel column (dx_mm, dy_mm, dalphaK_deg, dlK_mm)"
+    )
+    raise MeasurementFileError(f"{name}: no measured value: {what}; nothing to compare or fit")
 
 
 #: Largest measurement file read, bytes: about 600 000 rows of the seed's 19 columns, far
@@ -205,7 +220,8 @@ def from_dataframe(df: pd.DataFrame, n: int, source: str = "<DataFrame>") -> Mea
         if jc >= 0 and cells[jc] is not None:
             cells[jc] = str(row[keep[jc]])  # a label, even when it looks like a number
         body.append((lines[r], cells))
-    return build(header, body, n, source, stacklevel=3)
+    meas = build(header, body, n, source, stacklevel=3)
+    return _with_values(meas, show_source(source), header)
 
 
 def _df_cell(x: Any) -> Cell:
