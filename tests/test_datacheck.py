@@ -348,3 +348,27 @@ def test_the_report_stops_at_the_first_round_and_says_to_check_the_data(
     assert "Check the data first." in html and "dy_mm looks like metres" in html
     assert "last round (1): check_data" in out
     assert "check the data: dy_mm looks like metres" in " ".join(err.split())
+
+
+def test_payloads_in_grams_are_named_not_every_channel_in_metres() -> None:
+    """A stiff arm (bodies 10⁴ times the example's) closes even under 1000 times its
+    payloads: masses written in grams make the model read 1000 times the data on every
+    channel, the angles too. One check names the masses, not the channels."""
+    d = example_arm().to_dict()
+    for act in d["actuator"]:
+        act["stiffness_n_per_mm"] *= 1e4
+    arm = eodarm.Arm.from_dict(d)
+    alpha = random_configs(arm, 8, 3)
+    meas = synth(arm, alpha, [1.5, 5.0, 6.5], channels="all", noise=1e-3, seed=1)
+    grams = Measurements.from_arrays(
+        meas.config,
+        meas.alpha_deg,
+        meas.mass_kg * 1000.0,
+        {ch: meas.values[:, meas.index(ch)] for ch in meas.channels},
+        {ch: meas.sigma[:, meas.index(ch)] for ch in meas.channels},
+    )
+    (check,) = check_data(arm, grams)
+    assert check.channel == "mass_kg" and check.problem == "scale"
+    assert "mass_kg looks like grams" in check.message and "divide mass_kg by 1000" in check.message
+    assert "is it grams? (6.5 kg)" in check.message
+    assert len("eodarm: " + check.message) < MAX_MESSAGE

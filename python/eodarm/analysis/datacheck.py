@@ -19,6 +19,12 @@ miss the channel beyond its noise (χ² p-value below
 * k between −4 and −1/4, with at least :data:`MIN_SHARE` of the ratios negative: the
   channel's sign is flipped.
 
+When channels read 1/1000 of the model and the payloads are more than the arm can carry
+(:func:`eodarm.data.plausible.payload_hint`: over ten times its own mass, a thousandth of
+it not), the masses are in grams, not the channels in metres: one check names ``mass_kg``
+instead (a mass 1000 times too large makes the model 1000 times too large on every channel,
+the angles too).
+
 Why these rules do not fire on an honest arm that the model gets wrong: no missing effect of
 the catalogue turns a channel over in nearly every state (every compliance, gap and bending
 adds to the sag it shares the load path with; the forces, and so the sign of every body's
@@ -163,8 +169,30 @@ def check_data(
         for j, ch in enumerate(meas.channels)
         if (c := _channel_check(meas, pred, j, ch)) is not None
     ]
+    out = _grams(arm, meas, out)
     zeroed = _zeroed(meas, pred)
     return [*out, *([zeroed] if zeroed is not None else [])]
+
+
+def _grams(arm: Arm, meas: Measurements, checks: list[DataCheck]) -> list[DataCheck]:
+    """Channels that read 1/1000 of the model under payloads that look like grams: the
+    masses are the mistake, not the channels (a mass 1000 times too large makes the model,
+    not the data, 1000 times too large, on every channel, angles too)."""
+    from eodarm.data.plausible import payload_hint
+
+    small = [c for c in checks if c.problem == "scale" and c.ratio < 1]
+    heavy = float(np.max(meas.mass_kg))
+    hint = payload_hint(heavy, arm)
+    if not small or hint is None or "grams" not in hint:
+        return checks
+    row = int(np.argmax(meas.mass_kg))  # the heaviest: the one the hint is about
+    chans = ", ".join(c.channel or "" for c in small[:3]) + (" …" if len(small) > 3 else "")
+    ratio = float(np.median([c.ratio for c in small]))
+    msg = (
+        f"mass_kg looks like grams (line {int(meas.line[row])}: {hint}; and {chans} read "
+        f"{_times(ratio)} the model): divide mass_kg by 1000"
+    )
+    return [DataCheck("mass_kg", "scale", msg, ratio=ratio), *(c for c in checks if c not in small)]
 
 
 def _channel_check(meas: Measurements, pred: FloatArray, j: int, ch: str) -> DataCheck | None:
