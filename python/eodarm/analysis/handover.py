@@ -95,10 +95,14 @@ class Inadequacy:
     noise_rms: dict[str, float]
 
 
-def model_inadequacy(result: Fitted, cv: Mapping[str, Any] | None = None) -> Inadequacy:
+def model_inadequacy(
+    result: Fitted, cv: Mapping[str, Any] | None = None, trusted: bool = True
+) -> Inadequacy:
     """The model part of a prediction's σ, per channel (docs/model.md, "Prediction errors").
 
-    Where the fit explains its data the part is zero. Otherwise each configuration is left out
+    Where the fit explains its data the part is zero, unless ``trusted`` is false (the data
+    look mistaken, :mod:`eodarm.analysis.datacheck`: then the fit is never taken as
+    explaining them, and the part is computed). Otherwise each configuration is left out
     in turn, the model refitted without it and its cells predicted (``cv``, the result of
     :func:`cross_validate` for this fit's model and outliers, is used when given); the part is
     what the held-out residuals' mean square exceeds the measurements' noise by. With a
@@ -109,7 +113,7 @@ def model_inadequacy(result: Fitted, cv: Mapping[str, Any] | None = None) -> Ina
     prob = result.problem
     meas = prob.meas
     measured = [ch for c, ch in enumerate(meas.channels) if prob.use[:, c].any()]
-    if fit_p_value(result) >= P_PASS:
+    if trusted and fit_p_value(result) >= P_PASS:
         return Inadequacy(True, dict.fromkeys(measured, 0.0), {}, {})
     if cv is None and len(meas.configs) >= 2:
         outliers = np.isfinite(meas.values) & ~prob.use
@@ -241,14 +245,19 @@ def fitted_arm(
     )
 
 
-def hand_over(result: Fitted, data: str | os.PathLike[str] | None = None) -> Arm:
+def hand_over(
+    result: Fitted, data: str | os.PathLike[str] | None = None, trusted: bool | None = None
+) -> Arm:
     """What ``eodarm fit ... -o FITTED.toml`` writes, as an :class:`Arm`: the fit settled
     (:func:`settle`, the outlier cells it left out still left out), its model's inadequacy
     (:func:`model_inadequacy`) and the fitted arm (:func:`fitted_arm`).
 
     ``data``: the measurement file named in ``[fit]``, with the SHA-256 of its bytes now;
     None: the measurements' own file and the hash of the bytes they were read from
-    (nothing for data that did not come whole from a file).
+    (nothing for data that did not come whole from a file). ``trusted``: whether a fit
+    consistent with the noise may be written as explaining its data; None: when
+    :func:`eodarm.analysis.datacheck.check_data` finds no mistake in them (as ``eodarm fit``
+    decides).
 
     Raises
     ------
@@ -256,9 +265,15 @@ def hand_over(result: Fitted, data: str | os.PathLike[str] | None = None) -> Arm
         When ``data`` cannot be read.
     """
     prob = result.problem
+    if trusted is None:
+        from eodarm.analysis.datacheck import check_data
+
+        trusted = not check_data(
+            prob.arm, prob.meas, prob.self_weight, prob.model, prob.fem_options
+        )
     outliers = np.isfinite(prob.meas.values) & ~prob.use
     final = settle(result, exclude=outliers if outliers.any() else None)
-    inadequacy = model_inadequacy(final)
+    inadequacy = model_inadequacy(final, trusted=trusted)
     if data is None:
         meas = prob.meas
         name, digest = (Path(meas.source).name, meas.sha256) if meas.sha256 else ("", "")
