@@ -311,3 +311,31 @@ def test_shapes_that_do_not_broadcast_are_refused_naming_both(call, shapes) -> N
     assert "\n" not in msg and len(msg) < 300
     for shape in shapes:
         assert shape in msg, msg
+
+
+def test_to_arm_never_calls_data_that_look_mistaken_explained() -> None:
+    # dl1 in metres: a rigid body "explains" them (χ²/dof < 2), but the data checks of
+    # eodarm fit find the unit slip, and to_arm, like fit -o, does not write explained = true
+    arm = example_arm()
+    meas = synth(arm, random_configs(arm, 8, 11), [1.5, 5.0, 6.5], channels="dl", seed=3)
+    values = meas.values.copy()
+    values[:, meas.index("dl1_mm")] *= 1e-3
+    chans = meas.measured_channels
+    slipped = Measurements.from_arrays(
+        meas.config,
+        meas.alpha_deg,
+        meas.mass_kg,
+        {ch: values[:, meas.index(ch)] for ch in chans},
+        {ch: meas.sigma[:, meas.index(ch)] for ch in chans},
+    )
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", FitWarning)
+        res = eodarm.fit(arm, slipped, ["actuator_compliance@M1"])
+    assert res.chi2_per_dof < 2.0
+    fitted = res.to_arm()
+    assert fitted.fit is not None and fitted.fit.explained is False
+    honest = eodarm.fit(arm, meas, ["actuator_compliance@M1"]).to_arm()
+    assert honest.fit is not None and honest.fit.explained is True
+    # told that the data are trusted, it writes what the χ² test says
+    told = res.to_arm(trusted=True)
+    assert told.fit is not None and told.fit.explained is True
