@@ -313,9 +313,8 @@ def test_shapes_that_do_not_broadcast_are_refused_naming_both(call, shapes) -> N
         assert shape in msg, msg
 
 
-def test_to_arm_never_calls_data_that_look_mistaken_explained() -> None:
-    # dl1 in metres: a rigid body "explains" them (χ²/dof < 2), but the data checks of
-    # eodarm fit find the unit slip, and to_arm, like fit -o, does not write explained = true
+def dl1_in_metres() -> tuple[Measurements, Measurements]:
+    """Honest actuator-sensor data of the example arm, and the same with dl1 in metres."""
     arm = example_arm()
     meas = synth(arm, random_configs(arm, 8, 11), [1.5, 5.0, 6.5], channels="dl", seed=3)
     values = meas.values.copy()
@@ -328,6 +327,14 @@ def test_to_arm_never_calls_data_that_look_mistaken_explained() -> None:
         {ch: values[:, meas.index(ch)] for ch in chans},
         {ch: meas.sigma[:, meas.index(ch)] for ch in chans},
     )
+    return meas, slipped
+
+
+def test_to_arm_never_calls_data_that_look_mistaken_explained() -> None:
+    # dl1 in metres: a rigid body "explains" them (χ²/dof < 2), but the data checks of
+    # eodarm fit find the unit slip, and to_arm, like fit -o, does not write explained = true
+    arm = example_arm()
+    meas, slipped = dl1_in_metres()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", FitWarning)
         res = eodarm.fit(arm, slipped, ["actuator_compliance@M1"])
@@ -339,3 +346,15 @@ def test_to_arm_never_calls_data_that_look_mistaken_explained() -> None:
     # told that the data are trusted, it writes what the χ² test says
     told = res.to_arm(trusted=True)
     assert told.fit is not None and told.fit.explained is True
+
+
+def test_a_diagnosis_of_mistaken_data_says_to_check_them() -> None:
+    arm = example_arm()
+    _, slipped = dl1_in_metres()
+    diag = eodarm.diagnose(arm, slipped)
+    text = repr(diag)
+    assert diag.verdict == "check_data" and len(text) < MAX_REPR
+    assert text.startswith("<Diagnosis: check_data: the data look mistaken")
+    assert "dl1_mm looks like metres" in " ".join(text.split())
+    assert "explains its data" not in text
+    parses(diag._repr_html_())

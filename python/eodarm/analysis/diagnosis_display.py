@@ -53,6 +53,9 @@ def verdict_line(diag: Any) -> str:
             "unexplained: no set of up to three catalogue effects explains the data; best "
             f"effort {best} ({_chi2(fit)})"
         )
+    if diag.verdict == "check_data":
+        k = len(diag.data_checks)
+        return f"check_data: the data look mistaken ({k} check{'s' * (k != 1)}); nothing searched"
     return f"{diag.verdict}: the model explains its data ({_chi2(diag.baseline)})"
 
 
@@ -81,6 +84,8 @@ def diagnosis_repr(diag: Any) -> str:
     ]
     for c in diag.ranking[:RANKED]:
         lines.append(f"  {c.slot.spec} = {_estimate(c)}, {_chi2(c.fit)}")
+    if diag.verdict == "check_data":
+        lines = [lines[0], *(f"check the data: {c.message}" for c in diag.data_checks)]
     if diag.outliers:
         lines.append(f"outliers left out: {len(diag.outliers)} cells")
     return reprs.block(f"Diagnosis: {verdict_line(diag)}", lines)
@@ -97,5 +102,7 @@ def diagnosis_html(diag: Any) -> str:
         ]
         for c in diag.ranking
     ]
+    if diag.verdict == "check_data":
+        rows = [["", c.message, "", "", ""] for c in diag.data_checks]
     headers = ["candidate", "estimate", "χ²/dof", "Δχ²", "confused with"]
     return reprs.html_table(headers, rows, f"Diagnosis: {verdict_line(diag)}", limit=10)
