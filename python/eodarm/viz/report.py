@@ -280,7 +280,7 @@ def _page(
         parts.append(intro_html)
     parts += answer_section(answer, meas, base, final, model_name(**kw))
     if final.slots:
-        parts += parameter_section(final, meas)
+        parts += parameter_section(final, meas, answer.lookalikes)
     parts += _share_section(arm, meas, final, self_weight, kw)
     if final.slots:
         ho = handover or {}

@@ -30,6 +30,7 @@ from eodarm.data.measurements import Measurements
 from eodarm.model.arm import Arm
 from eodarm.viz import html as page
 from eodarm.viz.format import bounded_interval, parameter_name, value, value_error
+from eodarm.viz.report_diagnosis import Lookalike, lookalike_html, lookalikes
 from eodarm.viz.style import channel_unit, short_channel
 
 __all__ = [
@@ -62,6 +63,8 @@ class Answer:
     stopped: str
     left: list[tuple[str, str, float, float]] = field(default_factory=list)
     published: list[tuple[str, float]] = field(default_factory=list)
+    #: the final model's effects that the data cannot tell apart from another candidate
+    lookalikes: list[Lookalike] = field(default_factory=list)
 
 
 def sag_word(meas: Measurements, base: FitResult) -> str | None:
@@ -142,6 +145,8 @@ def make_answer(
             worst = max(per, key=lambda k: per[k])
             left.append((ch, worst, per[worst], per[worst] / _typ_sigma(meas, ch)))
     left.sort(key=lambda t: -t[3])
+    keys = {s.spec for s in final.slots}
+    alike = [x for d in rounds for x in lookalikes(d) if x.member in keys]
     return Answer(
         main=main,
         unit=channel_unit(main),
@@ -159,6 +164,7 @@ def make_answer(
         stopped=stopped,
         left=left,
         published=list(published),
+        lookalikes=alike,
     )
 
 
@@ -186,6 +192,13 @@ def answer_lines(a: Answer) -> list[str]:
             "not cross-validated: fewer than two configurations)"
         ),
     ]
+    for x in a.lookalikes:
+        how = f"; {x.how} would" if x.how else "; no channel or pose found would"
+        lines.append(
+            f"look-alike: {x.member} could as well be {x.alternative}"
+            + (f" = {x.value}" if x.value else "")
+            + f": the data cannot tell them apart{how}"
+        )
     if a.published:
         lines.append("published models: " + "; ".join(f"{n} {v:.3g} {u}" for n, v in a.published))
     if a.left:
@@ -277,7 +290,12 @@ def answer_section(
         "<h2>The answer</h2>",
         f'<p class="answer">Final model: <b>{page.esc(a.model)}</b> '
         f"({a.n_params} parameter{'s' if a.n_params != 1 else ''} fitted jointly, "
-        f"{page.esc(kw_model)}).<br>"
+        f"{page.esc(kw_model)})."
+        + "".join(
+            f'<br><span class="warn">Look-alike: {lookalike_html(x)}.</span>'
+            for x in a.lookalikes
+        )
+        + "<br>"
         f'Last round ({a.rounds}): <span class="verdict {v}">{v}</span> '
         f"{page.esc(_verdict_words(a))}"
         + (
@@ -341,8 +359,11 @@ def _correlation_figure(fit: FitResult) -> Any:
     return fig
 
 
-def parameter_section(fit: FitResult, meas: Measurements) -> list[str]:
-    """The fitted parameters as a table and their correlation as a heat map."""
+def parameter_section(
+    fit: FitResult, meas: Measurements, alike: Sequence[Lookalike] = ()
+) -> list[str]:
+    """The fitted parameters as a table and their correlation as a heat map; ``alike``: the
+    look-alikes of the fitted effects, noted on their rows."""
     flagged = dict(fit.undetermined())
     rows, hl = [], []
     for i, s in enumerate(fit.slots):
@@ -364,6 +385,14 @@ def parameter_section(fit: FitResult, meas: Measurements) -> list[str]:
                 f"NOT DETERMINED ({flagged[i]}): fix it or drop it ({fixed}); to determine "
                 f"it, {determining_channel(s, meas.measured_channels)}"
             )
+        for x in alike:
+            if x.member == s.spec:
+                how = f"; {x.how} would" if x.how else ""
+                note = (note + "; " if note else "") + (
+                    f"LOOK-ALIKE: could as well be {x.alternative}"
+                    + (f" = {x.value}" if x.value else "")
+                    + f" (the data cannot tell them apart{how})"
+                )
         rows.append(
             [
                 f"#{i + 1} {parameter_name(s.name, s.at)}",
@@ -374,7 +403,7 @@ def parameter_section(fit: FitResult, meas: Measurements) -> list[str]:
                 note,
             ]
         )
-        hl.append(i in flagged)
+        hl.append(i in flagged or any(x.member == s.spec for x in alike))
     table = page.table(
         ["parameter", "identifier", "value ± standard error", "95 % interval", "rel.", "note"],
         rows,
