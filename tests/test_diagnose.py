@@ -237,8 +237,11 @@ def test_cli_diagnose_json_is_exactly_the_contract(two_hidden_csv: str) -> None:
     out = run_cli("diagnose", two_hidden_csv, "--arm", str(ARMS_FILE), "--json")
     assert out.returncode == 0, out.stderr
     doc = json.loads(out.stdout)
-    # every key of the contract, plus "noise" (where each channel's sigma came from)
-    assert set(doc) == {"model", "baseline", "verdict", "suggested", "ranking", "noise"}
+    # every key of the contract, plus "noise" (where each channel's sigma came from) and
+    # "alternatives" (the look-alikes of the suggested effects, an object even when empty)
+    keys = {"model", "baseline", "verdict", "suggested", "alternatives", "ranking", "noise"}
+    assert set(doc) == keys
+    assert isinstance(doc["alternatives"], dict)
     assert doc["noise"]["dy_mm"] == {"sigma": None, "source": "given", "dof": None}
     assert set(doc["baseline"]) == {"rms", "chi2_per_dof"}
     assert doc["verdict"] == "missing"
@@ -366,7 +369,16 @@ def test_an_effect_outside_the_catalogue_is_unexplained(
     assert d.verdict == "unexplained"
     assert d.suggested == [] and d.suggested_fit is None
     doc = d.to_json()
-    assert list(doc) == ["model", "baseline", "verdict", "suggested", "best_effort", "ranking"]
+    assert list(doc) == [
+        "model",
+        "baseline",
+        "verdict",
+        "suggested",
+        "alternatives",
+        "best_effort",
+        "ranking",
+    ]
+    assert doc["alternatives"] == {}
     assert doc["suggested"] == []
     best = doc["best_effort"]
     assert set(best) == {"set", "chi2_per_dof", "cv"} and set(best["cv"]) == {"rms"}
@@ -408,6 +420,7 @@ def test_cli_diagnose_says_unexplained_and_shows_what_is_left(
     assert set(doc) == {
         "model",
         "baseline",
+        "alternatives",
         "verdict",
         "suggested",
         "ranking",

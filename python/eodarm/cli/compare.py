@@ -258,7 +258,7 @@ def _write_residuals(path: str, res: FitResult, flagged: Any) -> None:
     chans = list(meas.measured_channels)
     cols = [meas.channels.index(ch) for ch in chans]
     with open(path, "w", newline="", encoding="utf-8") as fh:
-        wr = csv.writer(fh)
+        wr = csv.writer(fh, lineterminator="\n")  # LF, as every file eodarm writes
         head = ["line", "config", "mass_kg"]
         for ch in chans:
             head += [ch, f"model_{ch}", f"residual_{ch}", f"z_{ch}", f"outlier_{ch}"]

@@ -137,7 +137,7 @@ def _write_csv(
         return "" if math.isnan(x) else repr(float(x))
 
     with open(path, "w", encoding="utf-8", newline="") as f:
-        w = csv.writer(f)
+        w = csv.writer(f, lineterminator="\n")  # LF, as every other file eodarm writes
         w.writerow(head)
         for i in range(alpha.shape[0]):
             row = [config[i]] if config is not None else []

@@ -79,7 +79,7 @@ def _param(param: str, unit: str, x: float, name: str = "") -> str:
         # θ = 0: for an actuator body that is a rigid body, for anything else no effect.
         what = "rigid body" if name == "actuator_compliance" else "rigid: absent"
         return f"{param} = ∞ ({what})"
-    return f"{param} = {page.num(x)} {unit}"
+    return f"{param} = {page.num(x, 3)} {unit}"
 
 
 def _estimate(cand: Candidate) -> str:
@@ -306,10 +306,10 @@ def diagnosis_section(meas: Measurements, d: Diagnosis, main: str, unit: str) ->
             [
                 page.Num(o["line"], 6),
                 o["config"],
-                page.Num(o["mass_kg"], 4),
+                value(float(o["mass_kg"])),
                 o["channel"],
-                page.Num(o["measured"], 4),
-                page.Num(o["model"], 4),
+                page.Num(o["measured"], 3),
+                page.Num(o["model"], 3),
                 page.Num(o["z"], 3),
             ]
             for o in d.outliers
@@ -341,7 +341,7 @@ def _advice(d: Diagnosis) -> list[str]:
             ang = ", ".join(f"{v:.1f}" for v in pose["alpha_deg"])
             bits.append(
                 f"add the pose α = ({page.esc(ang)})° at "
-                f"{page.esc(page.num(pose['mass_kg']))} kg (χ² separation "
+                f"{page.esc(value(pose['mass_kg']))} kg (χ² separation "
                 f"{page.esc(page.num(pose['chi2_separation'], 3))} on the channels "
                 "measured now)"
             )
@@ -395,7 +395,7 @@ def rounds_section(rounds: Sequence[Diagnosis], main: str) -> list[str]:
                 str(i + 1),
                 _keys(d.model) or "baseline",
                 page.Num(d.baseline.chi2_per_dof),
-                page.Num(d.baseline.rms().get(main, math.nan), 4),
+                page.Num(d.baseline.rms().get(main, math.nan), 3),
                 d.verdict,
                 named,
                 _round_rule(d),
@@ -434,7 +434,7 @@ def left_section(meas: Measurements, fit: FitResult, what: str) -> list[str]:
 
     pat = residual_pattern(fit)
     cells = [
-        f"{c['channel']} in configuration {c['config']} at {page.num(c['mass_kg'], 4)} kg "
+        f"{c['channel']} in configuration {c['config']} at {value(c['mass_kg'])} kg "
         f"({c['z']:+.1f}σ, line {c['line']})"
         for c in pat.largest[:3]
     ]
@@ -453,7 +453,7 @@ def left_section(meas: Measurements, fit: FitResult, what: str) -> list[str]:
                 ch,
                 page.Num(float(pat.rms_z[j]), 3),
                 page.Num(fit.rms().get(ch, math.nan), 3),
-                f"{pat.configs[i]} at {page.num(pat.payloads[p], 4)} kg",
+                f"{pat.configs[i]} at {value(float(pat.payloads[p]))} kg",
                 page.Num(float(grid[i, p]), 3),
             ]
         )

@@ -30,6 +30,7 @@ from eodarm.data.measurements import Measurements
 from eodarm.model.arm import Arm
 from eodarm.viz import html as page
 from eodarm.viz.format import bounded_interval, parameter_name, value, value_error
+from eodarm.viz.report_cycle import CycleReturn, cycle_return, return_line, return_section
 from eodarm.viz.report_diagnosis import Lookalike, lookalike_html, lookalikes
 from eodarm.viz.style import channel_unit, short_channel
 
@@ -65,6 +66,8 @@ class Answer:
     published: list[tuple[str, float]] = field(default_factory=list)
     #: the final model's effects that the data cannot tell apart from another candidate
     lookalikes: list[Lookalike] = field(default_factory=list)
+    #: load cycles: what they leave at the return to zero payload (None without any)
+    back: CycleReturn | None = None
 
 
 def sag_word(meas: Measurements, base: FitResult) -> str | None:
@@ -165,6 +168,7 @@ def make_answer(
         left=left,
         published=list(published),
         lookalikes=alike,
+        back=cycle_return(meas, base, final, main),
     )
 
 
@@ -192,6 +196,8 @@ def answer_lines(a: Answer) -> list[str]:
             "not cross-validated: fewer than two configurations)"
         ),
     ]
+    if a.back is not None:
+        lines.append(return_line(a.back))
     for x in a.lookalikes:
         how = f"; {x.how} would" if x.how else "; no channel or pose found would"
         lines.append(
@@ -250,7 +256,7 @@ def answer_section(
             page.Num(a.final_cv, 3, f" {u}"),
             page.Num(a.final_cv / s, 2, " σ"),
         ],
-        ["χ²/dof (1 = within the noise)", page.Num(a.base_chi2, 4), page.Num(a.final_chi2, 3), ""],
+        ["χ²/dof (1 = within the noise)", page.Num(a.base_chi2, 4), page.Num(a.final_chi2, 4), ""],
     ]
     # with an arm file that carries effects, the starting model is the file's, not the baseline
     start = "arm file's model" if getattr(base.problem.arm, "effects", ()) else "baseline"
@@ -308,6 +314,7 @@ def answer_section(
         f"{page.num(a.final_rms, 3)} {u}</b> in-sample, " + _held_words(a) + "</p>",
         table,
         pub,
+        *(return_section(a.back, meas, base, final) if a.back is not None else []),
         "<h3>What is left</h3>",
         '<p class="note">For every measured channel, the configuration where the final model '
         "misses most (RMS residual over its payloads), worst first in units of σ.</p>",
@@ -523,7 +530,7 @@ def handover_section(
         f'<p><a download="fitted.toml" href="{uri}">Download the fitted arm file '
         "(fitted.toml)</a>: the arm with the final model's effects at their fitted values, "
         "each with its standard error, and a <code>[fit]</code> table with their covariance "
-        f"(χ²/dof {page.num(final.chi2_per_dof, 3)}, {final.problem.n_values} values). Solving "
+        f"(χ²/dof {page.num(final.chi2_per_dof, 4)}, {final.problem.n_values} values). Solving "
         "it gives exactly the final model of this report, with what the data do not determine "
         f"fixed at its physical end{page.esc(bounded)}.{page.esc(honest)}</p>",
         f"<ul>{items}</ul>",
