@@ -5,7 +5,7 @@ loaded with m, unloaded again. ``return_dx_mm``, ``return_dy_mm`` are the measur
 return relative to the reference: zero for an elastic arm, what the frictions hold (and where
 the gaps sit after the payload pushed them) otherwise.
 
-Three cases, from the cheapest:
+Four cases, from the cheapest:
 
 * nothing holds anything and no gap can be left off-centre: the return is exactly zero;
 * gaps without friction (catalogue effects only): nothing remembers the payload, so the
