@@ -18,7 +18,7 @@ from collections.abc import Sequence
 from typing import Any, NoReturn
 
 from eodarm._version import __version__
-from eodarm.cli._help import HELP
+from eodarm.cli._help import HELP, NEGATIVE_VALUE
 from eodarm.errors import EodarmError
 
 # One BLAS thread unless the user says otherwise, set before numpy is imported (nothing above
@@ -33,11 +33,6 @@ __all__ = ["COMMANDS", "main"]
 
 #: The commands, in the order of ``eodarm --help``: each is the module of that name here.
 COMMANDS = tuple(HELP)
-
-
-#: What argparse takes for a value rather than an option: a negative number, and a list or
-#: a range that starts with one (``--alpha -5,10,0``, ``--alpha3 -20:20:21``).
-NEGATIVE_VALUE = re.compile(r"^-\d+$|^-\d*\.\d+$|^-[\d.]+(:[-\d.]+)+$|^-[\d.]+[,;]")
 
 
 class _Parser(argparse.ArgumentParser):

@@ -21,7 +21,7 @@ from eodarm.cli._common import (
     _say,
     _valued_effect,
 )
-from eodarm.cli._help import HELP
+from eodarm.cli._help import HELP, NEGATIVE_VALUE
 from eodarm.errors import EodarmError
 from eodarm.workspace import store
 from eodarm.workspace.sweep import CHUNK_SIZE, REDUCE_OPS, sweep
@@ -80,8 +80,9 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         "payload capacity and the dominant effect. Without --arm: the bundled seed2022 arm; "
         "without a grid: alpha1 40:130:46, alpha2 -20:40:31, alpha3 -20:20:21 (degrees).",
     )
-    # "--alpha3 -20:20:21" reads the range as a value, not as an option: the parser class
-    # (eodarm.cli._Parser) knows ranges and lists that start with a negative number
+    # "--alpha3 -20:20:21" reads the range as a value, not as an option (argparse only knows
+    # plain negative numbers; eodarm.cli's parser class sets the same for every command)
+    p._negative_number_matcher = NEGATIVE_VALUE
     p.add_argument("--arm", metavar="ARM.toml", help=ARM_HELP)
     for k in range(1, _MAX_LINKS + 1):
         p.add_argument(
