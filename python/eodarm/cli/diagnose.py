@@ -107,7 +107,7 @@ def _candidate(slot: Any) -> str:
 
 
 def _print_diagnosis(d: Any, arm: Arm, meas: Measurements) -> None:
-    from eodarm.viz.format import p_value
+    from eodarm.viz.format import p_value, value
 
     _say(f"diagnose {meas.source} with arm '{arm.name}', model: {_model_words(arm, d.model)}")
     _say(_describe_data(meas))
@@ -142,7 +142,7 @@ def _print_diagnosis(d: Any, arm: Arm, meas: Measurements) -> None:
         if a["channel"]:
             _say(
                 f"measure {a['channel']['channel']}: it separates them by "
-                f"χ² = {a['channel']['chi2_separation']:.3g} on the same poses",
+                f"χ² = {value(a['channel']['chi2_separation'], digits=3)} on the same poses",
                 "  ",
             )
         pose = a["pose"]
@@ -150,7 +150,8 @@ def _print_diagnosis(d: Any, arm: Arm, meas: Measurements) -> None:
             ang = ", ".join(f"{v:.1f}" for v in pose["alpha_deg"])
             _say(
                 f"or add the pose alpha = ({ang}) deg at {pose['mass_kg']:g} kg: "
-                f"χ² = {pose['chi2_separation']:.3g} between them on the measured channels",
+                f"χ² = {value(pose['chi2_separation'], digits=3)} between them on the measured "
+                "channels",
                 "  ",
             )
         elif pose:

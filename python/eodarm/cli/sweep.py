@@ -510,6 +510,8 @@ SUMMARY_QUANTILES_MAX = 10**8
 
 def _summary(ds: xr.Dataset) -> None:
     """A few lines on stdout: the sweep's shape, reachable share, extreme sag and forces."""
+    from eodarm.viz.format import value
+
     dims = ", ".join(f"{d} {s}" for d, s in ds.sizes.items())
     _say(f"arm '{ds.attrs['arm']}', model {ds.attrs['model']}, reduce: {ds.attrs['reduce']}")
     print(f"dimensions: {dims}")
@@ -524,7 +526,7 @@ def _summary(ds: xr.Dataset) -> None:
         if dy_all.size > SUMMARY_QUANTILES_MAX:
             lo, hi = float(dy_all.min()), float(dy_all.max())
             if math.isfinite(lo):
-                print(f"dy over the ok cells: {lo:.4g} … {hi:.4g} mm")
+                print(f"dy over the ok cells: {value(lo)} … {value(hi, 'mm')}")
             dy = np.empty(0)
         else:
             dy = dy_all.values
@@ -532,14 +534,14 @@ def _summary(ds: xr.Dataset) -> None:
         if dy.size:
             q = np.quantile(dy, [0.02, 0.5, 0.98])
             print(
-                f"dy over the ok cells: {dy.min():.4g} … {dy.max():.4g} mm "
-                f"(2 %, 50 %, 98 %: {q[0]:.4g}, {q[1]:.4g}, {q[2]:.4g} mm)"
+                f"dy over the ok cells: {value(dy.min())} … {value(dy.max(), 'mm')} "
+                f"(2 %, 50 %, 98 %: {value(q[0])}, {value(q[1])}, {value(q[2], 'mm')})"
             )
         f = abs(ds["force_n"].where(ds["reachable"]))
         for i in ds["actuator"].values:
             fi = f.sel(actuator=i)
             if bool(np.isfinite(fi).any()):
-                print(f"|F{i}| up to {float(fi.max()):.4g} N")
+                print(f"|F{i}| up to {value(float(fi.max()), 'N')}")
     from eodarm.workspace.uncertainty import summary_lines
 
     for line in summary_lines(ds):

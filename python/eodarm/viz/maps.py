@@ -49,6 +49,7 @@ from eodarm.errors import EodarmError
 from eodarm.model.arm import Arm
 from eodarm.model.effects import Effect
 from eodarm.model.solver import forward
+from eodarm.viz.format import value
 from eodarm.viz.style import PALETTE, PathLike, figure, finish
 from eodarm.workspace.maps import (
     arm_of,
@@ -313,8 +314,6 @@ def log_ticks(cb: Any, lo: float, hi: float, most: int = 5) -> None:
     and no labelled minor ticks: on a narrow or horizontal bar those collide."""
     from matplotlib.ticker import FixedFormatter, FixedLocator, NullFormatter, NullLocator
 
-    from eodarm.viz.format import value
-
     k0, k1 = math.floor(math.log10(lo)), math.ceil(math.log10(hi))
     ticks = [m * 10.0**k for k in range(k0, k1 + 1) for m in (1, 2, 5) if lo <= m * 10.0**k <= hi]
     while len(ticks) > most:
@@ -417,7 +416,8 @@ def sag_map(
         ax.text(
             0.99,
             0.06,
-            f"dy from {dy.min():.3g} to {dy.max():.3g} mm, median {np.median(dy):.3g} mm"
+            f"dy from {value(float(dy.min()), 'mm', 3)} to {value(float(dy.max()), 'mm', 3)}, "
+            f"median {value(float(np.median(dy)), 'mm', 3)}"
             + ("\ncolours span 2–98 % of the poses; arrows: beyond" if clipped else ""),
             transform=ax.transAxes,
             ha="right",
