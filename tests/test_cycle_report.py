@@ -23,7 +23,10 @@ from eodarm.viz.hysteresis import loops
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "example_arm.toml"
 E = eodarm.Effect
 CYCLE = [0.0, 1.5, 5.0, 6.5, 5.0, 1.5, 0.0]
-HIDDEN = [E("mount_compliance", "M1", stiffness_n_per_mm=2500.0), E("joint_friction", "O2", torque_nmm=5000.0)]
+HIDDEN = [
+    E("mount_compliance", "M1", stiffness_n_per_mm=2500.0),
+    E("joint_friction", "O2", torque_nmm=5000.0),
+]
 
 
 @pytest.fixture(scope="module")
@@ -34,9 +37,7 @@ def cycle() -> eodarm.Measurements:
 
 
 @pytest.fixture(scope="module")
-def report(
-    cycle: eodarm.Measurements, tmp_path_factory: pytest.TempPathFactory
-) -> tuple[str, str]:
+def report(cycle: eodarm.Measurements, tmp_path_factory: pytest.TempPathFactory) -> tuple[str, str]:
     """The report's page and what `eodarm report` printed."""
     d = tmp_path_factory.mktemp("cycle_report")
     csv, out = d / "cycle.csv", d / "report.html"
@@ -52,7 +53,9 @@ def report(
 def _worst_return(meas: eodarm.Measurements) -> tuple[str, float]:
     """The sequence whose measured dy at the return to 0 kg is furthest from 0, and that dy."""
     c = meas.index("dy_mm")
-    last = [(str(meas.config[rows[-1]]), float(meas.values[rows[-1], c])) for rows in meas.sequences()]
+    last = [
+        (str(meas.config[rows[-1]]), float(meas.values[rows[-1], c])) for rows in meas.sequences()
+    ]
     return max(last, key=lambda t: abs(t[1]))
 
 
@@ -65,7 +68,9 @@ def test_the_return_to_zero_load_is_on_the_first_screen(
     config, dy = _worst_return(cycle)
     assert dy < -0.05  # the friction holds the arm low: well beyond the 0.02 mm noise
     words = " ".join(answer.split("<h3>The return to zero load</h3>", 1)[1].split())
-    m = re.search(r"in sequence (\S+) the measure point stays ([\d.]+) mm below its reference", words)
+    m = re.search(
+        r"in sequence (\S+) the measure point stays ([\d.]+) mm below its reference", words
+    )
     assert m, words[:400]
     assert m[1] == config
     assert float(m[2]) == pytest.approx(abs(dy), rel=5e-3)  # three significant digits
@@ -102,17 +107,21 @@ def test_the_loops_draw_a_memoryless_baseline_dashed_once(cycle: eodarm.Measurem
     fig = loops(cycle, base, after)
     for ax in fig.axes:
         assert ax.get_ylabel() in ("", "dy [mm]")  # the channel's name and unit, once
-        [dashed] = [c for c in ax.collections if isinstance(c, LineCollection) and c.get_gid() == "before"]
+        [dashed] = [
+            c for c in ax.collections if isinstance(c, LineCollection) and c.get_gid() == "before"
+        ]
         segs = [tuple(map(tuple, np.round(s, 9))) for s in dashed.get_segments()]
         undirected = {tuple(sorted(s)) for s in segs}
         assert len(undirected) == len(segs) == len(CYCLE) // 2  # up to 6.5 kg, never back down
-        offset, dashes = dashed.get_linestyle()[0]
+        _offset, dashes = dashed.get_linestyle()[0]
         assert dashes is not None and len(dashes) == 2  # dashed, not solid
     assert any(ax.get_ylabel() == "dy [mm]" for ax in fig.axes)
 
 
 def test_the_numbers_of_a_cycle_read_one_way(
-    cycle: eodarm.Measurements, report: tuple[str, str], tmp_path: Path,
+    cycle: eodarm.Measurements,
+    report: tuple[str, str],
+    tmp_path: Path,
     capsys: pytest.CaptureFixture[str],
 ) -> None:
     page, _ = report

@@ -12,6 +12,7 @@
 
 from __future__ import annotations
 
+import itertools
 import re
 from pathlib import Path
 
@@ -79,9 +80,7 @@ def test_the_maps_of_one_sweep_agree_on_poses_and_pixels(
         "forces": draw.force_maps(ds, 6.5),
         "uncertainty": sag_uncertainty_map(ds, 6.5),
         "return": return_map(ds, 6.5),
-        "dominant": draw.dominant_effect_map(
-            fitted, {"alpha_deg": GRID}, [], 6.5, progress=False
-        ),
+        "dominant": draw.dominant_effect_map(fitted, {"alpha_deg": GRID}, [], 6.5, progress=False),
         "capacity": draw.capacity_map(fitted, {"alpha_deg": GRID}),
     }
     notes = {k: _note(f) for k, f in figs.items()}
@@ -118,7 +117,7 @@ def test_log_colour_bars_are_labelled_at_round_numbers_that_do_not_overlap(
         labels = [t for t in bar.get_xticklabels() if t.get_text() and t.get_visible()]
         assert len(labels) >= 2
         boxes = sorted((t.get_window_extent(renderer) for t in labels), key=lambda b: b.x0)
-        for a, b in zip(boxes, boxes[1:], strict=False):
+        for a, b in itertools.pairwise(boxes):
             assert a.x1 < b.x0, [t.get_text() for t in labels]  # no two labels overlap
         for t in labels:  # numbers, not powers of ten
             assert "×" not in t.get_text() and "^" not in t.get_text()
@@ -156,9 +155,7 @@ def test_sweep_cycle_names_where_the_arm_comes_back_worst(
         assert float(m[4]) == pytest.approx(float(dist.max()), rel=5e-3)  # 3 digits
         assert float(m[3]) == float(worst["mass_kg"][0])
         angles = [float(a.replace("−", "-")) for a in m[1].split(", ")]
-        assert angles == pytest.approx(
-            [float(worst[f"alpha{k}"][0]) for k in (1, 2, 3)], abs=1e-9
-        )
+        assert angles == pytest.approx([float(worst[f"alpha{k}"][0]) for k in (1, 2, 3)], abs=1e-9)
     # an elastic model: the arm comes back exactly, and the summary says so
     argv = [a for a in argv if a != "joint_friction@O2=3000"]
     argv.remove("--add")

@@ -55,9 +55,7 @@ def _projector(basis: FloatArray) -> Callable[[FloatArray], FloatArray]:
     return lambda x: x - q @ (q.T @ x)
 
 
-def _imitates(
-    v: FloatArray, vv: float, col: FloatArray, lo: float, hi: float
-) -> bool:
+def _imitates(v: FloatArray, vv: float, col: FloatArray, lo: float, hi: float) -> bool:
     """Whether ``coef · col`` with ``lo ≤ coef ≤ hi`` reproduces ``v`` within the noise."""
     cc = float(col @ col)
     if cc == 0:

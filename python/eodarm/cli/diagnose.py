@@ -180,9 +180,7 @@ def suggested_words(d: Any) -> str:
         entry = next((a for a in d.advice if a["pair"] == [s.spec, alts[0]]), None)
         how = separated_by(entry)
         tail = f"; {how} would" if how else "; no channel or pose found would"
-        parts.append(
-            f"{s.label} (or {' or '.join(alts)}: the data cannot tell them apart{tail})"
-        )
+        parts.append(f"{s.label} (or {' or '.join(alts)}: the data cannot tell them apart{tail})")
     return " + ".join(parts)
 
 

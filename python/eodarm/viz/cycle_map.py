@@ -78,7 +78,8 @@ def return_map(
             0.99,
             0.06,
             f"return error from {channel_value(float(v.min()), 'µm')} to "
-            f"{channel_value(float(v.max()), 'µm')}, median {channel_value(float(np.median(v)), 'µm')}",
+            f"{channel_value(float(v.max()), 'µm')}, median "
+            f"{channel_value(float(np.median(v)), 'µm')}",
             transform=ax.transAxes,
             ha="right",
             va="bottom",

@@ -633,8 +633,12 @@ def dominant_effect_map(
         cv.frame(ax)
     cv.legend(ax)
     cv.note(
-        ax, con, d.size, "most deflected", mass, "in the others a part of the model alone "
-        "cannot be solved"
+        ax,
+        con,
+        d.size,
+        "most deflected",
+        mass,
+        "in the others a part of the model alone cannot be solved",
     )
     title = _title(con, "Who makes the sag", mass, width=8.0)
     fig.suptitle(title, fontsize=10)

@@ -208,9 +208,7 @@ def return_section(
     ]
 
 
-def loops_section(
-    meas: Measurements, before: FitResult, after: FitResult, main: str
-) -> list[str]:
+def loops_section(meas: Measurements, before: FitResult, after: FitResult, main: str) -> list[str]:
     """Further down: every channel of every sequence on its loading and unloading branch,
     measured and the fitted model (the loops themselves are on the first screen)."""
     return [

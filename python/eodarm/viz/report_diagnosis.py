@@ -12,8 +12,8 @@ from collections.abc import Sequence
 from typing import Any, NamedTuple
 
 from eodarm.analysis.acceptance import Acceptance
-from eodarm.analysis.consistency import P_PASS
 from eodarm.analysis.confusions import separated_by
+from eodarm.analysis.consistency import P_PASS
 from eodarm.analysis.diagnose import CONFUSION_CHI2, Candidate, Diagnosis
 from eodarm.analysis.fit import FitResult
 from eodarm.analysis.residuals import residual_pattern
@@ -353,7 +353,9 @@ def _advice(d: Diagnosis) -> list[str]:
                 " (no pose separates them with the channels measured now: they act alike "
                 "in every pose)"
             )
-        which = " (the suggested effect and its look-alike, in the set)" if a.get("suggested") else ""
+        which = (
+            " (the suggested effect and its look-alike, in the set)" if a.get("suggested") else ""
+        )
         items.append(f"<li>To tell <b>{page.esc(pair)}</b>{which} apart: {todo}.</li>")
     return items
 

@@ -298,8 +298,7 @@ def answer_section(
         f"({a.n_params} parameter{'s' if a.n_params != 1 else ''} fitted jointly, "
         f"{page.esc(kw_model)})."
         + "".join(
-            f'<br><span class="warn">Look-alike: {lookalike_html(x)}.</span>'
-            for x in a.lookalikes
+            f'<br><span class="warn">Look-alike: {lookalike_html(x)}.</span>' for x in a.lookalikes
         )
         + "<br>"
         f'Last round ({a.rounds}): <span class="verdict {v}">{v}</span> '

@@ -27,8 +27,8 @@ from matplotlib.figure import Figure
 from eodarm.errors import EodarmError
 from eodarm.model.arm import Arm
 from eodarm.model.effects import Effect
-from eodarm.viz.maps import _Canvas, _points, _robust, _select_mass, _title, log_ticks
 from eodarm.viz.format import value
+from eodarm.viz.maps import _Canvas, _points, _robust, _select_mass, _title, log_ticks
 from eodarm.viz.style import PathLike, figure, finish
 from eodarm.workspace.maps import arm_of
 from eodarm.workspace.sweep import sweep
