@@ -491,7 +491,7 @@ def force_maps(
         else:
             cv.frame(ax)
         extra = f"; limit ±{lim:g} N" if lim is not None else ""
-        rng = f"{f.min():.0f} … {f.max():.0f} N" if f.size else "no reachable pose"
+        rng = f"{value(f.min(), digits=4)} … {value(f.max(), 'N', 4)}" if f.size else "no pose ok"
         ax.set_title(f"actuator {i + 1}: F{i + 1} from {rng}{extra}", fontsize=9)
     cv.legend(axes[0])
     cv.note(fig, sel, pts[0][2].size, "largest-|F|", m, "the others' forces are not finite")
