@@ -19,7 +19,7 @@ imitates A's contribution ``v`` when B's best bounded multiple leaves less than 
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -29,9 +29,6 @@ from eodarm.data.measurements import Measurements, default_sigma
 from eodarm.errors import EodarmError
 from eodarm.model.arm import Arm
 from eodarm.model.effects import Slot
-
-if TYPE_CHECKING:
-    from eodarm.analysis.diagnose import Candidate, Diagnosis
 
 __all__ = [
     "CONFUSION_CHI2",
@@ -67,7 +64,7 @@ def _imitates(v: FloatArray, vv: float, col: FloatArray, lo: float, hi: float) -
 
 
 def confusions(
-    ranking: list[Candidate],
+    ranking: list[Any],
     cands: list[Slot],
     am: FloatArray,
     ac: FloatArray,
@@ -75,7 +72,8 @@ def confusions(
     prob: Problem,
     detectable: float,
 ) -> None:
-    """Fill ``confused_with``: B reproduces A's significant contribution within the noise.
+    """Fill ``confused_with`` of each :class:`~eodarm.analysis.diagnose.Candidate` of
+    ``ranking``: B reproduces A's significant contribution within the noise.
 
     A's contribution (whitened, the model's own columns ``am`` projected out) must itself be
     significant (χ² above ``detectable``), and B's best imitation must leave less than
@@ -180,10 +178,11 @@ def alternatives(
 
 
 def advice(
-    arm: Arm, meas: Measurements, diag: Diagnosis, self_weight: bool, kw: Mapping[str, Any]
+    arm: Arm, meas: Measurements, diag: Any, self_weight: bool, kw: Mapping[str, Any]
 ) -> list[dict[str, Any]]:
-    """For the leading candidate's confusions and every suggested effect's alternatives: the
-    unmeasured channel and the pose that separate each pair most, and the friction advice.
+    """For a :class:`~eodarm.analysis.diagnose.Diagnosis` ``diag``: the leading candidate's
+    confusions and every suggested effect's alternatives, the unmeasured channel and the pose
+    that separate each pair most, and the friction advice.
 
     Each entry: ``pair`` (two specs), ``channel`` (``{"channel", "chi2_separation"}`` or
     None), ``pose`` (``{"alpha_deg", "mass_kg", "chi2_separation"}`` or None), ``memory``
