@@ -60,8 +60,10 @@ __all__ = ["build_ladder", "write_report"]
 PathLike = str | os.PathLike[str]
 
 
-def _p_value(p: float) -> page.Num | str:
-    return "< 1e-300" if p <= 0 else page.Num(p, 3)  # the same words as the sets' table
+def _p_value(p: float) -> page.Num | page.Raw:
+    if p <= 0:  # the same words as the sets' table
+        return page.Raw('<span class="num">&lt; 1e-300</span>')
+    return page.Num(p, 3)
 
 
 def _unit(channel: str) -> str:

@@ -204,7 +204,9 @@ def _examined_table(d: Diagnosis) -> str:
             [
                 ", ".join(a.keys),
                 page.Num(a.fit.chi2_per_dof, 4),
-                "< 1e-300" if a.p_value <= 0 else page.Num(a.p_value, 2),
+                page.Raw('<span class="num">&lt; 1e-300</span>')
+                if a.p_value <= 0
+                else page.Num(a.p_value, 2),
                 "yes" if a.consistent else "no",
                 "yes" if a.away_from_bounds else "stuck: " + ", ".join(a.stuck),
                 held,
@@ -276,7 +278,7 @@ def diagnosis_section(meas: Measurements, d: Diagnosis, main: str, unit: str) ->
             "<h3>The sets judged, in search order</h3>",
             '<p class="note">A set is what is missing when, added to the baseline with its '
             "parameters fitted, (a) its χ² is consistent with the noise (p ≥ "
-            f"{page.esc(page.num(P_PASS, 2))}), (b) every parameter is away from its bounds, "
+            f"{page.esc(value(P_PASS))}), (b) every parameter is away from its bounds, "
             "and (c) with three or more configurations, it predicts held-out configurations "
             "(each left out of the fit in turn) no worse than the baseline, in RMS "
             "residual/σ over every measured channel. Sets are judged smallest first, better "
