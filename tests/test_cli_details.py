@@ -114,3 +114,65 @@ def test_the_package_namespace_is_its_api() -> None:
         assert helper not in shown
     for name in eodarm.__all__:  # every name exported resolves
         assert getattr(eodarm, name) is not None
+
+
+# ---------------------------------------------------------------------------- records
+@pytest.fixture(scope="module")
+def campaign(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """Two rehearsal records of the example arm and their campaign file."""
+    d = tmp_path_factory.mktemp("records")
+    argv = ["synth", "--arm", str(EXAMPLE), "--records", str(d / "rec"), "--configs", "2"]
+    assert main([*argv, "--hidden", "joint_friction@O2=3000"]) == 0
+    return d / "rec" / "campaign.toml"
+
+
+def test_synth_records_then_records_hand_the_arm_on(
+    campaign: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """No ``--arm ARM.toml`` placeholder in a next: line: synth hands its arm to records,
+    records to diagnose; without the arm, records says what the next command needs."""
+    argv = ["synth", "--arm", str(EXAMPLE), "--records", str(tmp_path / "rec"), "--configs", "1"]
+    assert main(argv) == 0
+    said = capsys.readouterr().err.replace("\\\n", " ")
+    assert f"--arm {EXAMPLE}" in " ".join(said.split())
+    out = tmp_path / "meas.csv"
+    assert main(["records", str(campaign), "-o", str(out), "--arm", str(EXAMPLE)]) == 0
+    err = " ".join(capsys.readouterr().err.replace("\\\n", " ").split())
+    assert f"next: eodarm diagnose {out} --arm {EXAMPLE}" in err
+    assert "ARM.toml" not in err
+    assert main(["records", str(campaign), "-o", str(tmp_path / "m2.csv")]) == 0
+    err = capsys.readouterr().err
+    assert "eodarm: next:" not in err and "give the arm the records were taken on" in err
+
+
+def test_records_refuses_an_arm_of_other_links(
+    campaign: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from arms import four_link_arm
+
+    arm = tmp_path / "four.toml"
+    arm.write_text(four_link_arm().to_toml(), encoding="utf-8")
+    argv = ["records", str(campaign), "-o", str(tmp_path / "m.csv"), "--arm", str(arm)]
+    assert main(argv) == 2
+    [line] = capsys.readouterr().err.strip().splitlines()
+    assert "3 angles (alpha_deg)" in line and "4 links" in line
+    assert not (tmp_path / "m.csv").exists()
+
+
+def test_a_misspelled_campaign_table_or_key_is_named(
+    campaign: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A [[recrd]] table would drop its records with only a note: refused, with the word
+    meant; ``mass_kg`` for ``masses_kg`` is named in the missing key's message."""
+    text = campaign.read_text(encoding="utf-8")
+    second = text.index("[[record]]", text.index("[[record]]") + 1)
+    bad = campaign.with_name("typo_table.toml")
+    bad.write_text(text[:second] + text[second:].replace("[[record]]", "[[recrd]]", 1))
+    assert main(["records", str(bad), "-o", str(tmp_path / "a.csv")]) == 2
+    [line] = capsys.readouterr().err.strip().splitlines()
+    assert "[[recrd]]" in line and "did you mean [[record]]?" in line
+    bad = campaign.with_name("typo_key.toml")
+    bad.write_text(text.replace("masses_kg", "mass_kg", 1))
+    assert main(["records", str(bad), "-o", str(tmp_path / "b.csv")]) == 2
+    [line] = capsys.readouterr().err.strip().splitlines()
+    assert line.endswith("record 1: missing key 'masses_kg' (is it 'mass_kg'?)")

@@ -346,5 +346,5 @@ def _records(args: argparse.Namespace, arm: Arm) -> int:
     path = write_synth_campaign(args.records, recs, before=refuse_inputs)
     model = ", ".join(f"{e.key}={e.value:g}" for e in hidden) or "none"
     _note(f"wrote {len(recs)} records ({len(seq)} states each; hidden: {model}) and {path}")
-    _next("records", str(path), "-o", _free_name("meas.csv"))
+    _next("records", str(path), "-o", _free_name("meas.csv"), *_arm_argv(args, always=True))
     return 0
