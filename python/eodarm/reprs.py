@@ -5,21 +5,19 @@ Every result a user meets in a shell or a notebook (an arm, measurements, a fit 
 parameters, a diagnosis) prints in a few lines naming what matters (the verdict, the
 parameters, χ²/dof), never its arrays; in Jupyter its ``_repr_html_`` is a small table. The
 pieces are here, below every layer, so that the model's :class:`~eodarm.model.arm.Arm` and
-the analysis' results use the same ones.
+the analysis' results use the same ones; their numbers are :mod:`eodarm.text`'s, the
+formatter of every table, line and page.
 """
 
 from __future__ import annotations
 
 import html
-import math
 from collections.abc import Iterable, Sequence
 
-__all__ = ["MAX_LINES", "block", "html_table", "value", "value_error", "wrap"]
+__all__ = ["MAX_LINES", "block", "html_table", "wrap"]
 
 #: Most lines of a repr; the rest are counted (``… and 12 more``).
 MAX_LINES = 12
-
-_SUPERSCRIPT = str.maketrans("-0123456789", "⁻⁰¹²³⁴⁵⁶⁷⁸⁹")
 
 
 def block(title: str, lines: Iterable[str] = (), limit: int = MAX_LINES) -> str:
@@ -61,59 +59,3 @@ def html_table(
         parts.append("<tr>" + "".join(f"<td>{html.escape(str(c))}</td>" for c in r) + "</tr>")
     parts.append("</table>")
     return "".join(parts)
-
-
-def _with_unit(text: str, unit: str) -> str:
-    return f"{text} {unit}" if unit else text
-
-
-def value(x: float | None, unit: str = "", digits: int = 4) -> str:
-    """``x`` to ``digits`` significant digits with its unit; ``∞`` and ``—`` (undefined)
-    as words."""
-    if x is None or math.isnan(x):
-        return "—"
-    if math.isinf(x):
-        return "∞" if x > 0 else "−∞"
-    x = x + 0.0  # −0 reads as 0
-    if x == 0:
-        return _with_unit("0", unit)
-    exp = math.floor(math.log10(abs(x)))
-    if -5 <= exp < 5:
-        if exp >= digits:
-            x = round(x, digits - 1 - exp)
-        text = f"{x:.{max(digits - 1 - exp, 0)}f}"
-        if "." in text:
-            text = text.rstrip("0").rstrip(".")
-    else:
-        mant = f"{x / 10**exp:.{digits - 1}f}".rstrip("0").rstrip(".")
-        if mant.lstrip("-") == "10":
-            mant, exp = mant.replace("10", "1"), exp + 1
-        text = f"{mant}×10{str(exp).translate(_SUPERSCRIPT)}"
-    return _with_unit(text.replace("-", "−"), unit)
-
-
-def value_error(x: float, err: float, unit: str = "", digits: int = 2) -> str:
-    """``x ± err``, the error to ``digits`` significant digits and the value to the same
-    decimal place; an undefined or infinite error as ``(± ?)``."""
-    if x is None or math.isnan(x):
-        return "—"
-    if math.isinf(x):
-        return value(x, unit)
-    if err is None or not math.isfinite(err) or err < 0:
-        return _with_unit(f"{value(x)} (± ?)", unit)
-    if err == 0:
-        return _with_unit(f"{value(x, digits=6)} ± 0", unit)
-    decimals = digits - 1 - math.floor(math.log10(err))
-    big = max(abs(x), err)
-    scale = math.floor(math.log10(big))
-    if scale >= 5 or scale < -3:
-        d = max(decimals + scale, 0)
-        xs, es = x / 10**scale, err / 10**scale
-        body = f"({xs:.{d}f} ± {es:.{d}f})×10{str(scale).translate(_SUPERSCRIPT)}"
-        return _with_unit(body.replace("-", "−"), unit)
-    if decimals < 0:
-        q = 10 ** (-decimals)
-        return _with_unit(
-            f"{round(x / q) * q:.0f} ± {round(err / q) * q:.0f}".replace("-", "−"), unit
-        )
-    return _with_unit(f"{x:.{decimals}f} ± {err:.{decimals}f}".replace("-", "−"), unit)

@@ -13,6 +13,7 @@ import math
 from typing import Any
 
 from eodarm import reprs
+from eodarm import text as fmt
 
 __all__ = [
     "RANKED",
@@ -27,17 +28,12 @@ RANKED = 5
 
 
 def _chi2(fit: Any) -> str:
-    return f"χ²/dof {reprs.value(fit.chi2_per_dof, digits=3)}"
+    return f"χ²/dof {fmt.value(fit.chi2_per_dof, digits=3)}"
 
 
 def _estimate(cand: Any) -> str:
     i = cand.fit.slots.index(cand.slot)
-    return reprs.value_error(cand.fit.estimate(i), cand.fit.stderr(i), cand.slot.kind.unit)
-
-
-def _p(p: float) -> str:
-    """A p-value, a tiny one as a bound."""
-    return "< 10⁻⁴" if p < 1e-4 else reprs.value(p, digits=2)
+    return fmt.value_error(cand.fit.estimate(i), cand.fit.stderr(i), cand.slot.kind.unit)
 
 
 def verdict_line(diag: Any) -> str:
@@ -63,7 +59,7 @@ def candidate_repr(cand: Any) -> str:
     confused = f", confused with {', '.join(cand.confused_with)}" if cand.confused_with else ""
     return (
         f"<Candidate {cand.slot.spec} = {_estimate(cand)}, {_chi2(cand.fit)}, "
-        f"Δχ² {reprs.value(cand.delta_chi2, digits=3)}{confused}>"
+        f"Δχ² {fmt.value(cand.delta_chi2, digits=3)}{confused}>"
     )
 
 
@@ -71,7 +67,7 @@ def acceptance_repr(acc: Any) -> str:
     named = " + ".join(s.spec for s in acc.added) or "nothing added"
     return (
         f"<Acceptance {named}: {'accepted' if acc.accepted else 'not accepted'} "
-        f"(p {_p(acc.p_value)}, stuck {list(acc.stuck)}, "
+        f"({fmt.p_value(acc.p_value)}, stuck {list(acc.stuck)}, "
         f"predicts held-out {acc.predicts})>"
     )
 
@@ -79,7 +75,7 @@ def acceptance_repr(acc: Any) -> str:
 def diagnosis_repr(diag: Any) -> str:
     model = " + ".join(s.spec for s in diag.model) or "baseline"
     lines = [
-        f"model: {model}, {_chi2(diag.baseline)}, p {_p(diag.p_baseline)}",
+        f"model: {model}, {_chi2(diag.baseline)}, {fmt.p_value(diag.p_baseline)}",
         f"ranking ({len(diag.ranking)} candidates, {diag.sets_searched} sets searched), best:",
     ]
     for c in diag.ranking[:RANKED]:
@@ -96,8 +92,8 @@ def diagnosis_html(diag: Any) -> str:
         [
             c.slot.spec,
             _estimate(c),
-            reprs.value(c.fit.chi2_per_dof, digits=3),
-            reprs.value(c.delta_chi2, digits=3) if math.isfinite(c.delta_chi2) else "—",
+            fmt.value(c.fit.chi2_per_dof, digits=3),
+            fmt.value(c.delta_chi2, digits=3) if math.isfinite(c.delta_chi2) else "—",
             ", ".join(c.confused_with),
         ]
         for c in diag.ranking

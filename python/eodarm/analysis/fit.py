@@ -39,6 +39,7 @@ import numpy as np
 import numpy.typing as npt
 
 from eodarm import reprs
+from eodarm import text as fmt
 from eodarm.analysis.gauss_newton import iterate
 from eodarm.analysis.params import ChannelRms, Param, Params
 from eodarm.analysis.problem import Z95, FitWarning, Problem, _rms
@@ -314,7 +315,7 @@ class FitResult:
             lines = []
         title = (
             f"FitResult: {what} {meas.n_rows} states of {meas.source} "
-            f"({self.problem.n_values} values), χ²/dof {reprs.value(self.chi2_per_dof, digits=4)}"
+            f"({self.problem.n_values} values), χ²/dof {fmt.value(self.chi2_per_dof, digits=4)}"
         )
         return reprs.block(title, [*lines, *reprs.wrap("RMS", self.rms.items_text())])
 
@@ -322,7 +323,7 @@ class FitResult:
         meas = self.problem.meas
         caption = (
             f"{meas.source}: {meas.n_rows} states, {self.problem.n_values} values; "
-            f"χ²/dof {reprs.value(self.chi2_per_dof, digits=4)}; RMS {self.rms.line()}"
+            f"χ²/dof {fmt.value(self.chi2_per_dof, digits=4)}; RMS {self.rms.line()}"
         )
         if self.slots:
             return self.params.html(caption)

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from eodarm import reprs
+from eodarm import text as fmt
 
 __all__ = ["ChannelRms", "Param", "Params"]
 
@@ -64,18 +65,18 @@ class Param:
         N/mm (95 %)``, an undetermined value marked."""
         lo, hi = self.interval
         if self.bound == "lower":
-            return f"≥ {reprs.value(lo, self.unit, 3)} (95 %; only a bound)"
+            return f"≥ {fmt.value(lo, self.unit, 3)} (95 %; only a bound)"
         if self.bound == "upper":
-            return f"≤ {reprs.value(hi, self.unit, 3)} (95 %; only a bound)"
-        text = reprs.value_error(self.value, self.stderr, self.unit)
+            return f"≤ {fmt.value(hi, self.unit, 3)} (95 %; only a bound)"
+        text = fmt.value_error(self.value, self.stderr, self.unit)
         return text if self.determined else f"{text} (not determined)"
 
     def _row(self) -> list[str]:
         lo, hi = self.interval
         return [
             self.name,
-            reprs.value_error(self.value, self.stderr, self.unit),
-            f"{reprs.value(lo, digits=4)} … {reprs.value(hi, self.unit, 4)}",
+            fmt.value_error(self.value, self.stderr, self.unit),
+            fmt.bounded_interval(lo, hi, self.unit, self.stderr),
             "yes" if self.determined else f"no ({self.bound} bound)" if self.bound else "no",
         ]
 
@@ -155,7 +156,7 @@ class ChannelRms(dict[str, float]):
     def items_text(self) -> list[str]:
         """``["dx 0.019 mm", "dy 0.021 mm", "dalpha1 0.02 deg"]``."""
         return [
-            f"{ch.rsplit('_', 1)[0]} {reprs.value(v, ch.rsplit('_', 1)[1], 3)}"
+            f"{ch.rsplit('_', 1)[0]} {fmt.value(v, ch.rsplit('_', 1)[1], 3)}"
             for ch, v in self.items()
             if math.isfinite(v)
         ]

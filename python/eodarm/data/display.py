@@ -13,13 +13,14 @@ from typing import Any
 import numpy as np
 
 from eodarm import reprs
+from eodarm import text as fmt
 
 __all__ = ["measurements_html", "measurements_repr"]
 
 
 def _title(meas: Any) -> str:
     masses = sorted({float(m) for m in np.asarray(meas.mass_kg)} - {0.0})
-    shown = ", ".join(reprs.value(m) for m in masses[:8]) + (" …" if len(masses) > 8 else "")
+    shown = ", ".join(fmt.value(m) for m in masses[:8]) + (" …" if len(masses) > 8 else "")
     seq = ", load sequences (step column)" if meas.has_sequences else ""
     return (
         f"Measurements {meas.source}: {meas.n_rows} states of a {meas.n}-link arm, "
@@ -38,7 +39,7 @@ def _rows(meas: Any) -> list[list[str]]:
         sigma = float(np.median(np.asarray(meas.sigma)[seen, j]))
         noise = meas.noise.get(ch)
         where = "" if noise is None else noise.source
-        rows.append([ch, f"{int(seen.sum())}", reprs.value(sigma, unit, 3), where])
+        rows.append([ch, f"{int(seen.sum())}", fmt.value(sigma, unit, 3), where])
     return rows
 
 

@@ -11,6 +11,7 @@ import math
 from typing import Any
 
 from eodarm import reprs
+from eodarm import text as fmt
 
 __all__ = ["arm_html", "arm_repr", "record_line", "record_repr"]
 
@@ -19,11 +20,11 @@ def _effect_line(effect: Any, stderr: float | None, mark: Any) -> str:
     unit = effect.kind.unit
     if mark is not None and mark.bound is not None and mark.limit is not None:
         side = "≥" if mark.bound == "lower" else "≤"
-        return f"{effect.key} {side} {reprs.value(mark.limit, unit, 3)} (only a bound)"
+        return f"{effect.key} {side} {fmt.value(mark.limit, unit, 3)} (only a bound)"
     text = (
-        reprs.value(effect.value, unit)
+        fmt.value(effect.value, unit)
         if stderr is None
-        else reprs.value_error(effect.value, stderr, unit)
+        else fmt.value_error(effect.value, stderr, unit)
     )
     return f"{effect.key} = {text}" + ("" if mark is None else " (not determined)")
 
@@ -33,12 +34,12 @@ def record_line(rec: Any) -> str:
     k = len(rec.parameters)
     parts = [f"{k} parameter{'s' * (k != 1)} with covariance"]
     if math.isfinite(rec.chi2_per_dof):
-        parts.append(f"χ²/dof {reprs.value(rec.chi2_per_dof, digits=3)}")
+        parts.append(f"χ²/dof {fmt.value(rec.chi2_per_dof, digits=3)}")
     if rec.explained is True:
         parts.append("explains its data")
     elif rec.explained is False:
         dy = dict(rec.sigma_model).get("dy_mm")
-        miss = "" if dy is None else f", σ_model(dy) {reprs.value(dy, 'mm', 2)}"
+        miss = "" if dy is None else f", σ_model(dy) {fmt.value(dy, 'mm', 2)}"
         parts.append(f"does not explain its data{miss}")
     if rec.data:
         parts.append(f"data {rec.data}")
@@ -55,7 +56,7 @@ def arm_repr(arm: Any) -> str:
     mass = sum(lk.mass_kg for lk in arm.links) + sum(a.mass_kg for a in arm.actuators)
     title = (
         f"Arm '{arm.name}'{where}: {arm.n} link{'s' * (arm.n != 1)}, "
-        f"{reprs.value(mass, 'kg')} of links and actuators, g {reprs.value(arm.g, 'm/s²')}"
+        f"{fmt.value(mass, 'kg')} of links and actuators, g {fmt.value(arm.g, 'm/s²')}"
     )
     lines = [
         _effect_line(e, s, m)
@@ -76,10 +77,10 @@ def arm_html(arm: Any) -> str:
         rows.append(
             [
                 f"{i + 1}",
-                reprs.value(length, "mm"),
-                reprs.value(lk.mass_kg, "kg"),
-                reprs.value(getattr(act, "stiffness_n_per_mm", math.nan), "N/mm"),
-                reprs.value(act.mass_kg, "kg"),
+                fmt.value(length, "mm"),
+                fmt.value(lk.mass_kg, "kg"),
+                fmt.value(getattr(act, "stiffness_n_per_mm", math.nan), "N/mm"),
+                fmt.value(act.mass_kg, "kg"),
             ]
         )
     effects = [
