@@ -155,9 +155,7 @@ def parse_candidates(specs: Sequence[str], arm: Arm) -> list[CandidateSpec]:
                 try:
                     size = float(value)
                 except ValueError:
-                    raise EodarmError(
-                        f"--candidates '{text}': '{value}' is not a number"
-                    ) from None
+                    raise EodarmError(f"--candidates '{text}': '{value}' is not a number") from None
                 kind = kind_of(slot.name)
                 assert kind is not None
                 why = kind.value_error(size)

@@ -41,7 +41,6 @@ from eodarm.analysis.plan.pool import (
 )
 from eodarm.analysis.plan.selection import Objective, exchange, greedy, random_plans
 from eodarm.analysis.plan.separation import (
-    MAX_REL_STDERR,
     SEPARABLE,
     directed,
     fitted_curve_value,
@@ -268,6 +267,11 @@ def plan(
             "change --range or the payloads"
         )
     base_pool = drawn[ok]
+    if k > base_pool.shape[0]:
+        raise EodarmError(
+            f"--configs {k}: only {base_pool.shape[0]} reachable configurations were found (of "
+            f"{drawn.shape[0]} drawn; --pool, --range); plan fewer"
+        )
     step("sizes")
     cands = size_candidates(arm, specs, base_pool, payloads, self_weight)
     ok, under = reachable(
@@ -285,8 +289,9 @@ def plan(
     reach = base_pool[ok]
     if k > reach.shape[0]:
         raise EodarmError(
-            f"--configs {k}: only {reach.shape[0]} reachable configurations were found (of "
-            f"{drawn.shape[0]} drawn; --pool, --range); plan fewer"
+            f"--configs {k}: only {reach.shape[0]} of the {base_pool.shape[0]} reachable "
+            "configurations keep every state within the model's validity under every "
+            "candidate at its size (docs/model.md §7); plan fewer, or give smaller sizes"
         )
 
     step("signatures")
@@ -294,8 +299,14 @@ def plan(
     pool_meas = states_of(arm, reach, payloads)
     pool_states = StateSet(arm, pool_meas, self_weight)
     pool_resp = Responses.compute(pool_states, cands)
+    fixed_states = StateSet(arm, fixed, self_weight) if fixed is not None else None
+    fixed_resp = Responses.compute(fixed_states, cands) if fixed_states is not None else None
+    pool_resp, fixed_resp = _solvable(pool_resp, fixed_resp)
+    cands = pool_resp.candidates
     weight = _weights(arm, chans, sig, pool_meas.n_rows)
-    seen = np.array([float(((pool_resp.signature(i) * weight) ** 2).sum()) for i in range(len(cands))])
+    seen = np.array(
+        [float(((pool_resp.signature(i) * weight) ** 2).sum()) for i in range(len(cands))]
+    )
     unseen = [c for c, x in zip(cands, seen, strict=True) if not x >= SEPARABLE]
     if unseen:
         keep = [i for i, x in enumerate(seen) if x >= SEPARABLE]
@@ -306,8 +317,10 @@ def plan(
             )
         cands = [cands[i] for i in keep]
         pool_resp = Responses(cands, [pool_resp.curves[i] for i in keep])
+        if fixed_resp is not None:
+            fixed_resp = Responses(cands, [fixed_resp.curves[i] for i in keep])
     per = reduce(pool_resp, weight, np.arange(reach.shape[0]) * s_count)
-    base, fixed_resp, fixed_states, fixed_weight = _fixed(arm, fixed, cands, self_weight, per)
+    base, fixed_weight = _fixed_sums(fixed, fixed_resp, per)
 
     step("choosing")
     every = separations(base + per.total(), cands)[0]
@@ -343,8 +356,11 @@ def plan(
     step("inseparable")
     whole = _Part(pool_meas, pool_states.y0, pool_resp, weight)
     named = [
-        (int(a), int(b), _channel_that_separates(arm, whole, fixed_part, int(a), int(b), rows,
-                                                 chans, sig))
+        (
+            int(a),
+            int(b),
+            _channel_that_separates(arm, whole, fixed_part, int(a), int(b), rows, chans, sig),
+        )
         for a, b in zip(iu[~separable], ju[~separable], strict=True)
     ]
     before_sep = before_rel = None
@@ -409,22 +425,42 @@ def _weights(arm: Arm, chans: Sequence[str], sig: Mapping[str, float], rows: int
     return np.tile(w, (rows, 1))
 
 
-def _fixed(
-    arm: Arm, fixed: Measurements | None, cands: Sequence[Candidate], sw: bool, like: Reduced
-) -> tuple[Reduced, Responses | None, StateSet | None, FloatArray | None]:
-    """A campaign already measured: its sums (its own cells and σ), responses and states."""
-    if fixed is None:
-        return like.zeros_like(), None, None, None
-    states = StateSet(arm, fixed, sw)
-    resp = Responses.compute(states, cands)
+def _fixed_sums(
+    fixed: Measurements | None, resp: Responses | None, like: Reduced
+) -> tuple[Reduced, FloatArray | None]:
+    """A campaign already measured: its sums (its own cells and σ) and its weights."""
+    if fixed is None or resp is None:
+        return like.zeros_like(), None
     weight = np.where(fixed.measured, 1.0 / np.where(fixed.measured, fixed.sigma, 1.0), 0.0)
-    return reduce(resp, weight, np.array([0])), resp, states, weight
+    return reduce(resp, weight, np.array([0])), weight
+
+
+def _solvable(pool: Responses, fixed: Responses | None) -> tuple[Responses, Responses | None]:
+    """The responses with each curve cut before its first sample that some state cannot
+    solve (a curve is fitted within the range where it solves everywhere).
+
+    Raises
+    ------
+    EodarmError
+        When that leaves a curve without the samples beside its size (its slope).
+    """
+    keep = pool.solvable()
+    if fixed is not None:
+        keep = [min(a, b) for a, b in zip(keep, fixed.solvable(), strict=True)]
+    for c, k in zip(pool.candidates, keep, strict=True):
+        if k <= (c.at_size + 1 if c.curve else 1):
+            raise EodarmError(
+                f"candidate {c.spec} = {c.value:.4g} {c.slot.kind.unit}: some states cannot be "
+                "solved with it near its size; give a smaller size"
+            )
+    return pool.truncated(keep), (fixed.truncated(keep) if fixed is not None else None)
 
 
 def _labels(k: int, fixed: Measurements | None) -> list[str]:
     """``c1`` … ``cK``, skipping the labels of the fixed campaign."""
     taken = set(fixed.configs) if fixed is not None else set()
-    out, i = [], 1
+    out: list[str] = []
+    i = 1
     while len(out) < k:
         if f"c{i}" not in taken:
             out.append(f"c{i}")
@@ -470,11 +506,10 @@ def _refine(
     can only lower it. (Those decide whether a pair is separable and which is the weakest;
     the sampled fit of the others agrees with the refit to about 1 %, docs/plan.md.)"""
     from eodarm.analysis.fit import FitWarning, Problem, fit
-    from eodarm.analysis.plan.pool import combined
 
     curves = [i for i, c in enumerate(cands) if c.curve]
     pairs = sorted(
-        ((float(imitated[a, b]), a, b) for a in range(len(cands)) for b in curves if a != b)
+        (float(imitated[a, b]), a, b) for a in range(len(cands)) for b in curves if a != b
     )
     chosen = {(a, b) for k, (x, a, b) in enumerate(pairs) if k < REFITS or x < 2 * SEPARABLE}
     out = imitated.copy()
@@ -510,12 +545,15 @@ def _channel_that_separates(
 ) -> str | None:
     """The channel not planned that, added, separates candidates a and b best: at the planned
     configurations if it separates them there, else anywhere in the pool; None if none."""
-    sub = Responses([pool.resp.candidates[a], pool.resp.candidates[b]],
-                    [pool.resp.curves[a], pool.resp.curves[b]])
+    sub = Responses(
+        [pool.resp.candidates[a], pool.resp.candidates[b]],
+        [pool.resp.curves[a], pool.resp.curves[b]],
+    )
     base = None
     if fixed is not None:
-        fsub = Responses([sub.candidates[0], sub.candidates[1]],
-                         [fixed.resp.curves[a], fixed.resp.curves[b]])
+        fsub = Responses(
+            [sub.candidates[0], sub.candidates[1]], [fixed.resp.curves[a], fixed.resp.curves[b]]
+        )
         base = reduce(fsub, fixed.weight, np.array([0]))
     every = channel_names(arm.n)
     others = [ch for ch in every if ch not in chans]

@@ -133,9 +133,7 @@ def angle_ranges(
         if not 1 <= int(link) <= arm.n:
             raise EodarmError(f"--range alpha{link}: the arm '{arm.name}' has links 1–{arm.n}")
         if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
-            raise EodarmError(
-                f"--range alpha{link}={lo:g}:{hi:g}: need finite LO < HI (degrees)"
-            )
+            raise EodarmError(f"--range alpha{link}={lo:g}:{hi:g}: need finite LO < HI (degrees)")
         out[int(link) - 1] = (float(lo), float(hi))
     return out
 
@@ -156,8 +154,13 @@ def draw_pool(
     try:
         return random_configs(arm, size, rng, alpha_ranges=ranges, partial=True, max_draws=50_000)
     except EodarmError as exc:
-        text = str(exc).removeprefix("random_configs: ")
-        raise EodarmError(f"no configuration the arm can reach: {text}") from None
+        text = str(exc)
+        stroke = text.split("; actuator", 1)
+        why = "actuator" + stroke[1] if len(stroke) == 2 else text.split("rejected: ", 1)[-1]
+        within = ", ".join(f"alpha{i + 1} {lo:g}:{hi:g}" for i, (lo, hi) in enumerate(ranges))
+        raise EodarmError(
+            f"--range: no configuration the arm can reach within {within} deg: {why}"
+        ) from None
 
 
 def reachable(
@@ -188,7 +191,7 @@ def reachable(
 
     def flat(effs: list[Effect]) -> npt.NDArray[np.bool_]:
         out = solve(arm, rows_alpha, rows_mass, effects=effs, self_weight=self_weight)
-        return np.asarray(out["status"] == 0).reshape(k, s).all(axis=1)
+        return np.asarray((out["status"] == 0).reshape(k, s).all(axis=1), dtype=bool)
 
     ok = flat([])
     under: dict[str, npt.NDArray[np.bool_]] = {}
@@ -197,7 +200,7 @@ def reachable(
             out = solve_sequence(
                 arm, alpha, states, effects=[e], self_weight=self_weight, nan_on_failure=True
             )
-            good = np.asarray(out["status"] == 0).reshape(k, s).all(axis=1)
+            good = np.asarray((out["status"] == 0).reshape(k, s).all(axis=1), dtype=bool)
         else:
             good = flat([e])
         under[e.spec] = good

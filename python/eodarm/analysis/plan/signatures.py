@@ -85,6 +85,8 @@ class Responses:
 
     @classmethod
     def compute(cls, states: StateSet, candidates: Sequence[Candidate]) -> Responses:
+        """The responses at every sample; NaN at a state the model cannot solve there (a
+        curve sampled far beyond its size: :meth:`truncated` cuts it)."""
         curves = []
         for cand in candidates:
             n, c = states.y0.shape
@@ -92,9 +94,27 @@ class Responses:
             for k, t in enumerate(cand.samples):
                 if k == 0:
                     continue
-                out[k] = states.response(cand.slot, cand.neutral + t)
+                out[k] = states.response(cand.slot, cand.neutral + t, nan_on_failure=True)
             curves.append(out)
         return cls(list(candidates), curves)
+
+    def solvable(self) -> list[int]:
+        """For each candidate, how many of its samples (from the first) solve at every
+        state."""
+        out = []
+        for u in self.curves:
+            bad = ~np.isfinite(u).all(axis=(1, 2))
+            out.append(int(np.argmax(bad)) if bad.any() else u.shape[0])
+        return out
+
+    def truncated(self, keep: Sequence[int]) -> Responses:
+        """Each candidate's curve cut to its first ``keep`` samples (and the candidate's
+        samples with it)."""
+        cands = [
+            dataclasses.replace(c, samples=c.samples[:k])
+            for c, k in zip(self.candidates, keep, strict=True)
+        ]
+        return Responses(cands, [u[:k] for u, k in zip(self.curves, keep, strict=True)])
 
     def signature(self, c: int) -> FloatArray:
         """(N, C) candidate c's signature: its response at its size."""

@@ -89,26 +89,32 @@ def size_candidates(
             out.append(Candidate.make(slot, neutral, theta, given=True))
             continue
 
-        def motion(t: float, slot: Slot = slot, neutral: float = neutral) -> float:
-            return _rms_motion(states.response(slot, neutral + t, nan_on_failure=True))
-
         if slot.unloaded != "centred":
             # A gap taken up when unloaded shows only where the force turns; it is the same
             # gap as the centred one: the same size.
             centred = Slot(slot.name, slot.at)
             twin = next((c for c in out if c.slot == centred), None)
-            theta = twin.theta if twin is not None else neutral + _elastic_size(
-                lambda t: _rms_motion(states.response(centred, neutral + t, True)),
-                arm, centred, neutral, SAG_FRACTION * sag,
+            delta = (
+                twin.delta
+                if twin is not None
+                else _typical(states, arm, centred, neutral, SAG_FRACTION * sag)
             )
-            out.append(Candidate.make(slot, neutral, theta, given=False))
-            continue
-        if slot.name in FRICTIONS:
-            delta = _friction_size(motion, slot)
         else:
-            delta = _elastic_size(motion, arm, slot, neutral, SAG_FRACTION * sag)
+            delta = _typical(states, arm, slot, neutral, SAG_FRACTION * sag)
         out.append(Candidate.make(slot, neutral, neutral + delta, given=False))
     return out
+
+
+def _typical(states: StateSet, arm: Arm, slot: Slot, neutral: float, target: float) -> float:
+    """θ − neutral of a candidate's typical size (module notes); ``target`` the motion of
+    an elastic effect's size (mm, RMS)."""
+
+    def motion(t: float) -> float:
+        return _rms_motion(states.response(slot, neutral + t, nan_on_failure=True))
+
+    if slot.name in FRICTIONS:
+        return _friction_size(motion, slot)
+    return _elastic_size(motion, arm, slot, neutral, target)
 
 
 def _elastic_size(
