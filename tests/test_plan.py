@@ -467,3 +467,31 @@ def test_the_plan_file_and_the_campaign_read_back(
     measured(arm, FOUR[:2], [], seed=0).to_csv(fixed)
     code, _, err = cli(capsys, *args, "--fixed", fixed, "-o", fixed, "--force")
     assert "--fixed input" in one_line(code, err)
+
+
+def test_the_figure_draws_the_plan_and_its_separations(
+    small_plan: eodarm.analysis.plan.Plan, tmp_path: Path
+) -> None:
+    """The left panel draws each planned configuration's chain of joints; the right one the
+    separations of the separable pairs, weakest first, with the plan and the random plan."""
+    from eodarm.viz.plan_plot import plan_figure
+
+    p = small_plan
+    fig = plan_figure(p, path=tmp_path / "plan.png")
+    assert (tmp_path / "plan.png").stat().st_size > 10_000
+    left, right = fig.axes
+    geo = forward(p.arm, p.configs)
+    drawn = [
+        ln.get_xydata()
+        for ln in left.lines
+        if ln.get_linestyle() == "-" and len(ln.get_xydata()) == p.arm.n + 1
+    ]
+    assert len(drawn) == len(p.configs)
+    for chain, o in zip(drawn, geo["O"], strict=True):
+        assert np.allclose(chain, o)
+    mask = np.triu(p.separable, 1)
+    plan_line, random_line = right.lines[0], right.lines[1]
+    assert np.allclose(plan_line.get_ydata(), np.sort(np.clip(p.separation[mask], 1e-2, None)))
+    assert np.allclose(
+        random_line.get_ydata(), np.sort(np.clip(p.random_separation[mask], 1e-2, None))
+    )

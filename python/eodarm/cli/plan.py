@@ -334,10 +334,10 @@ def _print_plan(result: Plan, args: argparse.Namespace) -> None:
     k = len(result.labels)
     _say(f"plan for arm '{arm.name}': {k} configurations, each with {loads}")
     _say(f"channels {_channel_words(result)}")
-    extra = f" after the {result.fixed.shape[0]} of {args.fixed}" if args.fixed else ""
+    extra = f", added to the {result.fixed.shape[0]} of {args.fixed}" if args.fixed else ""
     _say(
-        f"{len(result.candidates)} candidates; chosen among {result.pool.shape[0]} reachable "
-        f"configurations{extra}"
+        f"{len(result.candidates)} candidates; {k} configurations chosen among "
+        f"{result.pool.shape[0]} reachable ones{extra}"
     )
     print()
     head = ["config", *(f"alpha{i + 1}" for i in range(arm.n))]
