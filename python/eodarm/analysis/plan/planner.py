@@ -41,6 +41,7 @@ from eodarm.analysis.plan.pool import (
 )
 from eodarm.analysis.plan.selection import Objective, exchange, greedy, random_plans
 from eodarm.analysis.plan.separation import (
+    MAX_REL_STDERR,
     SEPARABLE,
     directed,
     fitted_curve_value,
@@ -241,9 +242,7 @@ def plan(
     from eodarm.model.kinds import integer
 
     step = progress or (lambda name: None)
-    k = integer(configs, "--configs", 1, 10**6) if configs != 0 else 0
-    if k < 1:
-        raise EodarmError(f"--configs {configs}: plan at least one configuration")
+    k = integer(configs, "--configs", 1, 10**6)
     n_pool = integer(pool, "--pool", 1, 10**6)
     payloads = Payloads.of(masses_kg, sequence)
     if fixed is not None and fixed.n != arm.n:
@@ -326,7 +325,10 @@ def plan(
     every = separations(base + per.total(), cands)[0]
     iu, ju = np.triu_indices(len(cands), 1)
     separable = every[iu, ju] >= SEPARABLE
-    objective = Objective(cands, iu[separable], ju[separable])
+    # a candidate that the whole pool does not determine cannot be determined by any plan
+    # from it: it is said, and left out of the objective's first term
+    determinable = np.flatnonzero(rel_stderr(base + per.total(), cands)[0] <= MAX_REL_STDERR)
+    objective = Objective(cands, iu[separable], ju[separable], determinable)
     chosen = greedy(per, base, k, objective)
     chosen, _ = exchange(per, base, chosen, objective)
     tot = base + per.total(np.array(chosen))

@@ -40,18 +40,21 @@ PASSES = 4
 
 @dataclass
 class Objective:
-    """The objective of a plan (module notes) over the separable pairs ``(iu, ju)``."""
+    """The objective of a plan (module notes) over the separable pairs ``(iu, ju)`` and the
+    candidates ``det`` that some plan can determine."""
 
     cands: Sequence[Candidate]
     iu: npt.NDArray[np.intp]
     ju: npt.NDArray[np.intp]
+    det: npt.NDArray[np.intp]
 
     def keys(self, tot: Reduced) -> FloatArray:
         """(B, 1 + LEXIMIN) the objective of every set of states in ``tot``, to be compared
         lexicographically."""
-        rel = rel_stderr(tot, self.cands)
+        rel = rel_stderr(tot, self.cands)[:, self.det]
         with np.errstate(divide="ignore"):
-            det = np.minimum(1.0, (MAX_REL_STDERR / rel.max(axis=1)) ** 2)
+            worst = rel.max(axis=1) if self.det.size else np.zeros(rel.shape[0])
+            det = np.minimum(1.0, (MAX_REL_STDERR / worst) ** 2)
         b = det.shape[0]
         low = np.full((b, LEXIMIN), np.inf)
         if self.iu.size:
