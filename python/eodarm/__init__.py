@@ -43,6 +43,8 @@ _PUBLIC = {
     "fit": "eodarm.analysis.fit",
     "Diagnosis": "eodarm.analysis.diagnose",
     "diagnose": "eodarm.analysis.diagnose",
+    "Plan": "eodarm.analysis.plan",
+    "plan": "eodarm.analysis.plan",
     "compensate": "eodarm.analysis.compensate",
     "sweep": "eodarm.workspace.sweep",
 }
@@ -62,6 +64,7 @@ __all__ = [
     "InputError",
     "Link",
     "Measurements",
+    "Plan",
     "Slot",
     "__version__",
     "angles_from_lengths",
@@ -72,6 +75,7 @@ __all__ = [
     "fit",
     "forward",
     "inverse_kinematics",
+    "plan",
     "read_measurements",
     "solve",
     "solve_payload",
@@ -99,6 +103,7 @@ if TYPE_CHECKING:
     from eodarm.analysis.crossval import cross_validate
     from eodarm.analysis.diagnose import Diagnosis, diagnose
     from eodarm.analysis.fit import FitResult, fit
+    from eodarm.analysis.plan import Plan, plan
     from eodarm.data.measurements import Measurements
     from eodarm.data.reader import read_measurements
     from eodarm.model.arm import Actuator, Arm, Link

@@ -19,7 +19,7 @@ from __future__ import annotations
 import math
 import warnings
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -29,6 +29,7 @@ from eodarm.analysis.plan.candidates import (
     Candidate,
     CandidateSpec,
     candidate_specs,
+    parse_candidates,
 )
 from eodarm.analysis.plan.pool import (
     DEFAULT_CYCLE,
@@ -39,6 +40,7 @@ from eodarm.analysis.plan.pool import (
     reachable,
     states_of,
 )
+from eodarm.analysis.plan.result import Plan
 from eodarm.analysis.plan.selection import Objective, exchange, greedy, random_plans
 from eodarm.analysis.plan.separation import (
     MAX_REL_STDERR,
@@ -55,7 +57,7 @@ from eodarm.data.measurements import Measurements
 from eodarm.errors import EodarmError
 from eodarm.model.arm import Arm
 
-__all__ = ["DEFAULT_POOL", "RANDOM_DRAWS", "Plan", "plan"]
+__all__ = ["DEFAULT_POOL", "RANDOM_DRAWS", "REFITS", "plan"]
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -68,134 +70,6 @@ RANDOM_DRAWS = 20
 REFITS = 12
 
 
-@dataclass
-class Plan:
-    """The result of :func:`plan` (``to_json()`` is ``eodarm plan --json``, docs/formats.md).
-
-    Attributes
-    ----------
-    configs : (K, n) the planned configurations, unloaded absolute angles (deg).
-    labels : their labels (``c1`` …, after a fixed campaign's own).
-    payloads : the payloads of every planned configuration.
-    channels, sigma : the planned channels and their noise (mm or deg).
-    candidates : every candidate at its size.
-    rel_stderr : (C,) each candidate's relative standard error with the plan.
-    separation : (C, C) the separation of every pair with the plan (+inf on the diagonal).
-    imitated : (C, C) χ²(a → b) with the plan: what remains of a's signature when b imitates
-        it.
-    inseparable : (a, b, channel) the pairs that no configuration of the pool separates on
-        the planned channels, with the channel that would (None if none).
-    random_weakest, random_max_rel : the weakest separable pair's separation and the largest
-        relative standard error of each random plan.
-    fixed : (F, n) the configurations of the campaign already measured (``fixed``).
-    pool : (P, n) the reachable configurations the plan chose from.
-    before_separation, before_rel_stderr : the same figures with the fixed campaign alone
-        (None without one).
-    random_separation : (C, C) the separations of the median random plan (by its weakest).
-    unseen : the candidates that no reachable configuration shows on the planned channels
-        (their signature over the whole pool is below the separable χ²): the data could not
-        show them, so they are not planned for.
-    """
-
-    arm: Arm
-    configs: FloatArray
-    labels: list[str]
-    payloads: Payloads
-    channels: list[str]
-    sigma: dict[str, float]
-    candidates: list[Candidate]
-    rel_stderr: FloatArray
-    separation: FloatArray
-    imitated: FloatArray
-    inseparable: list[tuple[int, int, str | None]]
-    random_weakest: FloatArray
-    random_max_rel: FloatArray
-    fixed: FloatArray
-    pool: FloatArray
-    random_separation: FloatArray | None = None
-    before_separation: FloatArray | None = None
-    before_rel_stderr: FloatArray | None = None
-    unseen: list[Candidate] = field(default_factory=list)
-
-    # ------------------------------------------------------------------ figures
-    @property
-    def separable(self) -> npt.NDArray[np.bool_]:
-        """(C, C) the pairs some plan can separate (not named apart as inseparable)."""
-        c = len(self.candidates)
-        out = np.ones((c, c), dtype=bool)
-        np.fill_diagonal(out, False)
-        for a, b, _ in self.inseparable:
-            out[a, b] = out[b, a] = False
-        return out
-
-    def pairs(self) -> list[tuple[int, int, float]]:
-        """Every pair (a, b, separation), weakest first; ``a`` is the one whose data ``b``
-        imitates in the weaker direction."""
-        c = len(self.candidates)
-        out = []
-        for i in range(c):
-            for j in range(i + 1, c):
-                a, b = (i, j) if self.imitated[i, j] <= self.imitated[j, i] else (j, i)
-                out.append((a, b, float(self.separation[i, j])))
-        out.sort(key=lambda t: t[2])
-        return out
-
-    @property
-    def weakest(self) -> float:
-        """The weakest separation among the separable pairs (inf if there is none)."""
-        sep = self.separation[self.separable]
-        return float(sep.min()) if sep.size else math.inf
-
-    @property
-    def max_rel_stderr(self) -> float:
-        return float(np.max(self.rel_stderr))
-
-    @property
-    def random_median(self) -> tuple[float, float]:
-        """The median random plan's weakest separation and largest relative standard
-        error."""
-        return float(np.median(self.random_weakest)), float(np.median(self.random_max_rel))
-
-    def to_json(self) -> dict[str, Any]:
-        """``eodarm plan --json`` (docs/formats.md, "plan")."""
-        names = [c.spec for c in self.candidates]
-        weak, worst = self.random_median
-        return {
-            "configs": [[float(x) for x in row] for row in self.configs],
-            "masses_kg": [float(m) for m in self.payloads.masses_kg],
-            "sequence": self.payloads.sequence,
-            "channels": list(self.channels),
-            "candidates": [
-                {
-                    "effect": c.slot.name,
-                    "at": c.slot.at,
-                    **({"unloaded": c.slot.unloaded} if c.slot.unloaded != "centred" else {}),
-                    "size": {c.slot.kind.param: _num(c.value)},
-                    "rel_stderr": _num(float(r)),
-                }
-                for c, r in zip(self.candidates, self.rel_stderr, strict=True)
-            ],
-            "separations": [
-                {"a": names[a], "b": names[b], "chi2": _num(s)} for a, b, s in self.pairs()
-            ],
-            "inseparable": [
-                {"a": names[a], "b": names[b], "channel": ch} for a, b, ch in self.inseparable
-            ],
-            "random": {"weakest_chi2": _num(weak), "max_rel_stderr": _num(worst)},
-            "weakest_chi2": _num(self.weakest),
-            "max_rel_stderr": _num(self.max_rel_stderr),
-            "labels": list(self.labels),
-            "fixed": [[float(x) for x in row] for row in self.fixed],
-            "sigma": dict(self.sigma),
-            "pool": int(self.pool.shape[0]),
-            "unseen": [c.spec for c in self.unseen],
-        }
-
-
-def _num(x: float) -> float | None:
-    return float(x) if math.isfinite(x) else None
-
-
 def plan(
     arm: Arm,
     configs: int,
@@ -203,7 +77,7 @@ def plan(
     sequence: bool = True,
     channels: str | Sequence[str] | None = None,
     sigma: Mapping[str, float] | None = None,
-    candidates: Sequence[CandidateSpec] | None = None,
+    candidates: Sequence[CandidateSpec | str] | None = None,
     ranges: Mapping[int, tuple[float, float]] | None = None,
     fixed: Measurements | None = None,
     seed: int = 0,
@@ -224,7 +98,9 @@ def plan(
         of the arm, or with ``fixed`` those measured in it.
     sigma : noise per channel or family (mm or deg); default the default noise levels, or
         with ``fixed`` the noise of its channels.
-    candidates : the candidates (default every one ``diagnose`` ranks, at typical sizes).
+    candidates : the candidates, ``"EFFECT@PLACE[=VALUE]"`` (VALUE in the parameter's unit)
+        or :class:`~eodarm.analysis.plan.CandidateSpec`; default every one ``diagnose``
+        ranks, each at its typical size.
     ranges : 1-based link → (lo, hi) degrees, the angles the configurations are drawn in.
     fixed : a campaign already measured: its states count in, K more are added.
     seed : the random pool and the random plans.
@@ -251,47 +127,20 @@ def plan(
             f"'{arm.name}' has {arm.n} links (a campaign of another arm)"
         )
     chans, sig = _channels(arm, channels, sigma, fixed)
-    specs = list(candidates) if candidates is not None else candidate_specs(arm, self_weight)
+    if candidates is None:
+        specs = candidate_specs(arm, self_weight)
+    else:
+        text = [c for c in candidates if isinstance(c, str)]
+        specs = [c for c in candidates if not isinstance(c, str)]
+        specs += parse_candidates(text, arm) if text else []
     for spec in specs:
         spec.slot.index(arm.n)
     rng = np.random.default_rng(seed)
 
     step("pool")
-    drawn = draw_pool(arm, n_pool, angle_ranges(arm, ranges), rng)
-    ok, _ = reachable(arm, drawn, payloads, [], self_weight)
-    if not ok.any():
-        raise EodarmError(
-            f"none of the {drawn.shape[0]} configurations drawn within the ranges keeps every "
-            "planned state within the model's validity under the baseline (docs/model.md §7): "
-            "change --range or the payloads"
-        )
-    base_pool = drawn[ok]
-    if k > base_pool.shape[0]:
-        raise EodarmError(
-            f"--configs {k}: only {base_pool.shape[0]} reachable configurations were found (of "
-            f"{drawn.shape[0]} drawn; --pool, --range); plan fewer"
-        )
-    step("sizes")
-    cands = size_candidates(arm, specs, base_pool, payloads, self_weight)
-    ok, under = reachable(
-        arm, base_pool, payloads, [c.slot.effect(c.value) for c in cands], self_weight
+    reach, cands = _reachable_pool(
+        arm, k, n_pool, ranges, rng, payloads, specs, self_weight, lambda: step("sizes")
     )
-    for c in cands:
-        held = int(under[c.spec].sum())
-        if held < k:
-            raise EodarmError(
-                f"candidate {c.spec} = {c.value:.4g} {c.slot.kind.unit}: the arm cannot hold "
-                f"the planned payloads with it at {base_pool.shape[0] - held} of "
-                f"{base_pool.shape[0]} reachable configurations (their states leave the "
-                "model's validity, docs/model.md §7); give a smaller size"
-            )
-    reach = base_pool[ok]
-    if k > reach.shape[0]:
-        raise EodarmError(
-            f"--configs {k}: only {reach.shape[0]} of the {base_pool.shape[0]} reachable "
-            "configurations keep every state within the model's validity under every "
-            "candidate at its size (docs/model.md §7); plan fewer, or give smaller sizes"
-        )
 
     step("signatures")
     s_count = payloads.states.size
@@ -425,6 +274,64 @@ def _weights(arm: Arm, chans: Sequence[str], sig: Mapping[str, float], rows: int
     """(rows, C) 1/σ of the planned channels, 0 for the others."""
     w = np.array([1.0 / sig[ch] if ch in chans else 0.0 for ch in channel_names(arm.n)])
     return np.tile(w, (rows, 1))
+
+
+def _reachable_pool(
+    arm: Arm,
+    k: int,
+    n_pool: int,
+    ranges: Mapping[int, tuple[float, float]] | None,
+    rng: np.random.Generator,
+    payloads: Payloads,
+    specs: Sequence[CandidateSpec],
+    self_weight: bool,
+    sizing: Any,
+) -> tuple[FloatArray, list[Candidate]]:
+    """The pool's configurations where every planned state is ``ok`` under the baseline and
+    every candidate at its size, and the candidates at their sizes (``sizing()`` is called
+    before the sizes are found).
+
+    Raises
+    ------
+    EodarmError
+        One line: fewer than K reachable configurations, or a candidate the arm cannot hold.
+    """
+    drawn = draw_pool(arm, n_pool, angle_ranges(arm, ranges), rng)
+    ok, _ = reachable(arm, drawn, payloads, [], self_weight)
+    if not ok.any():
+        raise EodarmError(
+            f"none of the {drawn.shape[0]} configurations drawn within the ranges keeps every "
+            "planned state within the model's validity under the baseline (docs/model.md §7): "
+            "change --range or the payloads"
+        )
+    base_pool = drawn[ok]
+    if k > base_pool.shape[0]:
+        raise EodarmError(
+            f"--configs {k}: only {base_pool.shape[0]} reachable configurations were found (of "
+            f"{drawn.shape[0]} drawn; --pool, --range); plan fewer"
+        )
+    sizing()
+    cands = size_candidates(arm, specs, base_pool, payloads, self_weight)
+    ok, under = reachable(
+        arm, base_pool, payloads, [c.slot.effect(c.value) for c in cands], self_weight
+    )
+    for c in cands:
+        held = int(under[c.spec].sum())
+        if held < k:
+            raise EodarmError(
+                f"candidate {c.spec} = {c.value:.4g} {c.slot.kind.unit}: the arm cannot hold "
+                f"the planned payloads with it at {base_pool.shape[0] - held} of "
+                f"{base_pool.shape[0]} reachable configurations (their states leave the "
+                "model's validity, docs/model.md §7); give a smaller size"
+            )
+    reach = base_pool[ok]
+    if k > reach.shape[0]:
+        raise EodarmError(
+            f"--configs {k}: only {reach.shape[0]} of the {base_pool.shape[0]} reachable "
+            "configurations keep every state within the model's validity under every "
+            "candidate at its size (docs/model.md §7); plan fewer, or give smaller sizes"
+        )
+    return reach, cands
 
 
 def _fixed_sums(
