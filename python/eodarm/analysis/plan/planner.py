@@ -182,7 +182,7 @@ def plan(
     chosen, _ = exchange(per, base, chosen, objective)
     tot = base + per.total(np.array(chosen))
     weak, worst, draws = random_plans(per, base, k, objective, rng, RANDOM_DRAWS)
-    middle = draws[int(np.argsort(weak)[len(weak) // 2])]
+    middle = draws[int(np.argsort(weak, kind="stable")[len(weak) // 2])]  # random_median's
 
     imitated = directed(tot, cands)[0]
     labels = _labels(k, fixed)

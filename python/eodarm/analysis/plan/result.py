@@ -38,7 +38,7 @@ class Plan:
     inseparable : (a, b, channel) the pairs that no configuration of the pool separates on
         the planned channels, with the channel that would (None if none).
     random_weakest, random_max_rel : the weakest separable pair's separation and the largest
-        relative standard error of each random plan.
+        relative standard error of each random plan (:attr:`random_median`: the median plan's).
     fixed : (F, n) the configurations of the campaign already measured (``fixed``).
     pool : (P, n) the reachable configurations the plan chose from.
     before_separation, before_rel_stderr : the same figures with the fixed campaign alone
@@ -104,9 +104,11 @@ class Plan:
 
     @property
     def random_median(self) -> tuple[float, float]:
-        """The median random plan's weakest separation and largest relative standard
-        error."""
-        return float(np.median(self.random_weakest)), float(np.median(self.random_max_rel))
+        """The median random plan's weakest separation and its largest relative standard
+        error: of the draws ordered by their weakest separation, the middle one (the upper
+        of the two middle ones of an even number)."""
+        mid = int(np.argsort(self.random_weakest, kind="stable")[self.random_weakest.size // 2])
+        return float(self.random_weakest[mid]), float(self.random_max_rel[mid])
 
     def to_json(self) -> dict[str, Any]:
         """``eodarm plan --json`` (docs/formats.md, "plan")."""
