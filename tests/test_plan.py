@@ -495,3 +495,43 @@ def test_the_figure_draws_the_plan_and_its_separations(
     assert np.allclose(
         random_line.get_ydata(), np.sort(np.clip(p.random_separation[mask], 1e-2, None))
     )
+
+
+# ---------------------------------------------------------------------------- after a diagnosis
+def test_confused_twins_make_diagnose_propose_the_plan_that_separates_them(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """On the four same-arm poses the twins are confused: the next: line is the plan that
+    continues the campaign (--fixed, its load cycle, three configurations), it runs, and the
+    report's next measurement shows the same machinery's three configurations, with which
+    the twins' separation rises from ~0 to at least 25."""
+    import shlex
+
+    from eodarm.analysis.plan.follow import follow_up
+    from eodarm.viz.report_diagnosis import diagnosis_section
+
+    monkeypatch.chdir(tmp_path)
+    arm = example()
+    four = measured(arm, FOUR, [Slot.parse(TWINS[0]).effect(4100.0)], seed=3)
+    four.to_csv(tmp_path / "four.csv")
+    code, _, err = cli(capsys, "diagnose", "four.csv", "--arm", EXAMPLE)
+    assert code == 0, err
+    argv = shlex.split(err.split("eodarm: next: ", 1)[1].replace("\\\n", " "))
+    assert argv[:5] == ["eodarm", "plan", "--fixed", "four.csv", "--arm"]
+    assert argv[argv.index("--configs") + 1] == "3"
+    assert argv[argv.index("--sequence") + 1] == "0,1.5,5,6.5,5,1.5,0"
+    code, text, err = cli(capsys, *argv[1:], "--json")
+    assert code == 0, err
+    doc = json.loads(text)
+    twins = next(s for s in doc["separations"] if {s["a"], s["b"]} == set(TWINS))
+    assert twins["chi2"] >= 25.0
+    # the report's section: the follow-up of the same machinery
+    d = eodarm.diagnose(arm, four)
+    p = follow_up(d)
+    assert p is not None and {c.spec for c in p.candidates} == set(TWINS)
+    names = [c.spec for c in p.candidates]
+    assert p.before_separation[0, 1] < 3.84 <= 25.0 <= p.separation[0, 1], names
+    html = "\n".join(diagnosis_section(four, d, "dy_mm", "mm"))
+    assert "Planned (" in html
+    for pose in p.configs:
+        assert "".join(f'<td class="num">{a:.4g}</td>' for a in pose) in html

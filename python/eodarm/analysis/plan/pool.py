@@ -246,3 +246,16 @@ def combined(
         source="<plan>",
         step=np.concatenate(steps) if seq else None,
     )
+
+
+def payloads_of(meas: Measurements) -> Payloads:
+    """The payloads a measured campaign applied, to continue it alike: the load cycle of its
+    first sequence (from a zeroed reference) when it has a ``step`` column, else its payloads
+    in the order they first appear, as single loadings."""
+    if meas.has_sequences:
+        rows = meas.sequences()[0]
+        masses = np.asarray(meas.mass_kg[rows], dtype=float)
+        masses = masses[~np.asarray(meas.reference)[rows]]
+        return Payloads.of([0.0, *masses.tolist()], sequence=True)
+    seen = dict.fromkeys(float(m) for m in np.asarray(meas.mass_kg, dtype=float))
+    return Payloads.of(list(seen), sequence=False)
