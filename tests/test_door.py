@@ -17,7 +17,7 @@ from __future__ import annotations
 import io
 import math
 import shlex
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -557,10 +557,15 @@ def _next_argv(err: str) -> list[str]:
 
 
 @pytest.fixture(scope="module")
-def shim(tmp_path_factory: pytest.TempPathFactory) -> Path:
+def shim(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Path]:
+    """The shim's file; the commands given it register door_shim, forgotten after the
+    module (a later test's catalogue must not hold it)."""
+    from eodarm.model import custom
+
     path = tmp_path_factory.mktemp("effects") / "shim.py"
     path.write_text(SHIM)
-    return path
+    yield path
+    custom.unregister("door_shim")
 
 
 def _hinted(tmp: Path, shim: Path) -> dict[str, list[str]]:
