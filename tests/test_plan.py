@@ -466,7 +466,7 @@ def test_the_plan_file_and_the_campaign_read_back(
     fixed = tmp_path / "fixed.csv"
     measured(arm, FOUR[:2], [], seed=0).to_csv(fixed)
     code, _, err = cli(capsys, *args, "--fixed", fixed, "-o", fixed, "--force")
-    assert "--fixed input" in one_line(code, err)
+    assert "is the --fixed file, an input" in one_line(code, err)
 
 
 def test_the_figure_draws_the_plan_and_its_separations(

@@ -5,12 +5,12 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import os
 from typing import TYPE_CHECKING, Any
 
 from eodarm.cli._common import (
     ARM_HELP,
     _arm_argv,
+    _claim,
     _effects_args,
     _floats,
     _force_arg,
@@ -20,7 +20,6 @@ from eodarm.cli._common import (
     _note,
     _print_table,
     _read,
-    _refuse_overwrite,
     _say,
     _stages,
 )
@@ -193,8 +192,8 @@ def _ranges(specs: list[str] | None) -> dict[int, tuple[float, float]]:
 
 
 def _check_output(args: argparse.Namespace) -> None:
-    """``-o`` is a .csv or a .toml; it never replaces an input (the arm, the fixed campaign,
-    an effects file), and an existing file only with ``--force``."""
+    """``-o`` is a .csv or a .toml, never an input (the arm, the fixed campaign, an effects
+    file), and an existing file only with ``--force`` (``_claim``)."""
     out = args.output
     if not out:
         return
@@ -208,27 +207,13 @@ def _check_output(args: argparse.Namespace) -> None:
             f"-o {out}: a campaign records each configuration as one load cycle; plan with "
             "--sequence (or write a .csv of single loadings)"
         )
-
-    def same(a: str | None) -> bool:
-        try:
-            return a is not None and os.path.samefile(out, a)
-        except OSError:
-            return False
-
-    for flag, given in (("--arm", args.arm), ("--fixed", args.fixed)):
-        if same(given):
-            raise EodarmError(f"-o {out}: is the {flag} input; choose another name")
-    for path in args.effects or []:
-        if same(path):
-            raise EodarmError(f"-o {out}: is the --effects input; choose another name")
-    _refuse_overwrite(out, args.force, "-o")
+    _claim(args, out, "-o")
 
 
 # ---------------------------------------------------------------------------- outputs
 def _write(out: str, result: Plan) -> None:
     from eodarm.data.plan_files import write_plan_campaign, write_plan_csv
 
-    # TODO(plan30): the shared guard and atomic writer of cli/_common (safe27) when it lands.
     pl = result.payloads
     if out.lower().endswith(".toml"):
         masses = [0.0, *pl.states.tolist()]

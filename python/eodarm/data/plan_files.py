@@ -17,6 +17,7 @@ from typing import TextIO
 import numpy as np
 import numpy.typing as npt
 
+from eodarm.atomic import atomic_write
 from eodarm.data.channels import channel_names
 from eodarm.data.records import RecordSpec, write_campaign
 from eodarm.errors import EodarmError
@@ -53,7 +54,7 @@ def write_plan_csv(
 
     if isinstance(out, (str, Path)):
         try:
-            with open(out, "w", encoding="utf-8", newline="") as f:
+            with atomic_write(out, newline="") as f:  # whole or not at all
                 write(f)
         except OSError as exc:
             raise EodarmError(f"{out}: cannot write: {exc.strerror or exc}") from None
