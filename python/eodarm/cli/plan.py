@@ -23,6 +23,7 @@ from eodarm.cli._common import (
     _say,
     _stages,
 )
+from eodarm.analysis.plan.planner import DEFAULT_POOL
 from eodarm.cli._help import HELP
 from eodarm.errors import EodarmError
 
@@ -90,9 +91,9 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     p.add_argument(
         "--pool",
         type=int,
-        default=500,
+        default=DEFAULT_POOL,
         metavar="N",
-        help="reachable configurations drawn to choose from (default 500)",
+        help=f"reachable configurations drawn to choose from (default {DEFAULT_POOL})",
     )
     p.add_argument(
         "-o",
@@ -277,7 +278,7 @@ def _replay(args: argparse.Namespace) -> list[str]:
             out += [flag, v]
     if args.seed != 0:
         out += ["--seed", str(args.seed)]
-    if args.pool != 500:
+    if args.pool != DEFAULT_POOL:
         out += ["--pool", str(args.pool)]
     return out
 
