@@ -7,6 +7,7 @@ import json
 import math
 from typing import TYPE_CHECKING, Any
 
+from eodarm.analysis.plan.planner import DEFAULT_POOL
 from eodarm.cli._common import (
     ARM_HELP,
     _arm_argv,
@@ -23,7 +24,6 @@ from eodarm.cli._common import (
     _say,
     _stages,
 )
-from eodarm.analysis.plan.planner import DEFAULT_POOL
 from eodarm.cli._help import HELP
 from eodarm.errors import EodarmError
 
