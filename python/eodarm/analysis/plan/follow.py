@@ -26,14 +26,22 @@ FOLLOW_POOL = 200
 
 
 def confused_lead(d: Diagnosis) -> list[CandidateSpec]:
-    """The leading candidate and those the data cannot tell apart from it, each at its
-    fitted size (its typical size where the fit left it absent); empty when it is not
-    confused."""
-    if not d.ranking or not d.ranking[0].confused_with:
+    """The leading candidates the data cannot tell apart, each at its fitted size alone (its
+    typical size where that fit left it absent): the first suggested effect that has
+    alternatives in its set and those alternatives, else the best single candidate and those
+    it is confused with; empty when neither is confused, or when the verdict is not
+    *missing* or *unexplained* (nothing to tell apart, or the data to check first)."""
+    if d.verdict not in ("missing", "unexplained") or not d.ranking:
         return []
+    alts = d.alternatives
+    lead = next(([s, *alts[s]] for s in (x.spec for x in d.suggested) if alts.get(s)), None)
+    if lead is None:
+        if not d.ranking[0].confused_with:
+            return []
+        lead = [d.ranking[0].slot.spec, *d.ranking[0].confused_with]
     by_spec = {c.slot.spec: c for c in d.ranking}
     out = []
-    for spec in [d.ranking[0].slot.spec, *d.ranking[0].confused_with]:
+    for spec in lead:
         cand = by_spec.get(spec)
         if cand is None:
             continue
