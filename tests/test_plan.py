@@ -26,6 +26,7 @@ No test is timed (the speed is benches/bench_plan.py's).
 from __future__ import annotations
 
 import json
+import re
 import warnings
 from pathlib import Path
 
@@ -109,6 +110,34 @@ def measured(
     )
 
 
+def fill_in(
+    plan_file: Path, arm: eodarm.Arm, hidden: list[eodarm.Effect], seed: int
+) -> eodarm.Measurements:
+    """The plan's file as the lab fills it in: each configuration's load cycle measured
+    (simulated state by state, with noise of σ = 0.02 mm) on dx and dy, then read."""
+    import csv
+
+    rng = np.random.default_rng(seed)
+    with open(plan_file, encoding="utf-8", newline="") as f:
+        rows = list(csv.DictReader(f))
+    head = list(rows[0])
+    for label in dict.fromkeys(r["config"] for r in rows):
+        mine = [r for r in rows if r["config"] == label]
+        assert [int(r["step"]) for r in mine] == list(range(1, len(mine) + 1))
+        pose = np.array([float(mine[0][f"alpha{i + 1}_deg"]) for i in range(arm.n)])
+        sim = simulate(arm, pose, np.array([float(r["mass_kg"]) for r in mine]), hidden)
+        for s, r in enumerate(mine):
+            for ch in TRACKER:
+                assert r[ch] == ""  # left to fill in
+                r[ch] = repr(float(sim[ch][s] + SIGMA * rng.standard_normal()))
+    filled = plan_file.with_name("filled.csv")
+    with open(filled, "w", encoding="utf-8", newline="") as f:
+        w = csv.DictWriter(f, head, lineterminator="\n")
+        w.writeheader()
+        w.writerows(rows)
+    return read_measurements(filled, arm.n)
+
+
 def verdict(arm: eodarm.Arm, meas: eodarm.Measurements) -> tuple[list[str], str, list[str]]:
     """(suggested, the leading candidate, what it is confused with)."""
     d = eodarm.diagnose(arm, meas)
@@ -148,12 +177,11 @@ def test_friction_twins_confused_on_four_same_arm_poses_named_at_planned_ones(
     # the four same-arm poses: the hidden one is confused with its twin
     suggested, top, confused = verdict(arm, measured(arm, FOUR, [effect], seed=1))
     assert twin in confused or top != hidden, (suggested, top, confused)
-    # the planned configurations, read back from the file the lab fills in
-    plan_file = read_measurements(out, arm.n)
-    labels = list(plan_file.configs)
-    alpha = np.array([plan_file.alpha_deg[plan_file.config == c][0] for c in labels])
-    assert np.allclose(plan_file.mass_kg[: len(STATES)], STATES)
-    suggested, top, confused = verdict(arm, measured(arm, alpha, [effect], seed=2))
+    # the planned configurations: the file the plan wrote, filled in as the lab would
+    filled = fill_in(out, arm, [effect], seed=2)
+    assert np.allclose(filled.mass_kg[: len(STATES)], STATES)
+    assert len(filled.configs) == 8 and filled.measured_channels == TRACKER
+    suggested, top, confused = verdict(arm, filled)
     assert suggested == [hidden] and top == hidden, (suggested, top)
     assert twin not in confused
 
@@ -445,14 +473,22 @@ def test_the_plan_file_and_the_campaign_read_back(
     code, text, err = cli(capsys, *args, "-o", csv)
     assert code == 0, err
     doc = json.loads(text)
-    meas = read_measurements(csv, arm.n)
-    assert meas.n_values == 0  # every channel to fill in
+    lines = csv.read_text(encoding="utf-8").splitlines()
+    head = lines[0].split(",")
+    assert head[:6] == ["config", "alpha1_deg", "alpha2_deg", "alpha3_deg", "mass_kg", "step"]
+    assert head[6:] == eodarm.data.channels.channel_names(3)
+    assert all(line.endswith("," * 8) for line in lines[1:])  # every channel to fill in
+    # filled in (here with zeros), it is a measurement file of load cycles
+    zeros = tmp_path / "zeros.csv"
+    zeros.write_text(
+        "\n".join([lines[0], *(line[:-8] + ",0" * 8 for line in lines[1:])]) + "\n",
+        encoding="utf-8",
+    )
+    meas = read_measurements(zeros, arm.n)
     assert list(meas.configs) == doc["labels"] == ["c1", "c2", "c3"]
     assert meas.has_sequences and meas.step.tolist() == [1, 2, 3, 4, 5, 6] * 3
     assert np.allclose(meas.mass_kg, np.tile(STATES, 3))
     assert np.array_equal(meas.alpha_deg[::6], np.array(doc["configs"]))
-    head = csv.read_text(encoding="utf-8").splitlines()[0].split(",")
-    assert head[-8:] == eodarm.data.channels.channel_names(3)
     # nothing is replaced without --force, and the fixed input not even with it
     code, _, err = cli(capsys, *args, "-o", csv)
     assert "exists" in one_line(code, err)
@@ -532,6 +568,7 @@ def test_confused_twins_make_diagnose_propose_the_plan_that_separates_them(
     names = [c.spec for c in p.candidates]
     assert p.before_separation[0, 1] < 3.84 <= 25.0 <= p.separation[0, 1], names
     html = "\n".join(diagnosis_section(four, d, "dy_mm", "mm"))
-    assert "Planned (" in html
-    for pose in p.configs:
-        assert "".join(f'<td class="num">{a:.4g}</td>' for a in pose) in html
+    shown = html.split("Planned (", 1)[1].split("</table>", 1)[0]
+    cells = [c.replace("−", "-") for c in re.findall(r'<td class="num">([^<]*)</td>', shown)]
+    assert np.allclose(np.array(cells, dtype=float).reshape(p.configs.shape), p.configs,
+                       rtol=1e-3, atol=0.05)  # fmt: skip

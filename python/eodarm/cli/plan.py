@@ -231,7 +231,8 @@ def _write(out: str, result: Plan) -> None:
     )
     _note(
         f"wrote {out}: {len(result.labels)} configurations × {pl.states.size} states to "
-        f"measure, columns {', '.join(result.channels)} empty"
+        f"measure, columns {', '.join(result.channels)} empty: fill them in, then run the "
+        "next command"
     )
 
 
