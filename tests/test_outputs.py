@@ -123,6 +123,15 @@ COMMANDS = [
         "-o",
         ("meas.csv", "arm.toml"),
     ),
+    Command(
+        "plan",
+        lambda out: [
+            *"plan --arm arm.toml --configs 2 --pool 40 --fixed meas.csv -o".split(),
+            out,
+        ],
+        "-o",
+        ("meas.csv", "arm.toml"),
+    ),
 ]
 IDS = [c.name for c in COMMANDS]
 #: The outputs' names, by command (a report is HTML, the others CSV or TOML).

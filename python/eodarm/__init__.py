@@ -44,6 +44,8 @@ _PUBLIC = {
     "fit": "eodarm.analysis.fit",
     "Diagnosis": "eodarm.analysis.diagnose",
     "diagnose": "eodarm.analysis.diagnose",
+    "Plan": "eodarm.analysis.plan",
+    "plan": "eodarm.analysis.plan",
     "compensate": "eodarm.analysis.compensate",
     "sweep": "eodarm.workspace.sweep",
 }
@@ -65,6 +67,7 @@ __all__ = [
     "InputError",
     "Link",
     "Measurements",
+    "Plan",
     "Slot",
     "__version__",
     "angles_from_lengths",
@@ -76,6 +79,7 @@ __all__ = [
     "fit",
     "forward",
     "inverse_kinematics",
+    "plan",
     "read_measurements",
     "reference",
     "solve",
@@ -110,6 +114,7 @@ if _TYPE_CHECKING:
     from eodarm.analysis.crossval import cross_validate
     from eodarm.analysis.diagnose import Diagnosis, diagnose
     from eodarm.analysis.fit import FitResult, fit
+    from eodarm.analysis.plan import Plan, plan
     from eodarm.data.measurements import Measurements
     from eodarm.data.reader import read_measurements
     from eodarm.model.arm import Actuator, Arm, Link

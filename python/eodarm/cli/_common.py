@@ -511,6 +511,7 @@ _INPUT_ARGS = (
     ("arm", "the --arm file"),
     ("poses", "the --poses file"),
     ("effects", "the --effects file"),
+    ("fixed", "the --fixed file"),
 )
 
 

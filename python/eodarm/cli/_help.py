@@ -13,6 +13,7 @@ HELP = {
     "fit": "fit the parameters of the added effects",
     "records": "steady states of raw records (a campaign) -> a measurement file with errors",
     "synth": "write a synthetic measurement file (the model with hidden effects + noise)",
+    "plan": "choose the configurations to measure so that the missing effect can be named",
     "sweep": "solve a whole grid of poses × payloads; write NetCDF/Zarr and the four maps",
     "report": "the whole story as one HTML report (default: the bundled seed data)",
     "datasets": "bundled data sets: list, export",

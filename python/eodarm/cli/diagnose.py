@@ -85,9 +85,22 @@ def _output(args: argparse.Namespace, d: Any, arm: Arm, meas: Any, sw: bool, mk:
 
 
 def _say_next(args: argparse.Namespace, d: Any) -> None:
-    """What to run next: fit the suggested set; the rounds of a report when nothing in the
-    catalogue explains the data; the workspace maps when nothing is missing."""
+    """What to run next: a plan of more configurations when the leading candidates are
+    confused (docs/plan.md); fit the suggested set; the rounds of a report when nothing in
+    the catalogue explains the data; the workspace maps when nothing is missing."""
     data = [args.measurements, *_arm_argv(args)]
+    from eodarm.analysis.plan.follow import confused_lead
+
+    if confused_lead(d):
+        from eodarm.analysis.plan.pool import payloads_of
+
+        pl = payloads_of(d.baseline.problem.meas)
+        loads = [
+            "--sequence" if pl.sequence else "--masses",
+            ",".join(f"{m:g}" for m in pl.masses_kg),
+        ]
+        _next("plan", "--fixed", *data, "--configs", "3", *loads, args=args)
+        return
     adds = [a for s in [*d.model, *d.suggested] for a in ("--add", s.spec)]
     if d.verdict == "check_data":  # the residuals of every row, to look at the data
         _next("compare", *data, "--residuals", _free_name("residuals.csv"), args=args)

@@ -332,7 +332,10 @@ def diagnosis_section(meas: Measurements, d: Diagnosis, main: str, unit: str) ->
             ),
         ]
     if d.advice:
+        from eodarm.viz.report_plan import planned_next
+
         out += ["<h3>Next measurement</h3>", "<ul>" + "".join(_advice(d)) + "</ul>"]
+        out += planned_next(d)
     return out
 
 
