@@ -26,6 +26,7 @@ import xarray as xr
 
 import eodarm
 from arms import example_arm
+from eodarm import atomic
 from eodarm.cli import main
 from eodarm.errors import ClusterError, SweepTooLargeError
 
@@ -353,7 +354,7 @@ def test_ctrl_c_while_the_result_is_renamed_into_place_is_taken_after_it(
     out = tmp_path / "sweep.zarr"
     assert cli(arm_file, out, grid=OTHER) == 0
     capsys.readouterr()
-    real = store._remove
+    real = atomic._remove
 
     def interrupting(path: Path) -> None:
         # between putting the new store in place and removing the old one (exchanged into
@@ -362,7 +363,7 @@ def test_ctrl_c_while_the_result_is_renamed_into_place_is_taken_after_it(
             signal.raise_signal(signal.SIGINT)
         real(path)
 
-    monkeypatch.setattr(store, "_remove", interrupting)
+    monkeypatch.setattr(atomic, "_remove", interrupting)
     assert cli(arm_file, out) == 130
     assert one_line(capsys.readouterr().err) == f"eodarm: interrupted: {out} was written completely"
     xr.testing.assert_identical(xr.open_zarr(out, consolidated=False).load(), want(arm))
@@ -381,13 +382,13 @@ def test_a_write_that_holds_ctrl_c_hands_it_to_the_handler_in_place(
     for d, name in ((out, "old"), (new, "new")):
         d.mkdir()
         (d / name).write_text(name)
-    real = store._remove
+    real = atomic._remove
 
     def interrupting(path: Path) -> None:  # the previous result, removed once out is new
         signal.raise_signal(signal.SIGINT)
         real(path)
 
-    monkeypatch.setattr(store, "_remove", interrupting)
+    monkeypatch.setattr(atomic, "_remove", interrupting)
     seen: list[list[str]] = []
 
     def own(signum: int, frame: object) -> None:
@@ -397,7 +398,7 @@ def test_a_write_that_holds_ctrl_c_hands_it_to_the_handler_in_place(
     signal.signal(signal.SIGINT, handler)
     try:
         try:
-            store.replace(new, out)
+            atomic.replace(new, out)
         except KeyboardInterrupt:
             pytest.fail("the SIGINT came out of the write as a KeyboardInterrupt")
         assert signal.getsignal(signal.SIGINT) is handler
