@@ -23,6 +23,7 @@ from eodarm.analysis.crossval import cross_validate
 from eodarm.analysis.fit import FitWarning, fit
 from eodarm.analysis.workflow import investigate
 from eodarm.data import datasets
+from seed_verdicts import best_candidate, judged, refusal
 
 ROOT = Path(__file__).resolve().parent.parent
 BODIES = [f"actuator_compliance@M{i}" for i in (1, 2, 3)]
@@ -260,8 +261,6 @@ def section(arm: eodarm.Arm | None = None, meas: eodarm.Measurements | None = No
     r1, r0 = sol["reaction_n"], sol0["reaction_n"]
     cosang = (r1 * r0).sum(-1) / np.linalg.norm(r1, axis=-1) / np.linalg.norm(r0, axis=-1)
     turn = np.degrees(np.arccos(np.clip(cosang, -1, 1))).max(0)
-    from seed_reproduction import best_candidate, judged, refusal
-
     pre = [r for r in thr if "friction" not in r["label"]]
     singles = [r for r in pre if "M1–M3" not in r["label"]]
     max_z = max(abs(a["estimate"]) / a["stderr"] for r in singles for a in r["added"])

@@ -3,23 +3,36 @@
 :func:`cycles` finds the strongly connected components of more than one module of a
 directed graph (Tarjan's algorithm): every group of modules that reach each other through
 their imports. :func:`rust_module_graph` reads the module graph of a Rust crate from its
-sources; the Python package's graph comes from grimp (import-linter's graph builder).
+sources, :func:`script_graph` that of a folder of Python scripts (``scripts/``, ``benches/``,
+``tests/``, ``examples/``: files that import each other by their bare names, being each
+other's ``sys.path`` entry); the package's graph comes from grimp (import-linter's graph
+builder).
 
 **What is a use, in Rust.** Module ``a`` uses module ``b`` when ``a``'s code (its file and the
 inline ``mod x { ... }`` blocks in it, test modules included; comments and string literals
 left out) names a path into ``b``: in a ``use`` declaration (``use crate::b::X;``,
 ``use super::{b::X, c::Y};``) or in an expression or type (``crate::b::f()``,
 ``super::X``, ``child::f()`` for a child module it declares). The path is resolved as Rust
-does (``crate``, ``self``, ``super``, a declared child) to the deepest module it names; an
-item that module re-exports (``pub use x::Item;``) is followed to the module it comes from.
-Two things are **not** uses: a parent declaring ``mod child;``, and a module re-exporting
-(``pub use``) an item of its own descendant, because neither runs any of the child's code
-in the parent. Everything else, including a child using its parent (``super::X``) while the
-parent calls the child, is.
+does (``crate``, ``self``, ``super``, a declared child) to the deepest module it names, and
+``a`` uses that module. When the item is one that module brings in with a ``use`` (a
+re-export, ``pub use x::Item;``), ``a`` uses the module it comes from too: a path through a
+re-export names both, as ``from p import X`` in Python imports ``p`` whatever ``p`` got
+``X`` from. Two things are **not** uses: a parent declaring ``mod child;``, and a module
+re-exporting (``pub use``) an item of its own descendant, because neither runs any of the
+child's code in the parent. Everything else, including a child using its parent
+(``super::X``, an item of the parent's own or one it re-exports) while the parent calls the
+child, is.
+
+**What is an import, in a folder of scripts.** Script ``a`` imports script ``b`` (``b.py`` in
+the same folder) when ``a`` has ``import b``, ``import b.x``, ``from b import ...`` or
+``importlib.import_module("b")`` anywhere: at the top, inside a function (a "lazy" import),
+under ``if TYPE_CHECKING:`` or in a ``try``. A file loaded by its path (``runpy.run_path``,
+``importlib.util.spec_from_file_location``) is not followed.
 """
 
 from __future__ import annotations
 
+import ast
 import re
 from collections.abc import Iterable, Mapping
 from pathlib import Path
@@ -151,15 +164,17 @@ def rust_module_graph(src: Path) -> dict[str, set[str]]:
 
     reexports: dict[tuple[Module, str], Module] = {}
 
-    def resolve(ctx: Module, segs: list[str]) -> Module | None:
+    def resolve(ctx: Module, segs: list[str]) -> tuple[Module, Module] | None:
+        """The module a path names and the module its item comes from (the same module
+        unless the item is one that the named module brings in with a ``use``)."""
         base, rest = start(ctx, segs)
         if base is None:
             return None
         while rest and (*base, rest[0]) in known:
             base, rest = (*base, rest[0]), rest[1:]
         if rest and (base, rest[0]) in reexports:
-            return reexports[(base, rest[0])]
-        return base
+            return base, reexports[(base, rest[0])]
+        return base, base
 
     # (file, context, path, the name a use binds or None, whether it is a pub use)
     uses: list[tuple[Module, Module, list[str], str | None, bool]] = []
@@ -181,9 +196,9 @@ def rust_module_graph(src: Path) -> dict[str, set[str]]:
     for _ in range(3):
         for _m, ctx, segs, name, _pub in uses:
             if name is not None:
-                target = resolve(ctx, segs)
-                if target is not None:
-                    reexports[(ctx, name)] = target
+                found = resolve(ctx, segs)
+                if found is not None:
+                    reexports[(ctx, name)] = found[1]
 
     def file_of(mod: Module) -> Module:
         while mod not in files:
@@ -192,14 +207,38 @@ def rust_module_graph(src: Path) -> dict[str, set[str]]:
 
     graph: dict[Module, set[Module]] = {m: set() for m in files}
     for m, ctx, segs, _name, pub in uses:
-        target = resolve(ctx, segs)
-        if target is None:
+        found = resolve(ctx, segs)
+        if found is None:
             continue
-        target = file_of(target)
-        if target in (m, ()):
-            continue  # itself, or an item of the crate root (its re-exports are followed)
-        if pub and target[: len(m)] == m:
-            continue  # a module re-exporting its own descendant's item
-        graph[m].add(target)
+        for target in {file_of(t) for t in found}:
+            if target == m:
+                continue  # itself
+            if pub and target[: len(m)] == m:
+                continue  # a module re-exporting its own descendant's item
+            graph[m].add(target)
     name = {m: "::".join(m) or "crate" for m in files}
     return {name[m]: {name[t] for t in ts} for m, ts in graph.items()}
+
+
+def script_graph(folder: Path) -> dict[str, set[str]]:
+    """Script → the scripts of the same folder it imports (module docstring), by file stem."""
+    names = {f.stem for f in folder.glob("*.py")}
+    graph: dict[str, set[str]] = {}
+    for f in sorted(folder.glob("*.py")):
+        found: set[str] = set()
+        for node in ast.walk(ast.parse(f.read_text(encoding="utf-8"), filename=str(f))):
+            if isinstance(node, ast.Import):
+                found |= {a.name.split(".")[0] for a in node.names}
+            elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+                found.add(node.module.split(".")[0])
+            elif (
+                isinstance(node, ast.Call)
+                and isinstance(node.func, ast.Attribute | ast.Name)
+                and getattr(node.func, "attr", getattr(node.func, "id", "")) == "import_module"
+                and node.args
+                and isinstance(node.args[0], ast.Constant)
+                and isinstance(node.args[0].value, str)
+            ):
+                found.add(node.args[0].value.split(".")[0])
+        graph[f.stem] = (found & names) - {f.stem}
+    return graph

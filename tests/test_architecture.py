@@ -5,10 +5,12 @@ importing only from the layers below it; the command modules independent of each
 argparse nowhere but in the command line. These tests run them on the package as it is, and
 once on a copy with an upward import planted, to show that the check can fail.
 
-Within a layer too, no module may import one that imports it back: the package's import graph
-(grimp, import-linter's graph builder; imports inside functions and under ``TYPE_CHECKING``
-count) and the Rust core's module graph (``module_graph.rust_module_graph``, whose docstring
-states what a use is) have no cycle. Each check is also run once with a cycle planted.
+Within a layer too, no module may import one that imports it back, anywhere in the
+repository: the package's import graph (grimp, import-linter's graph builder; imports inside
+functions and under ``TYPE_CHECKING`` count), the module graph of every crate of the Cargo
+workspace (``module_graph.rust_module_graph``) and the import graph of each folder of scripts
+(``module_graph.script_graph``; their docstrings state what a use is) have no cycle. Each
+check is also run with cycles planted.
 """
 
 from __future__ import annotations
@@ -18,12 +20,13 @@ import os
 import shutil
 import subprocess
 import sys
+import tomllib
 from pathlib import Path
 
 import pytest
 
 import eodarm
-from module_graph import cycles, rust_module_graph
+from module_graph import cycles, rust_module_graph, script_graph
 
 ROOT = Path(__file__).resolve().parents[1]
 PACKAGE = Path(eodarm.__file__).resolve().parent
@@ -129,12 +132,30 @@ def test_an_import_cycle_is_caught(tmp_path: Path, module: str, planted: str, cy
 
 
 CORE_SRC = ROOT / "crates" / "arm_core" / "src"
+#: The ``src`` of every member of the Cargo workspace (the core, the binding, the benchmarks).
+CRATES = [
+    ROOT / member / "src"
+    for member in tomllib.loads((ROOT / "Cargo.toml").read_text(encoding="utf-8"))["workspace"][
+        "members"
+    ]
+]
 
 
 def test_no_core_module_uses_one_that_uses_it_back() -> None:
     graph = rust_module_graph(CORE_SRC)
     assert "solve::fast" in graph and "sweep::fallback" in graph  # the parser found the modules
     assert "sweep::fast" in graph["solve::fast"]  # and the uses: the kernels share lanes
+    # what the two kernels share sits below both: the block kernel takes it from there, and
+    # the sweep's per-cell path takes the batch buffers and the general path where they live
+    assert {"lanes", "lanes::trig", "lanes::transpose"} <= graph["solve::fast"]
+    assert "sweep" not in graph["solve::fast"] and "solve" not in graph["sweep::fallback"]
+    assert cycles(graph) == []
+
+
+@pytest.mark.parametrize("src", CRATES, ids=lambda s: s.parent.name)
+def test_no_module_of_any_crate_uses_one_that_uses_it_back(src: Path) -> None:
+    graph = rust_module_graph(src)
+    assert graph, f"no Rust sources under {src}"
     assert cycles(graph) == []
 
 
@@ -153,6 +174,11 @@ def test_no_core_module_uses_one_that_uses_it_back() -> None:
         ),
         # a shared piece using the module it serves, through a re-export of the parent
         ("sweep/cells.rs", "use super::SweepOptions;", {"sweep", "sweep::cells"}),
+        # the block kernel taking a shared piece through the sweep's re-export, which closed
+        # solve.rs -> solve/fast.rs -> sweep.rs -> sweep/fallback.rs -> solve.rs
+        ("solve/fast.rs", "use crate::sweep::L as _;", {"sweep", "sweep::fallback", "solve::fast"}),
+        # a child naming its parent's re-export of a sibling's item, while the parent calls it
+        ("solve/status.rs", "use super::BatchOutput as _;", {"solve", "solve::status"}),
     ],
 )
 def test_a_core_cycle_is_caught(tmp_path: Path, module: str, planted: str, cycle: set[str]) -> None:
@@ -162,3 +188,63 @@ def test_a_core_cycle_is_caught(tmp_path: Path, module: str, planted: str, cycle
     target.write_text(target.read_text(encoding="utf-8") + f"\n{planted}\n")
     found = cycles(rust_module_graph(copy))
     assert any(cycle <= set(c) for c in found), found
+
+
+# ------------------------------------------------------------------- folders of scripts
+#: The folders of Python files run as scripts, which import each other by their bare names.
+SCRIPT_FOLDERS = ["scripts", "benches", "tests", "examples"]
+
+
+@pytest.mark.parametrize("folder", SCRIPT_FOLDERS)
+def test_no_script_imports_one_that_imports_it_back(folder: str) -> None:
+    graph = script_graph(ROOT / folder)
+    assert graph, f"no Python files in {folder}/"
+    assert cycles(graph) == []
+
+
+def test_the_scripts_graph_sees_their_imports() -> None:
+    # what the seed scripts share lives in a third module, which both import
+    assert script_graph(ROOT / "scripts")["seed_investigation"] == {"seed_verdicts"}
+    assert script_graph(ROOT / "scripts")["seed_reproduction"] >= {
+        "seed_verdicts",
+        "seed_investigation",  # lazily, in main(): §6 is that script's
+    }
+    assert "bench_solve" in script_graph(ROOT / "benches")["bench_sweep"]
+
+
+@pytest.mark.parametrize(
+    ("folder", "module", "planted", "cycle"),
+    [
+        # the investigation taking the page's sentences from the reproduction, lazily, in a
+        # function (what seed_investigation.py once did)
+        (
+            "scripts",
+            "seed_investigation.py",
+            "def _planted():\n    from seed_reproduction import refusal",
+            ["seed_investigation", "seed_reproduction"],
+        ),
+        # a shared module importing one of its users, under TYPE_CHECKING
+        (
+            "scripts",
+            "seed_verdicts.py",
+            "from typing import TYPE_CHECKING\nif TYPE_CHECKING:\n    import seed_investigation",
+            ["seed_investigation", "seed_verdicts"],
+        ),
+        # one benchmark importing another that imports it (by importlib, by name)
+        (
+            "benches",
+            "bench_solve.py",
+            "import importlib\nimportlib.import_module('bench_sweep')",
+            ["bench_solve", "bench_sweep"],
+        ),
+    ],
+)
+def test_a_script_cycle_is_caught(
+    tmp_path: Path, folder: str, module: str, planted: str, cycle: list[str]
+) -> None:
+    copy = tmp_path / folder
+    shutil.copytree(ROOT / folder, copy, ignore=shutil.ignore_patterns("__pycache__"))
+    target = copy / module
+    target.write_text(target.read_text(encoding="utf-8") + f"\n{planted}  # noqa\n")
+    found = cycles(script_graph(copy))
+    assert any(set(cycle) <= set(c) for c in found), found

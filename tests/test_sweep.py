@@ -17,6 +17,7 @@ import argparse
 import importlib
 import itertools
 import math
+import signal
 import warnings
 from pathlib import Path
 from typing import Any
@@ -592,12 +593,10 @@ class _InterruptingBar:
         self.total, self.n, self.seen = total, 0, []
 
     def update(self, k: int) -> None:
-        import _thread
-
         self.n += k
         self.seen.append(self.n)
         if len(self.seen) == 1:
-            _thread.interrupt_main()
+            signal.raise_signal(signal.SIGINT)
 
     def close(self) -> None:
         pass
@@ -608,10 +607,12 @@ def test_ctrl_c_stops_the_core_between_its_chunks(
 ) -> None:
     """A real SIGINT during a one-call angle-grid sweep raises KeyboardInterrupt.
 
-    Deterministic on a busy machine: the core checks in (signals, then the progress report)
-    before each chunk of the calling thread, the first included, so the progress bar's first
-    update comes before any pose is solved and sends the SIGINT; the next check raises it,
-    however the threads share the chunks.
+    Independent of timing and of the tests before it: the core checks in (signals, then the
+    progress report) before each chunk of the calling thread, the first included, so the
+    progress bar's first update comes before any pose is solved; it sends the SIGINT itself,
+    synchronously, on the main thread that runs Python's handler (tests/conftest.py puts
+    Python's own in place), which raises KeyboardInterrupt out of that update, however the
+    threads share the chunks.
     """
     bars: list[_InterruptingBar] = []
 
@@ -663,11 +664,9 @@ def test_ctrl_c_leaves_the_chunks_after_it_unsolved(arm: eodarm.Arm) -> None:
     reports: list[int] = []
 
     def progress(done: int) -> None:
-        import _thread
-
         reports.append(done)
         if len(reports) == 1:
-            _thread.interrupt_main()
+            signal.raise_signal(signal.SIGINT)  # synchronously: no timer races the work
 
     with pytest.raises(KeyboardInterrupt):
         _core.sweep(

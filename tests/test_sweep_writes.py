@@ -13,8 +13,8 @@ raised at chosen chunks (no test depends on timing).
 
 from __future__ import annotations
 
-import _thread
 import importlib
+import signal
 import threading
 import time
 from pathlib import Path
@@ -203,8 +203,7 @@ def test_ctrl_c_while_solving_or_plotting_exits_130_with_one_line(
     capsys.readouterr()
 
     def interrupted(*args: Any, **kwargs: Any) -> None:
-        _thread.interrupt_main()  # a real SIGINT, taken at the next check
-        time.sleep(0)  # pragma: no cover - the interrupt is raised before this returns
+        signal.raise_signal(signal.SIGINT)  # a real SIGINT, raised by Python's handler here
 
     monkeypatch.setattr(sweep_mod, "_sweep_grid", interrupted)
     assert cli(arm_file, out) == 130
@@ -322,7 +321,7 @@ def test_ctrl_c_during_a_chunks_write_waits_for_the_chunk_and_its_record(
     def interrupting(region: Any, shape: Any) -> Any:
         calls.append(1)
         if len(calls) == 2 * len(store._layout(setup)) + 1:  # chunk 3's first variable
-            _thread.interrupt_main()
+            signal.raise_signal(signal.SIGINT)
         return real(region, shape)
 
     out = tmp_path / "s.zarr"
@@ -361,7 +360,7 @@ def test_ctrl_c_while_the_result_is_renamed_into_place_is_taken_after_it(
         # between putting the new store in place and removing the old one (exchanged into
         # the partial directory, or renamed aside where the system cannot exchange)
         if ".partial" in str(path) or ".old-" in path.name:
-            _thread.interrupt_main()
+            signal.raise_signal(signal.SIGINT)
         real(path)
 
     monkeypatch.setattr(atomic, "_remove", interrupting)
@@ -369,6 +368,44 @@ def test_ctrl_c_while_the_result_is_renamed_into_place_is_taken_after_it(
     assert one_line(capsys.readouterr().err) == f"eodarm: interrupted: {out} was written completely"
     xr.testing.assert_identical(xr.open_zarr(out, consolidated=False).load(), want(arm))
     assert siblings(out) == ["sweep.zarr"]
+
+
+@pytest.mark.parametrize("ignored", [True, False], ids=["ignored", "own-handler"])
+def test_a_write_that_holds_ctrl_c_hands_it_to_the_handler_in_place(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, ignored: bool
+) -> None:
+    """A process started in the background by a shell ignores SIGINT: a SIGINT while a
+    result is put in place stays ignored, and does not come out as a KeyboardInterrupt once
+    it is in place. A SIGINT handler of the caller's own is called once, after the result is
+    in place, and the call goes on as that handler decides (here: it records)."""
+    out, new = tmp_path / "r.zarr", tmp_path / ".r.zarr.partial-1"
+    for d, name in ((out, "old"), (new, "new")):
+        d.mkdir()
+        (d / name).write_text(name)
+    real = atomic._remove
+
+    def interrupting(path: Path) -> None:  # the previous result, removed once out is new
+        signal.raise_signal(signal.SIGINT)
+        real(path)
+
+    monkeypatch.setattr(atomic, "_remove", interrupting)
+    seen: list[list[str]] = []
+
+    def own(signum: int, frame: object) -> None:
+        seen.append(sorted(p.name for p in out.iterdir()))
+
+    handler = signal.SIG_IGN if ignored else own
+    signal.signal(signal.SIGINT, handler)
+    try:
+        try:
+            atomic.replace(new, out)
+        except KeyboardInterrupt:
+            pytest.fail("the SIGINT came out of the write as a KeyboardInterrupt")
+        assert signal.getsignal(signal.SIGINT) is handler
+    finally:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+    assert sorted(p.name for p in out.iterdir()) == ["new"] and not new.exists()
+    assert seen == ([] if ignored else [["new"]])
 
 
 def test_resume_without_a_partial_store_starts_the_sweep(

@@ -51,13 +51,19 @@ _LEFTOVER = re.compile(r"^\..+\.(?:partial|old)-(?P<pid>\d+)$")
 
 @contextlib.contextmanager
 def deferred_sigint() -> Iterator[None]:
-    """Hold Ctrl-C until the block is done, then raise it (main thread only).
+    """Hold Ctrl-C until the block is done, then hand it to the SIGINT handler that was in
+    place: Python's own raises KeyboardInterrupt (main thread only).
 
     For the steps that must not be cut in half: a chunk's data and its record, the rename of
-    a result into place.
+    a result into place. A SIGINT that the process ignores (one started in the background by
+    a shell ignores it) stays ignored, and a handler of the caller's own is called once,
+    after the block, instead of a KeyboardInterrupt it would not raise.
     """
     if threading.current_thread() is not threading.main_thread() or _deferring:
         yield  # elsewhere, or within a block that already holds it
+        return
+    if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+        yield  # ignored: nothing to hold
         return
     got: list[int] = []
     old = signal.signal(signal.SIGINT, lambda signum, frame: got.append(signum))
@@ -68,7 +74,10 @@ def deferred_sigint() -> Iterator[None]:
         _deferring.pop()
         signal.signal(signal.SIGINT, old if old is not None else signal.default_int_handler)
     if got:
-        raise KeyboardInterrupt
+        if callable(old):
+            old(signal.SIGINT, None)
+        else:  # the default action, or a handler not set from Python
+            raise KeyboardInterrupt
 
 
 _deferring: list[bool] = []  # non-empty while the main thread holds Ctrl-C
