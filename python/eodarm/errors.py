@@ -15,8 +15,13 @@ __all__ = [
     "EodarmError",
     "InputError",
     "OutOfMemoryError",
+    "RecordError",
     "SweepTooLargeError",
+    "printable",
 ]
+
+#: The longest one-line error message (docs/terminal.md): what does not fit is cut.
+MAX_MESSAGE = 300
 
 
 class EodarmError(ValueError):
@@ -67,3 +72,25 @@ class ClusterError(EodarmError):
 class OutOfMemoryError(EodarmError, MemoryError):
     """An output would not fit in the memory available (a :class:`MemoryError` too): the
     estimate was checked before anything was allocated."""
+
+
+class RecordError(EodarmError):
+    """A campaign file or a raw record is malformed, or a record's steady states cannot be
+    matched to its payloads (docs/records.md); the one-line message names the file and the
+    record, line, time or key. A message longer than :data:`MAX_MESSAGE` characters is cut."""
+
+    def __init__(self, message: str) -> None:
+        super().__init__(printable(" ".join(message.split()), MAX_MESSAGE))
+
+
+def printable(text: object, limit: int = 40, tail: bool = False) -> str:
+    """``text`` as a one-line message shows it: every character that is not printable
+    escaped (``\\x00``, ``\\x1b``, ``\\n``, …) and at most ``limit`` characters, cut with
+    an ellipsis at the end, or at the start with ``tail=True`` (a path keeps its file name).
+    """
+    s = str(text)
+    if not s.isprintable():
+        s = "".join(c if c.isprintable() else repr(c)[1:-1] for c in s)
+    if len(s) <= limit:
+        return s
+    return "…" + s[len(s) - limit + 1 :] if tail else s[: limit - 1] + "…"
