@@ -20,8 +20,9 @@ __all__ = [
     "printable",
 ]
 
-#: The longest one-line error message (docs/terminal.md): what does not fit is cut.
-MAX_MESSAGE = 300
+#: The longest message of a :class:`RecordError`, so that the command's line
+#: (``eodarm: error: `` and the message) stays under 300 characters; what does not fit is cut.
+MAX_MESSAGE = 280
 
 
 class EodarmError(ValueError):

@@ -18,6 +18,7 @@ __all__ = [
     "DRIFT_ALARM",
     "autocov",
     "drift_threshold",
+    "joint_threshold",
     "long_run",
     "long_run_variance",
     "mean_standard_error",
@@ -129,10 +130,25 @@ def mean_standard_error(x: npt.ArrayLike) -> FloatArray:
     return np.sqrt(mean_variance(g0, aa, phi, a.shape[0]))
 
 
-def drift_threshold(tests: int) -> float:
+def drift_threshold(tests: int, alarm: float = DRIFT_ALARM) -> float:
     """|slope| / its standard error beyond which a state drifts: the two-sided normal
-    quantile that keeps the family-wise false-alarm rate at :data:`DRIFT_ALARM` over
-    ``tests`` tests (Bonferroni)."""
+    quantile that keeps the family-wise false-alarm rate at ``alarm`` over ``tests`` tests
+    (Bonferroni)."""
     from statistics import NormalDist  # scipy.stats would add a second of import
 
-    return NormalDist().inv_cdf(1.0 - DRIFT_ALARM / (2.0 * max(tests, 1)))
+    return NormalDist().inv_cdf(1.0 - alarm / (2.0 * max(tests, 1)))
+
+
+def joint_threshold(states: int, channels: int, dof: int, alarm: float = DRIFT_ALARM) -> float:
+    """z′ R⁻¹ z beyond which the slopes of a state's ``channels`` channels together drift
+    (z the slopes over their standard errors, R their correlation) at the false-alarm rate
+    ``alarm`` over ``states`` states (Bonferroni): the χ² quantile of ``channels`` degrees of
+    freedom when R is known (``dof`` 0), Hotelling's T² quantile C(m − 1)/(m − C) ·
+    F(C, m − C) when it was estimated with m = ``dof`` degrees of freedom."""
+    from eodarm.analysis.tails import chi2_isf, f_isf
+
+    p = alarm / max(states, 1)
+    if dof <= 0:
+        return chi2_isf(p, float(channels))
+    c, m = float(channels), float(dof)
+    return c * (m - 1.0) / (m - c) * f_isf(p, c, m - c)

@@ -29,14 +29,16 @@ import numpy as np
 import numpy.typing as npt
 
 from eodarm.analysis.record_noise import (
+    DRIFT_ALARM,
     autocov,
     drift_threshold,
+    joint_threshold,
     long_run,
     mean_variance,
     noise_model,
     robust_scale,
 )
-from eodarm.analysis.tails import chi2_isf
+from eodarm.analysis.tails import chi2_isf, chi2_sf
 
 __all__ = [
     "K_BREAK",
@@ -88,7 +90,9 @@ class State:
     stderr : (C,) standard error of ``mean``, correlation in time included.
     slope : (C,) drift rate, channel units per second.
     slope_se : (C,) standard error of ``slope``.
-    drift : whether a channel's slope is beyond :func:`drift_threshold`.
+    drift : whether a channel's slope is beyond :func:`drift_threshold` (``drift_z`` the
+        largest |slope|/standard error, ``drift_limit`` that threshold), or the channels'
+        slopes together beyond :func:`joint_threshold` (``joint``, ``joint_limit``).
     """
 
     start: int
@@ -101,6 +105,10 @@ class State:
     slope: FloatArray = field(default_factory=lambda: np.zeros(0))
     slope_se: FloatArray = field(default_factory=lambda: np.zeros(0))
     drift: bool = False
+    drift_z: float = 0.0
+    drift_limit: float = math.inf
+    joint: float = 0.0
+    joint_limit: float = math.inf
 
 
 @dataclass(frozen=True)
@@ -108,13 +116,15 @@ class Trend:
     """A part of a record at least ``min_duration_s`` long that moves steadily: its line
     changes by more than a break over its length, so it is no steady state.
 
-    ``slope`` is (C,), channel units per second; ``t0``, ``t1`` in s; ``span`` the samples.
+    ``slope`` is (C,), channel units per second; ``t0``, ``t1`` in s; ``span`` the samples;
+    ``lead`` the channel that moves most, in units of its noise.
     """
 
     t0: float
     t1: float
     span: tuple[int, int]
     slope: FloatArray
+    lead: int = 0
 
 
 @dataclass
@@ -132,7 +142,8 @@ class _Blocks:
 
     ``t`` the mean time of each block; ``mean`` (nb, c) the block means; ``w`` Σ(x − mean)²,
     ``tx`` Σ(t − t̄)(x − mean) and ``tt`` Σ(t − t̄)² within each block; ``noise`` (c,) the
-    standard deviation of one block mean."""
+    standard deviation of one block mean, ``rho`` (c,) the correlation of neighbouring block
+    means (blocks a few correlation times long are not quite independent)."""
 
     b: int
     t: FloatArray
@@ -141,6 +152,7 @@ class _Blocks:
     tx: FloatArray
     tt: FloatArray
     noise: FloatArray
+    rho: FloatArray
 
     @property
     def nb(self) -> int:
@@ -148,11 +160,18 @@ class _Blocks:
 
 
 # ---------------------------------------------------------------------------- blocks
-def _second_difference_scale(bm: FloatArray) -> FloatArray:
-    """The standard deviation of one block mean from the second differences of neighbouring
-    means, robustly (a step gives two outliers, a steady trend nothing, a transient a few)."""
-    d2 = np.diff(bm, n=2, axis=0)
-    return robust_scale(d2) / math.sqrt(6.0)
+def _block_noise(bm: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """The standard deviation of one block mean and the correlation ρ of neighbouring ones,
+    robustly from the first and second differences of the block means: for block means
+    correlated with their neighbours only, var(d₁) = 2σ²(1 − ρ) and var(d₂) = σ²(6 − 8ρ). The
+    second differences carry no steady trend, and a step or a transient gives a few
+    outliers; ρ is clipped to [0, 0.5] (a ramp over much of the record would inflate it)."""
+    v1 = robust_scale(np.diff(bm, axis=0)) ** 2
+    v2 = robust_scale(np.diff(bm, n=2, axis=0)) ** 2
+    with np.errstate(divide="ignore", invalid="ignore"):
+        r = np.where(v2 > 0, v1 / np.where(v2 > 0, v2, 1.0), 1.0 / 3.0)
+        rho = np.clip((6.0 * r - 2.0) / (8.0 * r - 2.0), 0.0, 0.5)
+    return np.sqrt(v2 / (6.0 - 8.0 * rho)), rho
 
 
 def block_size(values: FloatArray, cap: int) -> int:
@@ -211,11 +230,11 @@ def _blocks(t: FloatArray, v: FloatArray, b: int, q: FloatArray) -> _Blocks:
     w = np.einsum("ijk,ijk->ik", xc, xc)
     tx = np.einsum("ij,ijk->ik", tc, xc)
     t2 = np.einsum("ij,ij->i", tc, tc)
-    sb = _second_difference_scale(bm) if nb >= 3 else np.zeros(c)
+    sb, rho = _block_noise(bm) if nb >= 3 else (np.zeros(c), np.zeros(c))
     tiny = 1e-12 * np.maximum(np.abs(bm).max(axis=0), 1.0)
     # a change of less than a quantum between two blocks is no break
     sb = np.maximum(np.maximum(sb, tiny), q / math.sqrt(2.0))
-    return _Blocks(b, bt, bm, w, tx, t2, sb)
+    return _Blocks(b, bt, bm, w, tx, t2, sb, rho)
 
 
 def _resolution(v: FloatArray) -> FloatArray:
@@ -243,7 +262,8 @@ def _line(bk: _Blocks, lo: int, hi: int) -> tuple[FloatArray, FloatArray, float]
 
 def _split(bk: _Blocks, lo: int, hi: int, out: list[tuple[int, int]]) -> None:
     """Binary segmentation of the run ``lo:hi`` with one straight line per channel and piece:
-    split where two lines fit the block means (in block-noise units) better than one by more
+    split where two lines fit the block means (in units of their long-run noise) better than
+    one by more
     than the χ² quantile (2 parameters per channel) of :data:`SPLIT_ALARM`, Bonferroni over
     the places; then each side again."""
     side = 2
@@ -252,7 +272,10 @@ def _split(bk: _Blocks, lo: int, hi: int, out: list[tuple[int, int]]) -> None:
         out.append((lo, hi))
         return
     x = (bk.t[lo:hi] - bk.t[lo]) / max(float(bk.t[hi - 1] - bk.t[lo]), 1e-300) * (n - 1)
-    y = (bk.mean[lo:hi] - bk.mean[lo:hi].mean(axis=0)) / bk.noise
+    # in units of the block means' long-run noise: correlated neighbours make a line's
+    # residuals smoother than independent ones, σ²(1 + ρ)/(1 − ρ) for slow shapes
+    unit = bk.noise * np.sqrt((1.0 + bk.rho) / (1.0 - bk.rho))
+    y = (bk.mean[lo:hi] - bk.mean[lo:hi].mean(axis=0)) / unit
     one = np.arange(1, n + 1, dtype=float)
     sx, sxx = np.cumsum(x), np.cumsum(x * x)
     sy, sxy, syy = np.cumsum(y, axis=0), np.cumsum(x[:, None] * y, axis=0), np.cumsum(y * y, axis=0)
@@ -397,26 +420,40 @@ def detect(time_s: FloatArray, values: FloatArray, min_duration_s: float) -> Det
     bk = _blocks(t, v, b, q)
     nb = bk.nb
     sd = math.sqrt(2.0) * bk.noise  # of the difference of two block means
-    same = (np.abs(np.diff(bk.mean, axis=0)) <= K_BREAK * sd).all(axis=1)
+    same = _smooth(bk)
     cuts = np.flatnonzero(~same) + 1
     runs = [[int(a), int(z)] for a, z in zip([0, *cuts], [*cuts, nb], strict=True)]
     runs = _merge(bk, runs)
     min_blocks = max(MIN_BLOCKS, math.ceil(min_duration_s / max(dt * b, 1e-300)))
     pieces: list[tuple[int, int]] = []
+    loose: list[tuple[int, int]] = []  # stretches of runs too short to be states
     for r0, r1 in runs:
         if r1 - r0 >= min_blocks:
             _split(bk, r0, r1, pieces)
+        elif loose and loose[-1][1] == r0:
+            loose[-1] = (loose[-1][0], r1)
+        else:
+            loose.append((r0, r1))
     trends: list[Trend] = []
     kept: list[tuple[int, int]] = []
-    for r0, r1 in pieces:
+    for r0, r1 in sorted(pieces + [x for x in loose if x[1] - x[0] >= 2 * min_blocks]):
         if r1 - r0 < min_blocks:
             continue
-        _, slope, _ = _line(bk, r0, r1)
+        level, slope, t_ref = _line(bk, r0, r1)
         change = np.abs(slope) * float(bk.t[r1 - 1] - bk.t[r0])
+        lead = int(np.argmax(change / sd))
         last = r1 * b - 1 if r1 < nb else n - 1
-        if (change > K_TREND * sd).any():
-            trends.append(Trend(float(t[r0 * b]), float(t[last]), (r0 * b, last), slope))
-        else:
+        is_piece = (r0, r1) in pieces
+        if not is_piece:
+            # a stretch of short runs is a trend when a line explains it (a steady motion
+            # broken at every block), not when it is pushes and ringing
+            fit = level[lead] + (bk.t[r0:r1] - t_ref) * slope[lead]
+            resid = bk.mean[r0:r1, lead] - fit
+            spread = bk.mean[r0:r1, lead] - level[lead]
+            linear = float(resid @ resid) <= 0.01 * float(spread @ spread)
+        if (change > K_TREND * sd).any() and (is_piece or linear):
+            trends.append(Trend(float(t[r0 * b]), float(t[last]), (r0 * b, last), slope, lead))
+        elif is_piece:
             kept.append((r0, r1))
     quiet = _quiet(bk, kept, q)
     states: list[State] = []
@@ -439,8 +476,23 @@ def detect(time_s: FloatArray, values: FloatArray, min_duration_s: float) -> Det
                 mean=v[i0:i1].mean(axis=0),
             )
         )
-    errors(t, v, states, q)
+    errors(t, v, states, q, b)
     return Detection(states, trends, b)
+
+
+def _smooth(bk: _Blocks) -> npt.NDArray[np.bool_]:
+    """Whether each pair of neighbouring blocks belongs to one run: a break where the curve of
+    the block means bends on both sides of the boundary (second differences beyond
+    :data:`K_BREAK` of their noise on some channel): a step, a push, ringing; not a ramp."""
+    nb = bk.nb
+    if nb < 3:
+        return np.ones(max(nb - 1, 0), dtype=bool)
+    d2 = np.abs(np.diff(bk.mean, n=2, axis=0)) > K_BREAK * math.sqrt(6.0) * bk.noise
+    bent = d2.any(axis=1)  # (nb - 2,): the bend at block 1 … nb - 2
+    # boundary j | j+1 (j = 0 … nb-2) lies between the bends at blocks j and j + 1
+    left = np.concatenate([[True], bent])  # bend at block j (block 0: no test, take True)
+    right = np.concatenate([bent, [True]])  # bend at block j + 1
+    return ~(left & right)
 
 
 def _merge(bk: _Blocks, runs: list[list[int]]) -> list[list[int]]:
@@ -463,18 +515,29 @@ def _merge(bk: _Blocks, runs: list[list[int]]) -> list[list[int]]:
     return merged
 
 
-def errors(t: FloatArray, v: FloatArray, states: list[State], q: FloatArray) -> None:
-    """Standard errors and drift rates of every state, the noise model of each channel
-    fitted to all the states' detrended settled samples together."""
+def errors(
+    t: FloatArray, v: FloatArray, states: list[State], q: FloatArray, block: int = 0
+) -> None:
+    """Standard errors, drift rates and drift tests of every state.
+
+    The noise model of each channel is fitted to the detrended later halves of all the
+    states' settled samples together (the part farthest from the transient before each).
+    A state drifts when one channel's slope is beyond :func:`drift_threshold`, or when its
+    channels' slopes together are beyond :func:`joint_threshold` (a creep that moves every
+    channel a little), each at half the false-alarm rate; the correlation of the channels'
+    slopes is that of the residual means of ``block``-sample blocks about the states' lines.
+    """
     if not states:
         return
     c = v.shape[1]
     gam = np.zeros((3, c))
     count = 0
     dens = []
+    resid: list[FloatArray] = []
     for s in states:
         x = v[s.start : s.stop]
-        tc = t[s.start : s.stop] - t[s.start : s.stop].mean()
+        tt = t[s.start : s.stop]
+        tc = tt - tt.mean()
         den = float(tc @ tc)
         s.slope = (tc @ (x - s.mean)) / den if den > 0 else np.zeros(c)
         dens.append(den)
@@ -483,9 +546,19 @@ def errors(t: FloatArray, v: FloatArray, states: list[State], q: FloatArray) -> 
         r = _detrended(t[half : s.stop], v[half : s.stop])
         gam += autocov(r, 3)
         count += r.shape[0]
+        if block > 0 and x.shape[0] >= 3 * block:
+            m = x.shape[0] // block
+            bm = x[: m * block].reshape(m, block, c).mean(axis=1)
+            bt = tc[: m * block].reshape(m, block).mean(axis=1)
+            line = s.mean + bt[:, None] * s.slope[None, :]
+            resid.append(bm - line)
     g0, a, phi = noise_model(gam, count, len(states))
     lrv = long_run(g0, a, phi)
-    thr = drift_threshold(len(states) * c)
+    inv, dof = _slope_correlation(resid, len(states), c)
+    joint = inv is not None
+    alarm = DRIFT_ALARM / 2.0 if joint else DRIFT_ALARM
+    thr = drift_threshold(len(states) * c, alarm)
+    thr_joint = joint_threshold(len(states), c, dof, alarm) if joint else math.inf
     for s, den in zip(states, dens, strict=True):
         # a quantised reading is known to ±q/2 however long it is averaged (q²/12), and a
         # trend of less than a quantum over the state is not seen
@@ -493,8 +566,40 @@ def errors(t: FloatArray, v: FloatArray, states: list[State], q: FloatArray) -> 
         span = max(float(t[s.stop - 1] - t[s.start]), 1e-300)
         s.slope_se = np.sqrt(lrv / den + (q / span) ** 2) if den > 0 else np.full(c, np.inf)
         with np.errstate(divide="ignore", invalid="ignore"):
-            z = np.abs(s.slope) / s.slope_se
-        s.drift = bool((np.nan_to_num(z, nan=0.0) > thr).any())
+            z = np.nan_to_num(s.slope / s.slope_se, nan=0.0, posinf=0.0, neginf=0.0)
+        s.drift_z = float(np.abs(z).max())
+        s.drift_limit = thr
+        if inv is not None:
+            s.joint = float(z @ inv @ z)
+            s.joint_limit = thr_joint
+        s.drift = s.drift_z > thr or s.joint > s.joint_limit
+
+
+def _slope_correlation(
+    resid: list[FloatArray], states: int, c: int
+) -> tuple[FloatArray | None, int]:
+    """The inverse of the correlation of the channels' noise and its degrees of freedom, from
+    the residual block means about the states' lines: ``(None, 0)`` with one channel or too
+    few blocks (fewer than ten degrees of freedom beyond the channels); the identity and no
+    estimation (``dof`` 0) when Bartlett's test does not find the channels correlated at 1 %
+    (the usual case: separate sensors), so that the joint test keeps its χ² threshold."""
+    if c < 2 or not resid:
+        return None, 0
+    e = np.concatenate(resid)
+    dof = e.shape[0] - 2 * len(resid)
+    if dof - c < 10:
+        return None, 0
+    norm = np.sqrt((e * e).sum(axis=0))
+    if not (norm > 0).all():
+        return None, 0
+    corr = (e.T @ e) / np.outer(norm, norm)
+    sign, logdet = np.linalg.slogdet(corr)
+    if sign <= 0 or np.linalg.cond(corr) > 1e6:
+        return None, 0
+    bartlett = -(dof - 1.0 - (2.0 * c + 5.0) / 6.0) * logdet
+    if chi2_sf(max(bartlett, 0.0), c * (c - 1) / 2.0) > 0.01:
+        return np.eye(c), 0
+    return np.asarray(np.linalg.inv(corr), dtype=np.float64), dof
 
 
 def _detrended(t: FloatArray, x: FloatArray) -> FloatArray:

@@ -6,6 +6,7 @@ reference minus the reference with the standard error of that difference
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -15,6 +16,9 @@ import numpy.typing as npt
 
 from eodarm.analysis.record_noise import drift_threshold, long_run_variance, mean_standard_error
 from eodarm.analysis.record_states import MIN_DURATION_S, State, Trend, detect
+from eodarm.data.channels import default_sigma
+from eodarm.data.measurements import MAX_DALPHA_DEG, MAX_DISPLACEMENT_MM, MIN_SIGMA_FRACTION
+from eodarm.data.record_text import listing, shown
 from eodarm.data.records import Campaign, Record, RecordError, RecordSpec, read_record
 
 __all__ = [
@@ -54,7 +58,7 @@ class RecordResult:
 
     def to_json(self) -> dict[str, Any]:
         """The ``--json`` entry of the record: per state its times, payload, means, standard
-        errors and drift rates."""
+        errors and drift rates; per trend its times and rates."""
         states = []
         masses = self.spec.masses_kg
         for k, s in enumerate(self.states):
@@ -70,11 +74,16 @@ class RecordResult:
                     "drift": bool(s.drift),
                 }
             )
+        trends = [
+            {"start_s": tr.t0, "end_s": tr.t1, "rate_per_s": _by(self.channels, tr.slope)}
+            for tr in self.trends
+        ]
         return {
             "file": str(self.spec.file),
             "config": self.spec.config,
             "samples": self.n_samples,
             "states": states,
+            "trends": trends,
             "refused": self.refused,
         }
 
@@ -131,21 +140,10 @@ def analyse_record(
         n_samples=record.time_s.size,
         trends=found.trends,
     )
-    f = record.path
+    f = shown(record.path)
     masses = spec.masses_kg
     if len(states) != len(masses):
-        when = ", ".join(f"{s.t0:.1f}–{s.t1:.1f}" for s in states) or "none"
-        more = "more" if len(states) > len(masses) else "fewer"
-        res.refused = (
-            f"{f}: found {len(states)} steady state{'' if len(states) == 1 else 's'} "
-            f"(at {when} s), {more} than the "
-            f"{len(masses)} payloads of masses_kg"
-            + (
-                "; a payload skipped or a pause too short?"
-                if more == "fewer"
-                else "; a pause counted as a state?"
-            )
-        )
+        res.refused = _unmatched(f, states, found.trends, record.channels, len(masses))
         return res
     drifting = [k for k, s in enumerate(states) if s.drift]
     if drifting and not allow_drift:
@@ -153,11 +151,17 @@ def analyse_record(
         s = states[k]
         z = np.abs(s.slope) / s.slope_se
         j = int(np.nanargmax(z))
+        rate = f"{record.channels[j]} {s.slope[j]:.3g} per s, {z[j]:.1f} times its standard error"
+        if s.drift_z > s.drift_limit:
+            why = f"{rate} (limit {s.drift_limit:.1f})"
+        else:
+            why = (
+                f"its {len(record.channels)} channels together, χ² {s.joint:.0f} (limit "
+                f"{s.joint_limit:.0f}); the most, {rate}"
+            )
         res.refused = (
             f"{f}: the steady state at {s.t0:.1f}–{s.t1:.1f} s (payload {masses[k]:g} kg) "
-            f"drifts: {record.channels[j]} {s.slope[j]:.3g} per s, {z[j]:.1f} times its "
-            f"standard error (limit {drift_threshold(len(states) * len(record.channels)):.1f}); "
-            "--allow-drift keeps it"
+            f"drifts: {why}; --allow-drift keeps it"
         )
         res.refused_states = drifting
         return res
@@ -165,6 +169,14 @@ def analyse_record(
     for k, s in enumerate(states[1:], start=1):
         diff = s.mean - ref.mean
         sig = np.sqrt(s.stderr**2 + ref.stderr**2)
+        wrong = _out_of_range(record.channels, diff, sig)
+        if wrong:
+            res.refused = (
+                f"{f}: the steady state at {s.t0:.1f}–{s.t1:.1f} s (payload {masses[k]:g} kg): "
+                f"{wrong}"
+            )
+            res.refused_states = [k]
+            return res
         res.rows.append(
             {
                 "config": spec.config,
@@ -177,6 +189,49 @@ def analyse_record(
             }
         )
     return res
+
+
+def _unmatched(
+    f: str, states: list[State], trends: list[Trend], channels: Sequence[str], payloads: int
+) -> str:
+    """The one line of a record whose steady states are not as many as its payloads: the
+    first three states and any trend, and the count."""
+    n = len(states)
+    when = listing([f"{s.t0:.1f}–{s.t1:.1f}" for s in states], n).replace("; ", ", ") or "none"
+    more = "more" if n > payloads else "fewer"
+    moving = ""
+    if trends:
+        tr = trends[0]
+        others = f" (and {len(trends) - 1} more)" if len(trends) > 1 else ""
+        moving = (
+            f"; {tr.t0:.1f}–{tr.t1:.1f} s is a trend ({channels[tr.lead]} "
+            f"{tr.slope[tr.lead]:.3g} per s){others}, not a steady state"
+        )
+    hint = (
+        "a payload skipped or a pause too short?"
+        if more == "fewer"
+        else "a pause counted as a state?"
+    )
+    return (
+        f"{f}: found {n} steady state{'' if n == 1 else 's'} (at {when} s), {more} than the "
+        f"{payloads} payloads of masses_kg{moving}; {hint}"
+    )
+
+
+def _out_of_range(channels: Sequence[str], diff: FloatArray, sig: FloatArray) -> str:
+    """What in a row would make the measurement file unreadable (its range, docs/formats.md
+    §3), or ""."""
+    for c, v, e in zip(channels, diff, sig, strict=True):
+        limit = MAX_DALPHA_DEG if c.startswith("dalpha") else MAX_DISPLACEMENT_MM
+        if not (math.isfinite(v) and abs(v) <= limit):
+            return f"{c} changed by {v:.6g}, beyond ±{limit:g} (a sensor's reading wrong?)"
+        low = MIN_SIGMA_FRACTION * default_sigma(c)
+        if not (math.isfinite(e) and low <= e <= limit):
+            return (
+                f"{c}'s standard error {e:.3g} is outside [{low:g}, {limit:g}] (a channel that "
+                "barely changes, or a sensor's reading wrong?)"
+            )
+    return ""
 
 
 def check(result: RecordResult) -> None:

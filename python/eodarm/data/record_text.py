@@ -49,8 +49,8 @@ LISTED = 3
 
 
 def shown(path: str | Path) -> str:
-    """A path as a message shows it: escaped, at most 80 characters (its end kept)."""
-    return printable(str(path), 80, tail=True)
+    """A path as a message shows it: escaped, at most 72 characters (its end kept)."""
+    return printable(str(path), 72, tail=True)
 
 
 def listing(items: Sequence[str], count: int) -> str:
@@ -72,23 +72,23 @@ def read_bounded(path: str | Path, limit: int, what: str) -> bytes:
     name = shown(path)
     try:
         st = os.stat(path)
-        if stat.S_ISDIR(st.st_mode):
-            raise RecordError(f"{name}: is a folder, not a {what}")
-        if not stat.S_ISREG(st.st_mode):
-            raise RecordError(
-                f"{name}: not a regular file (a device or a pipe?); a {what} is a file"
-            )
-        if st.st_size > limit:
-            raise RecordError(
-                f"{name}: {st.st_size} bytes, more than a {what} may have ({limit}; "
-                "docs/records.md)"
-            )
-        with open(path, "rb") as f:
-            data = f.read(limit + 1)
     except OSError as exc:
         raise RecordError(f"{name}: cannot read {what}: {exc.strerror or exc}") from None
     except ValueError:  # "embedded null byte": the name, not the file
         raise RecordError(f"{name}: cannot read {what}: its name holds a NUL byte") from None
+    if stat.S_ISDIR(st.st_mode):
+        raise RecordError(f"{name}: is a folder, not a {what}")
+    if not stat.S_ISREG(st.st_mode):
+        raise RecordError(f"{name}: not a regular file (a device or a pipe?); a {what} is a file")
+    if st.st_size > limit:
+        raise RecordError(
+            f"{name}: {st.st_size} bytes, more than a {what} may have ({limit}; docs/records.md)"
+        )
+    try:
+        with open(path, "rb") as f:
+            data = f.read(limit + 1)
+    except OSError as exc:
+        raise RecordError(f"{name}: cannot read {what}: {exc.strerror or exc}") from None
     if len(data) > limit:  # it grew while being read
         raise RecordError(f"{name}: more than {limit} bytes, more than a {what} may have")
     return data

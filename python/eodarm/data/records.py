@@ -401,7 +401,7 @@ def _scan(name: str, lines: Lines, header: list[str]) -> None:
     text = lines.data.decode("utf-8")
     reader = csv.reader(io.StringIO(text, newline=""))
     next(reader, None)
-    bad: list[str] = []
+    bad: list[tuple[str, str]] = []  # (where, what) of the first bad cells
     count = 0
     rows = 0
     last_t: float | None = None
@@ -420,26 +420,42 @@ def _scan(name: str, lines: Lines, header: list[str]) -> None:
             at = ""
         if len(row) != fields:
             count += 1
-            bad.append(f"line {lineno}{at} has {len(row)} of {fields} fields")
+            if len(bad) < 3:
+                bad.append((f"line {lineno}{at}", f"has {len(row)} of {fields} fields"))
             continue
         for col, cell in zip(header, row, strict=True):
             if not cell.strip():
-                count += 1
-                bad.append(f"line {lineno}{at}: {col} is missing (empty cell)")
+                what = f"{col} is missing (empty cell)"
             elif not _finite(cell):
-                count += 1
-                what = "is not finite" if _number(cell) else "is not a number"
-                bad.append(f"line {lineno}{at}: {col} '{printable(cell.strip(), 20)}' {what}")
+                why = "is not finite" if _number(cell) else "is not a number"
+                what = f"{col} '{printable(cell.strip(), 20)}' {why}"
+            else:
+                continue
+            count += 1
+            if len(bad) < 3:
+                bad.append((f"line {lineno}{at}", what))
         if _finite(t_text):
             last_t = float(t_text)
     if rows == 0:
         raise RecordError(f"{name}: empty record (a header and no samples)")
+    if count == 1:
+        raise RecordError(f"{name} {bad[0][0]}: {bad[0][1]}")
     if count:
-        raise RecordError(
-            f"{name}: {count} bad cell{'s' if count > 1 else ''}: {listing(bad[:3], count)}"
-            if count > 1
-            else f"{name} {bad[0]}"
-        )
+        # the time on the first only: the line numbers say where the others are
+        items = [_short_item(w if k == 0 else w.split(" (")[0], x) for k, (w, x) in enumerate(bad)]
+        raise RecordError(f"{name}: {count} bad cells: {listing(items, count)}")
+
+
+def _short_item(where: str, what: str) -> str:
+    """One bad cell in a list of several: its line and its cell (at most 12 characters of
+    it), without the reason."""
+    for reason in (" is not a number", " is not finite", " is missing (empty cell)"):
+        if what.endswith(reason):
+            what = what[: -len(reason)] + (" ''" if "missing" in reason else "")
+    col, _, cell = what.partition(" '")
+    if cell:
+        what = f"{col} '{printable(cell[:-1], 12)}'" if cell.endswith("'") else what
+    return f"{where} {printable(what, 40)}"
 
 
 def _number(text: str) -> bool:

@@ -6,6 +6,7 @@ bin's lowest and highest sample when there are more samples than pixels); each s
 shaded, its averaged samples drawn in colour with their mean as a black line, its payload
 written above it. A refused state (one that drifts) is shaded red; when the states could not
 be matched to the payloads at all, every state is shaded orange and the reason is the title.
+A trend (a part that moves steadily, never a state) is hatched grey and labelled "trend".
 """
 
 from __future__ import annotations
@@ -32,6 +33,7 @@ MAX_POINTS = 3000
 GOOD = "#2ca02c"
 REFUSED = "#d62728"
 UNMATCHED = "#ff7f0e"
+TREND = "#7f7f7f"
 
 
 def _envelope(
@@ -86,6 +88,17 @@ def record_figure(record: Record, result: RecordResult, path: PathLike | None = 
             colour = REFUSED if k in result.refused_states else PALETTE[0]
             _line(ax, t[s.start : s.stop], y[s.start : s.stop], color=colour, lw=0.8)
             ax.hlines(s.mean[j], s.t0, s.t1, color="black", lw=1.2)
+        for tr in result.trends:
+            ax.axvspan(
+                t[tr.span[0]],
+                t[tr.span[1]],
+                facecolor="none",
+                edgecolor=TREND,
+                hatch="//",
+                lw=0,
+                alpha=0.25,
+                zorder=0,
+            )
         ax.set_ylabel(f"{short_channel(ch)} ({channel_unit(ch)})")
         ax.grid(alpha=0.3)
         ax.margins(x=0.01)
@@ -107,6 +120,18 @@ def record_figure(record: Record, result: RecordResult, path: PathLike | None = 
             va="bottom",
             fontsize=8,
             color=REFUSED if (k in result.refused_states or not matched) else "black",
+        )
+    for tr in result.trends:
+        top.annotate(
+            "trend",
+            xy=((tr.t0 + tr.t1) / 2, 1.0),
+            xycoords=("data", "axes fraction"),
+            xytext=(0, 3),
+            textcoords="offset points",
+            ha="center",
+            va="bottom",
+            fontsize=8,
+            color=TREND,
         )
     axes[-1].set_xlabel("time (s)")
     name = f"{result.spec.config}: {record.path.name}"
