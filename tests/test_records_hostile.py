@@ -161,11 +161,24 @@ def test_a_long_cell_is_shown_shortened(
 def test_a_symlink_loop_is_refused_in_one_line(
     base: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    c = spoil(base, tmp_path, lambda t: t.replace('file = "c1.csv"', 'file = "loop_a.csv"'))
+    """The second record's file is a link that loops (checking that it is not the first
+    record's file used to end in a traceback)."""
+    second = '\n[[record]]\nfile = "loop_a.csv"\nconfig = "c2"\nalpha_deg = [80.0, 40.0, 20.0]\n'
+    second += "masses_kg = [0.0, 1.5, 5.0, 6.5, 5.0, 1.5, 0.0]\n"
+    c = spoil(base, tmp_path, lambda t: t + second)
     (tmp_path / "loop_a.csv").symlink_to(tmp_path / "loop_b.csv")
     (tmp_path / "loop_b.csv").symlink_to(tmp_path / "loop_a.csv")
     err = refused(c, capsys)
     assert "loop_a.csv: cannot read record" in err
+
+
+def test_a_campaign_file_that_loops_is_refused_in_one_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    (tmp_path / "a.toml").symlink_to(tmp_path / "b.toml")
+    (tmp_path / "b.toml").symlink_to(tmp_path / "a.toml")
+    err = refused(tmp_path / "a.toml", capsys)
+    assert "a.toml: cannot read campaign file" in err
 
 
 def test_a_leading_unnamed_field_is_refused_not_taken_for_an_index(
