@@ -539,7 +539,7 @@ def errors(
         tt = t[s.start : s.stop]
         tc = tt - tt.mean()
         den = float(tc @ tc)
-        s.slope = (tc @ (x - s.mean)) / den if den > 0 else np.zeros(c)
+        s.slope = (tc @ x) / den if den > 0 else np.zeros(c)  # Σ tc = 0: no mean to remove
         dens.append(den)
         # the noise model from the later half: the part farthest from the transient before
         half = (s.start + s.stop) // 2
@@ -603,8 +603,12 @@ def _slope_correlation(
 
 
 def _detrended(t: FloatArray, x: FloatArray) -> FloatArray:
-    """``x`` minus its least-squares line against ``t``, per column."""
+    """``x`` minus its least-squares line against ``t``, per column (one copy of ``x``)."""
     tc = t - t.mean()
-    xc = x - x.mean(axis=0)
     den = float(tc @ tc)
-    return xc - tc[:, None] * ((tc @ xc) / den)[None, :] if den > 0 else xc
+    out = x - x.mean(axis=0)
+    if den > 0:
+        slope = (tc @ out) / den
+        for j in range(out.shape[1]):
+            out[:, j] -= slope[j] * tc
+    return out

@@ -10,7 +10,7 @@ here, every refusal one line naming the file (and the line, 1-based, blank lines
 * it holds no NUL byte (a binary file) and is UTF-8 text;
 * no line is longer than :data:`MAX_LINE` characters (a file without newlines);
 * every non-blank line has as many fields as the header (a leading unnamed index column,
-  a stray comma).
+  a stray comma): checked by :mod:`eodarm.data.records` where the fast reader fails.
 
 :func:`listing` writes "the first three and the count" of what was found, so that a message
 stays under 300 characters however many lines are bad.
@@ -86,17 +86,20 @@ def read_bounded(path: str | Path, limit: int, what: str) -> bytes:
         )
     try:
         with open(path, "rb") as f:
-            data = f.read(limit + 1)
+            # as many bytes as the file has (a buffer of the limit would be allocated whole),
+            # and one more to see that it did not grow while being read
+            data = f.read(st.st_size)
+            grew = f.read(1)
     except OSError as exc:
         raise RecordError(f"{name}: cannot read {what}: {exc.strerror or exc}") from None
-    if len(data) > limit:  # it grew while being read
-        raise RecordError(f"{name}: more than {limit} bytes, more than a {what} may have")
+    if grew:
+        raise RecordError(f"{name}: grew while it was read (a logger still writing it?)")
     return data
 
 
 class Lines:
-    """The lines of a record's bytes: where each ends, how many commas it has, which are
-    blank, and the checks of the module docstring (:meth:`check`, :meth:`check_fields`).
+    """The lines of a record's bytes: where each ends, which are blank, and the checks of
+    the module docstring (:meth:`check`).
 
     Line numbers are 1-based and count every line, blank ones included.
     """
@@ -104,15 +107,12 @@ class Lines:
     def __init__(self, data: bytes, name: str) -> None:
         self.data = data
         self.name = name
-        buf = np.frombuffer(data, dtype=np.uint8)
-        nl = np.flatnonzero(buf == 10)
+        nl = np.flatnonzero(np.frombuffer(data, dtype=np.uint8) == 10)
         # the last line, unless the file ends with a newline
         self.ends: npt.NDArray[np.int64] = (
             nl if nl.size and nl[-1] == len(data) - 1 else np.append(nl, len(data))
         )
         self.starts = np.concatenate([[0], self.ends[:-1] + 1])
-        commas = np.flatnonzero(buf == 44)
-        self.commas = np.bincount(np.searchsorted(self.ends, commas), minlength=self.count)
 
     @property
     def count(self) -> int:
@@ -151,44 +151,9 @@ class Lines:
     def _line_of(self, offset: int) -> int:
         return int(np.searchsorted(self.ends, offset)) + 1
 
-    def _blank(self, i: int) -> bool:
-        return not self.data[int(self.starts[i]) : int(self.ends[i])].strip()
-
     def row_lines(self) -> npt.NDArray[np.int64]:
-        """The 1-based line number of every sample: the non-blank lines after the header
-        (a line with a comma is not blank)."""
-        rows = np.arange(1, self.count, dtype=np.int64)
-        maybe = rows[self.commas[1:] == 0]
-        blank = [i for i in maybe.tolist() if self._blank(i)]
-        if blank:
-            rows = rows[~np.isin(rows, np.asarray(blank, dtype=np.int64))]
-        return rows + 1
-
-    def check_fields(self, header: Sequence[str], time_col: int) -> None:
-        """Refuse the non-blank lines after the header whose number of fields (counted by
-        commas: the caller skips this for a file with quotes) is not the header's. When every
-        line has one field more, it is a leading unnamed field (an index column)."""
-        fields = len(header)
-        rows = self.row_lines() - 1  # 0-based
-        got = self.commas[rows] + 1
-        bad = rows[got != fields]
-        if not bad.size:
-            return
-        if bad.size == rows.size and (got == fields + 1).all():
-            raise RecordError(
-                f"{self.name}: every line has {fields + 1} fields, the header {fields} "
-                f"({printable(','.join(header), 40)}): a leading unnamed field (an index "
-                "column)? name it or drop it"
-            )
-        items = []
-        for i in bad[:LISTED].tolist():
-            cells = self.line(i).split(",")
-            when = cells[time_col].strip() if time_col < len(cells) else ""
-            at = f" (time {printable(when, 20)} s)" if when else ""
-            items.append(f"line {i + 1}{at} has {int(self.commas[i]) + 1}")
-        cut = bad[-1] == rows[-1] and self.commas[bad[-1]] + 1 < fields
-        raise RecordError(
-            f"{self.name}: {bad.size} line{'s' if bad.size > 1 else ''} with other than the "
-            f"header's {fields} fields: {listing(items, int(bad.size))}"
-            + ("; the last line cut short: a truncated record?" if cut else "")
-        )
+        """The 1-based line number of every sample: the lines after the header that hold more
+        than spaces, tabs and a carriage return (pandas skips the others)."""
+        pieces = self.data.split(b"\n")[: self.count]
+        full = np.fromiter((bool(x.strip()) for x in pieces), dtype=bool, count=len(pieces))
+        return np.flatnonzero(full[1:]) + 2

@@ -317,9 +317,6 @@ def read_record(path: str | Path, n: int) -> Record:
     header = [h.strip() for h in next(csv.reader([header_line]))]
     channels = _check_header(name, header, n)
     jt = header.index(TIME)
-    quoted = b'"' in data
-    if not quoted:  # counting commas is exact without quotes
-        lines.check_fields(header, jt)
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("error")  # pandas' ParserWarning: a line it would cut
@@ -395,17 +392,21 @@ def _check_header(name: str, header: list[str], n: int) -> list[str]:
 
 
 def _scan(name: str, lines: Lines, header: list[str]) -> None:
-    """Name the bad cells of a record the fast reader refused (the first three and the
-    count), scanning its text with the csv module; raise their one line."""
+    """Name what the fast reader refused, scanning the text with the csv module (true line
+    numbers): lines with other than the header's number of fields, else bad cells; the first
+    three and the count. Raise their one line."""
     jt = header.index(TIME)
-    text = lines.data.decode("utf-8")
-    reader = csv.reader(io.StringIO(text, newline=""))
+    fields = len(header)
+    reader = csv.reader(io.StringIO(lines.data.decode("utf-8"), newline=""))
     next(reader, None)
+    shape: list[str] = []  # lines with a wrong number of fields: the first three
+    shapes = 0
+    extra_one = 0  # lines with exactly one field more
+    last_short = False
     bad: list[tuple[str, str]] = []  # (where, what) of the first bad cells
     count = 0
     rows = 0
     last_t: float | None = None
-    fields = len(header)
     for row in reader:
         if not row or all(not c.strip() for c in row):
             continue
@@ -418,10 +419,12 @@ def _scan(name: str, lines: Lines, header: list[str]) -> None:
             at = f" (after time {last_t:g} s)"
         else:
             at = ""
+        last_short = len(row) < fields
         if len(row) != fields:
-            count += 1
-            if len(bad) < 3:
-                bad.append((f"line {lineno}{at}", f"has {len(row)} of {fields} fields"))
+            shapes += 1
+            extra_one += len(row) == fields + 1
+            if len(shape) < 3:
+                shape.append(f"line {lineno}{at if not shape else ''} has {len(row)}")
             continue
         for col, cell in zip(header, row, strict=True):
             if not cell.strip():
@@ -438,6 +441,18 @@ def _scan(name: str, lines: Lines, header: list[str]) -> None:
             last_t = float(t_text)
     if rows == 0:
         raise RecordError(f"{name}: empty record (a header and no samples)")
+    if shapes and extra_one == rows:
+        raise RecordError(
+            f"{name}: every line has {fields + 1} fields, the header {fields} "
+            f"({printable(','.join(header), 40)}): a leading unnamed field (an index column)? "
+            "name it or drop it"
+        )
+    if shapes:
+        raise RecordError(
+            f"{name}: {shapes} line{'s' if shapes > 1 else ''} with other than the header's "
+            f"{fields} fields: {listing(shape, shapes)}"
+            + ("; the last line cut short: a truncated record?" if last_short else "")
+        )
     if count == 1:
         raise RecordError(f"{name} {bad[0][0]}: {bad[0][1]}")
     if count:
