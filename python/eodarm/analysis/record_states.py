@@ -2,21 +2,24 @@
 
 Every threshold comes from the record's own noise:
 
-1. **Blocks.** The samples are cut into blocks of ``B`` samples, ``B`` a few correlation
-   times of the noise (:func:`block_size`); each block's mean, and the noise of a block mean
-   from the second differences of neighbouring block means (a steady trend has none).
-2. **Runs.** Neighbouring blocks whose means differ by at most :data:`K_BREAK` block-noise
-   units of their difference on every channel are one run; runs at one level are merged.
+1. **Blocks** (:mod:`eodarm.analysis.record_blocks`): blocks of a few correlation times, the
+   noise of a block mean from second differences (a steady trend has none) and the
+   correlation of neighbouring block means.
+2. **Runs.** The chain of blocks breaks where the block means bend on both sides of a
+   boundary (:func:`_smooth`: a step, a push, ringing; not a ramp); runs at one level are
+   joined again (:func:`_merge`).
 3. **Pieces.** A run is split where one straight line per channel fits it worse than two
-   (binary segmentation, :func:`_split`): a flat part and a ramp, a step too small to break
-   the chain. A piece whose line moves by more than two breaks over its length
-   (:data:`K_TREND`) is a **trend**, never a state; one that lasts ``min_duration_s``
-   otherwise is a **steady state**, whose drift is then tested.
-4. **Settled part.** A state's edges are not averaged: a guard block at each end, then any
-   leading or trailing blocks whose energy about the line of the rest is beyond the noise
-   (:func:`_settled`): the tail of a transient, ringing, the start of the next push.
-
-The standard errors and drift rates of the states are :func:`errors`.
+   (binary segmentation, :func:`_split`): a flat part and a ramp, a slow change between two
+   levels, a step too small to break the chain.
+4. **States and trends.** A piece whose line moves by more than two breaks over its length
+   (:data:`K_TREND`), or a stretch of short runs that a line explains, is a **trend**, never
+   a state; a piece that lasts ``min_duration_s`` otherwise is a **steady state**.
+5. **Settled part** (:mod:`eodarm.analysis.record_edges`): the groups of blocks at a state's
+   edges that are off the line of the rest or louder than a settled block, and half a block
+   at each end, are not averaged.
+6. **Drift** (:func:`errors`): the standard errors from the noise model of
+   :mod:`eodarm.analysis.record_noise`, and the drift tests, one channel at a time and all
+   channels together.
 """
 
 from __future__ import annotations
@@ -28,6 +31,8 @@ from dataclasses import dataclass, field
 import numpy as np
 import numpy.typing as npt
 
+from eodarm.analysis.record_blocks import Blocks, block_size, blocks, line, resolution
+from eodarm.analysis.record_edges import quiet_blocks, settled
 from eodarm.analysis.record_noise import (
     DRIFT_ALARM,
     autocov,
@@ -36,20 +41,17 @@ from eodarm.analysis.record_noise import (
     long_run,
     mean_variance,
     noise_model,
-    robust_scale,
 )
 from eodarm.analysis.tails import chi2_isf, chi2_sf
 
 __all__ = [
     "K_BREAK",
     "K_TREND",
-    "K_TRIM",
     "MIN_BLOCKS",
     "MIN_DURATION_S",
     "Detection",
     "State",
     "Trend",
-    "block_size",
     "detect",
     "errors",
 ]
@@ -62,19 +64,12 @@ K_BREAK = 5.0
 #: A piece whose line moves by more than this many standard deviations of the difference of
 #: two block means over its length (two breaks) is a trend: the arm is being moved.
 K_TREND = 2.0 * K_BREAK
-#: Leading or trailing blocks this many standard deviations off the line of the rest of their
-#: state, or as many above the inner variance of a settled block, are not averaged.
-K_TRIM = 4.0
 #: The false-alarm rate of splitting one run of pure noise in two.
 SPLIT_ALARM = 1e-6
 #: A steady state spans at least this many blocks.
 MIN_BLOCKS = 4
-#: The block size is estimated from at most this many samples (in runs spread over the record).
-SCALE_SAMPLES = 131072
 #: Default shortest steady state, s.
 MIN_DURATION_S = 2.0
-#: The scales (in blocks) at which a state's edges are tested.
-_SCALES = (1, 2, 4, 8)
 
 
 @dataclass
@@ -136,131 +131,7 @@ class Detection:
     block: int
 
 
-@dataclass(frozen=True)
-class _Blocks:
-    """Sums over the blocks of a record (``nb`` blocks of ``b`` samples, ``c`` channels).
-
-    ``t`` the mean time of each block; ``mean`` (nb, c) the block means; ``w`` Σ(x − mean)²,
-    ``tx`` Σ(t − t̄)(x − mean) and ``tt`` Σ(t − t̄)² within each block; ``noise`` (c,) the
-    standard deviation of one block mean, ``rho`` (c,) the correlation of neighbouring block
-    means (blocks a few correlation times long are not quite independent)."""
-
-    b: int
-    t: FloatArray
-    mean: FloatArray
-    w: FloatArray
-    tx: FloatArray
-    tt: FloatArray
-    noise: FloatArray
-    rho: FloatArray
-
-    @property
-    def nb(self) -> int:
-        return self.t.size
-
-
-# ---------------------------------------------------------------------------- blocks
-def _block_noise(bm: FloatArray) -> tuple[FloatArray, FloatArray]:
-    """The standard deviation of one block mean and the correlation ρ of neighbouring ones,
-    robustly from the first and second differences of the block means: for block means
-    correlated with their neighbours only, var(d₁) = 2σ²(1 − ρ) and var(d₂) = σ²(6 − 8ρ). The
-    second differences carry no steady trend, and a step or a transient gives a few
-    outliers; ρ is clipped to [0, 0.5] (a ramp over much of the record would inflate it)."""
-    v1 = robust_scale(np.diff(bm, axis=0)) ** 2
-    v2 = robust_scale(np.diff(bm, n=2, axis=0)) ** 2
-    with np.errstate(divide="ignore", invalid="ignore"):
-        r = np.where(v2 > 0, v1 / np.where(v2 > 0, v2, 1.0), 1.0 / 3.0)
-        rho = np.clip((6.0 * r - 2.0) / (8.0 * r - 2.0), 0.0, 0.5)
-    return np.sqrt(v2 / (6.0 - 8.0 * rho)), rho
-
-
-def block_size(values: FloatArray, cap: int) -> int:
-    """Samples per block: twice the smallest block length ``B`` (a power of 2) at which
-    ``B`` times the variance of a block mean has reached 80 % of its largest value, on the
-    channel that needs the longest, clipped to [8, ``cap``].
-
-    For noise without correlation ``B·var`` is the same for every ``B``; for correlated noise
-    it grows with ``B`` until the blocks outlast the correlation (it then equals the long-run
-    variance), whatever mix of correlated and white noise the channel has. The variance is
-    taken robustly from second differences of neighbouring block means, so that steps,
-    transients and ramps do not count. At most :data:`SCALE_SAMPLES` samples are used, in runs
-    spread over the record."""
-    n, c = values.shape
-    top = 1 << max(3, math.floor(math.log2(max(cap, 8))))
-    w = max(16 * top, 1024)
-    if n > max(SCALE_SAMPLES, 2 * w):
-        k = max(1, SCALE_SAMPLES // w)
-        starts = np.linspace(0, n - w, k).astype(np.int64)
-        chunks = [values[s0 : s0 + w] for s0 in starts]
-    else:
-        chunks = [values]
-    sizes = []
-    f = []
-    b = 1
-    while b <= top:
-        diffs = []
-        for x in chunks:
-            m = x.shape[0] // b
-            if m >= 4:
-                bm = x[: m * b].reshape(m, b, c).mean(axis=1)
-                diffs.append(np.diff(bm, n=2, axis=0))
-        if not diffs or sum(len(d) for d in diffs) < 16:
-            break
-        f.append(b * robust_scale(np.concatenate(diffs)) ** 2)
-        sizes.append(b)
-        b *= 2
-    if not f:
-        return max(1, min(8, cap))
-    fa = np.array(f)  # (len(sizes), C)
-    reach = fa >= 0.8 * fa.max(axis=0)
-    first = reach.argmax(axis=0)  # per channel, the first size that reaches 80 %
-    best = sizes[int(first.max())]
-    return int(max(8, min(cap, 2 * best)))
-
-
-def _blocks(t: FloatArray, v: FloatArray, b: int, q: FloatArray) -> _Blocks:
-    nb = t.size // b
-    c = v.shape[1]
-    x = v[: nb * b].reshape(nb, b, c)
-    tt = t[: nb * b].reshape(nb, b)
-    bm = x.mean(axis=1)
-    bt = tt.mean(axis=1)
-    xc = x - bm[:, None, :]
-    tc = tt - bt[:, None]
-    w = np.einsum("ijk,ijk->ik", xc, xc)
-    tx = np.einsum("ij,ijk->ik", tc, xc)
-    t2 = np.einsum("ij,ij->i", tc, tc)
-    sb, rho = _block_noise(bm) if nb >= 3 else (np.zeros(c), np.zeros(c))
-    tiny = 1e-12 * np.maximum(np.abs(bm).max(axis=0), 1.0)
-    # a change of less than a quantum between two blocks is no break
-    sb = np.maximum(np.maximum(sb, tiny), q / math.sqrt(2.0))
-    return _Blocks(b, bt, bm, w, tx, t2, sb, rho)
-
-
-def _resolution(v: FloatArray) -> FloatArray:
-    """Each channel's resolution: the smallest non-zero change between two samples (of the
-    first 2¹⁷), 0 for a constant channel. A logger that writes few decimals quantises."""
-    d = np.abs(np.diff(v[: SCALE_SAMPLES + 1], axis=0))
-    d[d == 0] = np.inf
-    q = d.min(axis=0) if d.shape[0] else np.zeros(v.shape[1])
-    return np.where(np.isfinite(q), q, 0.0)
-
-
-# ---------------------------------------------------------------------------- lines
-def _line(bk: _Blocks, lo: int, hi: int) -> tuple[FloatArray, FloatArray, float]:
-    """Least-squares line of the block means ``lo:hi`` against time: (level at ``t_ref``,
-    slope per s, ``t_ref``), per channel."""
-    t = bk.t[lo:hi]
-    y = bk.mean[lo:hi]
-    t_ref = float(t.mean())
-    tc = t - t_ref
-    den = float(tc @ tc)
-    level = y.mean(axis=0)
-    slope = (tc @ (y - level)) / den if den > 0 else np.zeros(y.shape[1])
-    return level, slope, t_ref
-
-
-def _split(bk: _Blocks, lo: int, hi: int, out: list[tuple[int, int]]) -> None:
+def _split(bk: Blocks, lo: int, hi: int, out: list[tuple[int, int]]) -> None:
     """Binary segmentation of the run ``lo:hi`` with one straight line per channel and piece:
     split where two lines fit the block means (in units of their long-run noise) better than
     one by more
@@ -316,84 +187,6 @@ def _chi2_split(places: int, channels: int) -> float:
     return chi2_isf(SPLIT_ALARM / places, 2.0 * channels)
 
 
-# ---------------------------------------------------------------------------- settled part
-@dataclass(frozen=True)
-class _Quiet:
-    """What a settled block looks like on this record: the median and the spread of the log
-    of a block's inner variance (about its own mean), per channel."""
-
-    centre: FloatArray
-    spread: FloatArray
-    floor: FloatArray
-
-
-def _quiet(bk: _Blocks, pieces: list[tuple[int, int]], q: FloatArray) -> _Quiet:
-    floor = q * q / 12.0 * bk.b + 1e-300
-    if not pieces:
-        c = bk.mean.shape[1]
-        return _Quiet(np.zeros(c), np.ones(c), floor)
-    logw = np.log(np.concatenate([bk.w[a:z] for a, z in pieces]) + floor)
-    centre = np.median(logw, axis=0)
-    spread = np.maximum(robust_scale(logw - centre), 1e-3)
-    return _Quiet(centre, spread, floor)
-
-
-def _edge_alarm(bk: _Blocks, a0: int, a1: int, m: int, lead: bool, quiet: _Quiet) -> bool:
-    """Whether the ``m`` blocks at the start (``lead``) or end of ``a0:a1`` are unsettled,
-    on any channel: their means off the line of the rest (their mean offset, or the sum of
-    squares of their offsets), or their inner variance above the record's settled blocks."""
-    edge = np.arange(a0, a0 + m) if lead else np.arange(a1 - m, a1)
-    lo, hi = (a0 + m, a1) if lead else (a0, a1 - m)
-    t = bk.t[lo:hi]
-    t_ref = float(t.mean())
-    sxx = float(((t - t_ref) ** 2).sum())
-    level, slope, _ = _line(bk, lo, hi)
-    x = bk.t[edge] - t_ref
-    off = (bk.mean[edge] - level - x[:, None] * slope) / bk.noise  # (m, c) in block noise
-    # their covariance: each block's own noise and the line's error at its time, shared
-    cov = np.eye(m) + 1.0 / (hi - lo) + (np.outer(x, x) / sxx if sxx > 0 else 0.0)
-    z_mean = np.abs(off.sum(axis=0)) / math.sqrt(float(cov.sum()))
-    chi2 = np.einsum("ij,ij->j", off, np.linalg.solve(cov, off))
-    loud = (np.log(bk.w[edge] + quiet.floor).mean(axis=0) - quiet.centre) * math.sqrt(m)
-    return bool(
-        (z_mean > K_TRIM).any()
-        or (m > 1 and (chi2 > _chi2_trim(m)).any())
-        or (loud > K_TRIM * quiet.spread).any()
-    )
-
-
-@functools.lru_cache(maxsize=64)
-def _chi2_trim(m: int) -> float:
-    """The χ²_m quantile of the two-sided normal tail of :data:`K_TRIM`."""
-    from statistics import NormalDist
-
-    return chi2_isf(2.0 * (1.0 - NormalDist().cdf(K_TRIM)), float(m))
-
-
-def _settled(bk: _Blocks, a0: int, a1: int, quiet: _Quiet) -> tuple[int, int]:
-    """The settled blocks of the state ``a0:a1``: leading (then trailing) groups of 1, 2, 4 or
-    8 blocks that :func:`_edge_alarm` finds unsettled are dropped, at most half the state in
-    all, and at least :data:`MIN_BLOCKS` blocks kept."""
-    keep = max(MIN_BLOCKS, (a1 - a0 + 1) // 2)
-    for lead in (True, False):
-        while a1 - a0 > keep:
-            for m in _SCALES:
-                if a1 - a0 - m < keep:
-                    m = 0
-                    break
-                if _edge_alarm(bk, a0, a1, m, lead, quiet):
-                    break
-            else:
-                m = 0
-            if m == 0:
-                break
-            if lead:
-                a0 += m
-            else:
-                a1 -= m
-    return a0, a1
-
-
 # ---------------------------------------------------------------------------- the detector
 def detect(time_s: FloatArray, values: FloatArray, min_duration_s: float) -> Detection:
     """The steady states and trends of one record (module docstring), with their errors.
@@ -416,8 +209,8 @@ def detect(time_s: FloatArray, values: FloatArray, min_duration_s: float) -> Det
     b = block_size(v, max(8, per_state // MIN_BLOCKS))
     if n // b < MIN_BLOCKS:
         return Detection([], [], b)
-    q = _resolution(v)
-    bk = _blocks(t, v, b, q)
+    q = resolution(v)
+    bk = blocks(t, v, b, q)
     nb = bk.nb
     sd = math.sqrt(2.0) * bk.noise  # of the difference of two block means
     same = _smooth(bk)
@@ -439,7 +232,7 @@ def detect(time_s: FloatArray, values: FloatArray, min_duration_s: float) -> Det
     for r0, r1 in sorted(pieces + [x for x in loose if x[1] - x[0] >= 2 * min_blocks]):
         if r1 - r0 < min_blocks:
             continue
-        level, slope, t_ref = _line(bk, r0, r1)
+        level, slope, t_ref = line(bk, r0, r1)
         change = np.abs(slope) * float(bk.t[r1 - 1] - bk.t[r0])
         lead = int(np.argmax(change / sd))
         last = r1 * b - 1 if r1 < nb else n - 1
@@ -455,12 +248,12 @@ def detect(time_s: FloatArray, values: FloatArray, min_duration_s: float) -> Det
             trends.append(Trend(float(t[r0 * b]), float(t[last]), (r0 * b, last), slope, lead))
         elif is_piece:
             kept.append((r0, r1))
-    quiet = _quiet(bk, kept, q)
+    quiet = quiet_blocks(bk, kept, q)
     states: list[State] = []
     for r0, r1 in kept:
         # the blocks at the edges that are not settled: the tail of what came before, the
         # start of what comes next (a hand reaching for the plate), ringing
-        a0, a1 = _settled(bk, r0, r1, quiet)
+        a0, a1 = settled(bk, r0, r1, quiet)
         # and half a block at each end (not at the record's): what the block tests cannot
         # see, the last samples of a transient, the first of the next push
         i0 = a0 * b + (b // 2 if r0 > 0 else 0)
@@ -480,7 +273,7 @@ def detect(time_s: FloatArray, values: FloatArray, min_duration_s: float) -> Det
     return Detection(states, trends, b)
 
 
-def _smooth(bk: _Blocks) -> npt.NDArray[np.bool_]:
+def _smooth(bk: Blocks) -> npt.NDArray[np.bool_]:
     """Whether each pair of neighbouring blocks belongs to one run: a break where the curve of
     the block means bends on both sides of the boundary (second differences beyond
     :data:`K_BREAK` of their noise on some channel): a step, a push, ringing; not a ramp."""
@@ -495,7 +288,7 @@ def _smooth(bk: _Blocks) -> npt.NDArray[np.bool_]:
     return ~(left & right)
 
 
-def _merge(bk: _Blocks, runs: list[list[int]]) -> list[list[int]]:
+def _merge(bk: Blocks, runs: list[list[int]]) -> list[list[int]]:
     """Neighbouring runs of at least :data:`MIN_BLOCKS` blocks at one level (a break by
     chance) made one."""
     sb = bk.noise
