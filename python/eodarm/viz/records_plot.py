@@ -55,7 +55,8 @@ def _line(ax: object, t: npt.NDArray[np.float64], y: npt.NDArray[np.float64], **
     if env is None:
         ax.plot(t, y, **kw)  # type: ignore[attr-defined]
     else:
-        ax.fill_between(env[0], env[1], env[2], color=kw.get("color"), lw=0)  # type: ignore[attr-defined]
+        # a thin band (a smooth ramp) still shows: its edge is drawn
+        ax.fill_between(env[0], env[1], env[2], color=kw.get("color"), lw=kw.get("lw", 0.6))  # type: ignore[attr-defined]
 
 
 def record_figure(record: Record, result: RecordResult, path: PathLike | None = None) -> Figure:
@@ -103,6 +104,20 @@ def record_figure(record: Record, result: RecordResult, path: PathLike | None = 
         ax.grid(alpha=0.3)
         ax.margins(x=0.01)
     top = axes[0]
+
+    def label(text: str, t0: float, t1: float, color: str) -> None:
+        top.annotate(
+            text,
+            xy=((t0 + t1) / 2, 1.0),
+            xycoords=("data", "axes fraction"),
+            xytext=(0, 3),
+            textcoords="offset points",
+            ha="center",
+            va="bottom",
+            fontsize=8,
+            color=color,
+        )
+
     for k, s in enumerate(result.states):
         if matched:
             text = ("ref " if k == 0 else "") + f"{masses[k]:g} kg"
@@ -110,29 +125,10 @@ def record_figure(record: Record, result: RecordResult, path: PathLike | None = 
                 text += " (drifts)"
         else:
             text = f"state {k + 1}"
-        top.annotate(
-            text,
-            xy=((s.t0 + s.t1) / 2, 1.0),
-            xycoords=("data", "axes fraction"),
-            xytext=(0, 3),
-            textcoords="offset points",
-            ha="center",
-            va="bottom",
-            fontsize=8,
-            color=REFUSED if (k in result.refused_states or not matched) else "black",
-        )
+        refused = k in result.refused_states or not matched
+        label(text, s.t0, s.t1, REFUSED if refused else "black")
     for tr in result.trends:
-        top.annotate(
-            "trend",
-            xy=((tr.t0 + tr.t1) / 2, 1.0),
-            xycoords=("data", "axes fraction"),
-            xytext=(0, 3),
-            textcoords="offset points",
-            ha="center",
-            va="bottom",
-            fontsize=8,
-            color=TREND,
-        )
+        label("trend", tr.t0, tr.t1, TREND)
     axes[-1].set_xlabel("time (s)")
     name = f"{result.spec.config}: {record.path.name}"
     if result.refused:
