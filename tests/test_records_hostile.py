@@ -277,7 +277,7 @@ def test_many_bad_cells_give_the_first_three_and_the_count(
     c = spoil(base, tmp_path)
     edit_lines(tmp_path / "c1.csv", edit)
     err = refused(c, capsys)
-    assert "c1.csv: 100 bad cells: " in err and "line 701 (time " in err and "(and 97 more)" in err
+    assert "c1.csv: 100 bad cells: " in err and "line 701 (time " in err and "…and 97 more" in err
     assert err.count("dalpha1_deg") == 3
 
 

@@ -18,7 +18,7 @@ from eodarm.analysis.record_noise import drift_threshold, long_run_variance, mea
 from eodarm.analysis.record_states import MIN_DURATION_S, State, Trend, detect
 from eodarm.data.channels import default_sigma
 from eodarm.data.measurements import MAX_DALPHA_DEG, MAX_DISPLACEMENT_MM, MIN_SIGMA_FRACTION
-from eodarm.data.record_text import listing, shown
+from eodarm.data.record_text import few, shown
 from eodarm.data.records import Campaign, Record, RecordError, RecordSpec, read_record
 
 __all__ = [
@@ -197,7 +197,7 @@ def _unmatched(
     """The one line of a record whose steady states are not as many as its payloads: the
     first three states and any trend, and the count."""
     n = len(states)
-    when = listing([f"{s.t0:.1f}–{s.t1:.1f}" for s in states], n).replace("; ", ", ") or "none"
+    when = few([f"{s.t0:.1f}–{s.t1:.1f}" for s in states], n) or "none"
     more = "more" if n > payloads else "fewer"
     moving = ""
     if trends:

@@ -12,8 +12,8 @@ here, every refusal one line naming the file (and the line, 1-based, blank lines
 * every non-blank line has as many fields as the header (a leading unnamed index column,
   a stray comma): checked by :mod:`eodarm.data.records` where the fast reader fails.
 
-:func:`listing` writes "the first three and the count" of what was found, so that a message
-stays under 300 characters however many lines are bad.
+Messages name the first three of what was found and count the rest (:func:`eodarm.errors.listing`,
+:func:`few`), so that a message stays under 300 characters however many lines are bad.
 """
 
 from __future__ import annotations
@@ -26,14 +26,14 @@ from pathlib import Path
 import numpy as np
 import numpy.typing as npt
 
-from eodarm.errors import RecordError, printable
+from eodarm.errors import RecordError, show_source
 
 __all__ = [
     "MAX_CAMPAIGN_BYTES",
     "MAX_LINE",
     "MAX_RECORD_BYTES",
     "Lines",
-    "listing",
+    "few",
     "read_bounded",
     "shown",
 ]
@@ -49,14 +49,15 @@ LISTED = 3
 
 
 def shown(path: str | Path) -> str:
-    """A path as a message shows it: escaped, at most 72 characters (its end kept)."""
-    return printable(str(path), 72, tail=True)
+    """A path as a message shows it (:func:`eodarm.errors.show_source`)."""
+    return show_source(path)
 
 
-def listing(items: Sequence[str], count: int) -> str:
-    """The first :data:`LISTED` of ``items`` and, when there are more, how many in all:
-    ``"a; b; c (and 17 more)"``."""
-    head = "; ".join(items[:LISTED])
+def few(items: Sequence[str], count: int, sep: str = ", ") -> str:
+    """The first :data:`LISTED` of ``items`` inside a sentence and, when there are more, how
+    many: ``"a, b, c (and 17 more)"`` (a message's own list of problems is
+    :func:`eodarm.errors.listing`)."""
+    head = sep.join(items[:LISTED])
     return head + (f" (and {count - LISTED} more)" if count > LISTED else "")
 
 

@@ -40,11 +40,11 @@ from eodarm.data.record_text import (
     MAX_CAMPAIGN_BYTES,
     MAX_RECORD_BYTES,
     Lines,
-    listing,
+    few,
     read_bounded,
     shown,
 )
-from eodarm.errors import RecordError, printable
+from eodarm.errors import RecordError, listing, show
 
 __all__ = [
     "Campaign",
@@ -152,7 +152,7 @@ def read_campaign(path: str | Path) -> Campaign:
         line = data.count(b"\n", 0, exc.start) + 1
         raise RecordError(f"{name} line {line}: not UTF-8 text ({exc.reason})") from None
     except tomllib.TOMLDecodeError as exc:
-        raise RecordError(f"{name}: not a TOML file ({printable(exc, 120)})") from None
+        raise RecordError(f"{name}: not a TOML file ({show(exc, 120)})") from None
     tables = doc.get("record")
     if not isinstance(tables, list) or not tables:
         raise RecordError(
@@ -186,13 +186,13 @@ def read_campaign(path: str | Path) -> Campaign:
         if not isinstance(file, str) or not file.strip():
             raise RecordError(f"{where}: 'file' must be a file name")
         if not file.isprintable():
-            raise RecordError(f"{where}: 'file' '{printable(file)}' holds a control character")
+            raise RecordError(f"{where}: 'file' '{show(file)}' holds a control character")
         if not isinstance(config, str) or not config.strip():
             raise RecordError(f"{where}: 'config' must be a non-empty label")
         label = config.strip()
         if not label.isprintable() or len(label) > MAX_LABEL:
             raise RecordError(
-                f"{where}: 'config' '{printable(label)}' must be printable text of at most "
+                f"{where}: 'config' '{show(label)}' must be printable text of at most "
                 f"{MAX_LABEL} characters"
             )
         alpha = _numbers(t["alpha_deg"], f"{where}: 'alpha_deg'")
@@ -225,15 +225,15 @@ def read_campaign(path: str | Path) -> Campaign:
         twice = next((s for s in specs if os.path.realpath(s.file) == real), None)
         if twice is not None:
             raise RecordError(
-                f"{where}: file '{printable(file)}' is listed twice (record "
+                f"{where}: file '{show(file)}' is listed twice (record "
                 f"{specs.index(twice) + 1} too)"
             )
         if label in seen:
             same = specs[seen[label] - 1].config
             but = "" if config == same else " but for spaces"
             raise RecordError(
-                f"{where}: config '{printable(config)}' is record {seen[label]}'s "
-                f"'{printable(same)}'{but}: one label per configuration"
+                f"{where}: config '{show(config)}' is record {seen[label]}'s "
+                f"'{show(same)}'{but}: one label per configuration"
             )
         seen[label] = i
         specs.append(RecordSpec(rec_file, label, tuple(alpha), tuple(masses)))
@@ -242,7 +242,7 @@ def read_campaign(path: str | Path) -> Campaign:
 
 def _keys(keys: Sequence[str]) -> str:
     """Key names for a message: escaped, the first few and the count."""
-    return listing([printable(k) for k in keys], len(keys)).replace("; ", ", ")
+    return few([show(k) for k in keys], len(keys))
 
 
 def _numbers(v: Any, what: str) -> list[float]:
@@ -353,10 +353,8 @@ def read_record(path: str | Path, n: int) -> Record:
     if back.size:
         rows = lines.row_lines()
         items = [f"line {rows[k + 1]}: time_s {t[k + 1]:g} s after {t[k]:g} s" for k in back[:3]]
-        raise RecordError(
-            f"{name}: time does not increase at {back.size} "
-            f"place{'s' if back.size > 1 else ''}: {listing(items, int(back.size))}"
-        )
+        head = f"{name}: time does not increase at {back.size} place{'s' if back.size > 1 else ''}"
+        raise RecordError(listing(head, items, int(back.size)))
     cols = [header.index(c) for c in channels]
     out = np.ascontiguousarray(values[:, cols])
     flat = np.flatnonzero(out.min(axis=0) == out.max(axis=0))
@@ -375,7 +373,7 @@ def _check_header(name: str, header: list[str], n: int) -> list[str]:
             raise RecordError(f"{name} line 1: column {k} has no name (a trailing comma?)")
     if len(set(header)) != len(header):
         dup = next(h for h in header if header.count(h) > 1)
-        raise RecordError(f"{name} line 1: column '{printable(dup)}' appears twice")
+        raise RecordError(f"{name} line 1: column '{show(dup)}' appears twice")
     if TIME not in header:
         raise RecordError(f"{name} line 1: no '{TIME}' column (seconds)")
     known = set(channel_names(n))
@@ -389,7 +387,7 @@ def _check_header(name: str, header: list[str], n: int) -> list[str]:
                     f"{name} line 1: channel '{h}' is of link {channel_link(h)}, the arm has {n}"
                 )
             raise RecordError(
-                f"{name} line 1: unknown channel '{printable(h)}'; a record has {TIME} and "
+                f"{name} line 1: unknown channel '{show(h)}'; a record has {TIME} and "
                 "channels dx_mm, dy_mm, dalphaK_deg, dlK_mm"
                 + (f" (K = 1…{n})" if n > 1 else " (K = 1)")
             )
@@ -422,7 +420,7 @@ def _scan(name: str, lines: Lines, header: list[str]) -> None:
         rows += 1
         t_text = row[jt] if jt < len(row) else ""
         if _finite(t_text):
-            at = f" (time {printable(t_text.strip(), 20)} s)"
+            at = f" (time {show(t_text.strip(), 20)} s)"
         elif last_t is not None:
             at = f" (after time {last_t:g} s)"
         else:
@@ -439,7 +437,7 @@ def _scan(name: str, lines: Lines, header: list[str]) -> None:
                 what = f"{col} is missing (empty cell)"
             elif not _finite(cell):
                 why = "is not finite" if _number(cell) else "is not a number"
-                what = f"{col} '{printable(cell.strip(), 20)}' {why}"
+                what = f"{col} '{show(cell.strip(), 20)}' {why}"
             else:
                 continue
             count += 1
@@ -452,21 +450,22 @@ def _scan(name: str, lines: Lines, header: list[str]) -> None:
     if shapes and extra_one == rows:
         raise RecordError(
             f"{name}: every line has {fields + 1} fields, the header {fields} "
-            f"({printable(','.join(header), 40)}): a leading unnamed field (an index column)? "
+            f"({show(','.join(header), 40)}): a leading unnamed field (an index column)? "
             "name it or drop it"
         )
     if shapes:
-        raise RecordError(
+        cut = " (the last cut short: a truncated record?)" if last_short else ""
+        head = (
             f"{name}: {shapes} line{'s' if shapes > 1 else ''} with other than the header's "
-            f"{fields} fields: {listing(shape, shapes)}"
-            + ("; the last line cut short: a truncated record?" if last_short else "")
+            f"{fields} fields{cut}"
         )
+        raise RecordError(listing(head, shape, shapes))
     if count == 1:
         raise RecordError(f"{name} {bad[0][0]}: {bad[0][1]}")
     if count:
         # the time on the first only: the line numbers say where the others are
         items = [_short_item(w if k == 0 else w.split(" (")[0], x) for k, (w, x) in enumerate(bad)]
-        raise RecordError(f"{name}: {count} bad cells: {listing(items, count)}")
+        raise RecordError(listing(f"{name}: {count} bad cells", items, count))
 
 
 def _short_item(where: str, what: str) -> str:
@@ -477,8 +476,8 @@ def _short_item(where: str, what: str) -> str:
             what = what[: -len(reason)] + (" ''" if "missing" in reason else "")
     col, _, cell = what.partition(" '")
     if cell:
-        what = f"{col} '{printable(cell[:-1], 12)}'" if cell.endswith("'") else what
-    return f"{where} {printable(what, 40)}"
+        what = f"{col} '{show(cell[:-1], 12)}'" if cell.endswith("'") else what
+    return f"{where} {show(what, 40)}"
 
 
 def _number(text: str) -> bool:

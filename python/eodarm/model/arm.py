@@ -22,8 +22,9 @@ from typing import Any, NoReturn
 
 import numpy as np
 
-from eodarm.errors import ArgumentTypeError, ArmFileError, EffectError
+from eodarm.errors import ArgumentTypeError, ArmFileError, EffectError, show, show_source
 from eodarm.model.arm_toml import over_template, render
+from eodarm.model.arm_units import unit_hints
 from eodarm.model.effects import Effect, effect_from_table
 
 __all__ = ["Actuator", "Arm", "EffectMark", "FitRecord", "Link", "check_arm"]
@@ -244,26 +245,31 @@ class Arm:
         if not isinstance(path, (str, Path)):
             raise ArmFileError(f"an arm file's path must be a str or Path, got {_short(path)}")
         p = Path(path)
+        name = show_source(p)  # the file as messages name it: one short printable line
         try:
             with open(p, "rb") as fh:
                 raw = fh.read(MAX_FILE_BYTES + 1)
         except OSError as exc:
-            raise ArmFileError(f"{p}: cannot read arm file: {exc.strerror or exc}") from None
+            raise ArmFileError(f"{name}: cannot read arm file: {exc.strerror or exc}") from None
+        except ValueError:  # open() of a name with a NUL byte
+            raise ArmFileError(f"{name}: cannot read arm file: its name holds a NUL byte") from None
         if len(raw) > MAX_FILE_BYTES:
-            raise ArmFileError(f"{p}: larger than {MAX_FILE_BYTES:,} bytes: not an arm file")
+            raise ArmFileError(f"{name}: larger than {MAX_FILE_BYTES:,} bytes: not an arm file")
         try:
             text = raw.decode("utf-8-sig")  # a byte-order mark is allowed, as in CSV files
         except UnicodeDecodeError as exc:
-            raise ArmFileError(f"{p}: not UTF-8 text (byte {exc.start})") from None
+            raise ArmFileError(f"{name}: not UTF-8 text (byte {exc.start})") from None
         try:
             data = tomllib.loads(text)
         except tomllib.TOMLDecodeError as exc:
-            raise ArmFileError(f"{p}: not valid TOML: {_one_line(str(exc))}") from None
+            raise ArmFileError(f"{name}: not valid TOML: {show(str(exc), 120)}") from None
         except RecursionError:
             raise ArmFileError(
-                f"{p}: not an arm file: arrays or tables nested too deeply"
+                f"{name}: not an arm file: arrays or tables nested too deeply"
             ) from None
-        return cls.from_dict(data, source=str(p))
+        arm = cls.from_dict(data, source=str(p))
+        unit_hints(arm, name)
+        return arm
 
     @classmethod
     def from_dict(cls, data: Mapping[str, Any], source: str = "<dict>") -> Arm:
@@ -676,10 +682,12 @@ class _Validator:
         self.source = source
 
     def fail(self, key: str, why: str) -> NoReturn:
-        raise ArmFileError(f"{self.source}: key '{key}': {why}")
+        raise ArmFileError(f"{show_source(self.source)}: key '{show(key, 60)}': {why}")
 
     def warn(self, key: str, why: str) -> None:
-        warnings.warn(f"{self.source}: key '{key}' {why}", UserWarning, stacklevel=4)
+        warnings.warn(
+            f"{show_source(self.source)}: key '{show(key, 60)}' {why}", UserWarning, stacklevel=4
+        )
 
     def unknown(self, table: Mapping[str, Any], allowed: set[str], prefix: str) -> None:
         """A key not in ``allowed``: refused when it looks like a misspelling of one (its
