@@ -40,6 +40,9 @@ class Quiet:
 
 
 def quiet_blocks(bk: Blocks, pieces: list[tuple[int, int]], q: FloatArray) -> Quiet:
+    """:class:`Quiet` from the blocks of the record's states (``pieces``, block ranges);
+    ``q`` the channels' resolution (a quantised channel's inner variance is at least its
+    quantum's)."""
     floor = q * q / 12.0 * bk.b + 1e-300
     if not pieces:
         c = bk.mean.shape[1]
@@ -88,19 +91,16 @@ def settled(bk: Blocks, a0: int, a1: int, quiet: Quiet) -> tuple[int, int]:
     all, and at least :data:`MIN_KEPT` blocks kept."""
     keep = max(MIN_KEPT, (a1 - a0 + 1) // 2)
     for lead in (True, False):
-        while a1 - a0 > keep:
-            for m in _SCALES:
-                if a1 - a0 - m < keep:
-                    m = 0
-                    break
-                if _edge_alarm(bk, a0, a1, m, lead, quiet):
-                    break
-            else:
-                m = 0
+        while True:
+            m = next(
+                (
+                    m
+                    for m in _SCALES
+                    if a1 - a0 - m >= keep and _edge_alarm(bk, a0, a1, m, lead, quiet)
+                ),
+                0,
+            )
             if m == 0:
                 break
-            if lead:
-                a0 += m
-            else:
-                a1 -= m
+            a0, a1 = (a0 + m, a1) if lead else (a0, a1 - m)
     return a0, a1
