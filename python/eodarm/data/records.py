@@ -45,6 +45,7 @@ from eodarm.data.record_text import (
     shown,
 )
 from eodarm.errors import RecordError, listing, show
+from eodarm.model.effects import did_you_mean
 
 __all__ = [
     "Campaign",
@@ -153,12 +154,18 @@ def read_campaign(path: str | Path) -> Campaign:
         raise RecordError(f"{name} line {line}: not UTF-8 text ({exc.reason})") from None
     except tomllib.TOMLDecodeError as exc:
         raise RecordError(f"{name}: not a TOML file ({show(exc, 120)})") from None
+    unknown = sorted(set(doc) - {"record"})
+    for key in unknown:  # a misspelled [[record]] would drop its records with only a note
+        if did_you_mean(key, ["record"], cutoff=0.75):
+            raise RecordError(
+                f"{name}: [[{show(key)}]] is not a table of a campaign (did you mean "
+                "[[record]]?); its records would be left out"
+            )
     tables = doc.get("record")
     if not isinstance(tables, list) or not tables:
         raise RecordError(
             f"{name}: no [[record]] table (each gives file, config, alpha_deg, masses_kg)"
         )
-    unknown = sorted(set(doc) - {"record"})
     if unknown:
         warnings.warn(
             f"{name}: ignoring key(s) {_keys(unknown)} (a campaign has [[record]] tables)",
@@ -171,17 +178,20 @@ def read_campaign(path: str | Path) -> Campaign:
         where = f"{name}: record {i}"
         if not isinstance(t, dict):
             raise RecordError(f"{where}: expected a table")
-        extra = sorted(set(t) - {"file", "config", "alpha_deg", "masses_kg"})
+        keys = ("file", "config", "alpha_deg", "masses_kg")
+        extra = sorted(set(t) - set(keys))
         if extra:
             warnings.warn(
-                f"{where}: ignoring key(s) {_keys(extra)} "
-                "(file, config, alpha_deg, masses_kg are read)",
+                f"{where}: ignoring key(s) "
+                + few([f"{show(k)}{did_you_mean(k, keys, cutoff=0.75)}" for k in extra], len(extra))
+                + " (file, config, alpha_deg, masses_kg are read)",
                 UserWarning,
                 stacklevel=2,
             )
-        for key in ("file", "config", "alpha_deg", "masses_kg"):
-            if key not in t:
-                raise RecordError(f"{where}: missing key '{key}'")
+        for key in keys:
+            if key not in t:  # named with the key given in its place, if one looks like it
+                close = did_you_mean(key, extra).replace("did you mean", "is it")
+                raise RecordError(f"{where}: missing key '{key}'{close}")
         file, config = t["file"], t["config"]
         if not isinstance(file, str) or not file.strip():
             raise RecordError(f"{where}: 'file' must be a file name")
