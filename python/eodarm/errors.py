@@ -22,6 +22,7 @@ __all__ = [
     "EodarmError",
     "InputError",
     "OutOfMemoryError",
+    "RecordError",
     "SweepTooLargeError",
     "listing",
     "show",
@@ -141,3 +142,13 @@ class ClusterError(EodarmError):
 class OutOfMemoryError(EodarmError, MemoryError):
     """An output would not fit in the memory available (a :class:`MemoryError` too): the
     estimate was checked before anything was allocated."""
+
+
+class RecordError(EodarmError):
+    """A campaign file or a raw record is malformed, or a record's steady states cannot be
+    matched to its payloads (docs/records.md); the one-line message names the file and the
+    record, line, time or key. A longer message than :data:`MESSAGE_ROOM` is cut, and a
+    character that is not printable escaped (:func:`show`)."""
+
+    def __init__(self, message: str) -> None:
+        super().__init__(show(" ".join(message.split()), MESSAGE_ROOM))

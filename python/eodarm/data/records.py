@@ -12,14 +12,17 @@ A *campaign* file (TOML) lists the records, one ``[[record]]`` table each::
     masses_kg = [0.0, 1.5, 5.0, 6.5, 5.0, 1.5, 0.0]   # the payload of each steady state, kg
 
 This module reads and writes both and refuses a malformed one in one line naming the file and
-the line (and the time, for a record). Finding the steady states is
-:mod:`eodarm.analysis.records`.
+the record and key, or the line (1-based, blank lines counted) and the time, for a record; the
+bytes are read with bounds first (:mod:`eodarm.data.record_text`). Finding the steady states
+is :mod:`eodarm.analysis.records`.
 """
 
 from __future__ import annotations
 
 import csv
+import io
 import math
+import os
 import tomllib
 import warnings
 from collections.abc import Sequence
@@ -32,7 +35,16 @@ import numpy.typing as npt
 
 from eodarm.atomic import atomic_write
 from eodarm.data.channels import _CHANNEL, channel_link, channel_names
-from eodarm.errors import EodarmError
+from eodarm.data.measurements import MAX_ANGLE_DEG, MAX_MASS_KG
+from eodarm.data.record_text import (
+    MAX_CAMPAIGN_BYTES,
+    MAX_RECORD_BYTES,
+    Lines,
+    few,
+    read_bounded,
+    shown,
+)
+from eodarm.errors import RecordError, listing, show
 from eodarm.model.effects import did_you_mean
 
 __all__ = [
@@ -54,9 +66,8 @@ FloatArray = npt.NDArray[np.float64]
 TIME = "time_s"
 
 
-class RecordError(EodarmError):
-    """A campaign file or a record is malformed, or its steady states cannot be matched to its
-    payloads; the one-line message names the file and the line or the time."""
+#: The longest config label, characters.
+MAX_LABEL = 64
 
 
 @dataclass(frozen=True)
@@ -120,9 +131,13 @@ def read_campaign(path: str | Path) -> Campaign:
     Raises
     ------
     RecordError
-        One line naming the file and the record (1-based) and key at fault: no ``[[record]]``,
-        a missing or mistyped key, angles of different lengths, fewer than two payloads, a
-        negative or non-finite payload, two records of one file or of one config label.
+        One line naming the file and the record (1-based) and key at fault: the file cannot
+        be read or is larger than :data:`~eodarm.data.record_text.MAX_CAMPAIGN_BYTES`, no
+        ``[[record]]``, a missing or mistyped key, a file name with a control character,
+        angles of different lengths or beyond ±``MAX_ANGLE_DEG``, fewer than two payloads, a
+        negative payload or one beyond ``MAX_MASS_KG`` (the measurement file's range), two
+        records of one file, a config label that is not printable text of at most
+        :data:`MAX_LABEL` characters, or two labels equal but for spaces.
 
     Warns
     -----
@@ -130,34 +145,37 @@ def read_campaign(path: str | Path) -> Campaign:
         Naming the keys that are not read (they are ignored).
     """
     p = Path(path)
+    name = shown(p)
+    data = read_bounded(p, MAX_CAMPAIGN_BYTES, "campaign file")
     try:
-        with open(p, "rb") as f:
-            doc = tomllib.load(f)
-    except OSError as exc:
-        raise RecordError(f"{p}: cannot read campaign file: {exc.strerror or exc}") from None
+        doc = tomllib.loads(data.decode("utf-8"))
+    except UnicodeDecodeError as exc:
+        line = data.count(b"\n", 0, exc.start) + 1
+        raise RecordError(f"{name} line {line}: not UTF-8 text ({exc.reason})") from None
     except tomllib.TOMLDecodeError as exc:
-        raise RecordError(f"{p}: not a TOML file ({exc})") from None
+        raise RecordError(f"{name}: not a TOML file ({show(exc, 120)})") from None
     unknown = sorted(set(doc) - {"record"})
     for key in unknown:  # a misspelled [[record]] would drop its records with only a note
         if did_you_mean(key, ["record"], cutoff=0.75):
             raise RecordError(
-                f"{p}: [[{key}]] is not a table of a campaign (did you mean [[record]]?); "
-                "its records would be left out"
+                f"{name}: [[{show(key)}]] is not a table of a campaign (did you mean "
+                "[[record]]?); its records would be left out"
             )
     tables = doc.get("record")
     if not isinstance(tables, list) or not tables:
         raise RecordError(
-            f"{p}: no [[record]] table (each gives file, config, alpha_deg, masses_kg)"
+            f"{name}: no [[record]] table (each gives file, config, alpha_deg, masses_kg)"
         )
     if unknown:
         warnings.warn(
-            f"{p}: ignoring key(s) {', '.join(unknown)} (a campaign has [[record]] tables)",
+            f"{name}: ignoring key(s) {_keys(unknown)} (a campaign has [[record]] tables)",
             UserWarning,
             stacklevel=2,
         )
     specs: list[RecordSpec] = []
+    seen: dict[str, int] = {}
     for i, t in enumerate(tables, start=1):
-        where = f"{p}: record {i}"
+        where = f"{name}: record {i}"
         if not isinstance(t, dict):
             raise RecordError(f"{where}: expected a table")
         keys = ("file", "config", "alpha_deg", "masses_kg")
@@ -165,7 +183,7 @@ def read_campaign(path: str | Path) -> Campaign:
         if extra:
             warnings.warn(
                 f"{where}: ignoring key(s) "
-                + ", ".join(f"{k}{did_you_mean(k, keys, cutoff=0.75)}" for k in extra)
+                + few([f"{show(k)}{did_you_mean(k, keys, cutoff=0.75)}" for k in extra], len(extra))
                 + " (file, config, alpha_deg, masses_kg are read)",
                 UserWarning,
                 stacklevel=2,
@@ -174,10 +192,19 @@ def read_campaign(path: str | Path) -> Campaign:
             if key not in t:  # named with the key given in its place, if one looks like it
                 close = did_you_mean(key, extra).replace("did you mean", "is it")
                 raise RecordError(f"{where}: missing key '{key}'{close}")
-        if not isinstance(t["file"], str) or not t["file"].strip():
+        file, config = t["file"], t["config"]
+        if not isinstance(file, str) or not file.strip():
             raise RecordError(f"{where}: 'file' must be a file name")
-        if not isinstance(t["config"], str) or not t["config"].strip():
+        if not file.isprintable():
+            raise RecordError(f"{where}: 'file' '{show(file)}' holds a control character")
+        if not isinstance(config, str) or not config.strip():
             raise RecordError(f"{where}: 'config' must be a non-empty label")
+        label = config.strip()
+        if not label.isprintable() or len(label) > MAX_LABEL:
+            raise RecordError(
+                f"{where}: 'config' '{show(label)}' must be printable text of at most "
+                f"{MAX_LABEL} characters"
+            )
         alpha = _numbers(t["alpha_deg"], f"{where}: 'alpha_deg'")
         masses = _numbers(t["masses_kg"], f"{where}: 'masses_kg'")
         if not alpha:
@@ -187,17 +214,45 @@ def read_campaign(path: str | Path) -> Campaign:
                 f"{where}: 'alpha_deg' has {len(alpha)} angles, record 1 has "
                 f"{len(specs[0].alpha_deg)} (one arm per campaign)"
             )
+        wild = [a for a in alpha if abs(a) > MAX_ANGLE_DEG]
+        if wild:
+            raise RecordError(
+                f"{where}: 'alpha_deg' {wild[0]:.6g} is beyond ±{MAX_ANGLE_DEG:g}° (the range "
+                "of a measurement file)"
+            )
         if len(masses) < 2:
             raise RecordError(f"{where}: 'masses_kg' needs the reference and at least one payload")
         if any(m < 0 for m in masses):
             raise RecordError(f"{where}: 'masses_kg' has a negative payload")
-        rec_file = p.parent / t["file"]  # as the user finds it from here, for messages
-        if any(s.file.resolve() == rec_file.resolve() for s in specs):
-            raise RecordError(f"{where}: file '{t['file']}' is listed twice")
-        if any(s.config == t["config"] for s in specs):
-            raise RecordError(f"{where}: config '{t['config']}' is listed twice")
-        specs.append(RecordSpec(rec_file, t["config"].strip(), tuple(alpha), tuple(masses)))
+        heavy = [m for m in masses if m > MAX_MASS_KG]
+        if heavy:
+            raise RecordError(
+                f"{where}: 'masses_kg' {heavy[0]:.6g} is beyond {MAX_MASS_KG:g} kg (the range of "
+                "a measurement file)"
+            )
+        rec_file = p.parent / file  # as the user finds it from here, for messages
+        real = os.path.realpath(rec_file)  # no error on a loop: reading it says so
+        twice = next((s for s in specs if os.path.realpath(s.file) == real), None)
+        if twice is not None:
+            raise RecordError(
+                f"{where}: file '{show(file)}' is listed twice (record "
+                f"{specs.index(twice) + 1} too)"
+            )
+        if label in seen:
+            same = specs[seen[label] - 1].config
+            but = "" if config == same else " but for spaces"
+            raise RecordError(
+                f"{where}: config '{show(config)}' is record {seen[label]}'s "
+                f"'{show(same)}'{but}: one label per configuration"
+            )
+        seen[label] = i
+        specs.append(RecordSpec(rec_file, label, tuple(alpha), tuple(masses)))
     return Campaign(p, tuple(specs))
+
+
+def _keys(keys: Sequence[str]) -> str:
+    """Key names for a message: escaped, the first few and the count."""
+    return few([show(k) for k in keys], len(keys))
 
 
 def _numbers(v: Any, what: str) -> list[float]:
@@ -205,7 +260,10 @@ def _numbers(v: Any, what: str) -> list[float]:
         isinstance(x, (int, float)) and not isinstance(x, bool) for x in v
     ):
         raise RecordError(f"{what} must be a list of numbers")
-    out = [float(x) for x in v]
+    try:
+        out = [float(x) for x in v]
+    except OverflowError:  # an integer beyond a float
+        raise RecordError(f"{what} must be finite") from None
     if not all(math.isfinite(x) for x in out):
         raise RecordError(f"{what} must be finite")
     return out
@@ -247,75 +305,87 @@ def write_campaign(
 def read_record(path: str | Path, n: int) -> Record:
     """Read and check one record of an ``n``-link arm.
 
-    The numbers are parsed by pandas' C reader (10⁶ samples × 8 channels in well under a
-    second); only when that fails is the file scanned line by line to name the first bad
-    line.
+    The bytes are read with bounds and checked first (:mod:`eodarm.data.record_text`); the
+    numbers are then parsed by pandas' C reader (10⁶ samples × 8 channels in well under a
+    second); only when that fails is the text scanned line by line to name the bad cells.
 
     Raises
     ------
     RecordError
-        One line naming the file, the line and the time: the file cannot be read or is empty,
-        no ``time_s`` column, an unknown column or a channel of a link beyond ``n``, a repeated
-        column, no channel, a cell that is not a finite number or is empty, a truncated last
-        line, or a time that does not increase.
+        One line naming the file, the line (1-based, blank lines counted) and the time: the
+        file cannot be read, is not a regular file, is too large, binary or not UTF-8, has a
+        line longer than ``MAX_LINE``, is empty; no ``time_s`` column, an unknown column or a
+        channel of a link beyond ``n``, a repeated or unnamed column, no channel; a line with
+        other than the header's number of fields (a leading unnamed field on every line);
+        cells that are not finite numbers or are empty (the first three and the count); a
+        time that does not increase; a channel that is constant (a sensor that did not log).
     """
     import pandas as pd
 
     p = Path(path)
-    try:
-        with open(p, encoding="utf-8-sig", newline="") as f:
-            header_line = f.readline()
-    except OSError as exc:
-        raise RecordError(f"{p}: cannot read record: {exc.strerror or exc}") from None
-    except UnicodeDecodeError as exc:
-        raise RecordError(f"{p}: not a UTF-8 text file ({exc.reason})") from None
+    name = shown(p)
+    data = read_bounded(p, MAX_RECORD_BYTES, "record")
+    if data.startswith(b"\xef\xbb\xbf"):  # a UTF-8 byte order mark
+        data = data[3:]
+    lines = Lines(data, name)
+    lines.check()
+    header_line = lines.line(0)
     if not header_line.strip():
-        raise RecordError(f"{p}: empty record (no header, no samples)")
+        raise RecordError(f"{name}: empty record (no header, no samples)")
     header = [h.strip() for h in next(csv.reader([header_line]))]
-    channels = _check_header(p, header, n)
+    channels = _check_header(name, header, n)
+    jt = header.index(TIME)
     try:
-        df = pd.read_csv(
-            p,
-            dtype=np.float64,
-            na_filter=False,
-            engine="c",
-            encoding="utf-8-sig",
-            skip_blank_lines=True,
-        )
-        data = df.to_numpy(dtype=np.float64, copy=False)
-        ok = data.shape[1] == len(header)
-    except (ValueError, pd.errors.ParserError):
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")  # pandas' ParserWarning: a line it would cut
+            df = pd.read_csv(
+                io.BytesIO(data),
+                header=0,
+                index_col=False,
+                dtype=np.float64,
+                na_filter=False,
+                engine="c",
+                encoding="utf-8",
+                skip_blank_lines=True,
+            )
+        values = df.to_numpy(dtype=np.float64, copy=False)
+        ok = values.shape[1] == len(header) and bool(np.isfinite(values).all())
+    except (ValueError, Warning, pd.errors.ParserError):
         ok = False
     if not ok:
-        _scan(p, header)  # raises, naming the line
-        raise RecordError(f"{p}: cannot read the samples")  # pragma: no cover
-    if data.shape[0] == 0:
-        raise RecordError(f"{p}: empty record (a header and no samples)")
-    bad = ~np.isfinite(data)
-    if bad.any():
-        i, j = np.argwhere(bad)[0]
-        _scan(p, header)  # an empty or non-finite cell: named with its line
-        raise RecordError(  # pragma: no cover - _scan finds it
-            f"{p} line {i + 2}: {header[j]} is not a finite number"
-        )
-    t = np.ascontiguousarray(data[:, header.index(TIME)])
+        _scan(name, lines, header)  # raises, naming the lines
+        raise RecordError(f"{name}: cannot read the samples")  # pragma: no cover
+    if values.shape[0] == 0:
+        raise RecordError(f"{name}: empty record (a header and no samples)")
+    t = np.ascontiguousarray(values[:, jt])
     dt = np.diff(t)
-    if dt.size and not (dt > 0).all():
-        k = int(np.argmin(dt > 0))
-        raise RecordError(
-            f"{p} line {k + 3}: time does not increase (time_s {t[k + 1]:g} s after {t[k]:g} s)"
-        )
+    back = np.flatnonzero(~(dt > 0))
+    if back.size:
+        rows = lines.row_lines()
+        items = [f"line {rows[k + 1]}: time_s {t[k + 1]:g} s after {t[k]:g} s" for k in back[:3]]
+        head = f"{name}: time does not increase at {back.size} place{'s' if back.size > 1 else ''}"
+        raise RecordError(listing(head, items, int(back.size)))
     cols = [header.index(c) for c in channels]
-    values = np.ascontiguousarray(data[:, cols])
-    return Record(p, t, tuple(channels), values)
+    out = np.ascontiguousarray(values[:, cols])
+    flat = np.flatnonzero(out.min(axis=0) == out.max(axis=0))
+    if flat.size and out.shape[0] > 1:
+        j = int(flat[0])
+        raise RecordError(
+            f"{name}: {channels[j]} is constant ({out[0, j]:g} in all {out.shape[0]} samples): "
+            "a sensor that did not log? a constant tells nothing and has no noise; drop the column"
+        )
+    return Record(p, t, tuple(channels), out)
 
 
-def _check_header(p: Path, header: list[str], n: int) -> list[str]:
+def _check_header(name: str, header: list[str], n: int) -> list[str]:
+    for k, h in enumerate(header, start=1):
+        if not h:
+            raise RecordError(f"{name} line 1: column {k} has no name (a trailing comma?)")
     if len(set(header)) != len(header):
         dup = next(h for h in header if header.count(h) > 1)
-        raise RecordError(f"{p} line 1: column '{dup}' appears twice")
+        raise RecordError(f"{name} line 1: column '{show(dup)}' appears twice")
     if TIME not in header:
-        raise RecordError(f"{p} line 1: no '{TIME}' column (seconds)")
+        raise RecordError(f"{name} line 1: no '{TIME}' column (seconds)")
     known = set(channel_names(n))
     channels = []
     for h in header:
@@ -324,62 +394,108 @@ def _check_header(p: Path, header: list[str], n: int) -> list[str]:
         if h not in known:
             if _CHANNEL.match(h):
                 raise RecordError(
-                    f"{p} line 1: channel '{h}' is of link {channel_link(h)}, the arm has {n}"
+                    f"{name} line 1: channel '{h}' is of link {channel_link(h)}, the arm has {n}"
                 )
             raise RecordError(
-                f"{p} line 1: unknown channel '{h}'; a record has {TIME} and channels of "
-                f"{', '.join(channel_names(n))}"
+                f"{name} line 1: unknown channel '{show(h)}'; a record has {TIME} and "
+                "channels dx_mm, dy_mm, dalphaK_deg, dlK_mm"
+                + (f" (K = 1…{n})" if n > 1 else " (K = 1)")
             )
         channels.append(h)
     if not channels:
-        raise RecordError(f"{p} line 1: no channel (dx_mm, dy_mm, dalphaK_deg, dlK_mm)")
+        raise RecordError(f"{name} line 1: no channel (dx_mm, dy_mm, dalphaK_deg, dlK_mm)")
     return channels
 
 
-def _scan(p: Path, header: list[str]) -> None:
-    """Find the first bad line of a record the fast reader refused, and raise its one line."""
-    with open(p, encoding="utf-8-sig", newline="") as f:
-        reader = csv.reader(f)
-        next(reader, None)
-        last_t: float | None = None
-        rows = 0
-        lineno = 1
-        for lineno, row in enumerate(reader, start=2):
-            if not row or all(not c.strip() for c in row):
-                continue
-            rows += 1
-            t_text = row[header.index(TIME)] if header.index(TIME) < len(row) else ""
-            if _finite(t_text):
-                at = f" (time {t_text.strip()} s)"
-            elif last_t is not None:
-                at = f" (after time {last_t:g} s)"
+def _scan(name: str, lines: Lines, header: list[str]) -> None:
+    """Name what the fast reader refused, scanning the text with the csv module (true line
+    numbers): lines with other than the header's number of fields, else bad cells; the first
+    three and the count. Raise their one line."""
+    jt = header.index(TIME)
+    fields = len(header)
+    reader = csv.reader(io.StringIO(lines.data.decode("utf-8"), newline=""))
+    next(reader, None)
+    shape: list[str] = []  # lines with a wrong number of fields: the first three
+    shapes = 0
+    extra_one = 0  # lines with exactly one field more
+    last_short = False
+    bad: list[tuple[str, str]] = []  # (where, what) of the first bad cells
+    count = 0
+    rows = 0
+    last_t: float | None = None
+    for row in reader:
+        if not row or all(not c.strip() for c in row):
+            continue
+        lineno = reader.line_num
+        rows += 1
+        t_text = row[jt] if jt < len(row) else ""
+        if _finite(t_text):
+            at = f" (time {show(t_text.strip(), 20)} s)"
+        elif last_t is not None:
+            at = f" (after time {last_t:g} s)"
+        else:
+            at = ""
+        last_short = len(row) < fields
+        if len(row) != fields:
+            shapes += 1
+            extra_one += len(row) == fields + 1
+            if len(shape) < 3:
+                shape.append(f"line {lineno}{at if not shape else ''} has {len(row)}")
+            continue
+        for col, cell in zip(header, row, strict=True):
+            if not cell.strip():
+                what = f"{col} is missing (empty cell)"
+            elif not _finite(cell):
+                why = "is not finite" if _number(cell) else "is not a number"
+                what = f"{col} '{show(cell.strip(), 20)}' {why}"
             else:
-                at = ""
-            if len(row) < len(header):
-                tail = "the last line" if _is_last(f) else "a line"
-                raise RecordError(
-                    f"{p} line {lineno}{at}: {tail} has {len(row)} of {len(header)} fields "
-                    "(a truncated record?)"
-                )
-            if len(row) > len(header):
-                raise RecordError(
-                    f"{p} line {lineno}{at}: {len(row)} fields, the header has {len(header)}"
-                )
-            for name, cell in zip(header, row, strict=True):
-                if not cell.strip():
-                    raise RecordError(f"{p} line {lineno}{at}: {name} is missing (empty cell)")
-                if not _finite(cell):
-                    raise RecordError(
-                        f"{p} line {lineno}{at}: {name} '{cell.strip()[:20]}' is not a number"
-                    )
+                continue
+            count += 1
+            if len(bad) < 3:
+                bad.append((f"line {lineno}{at}", what))
+        if _finite(t_text):
             last_t = float(t_text)
-        if rows == 0:
-            raise RecordError(f"{p}: empty record (a header and no samples)")
+    if rows == 0:
+        raise RecordError(f"{name}: empty record (a header and no samples)")
+    if shapes and extra_one == rows:
+        raise RecordError(
+            f"{name}: every line has {fields + 1} fields, the header {fields} "
+            f"({show(','.join(header), 40)}): a leading unnamed field (an index column)? "
+            "name it or drop it"
+        )
+    if shapes:
+        cut = " (the last cut short: a truncated record?)" if last_short else ""
+        head = (
+            f"{name}: {shapes} line{'s' if shapes > 1 else ''} with other than the header's "
+            f"{fields} fields{cut}"
+        )
+        raise RecordError(listing(head, shape, shapes))
+    if count == 1:
+        raise RecordError(f"{name} {bad[0][0]}: {bad[0][1]}")
+    if count:
+        # the time on the first only: the line numbers say where the others are
+        items = [_short_item(w if k == 0 else w.split(" (")[0], x) for k, (w, x) in enumerate(bad)]
+        raise RecordError(listing(f"{name}: {count} bad cells", items, count))
 
 
-def _is_last(f: TextIO) -> bool:
-    rest = f.read()
-    return not rest.strip()
+def _short_item(where: str, what: str) -> str:
+    """One bad cell in a list of several: its line and its cell (at most 12 characters of
+    it), without the reason."""
+    for reason in (" is not a number", " is not finite", " is missing (empty cell)"):
+        if what.endswith(reason):
+            what = what[: -len(reason)] + (" ''" if "missing" in reason else "")
+    col, _, cell = what.partition(" '")
+    if cell:
+        what = f"{col} '{show(cell[:-1], 12)}'" if cell.endswith("'") else what
+    return f"{where} {show(what, 40)}"
+
+
+def _number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
 
 
 def _finite(text: str) -> bool:

@@ -6,6 +6,7 @@ bin's lowest and highest sample when there are more samples than pixels); each s
 shaded, its averaged samples drawn in colour with their mean as a black line, its payload
 written above it. A refused state (one that drifts) is shaded red; when the states could not
 be matched to the payloads at all, every state is shaded orange and the reason is the title.
+A trend (a part that moves steadily, never a state) is hatched grey and labelled "trend".
 """
 
 from __future__ import annotations
@@ -32,6 +33,7 @@ MAX_POINTS = 3000
 GOOD = "#2ca02c"
 REFUSED = "#d62728"
 UNMATCHED = "#ff7f0e"
+TREND = "#7f7f7f"
 
 
 def _envelope(
@@ -53,7 +55,8 @@ def _line(ax: object, t: npt.NDArray[np.float64], y: npt.NDArray[np.float64], **
     if env is None:
         ax.plot(t, y, **kw)  # type: ignore[attr-defined]
     else:
-        ax.fill_between(env[0], env[1], env[2], color=kw.get("color"), lw=0)  # type: ignore[attr-defined]
+        # a thin band (a smooth ramp) still shows: its edge is drawn
+        ax.fill_between(env[0], env[1], env[2], color=kw.get("color"), lw=kw.get("lw", 0.6))  # type: ignore[attr-defined]
 
 
 def record_figure(record: Record, result: RecordResult, path: PathLike | None = None) -> Figure:
@@ -86,10 +89,35 @@ def record_figure(record: Record, result: RecordResult, path: PathLike | None = 
             colour = REFUSED if k in result.refused_states else PALETTE[0]
             _line(ax, t[s.start : s.stop], y[s.start : s.stop], color=colour, lw=0.8)
             ax.hlines(s.mean[j], s.t0, s.t1, color="black", lw=1.2)
+        for tr in result.trends:
+            ax.axvspan(
+                t[tr.span[0]],
+                t[tr.span[1]],
+                facecolor="none",
+                edgecolor=TREND,
+                hatch="//",
+                lw=0,
+                alpha=0.25,
+                zorder=0,
+            )
         ax.set_ylabel(f"{short_channel(ch)} ({channel_unit(ch)})")
         ax.grid(alpha=0.3)
         ax.margins(x=0.01)
     top = axes[0]
+
+    def label(text: str, t0: float, t1: float, color: str) -> None:
+        top.annotate(
+            text,
+            xy=((t0 + t1) / 2, 1.0),
+            xycoords=("data", "axes fraction"),
+            xytext=(0, 3),
+            textcoords="offset points",
+            ha="center",
+            va="bottom",
+            fontsize=8,
+            color=color,
+        )
+
     for k, s in enumerate(result.states):
         if matched:
             text = ("ref " if k == 0 else "") + f"{masses[k]:g} kg"
@@ -97,17 +125,10 @@ def record_figure(record: Record, result: RecordResult, path: PathLike | None = 
                 text += " (drifts)"
         else:
             text = f"state {k + 1}"
-        top.annotate(
-            text,
-            xy=((s.t0 + s.t1) / 2, 1.0),
-            xycoords=("data", "axes fraction"),
-            xytext=(0, 3),
-            textcoords="offset points",
-            ha="center",
-            va="bottom",
-            fontsize=8,
-            color=REFUSED if (k in result.refused_states or not matched) else "black",
-        )
+        refused = k in result.refused_states or not matched
+        label(text, s.t0, s.t1, REFUSED if refused else "black")
+    for tr in result.trends:
+        label("trend", tr.t0, tr.t1, TREND)
     axes[-1].set_xlabel("time (s)")
     name = f"{result.spec.config}: {record.path.name}"
     if result.refused:
