@@ -38,6 +38,7 @@ from hypothesis.strategies import SearchStrategy
 
 import eodarm
 from eodarm.model import reference
+from eodarm.model.effects import candidate_places
 
 #: Largest payload mass the tests apply (kg).
 MAX_PAYLOAD_KG = 8.0
@@ -55,7 +56,7 @@ ELASTIC = ("actuator_compliance", "mount_compliance", "link_bending", "base_comp
 #: The effects with memory (codes 8, 9): drawn where a test asks for them (``kinds=``). The
 #: compiled core's own kernels (sweep, block kernel, Jacobian) are tested without them until
 #: the core has them; ``solve`` and ``solve_sequence`` take them on both backends.
-FRICTIONS = ("actuator_friction", "joint_friction")
+FRICTIONS = ("actuator_friction", "joint_friction", "drive_friction")
 ALL_KINDS = tuple(k for k in eodarm.CATALOGUE if k not in FRICTIONS)
 
 
@@ -248,17 +249,19 @@ def arm_and_poses(
 
 # ---------------------------------------------------------------------------- effects
 def effect_places(arm: eodarm.Arm, kinds: tuple[str, ...] = ALL_KINDS) -> list[tuple[str, str]]:
-    """Every (effect, place) that may sit on ``arm`` (no bending where A_x ≈ 0)."""
+    """Every (effect, place) that may sit on ``arm``: each joint's effects of its kind of
+    drive only, no bending of a link turned by a linear actuator whose pin A has x ≈ 0."""
     out = []
     for name in kinds:
-        letter = eodarm.CATALOGUE[name].place_letter
-        if letter == "":
-            out.append((name, "base"))
-            continue
-        for i, lk in enumerate(arm.links):
-            if name == "link_bending" and abs(lk.A[0]) <= 0.05 * math.hypot(*lk.A):
+        for at in candidate_places(name, arm.n, arm.kinds):
+            pin = arm.links[int(at[1:]) - 1].A if at != "base" else None
+            if (
+                name == "link_bending"
+                and pin is not None
+                and abs(pin[0]) <= 0.05 * math.hypot(*pin)
+            ):
                 continue
-            out.append((name, f"{letter}{i + 1}"))
+            out.append((name, at))
     return out
 
 

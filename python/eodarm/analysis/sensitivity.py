@@ -77,7 +77,7 @@ def _typical_theta(arm: Arm, slot: Slot) -> float:
     """The core's typical θ (``sensitivity.rs``), the scale of a step from θ = 0."""
     name = slot.name
     if name in ("actuator_compliance", "mount_compliance"):
-        return 1.0 / arm.actuators[slot.index(arm.n)].stiffness_n_per_mm
+        return 1.0 / arm.linear(slot.index(arm.n)).stiffness_n_per_mm
     if name in ("actuator_play", "joint_clearance"):
         return 0.1
     return 1e-10 if name == "link_bending" else 1e-8
@@ -230,5 +230,5 @@ class CustomEvaluator:
 def _neutral(arm: Arm, slot: Slot) -> float:
     """θ of a catalogue slot that is not in the model (as ``Problem.neutral``)."""
     if slot.name == "actuator_compliance":
-        return 1.0 / arm.actuators[slot.index(arm.n)].stiffness_n_per_mm
+        return 1.0 / arm.linear(slot.index(arm.n)).stiffness_n_per_mm
     return 0.0

@@ -1,6 +1,8 @@
 """Arm description: loading, validating and exporting the arm file of docs/formats.md §1.
 
-An :class:`Arm` is immutable and always valid: every constructor goes through
+Each joint is turned by a linear actuator (:class:`Actuator`, the default) or by a rotary
+drive at the joint (:class:`RotaryDrive`, a motor and gearbox), in any mix
+(docs/model.md §10). An :class:`Arm` is immutable and always valid: every constructor goes through
 :meth:`Arm.from_dict`, which checks every key before anything is built, so nothing
 half-loaded is ever used.
 
@@ -18,21 +20,38 @@ import warnings
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, NoReturn
+from typing import Any, Literal, NoReturn, TypeAlias
 
 import numpy as np
 
-from eodarm.errors import ArgumentTypeError, ArmFileError, EffectError
+from eodarm.errors import ArgumentTypeError, ArmFileError, EffectError, InputError
 from eodarm.model.arm_toml import over_template, render
-from eodarm.model.effects import Effect, effect_from_table
+from eodarm.model.effects import Effect, check_kinds, effect_from_table
 
-__all__ = ["Actuator", "Arm", "EffectMark", "FitRecord", "Link", "check_arm"]
+__all__ = [
+    "KINDS",
+    "Actuator",
+    "Arm",
+    "Drive",
+    "EffectMark",
+    "FitRecord",
+    "Link",
+    "RotaryDrive",
+    "check_arm",
+]
 
 Point = tuple[float, float]
 
 _BASE_KEYS = {"O1", "B0", "pivot"}
 _LINK_KEYS = {"next", "A", "B", "C", "mass_kg", "measure", "ei_n_mm2", "ea_n"}
-_ACT_KEYS = {"stiffness_n_per_mm", "mass_kg", "min_length_mm", "max_length_mm", "max_force_n"}
+#: The joint kinds, in the order of their code in :meth:`Arm.arrays` (``kind``: 0.0, 1.0).
+KINDS = ("linear", "rotary")
+#: The keys of an ``[[actuator]]`` table by its ``kind``; ``mass_kg`` and ``kind`` are shared.
+_KIND_KEYS = {
+    "linear": {"stiffness_n_per_mm", "min_length_mm", "max_length_mm", "max_force_n"},
+    "rotary": {"stiffness_nmm_per_rad", "max_torque_nmm", "min_angle_deg", "max_angle_deg"},
+}
+_ACT_KEYS = {"kind", "mass_kg"}
 _TOP_KEYS = {"name", "g", "base", "link", "actuator", "effect", "fit"}
 #: An arm file is a few kB; anything this large is not one (and would be slow to parse).
 MAX_FILE_BYTES = 1_000_000
@@ -42,6 +61,8 @@ MAX_LENGTH_MM = 1e6  # coordinates: 1 km
 MAX_MASS_KG = 1e6
 MAX_STIFFNESS = 1e20  # N/mm, N·mm² and N: "rigid" (tests use 1e18), not an overflow
 MAX_G = 100.0  # m/s², ten times Earth's
+#: A drive's angle limits bound q_i = α_i − α_{i−1}, taken in [−180°, 180°) (docs/model.md §10).
+MAX_ANGLE_DEG = 180.0
 
 _FIT_KEYS = {
     "parameters",
@@ -71,8 +92,9 @@ class Link:
     Attributes
     ----------
     next : next joint O_{i+1} (for the last link: the load point).
-    A : pin of the link's own actuator.
-    B : base pin of the next actuator (``None`` on the last link).
+    A : pin of the link's own linear actuator (``None`` when a rotary drive turns the link).
+    B : base pin of the next linear actuator (``None`` on the last link, and when the next
+        joint is turned by a rotary drive).
     C : centre of mass.
     mass_kg : link mass.
     measure : measurement point (last link only; ``None`` means the load point).
@@ -80,7 +102,7 @@ class Link:
     """
 
     next: Point
-    A: Point
+    A: Point | None
     B: Point | None
     C: Point
     mass_kg: float
@@ -91,13 +113,51 @@ class Link:
 
 @dataclass(frozen=True)
 class Actuator:
-    """One linear actuator: axial stiffness (N/mm), mass (kg) and optional limits."""
+    """One linear actuator between pin B_{i−1} on body i−1 and pin A_i on link i.
+
+    Attributes
+    ----------
+    stiffness_n_per_mm : axial stiffness of the body, N/mm.
+    mass_kg : mass, kg; half acts at each pin.
+    min_length_mm, max_length_mm : optional pin-to-pin stroke limits, mm.
+    max_force_n : optional force limit, N, either sign.
+    kind : ``"linear"`` (not an argument).
+    """
 
     stiffness_n_per_mm: float
     mass_kg: float
     min_length_mm: float | None = None
     max_length_mm: float | None = None
     max_force_n: float | None = None
+    kind: Literal["linear"] = field(default="linear", init=False)
+
+
+@dataclass(frozen=True)
+class RotaryDrive:
+    """A rotary drive at joint O_i: its housing fixed to body i−1, its output turning link i.
+
+    It holds the relative angle q_i = α_i − α_{i−1} (α_0 = 0, the chassis) with the torque
+    T_i on link i (counter-clockwise +; −T_i on body i−1). docs/model.md §10.
+
+    Attributes
+    ----------
+    stiffness_nmm_per_rad : torsional stiffness at the output (gear, motor held), N·mm/rad.
+    mass_kg : mass of motor and gearbox, kg, acting at O_i on body i−1.
+    max_torque_nmm : optional torque limit, N·mm, either sign.
+    min_angle_deg, max_angle_deg : optional range of q_i, degrees within [−180, 180].
+    kind : ``"rotary"`` (not an argument).
+    """
+
+    stiffness_nmm_per_rad: float
+    mass_kg: float
+    max_torque_nmm: float | None = None
+    min_angle_deg: float | None = None
+    max_angle_deg: float | None = None
+    kind: Literal["rotary"] = field(default="rotary", init=False)
+
+
+#: What turns a joint: a linear actuator or a rotary drive.
+Drive: TypeAlias = Actuator | RotaryDrive
 
 
 @dataclass(frozen=True)
@@ -208,17 +268,19 @@ class EffectMark:
 
 @dataclass(frozen=True)
 class Arm:
-    """A planar arm of n links, each driven by a linear actuator (docs/formats.md §1).
+    """A planar arm of n links, each turned by a linear actuator or a rotary drive
+    (docs/formats.md §1).
 
-    Build one with :meth:`from_toml` or :meth:`from_dict`.
+    Build one with :meth:`from_toml` or :meth:`from_dict`. ``B0`` is ``None`` when joint 1
+    is turned by a rotary drive.
     """
 
     name: str
     O1: Point
-    B0: Point
+    B0: Point | None
     pivot: Point
     links: tuple[Link, ...]
-    actuators: tuple[Actuator, ...]
+    actuators: tuple[Drive, ...]
     g: float = 9.81
     source: str = field(default="<dict>", compare=False)
     #: The fitted model the file carries (``[[effect]]`` tables); every solver includes it.
@@ -284,10 +346,6 @@ class Arm:
             v.fail("base", "missing table [base]")
         v.unknown(base, _BASE_KEYS, "base.")
         o1 = v.point(base, "O1", "base.")
-        b0 = v.point(base, "B0", "base.")
-        pivot = v.point(base, "pivot", "base.", default=o1)
-        if _same(o1, b0):
-            v.fail("base.B0", f"coincides with base.O1 {o1}")
 
         raw_links = data.get("link")
         if not isinstance(raw_links, list) or not raw_links:
@@ -298,6 +356,13 @@ class Arm:
         n = len(raw_links)
         if len(raw_acts) != n:
             v.fail("actuator", f"{len(raw_acts)} [[actuator]] tables for {n} [[link]] tables")
+        acts = [_drive(v, raw, i) for i, raw in enumerate(raw_acts)]
+        linear = [a.kind == "linear" for a in acts]
+
+        b0 = v.pin(base, "B0", "base.", linear[0], "actuator 1's chassis pin", 1)
+        pivot = v.point(base, "pivot", "base.", default=o1)
+        if b0 is not None and _same(o1, b0):
+            v.fail("base.B0", f"coincides with base.O1 {o1}")
 
         links = []
         for i, raw in enumerate(raw_links):
@@ -307,10 +372,13 @@ class Arm:
             v.unknown(raw, _LINK_KEYS, pre)
             last = i == n - 1
             nxt = v.point(raw, "next", pre)
-            a = v.point(raw, "A", pre)
-            b = None if last else v.point(raw, "B", pre)
-            if last and "B" in raw:
-                v.warn(pre + "B", "is ignored on the last link (no actuator follows)")
+            a = v.pin(raw, "A", pre, linear[i], f"actuator {i + 1}'s pin on the link", i + 1)
+            if last:
+                b = None
+                if "B" in raw:
+                    v.warn(pre + "B", "is ignored on the last link (no actuator follows)")
+            else:
+                b = v.pin(raw, "B", pre, linear[i + 1], f"actuator {i + 2}'s base pin", i + 2)
             c = v.point(raw, "C", pre)
             mass = v.number(raw, "mass_kg", pre, nonneg=True)
             measure = v.point(raw, "measure", pre, default=None) if last else None
@@ -320,28 +388,13 @@ class Arm:
             ea = v.number(raw, "ea_n", pre, default=None, positive=True)
             if _same(nxt, (0.0, 0.0)):
                 v.fail(pre + "next", "coincides with the link's own joint (zero-length link)")
-            if _same(a, (0.0, 0.0)):
+            if a is not None and _same(a, (0.0, 0.0)):
                 v.fail(pre + "A", "coincides with the link's own joint O (no moment arm)")
             if b is not None and _same(b, nxt):
                 v.fail(pre + "B", f"coincides with the next joint {nxt}")
             links.append(Link(nxt, a, b, c, mass, measure, ei, ea))
 
-        acts = []
-        for i, raw in enumerate(raw_acts):
-            pre = f"actuator[{i + 1}]."
-            if not isinstance(raw, Mapping):
-                v.fail(pre[:-1], "must be a table")
-            v.unknown(raw, _ACT_KEYS, pre)
-            k = v.number(raw, "stiffness_n_per_mm", pre, positive=True)
-            m = v.number(raw, "mass_kg", pre, nonneg=True)
-            lo = v.number(raw, "min_length_mm", pre, default=None, positive=True)
-            hi = v.number(raw, "max_length_mm", pre, default=None, positive=True)
-            if lo is not None and hi is not None and lo > hi:
-                v.fail(pre + "min_length_mm", f"{lo} exceeds max_length_mm {hi}")
-            fmax = v.number(raw, "max_force_n", pre, default=None, positive=True)
-            acts.append(Actuator(k, m, lo, hi, fmax))
-
-        effects, stderr, marks = _effects(v, data.get("effect", []), n)
+        effects, stderr, marks = _effects(v, data.get("effect", []), tuple(a.kind for a in acts))
         fit = _fit_record(v, data["fit"], effects) if "fit" in data else None
         return cls(
             name=name,
@@ -370,35 +423,87 @@ class Arm:
         last = self.links[-1]
         return last.measure if last.measure is not None else last.next
 
+    @property
+    def kinds(self) -> tuple[str, ...]:
+        """The kind of each joint's drive, ``"linear"`` or ``"rotary"`` (n,)."""
+        return tuple(a.kind for a in self.actuators)
+
+    def is_linear(self, i: int) -> bool:
+        """Whether joint ``i`` (0-based) is turned by a linear actuator."""
+        return self.actuators[i].kind == "linear"
+
+    def is_rotary(self, i: int) -> bool:
+        """Whether joint ``i`` (0-based) is turned by a rotary drive."""
+        return self.actuators[i].kind == "rotary"
+
+    def linear(self, i: int) -> Actuator:
+        """Joint ``i``'s (0-based) linear actuator.
+
+        Raises
+        ------
+        InputError
+            When a rotary drive turns joint ``i`` (it has no actuator's stiffness or stroke).
+        """
+        a = self.actuators[i]
+        if not isinstance(a, Actuator):
+            raise InputError(
+                f"arm '{self.name}': joint {i + 1} is turned by a rotary drive, not a linear "
+                "actuator"
+            )
+        return a
+
     def arrays(self) -> dict[str, np.ndarray]:
         """Contiguous float64 arrays describing the arm, as the solvers consume them.
 
-        ``B`` has a zero row for the last link (it has no B pin).
+        ``B`` has a zero row for the last link (it has no B pin). A pin no drive uses (``A``
+        of a link turned by a rotary drive, ``B`` before one, ``B0`` when joint 1 is rotary)
+        is zero: ``kind`` says it is unused. ``kind`` (n,) is 0.0 for a linear actuator and
+        1.0 for a rotary drive; ``stiffness`` (n,) each joint's stiffness in its own unit
+        (N/mm linear, N·mm/rad rotary); ``max_torque`` (N·mm), ``min_angle_deg`` and
+        ``max_angle_deg`` (n,) the rotary limits, NaN where absent or linear.
         """
         n = self.n
         zero = (0.0, 0.0)
+        nan = math.nan
+
+        def rotary(key: str) -> np.ndarray:
+            vals = [getattr(a, key) if isinstance(a, RotaryDrive) else None for a in self.actuators]
+            return np.array([nan if x is None else x for x in vals], dtype=float)
+
         return {
             "O1": np.array(self.O1, dtype=float),
-            "B0": np.array(self.B0, dtype=float),
+            "B0": np.array(self.B0 or zero, dtype=float),
             "pivot": np.array(self.pivot, dtype=float),
             "next": np.array([lk.next for lk in self.links], dtype=float).reshape(n, 2),
-            "A": np.array([lk.A for lk in self.links], dtype=float).reshape(n, 2),
+            "A": np.array([lk.A or zero for lk in self.links], dtype=float).reshape(n, 2),
             "B": np.array([lk.B or zero for lk in self.links], dtype=float).reshape(n, 2),
             "C": np.array([lk.C for lk in self.links], dtype=float).reshape(n, 2),
             "link_mass": np.array([lk.mass_kg for lk in self.links], dtype=float),
             "measure": np.array(self.measure, dtype=float),
-            "stiffness": np.array([a.stiffness_n_per_mm for a in self.actuators], dtype=float),
+            "kind": np.array([KINDS.index(a.kind) for a in self.actuators], dtype=float),
+            "stiffness": np.array([_stiffness(a) for a in self.actuators], dtype=float),
             "act_mass": np.array([a.mass_kg for a in self.actuators], dtype=float),
+            "max_torque": rotary("max_torque_nmm"),
+            "min_angle_deg": rotary("min_angle_deg"),
+            "max_angle_deg": rotary("max_angle_deg"),
             "g": np.array(self.g, dtype=float),
         }
 
     def to_dict(self) -> dict[str, Any]:
-        """The arm as a dict with the arm file's keys (inverse of :meth:`from_dict`)."""
+        """The arm as a dict with the arm file's keys (inverse of :meth:`from_dict`).
+
+        A linear actuator's table has no ``kind`` key (the default), a rotary drive's has
+        ``kind = "rotary"``; pins no drive uses are not written."""
         out: dict[str, Any] = {"name": self.name, "g": self.g}
-        out["base"] = {"O1": list(self.O1), "B0": list(self.B0), "pivot": list(self.pivot)}
+        out["base"] = {"O1": list(self.O1)}
+        if self.B0 is not None:
+            out["base"]["B0"] = list(self.B0)
+        out["base"]["pivot"] = list(self.pivot)
         links = []
         for lk in self.links:
-            d: dict[str, Any] = {"next": list(lk.next), "A": list(lk.A)}
+            d: dict[str, Any] = {"next": list(lk.next)}
+            if lk.A is not None:
+                d["A"] = list(lk.A)
             if lk.B is not None:
                 d["B"] = list(lk.B)
             d["C"] = list(lk.C)
@@ -412,8 +517,14 @@ class Arm:
         out["link"] = links
         acts = []
         for a in self.actuators:
-            d = {"stiffness_n_per_mm": a.stiffness_n_per_mm, "mass_kg": a.mass_kg}
-            for key in ("min_length_mm", "max_length_mm", "max_force_n"):
+            if isinstance(a, RotaryDrive):
+                d = {"kind": "rotary", "stiffness_nmm_per_rad": a.stiffness_nmm_per_rad}
+                optional: tuple[str, ...] = ("max_torque_nmm", "min_angle_deg", "max_angle_deg")
+            else:
+                d = {"stiffness_n_per_mm": a.stiffness_n_per_mm}
+                optional = ("min_length_mm", "max_length_mm", "max_force_n")
+            d["mass_kg"] = a.mass_kg
+            for key in optional:
                 if getattr(a, key) is not None:
                     d[key] = getattr(a, key)
             acts.append(d)
@@ -518,8 +629,17 @@ def check_arm(arm: Any, where: str) -> Arm:
 
 def _limit(key: str) -> float:
     """The largest magnitude an arm file's number may have (by the key's unit)."""
-    if key in ("stiffness_n_per_mm", "ei_n_mm2", "ea_n", "max_force_n"):
+    if key in (
+        "stiffness_n_per_mm",
+        "stiffness_nmm_per_rad",
+        "ei_n_mm2",
+        "ea_n",
+        "max_force_n",
+        "max_torque_nmm",
+    ):
         return MAX_STIFFNESS
+    if key.endswith("_deg"):
+        return MAX_ANGLE_DEG
     if key == "g":
         return MAX_G
     if key == "mass_kg":
@@ -543,6 +663,47 @@ def _same(p: Point, q: Point) -> bool:
     return math.hypot(p[0] - q[0], p[1] - q[1]) <= 1e-9 * (1.0 + math.hypot(*p) + math.hypot(*q))
 
 
+def _stiffness(a: Drive) -> float:
+    """A drive's stiffness in its own unit: N/mm (linear), N·mm/rad (rotary)."""
+    return a.stiffness_nmm_per_rad if isinstance(a, RotaryDrive) else a.stiffness_n_per_mm
+
+
+def _drive(v: _Validator, raw: Any, i: int) -> Drive:
+    """Actuator table ``i`` (0-based): a linear actuator or, with ``kind = "rotary"``, a
+    rotary drive. A key of the other kind is refused, naming the key and what this kind
+    takes instead (docs/formats.md §1)."""
+    pre = f"actuator[{i + 1}]."
+    if not isinstance(raw, Mapping):
+        v.fail(pre[:-1], "must be a table")
+    kind = raw.get("kind", "linear")
+    if kind not in KINDS:
+        v.fail(pre + "kind", f'must be "linear" or "rotary", got {_short(kind)}')
+    other = "rotary" if kind == "linear" else "linear"
+    for key in raw:
+        if key in _KIND_KEYS[other]:
+            mine = sorted(_KIND_KEYS[kind])
+            what = "a rotary drive's" if other == "rotary" else "a linear actuator's"
+            this = 'kind = "rotary"' if kind == "rotary" else "a linear actuator"
+            v.fail(pre + key, f"is {what} key; this table is {this} (keys {', '.join(mine)})")
+    v.unknown(raw, _ACT_KEYS | _KIND_KEYS[kind], pre)
+    m = v.number(raw, "mass_kg", pre, nonneg=True)
+    if kind == "rotary":
+        k = v.number(raw, "stiffness_nmm_per_rad", pre, positive=True)
+        tmax = v.number(raw, "max_torque_nmm", pre, default=None, positive=True)
+        qlo = v.number(raw, "min_angle_deg", pre, default=None)
+        qhi = v.number(raw, "max_angle_deg", pre, default=None)
+        if qlo is not None and qhi is not None and qlo > qhi:
+            v.fail(pre + "min_angle_deg", f"{qlo} exceeds max_angle_deg {qhi}")
+        return RotaryDrive(k, m, tmax, qlo, qhi)
+    k = v.number(raw, "stiffness_n_per_mm", pre, positive=True)
+    lo = v.number(raw, "min_length_mm", pre, default=None, positive=True)
+    hi = v.number(raw, "max_length_mm", pre, default=None, positive=True)
+    if lo is not None and hi is not None and lo > hi:
+        v.fail(pre + "min_length_mm", f"{lo} exceeds max_length_mm {hi}")
+    fmax = v.number(raw, "max_force_n", pre, default=None, positive=True)
+    return Actuator(k, m, lo, hi, fmax)
+
+
 def _effect_table(e: Effect, stderr: float | None, mark: EffectMark | None) -> dict[str, Any]:
     """An ``[[effect]]`` table: the effect, its standard error and how far it is determined."""
     table = e.to_table() | ({} if stderr is None else {"stderr": stderr})
@@ -550,10 +711,11 @@ def _effect_table(e: Effect, stderr: float | None, mark: EffectMark | None) -> d
 
 
 def _effects(
-    v: _Validator, raw: Any, n: int
+    v: _Validator, raw: Any, kinds: tuple[str, ...]
 ) -> tuple[tuple[Effect, ...], tuple[float | None, ...], tuple[EffectMark | None, ...]]:
-    """The ``[[effect]]`` tables: validated effects, their optional standard errors and
-    marks of what the data did not determine."""
+    """The ``[[effect]]`` tables: validated effects (each at a joint of its kind of drive),
+    their optional standard errors and marks of what the data did not determine."""
+    n = len(kinds)
     if not isinstance(raw, list):
         v.fail("effect", "must be [[effect]] tables")
     effects: list[Effect] = []
@@ -570,6 +732,7 @@ def _effects(
             v.fail(f"{pre}.{exc.key}" if exc.key else pre, str(exc))
         try:
             e.index(n)
+            check_kinds([e], kinds)
         except EffectError as exc:
             v.fail(f"{pre}.at", str(exc))
         if any(p.key == e.key for p in effects):
@@ -731,6 +894,22 @@ class _Validator:
         if not math.isfinite(x):
             self.fail(key, f"must be finite, got {val!r}")
         return x
+
+    def pin(
+        self, table: Mapping[str, Any], key: str, prefix: str, used: bool, what: str, joint: int
+    ) -> Point | None:
+        """A pin of a linear actuator: required when ``used`` (joint ``joint``, 1-based, is
+        linear); otherwise ignored with a warning naming it (the joint has a rotary drive)."""
+        if used:
+            if key not in table:
+                self.fail(prefix + key, f"missing: {what} (joint {joint} is a linear actuator)")
+            return tuple(self.point(table, key, prefix))
+        if key in table:
+            self.warn(
+                prefix + key,
+                f"is ignored: joint {joint} is turned by a rotary drive, no actuator uses the pin",
+            )
+        return None
 
     def point(
         self, table: Mapping[str, Any], key: str, prefix: str, default: Any = _MISSING

@@ -246,8 +246,10 @@ def _effect_params(arm: Arm, effects: Any) -> dict[str, Any]:
     effs: list[Effect] = with_arm_effects(arm.effects, effects)
     effect_arrays(effs, arm.n)  # refuses non-Effects, places beyond n and duplicates
     n = arm.n
+    if "rotary" in arm.kinds:
+        raise InputError(f"arm '{arm.name}': the numpy reference does not solve rotary drives yet")
     p: dict[str, Any] = {
-        "k_body": np.array([a.stiffness_n_per_mm for a in arm.actuators], dtype=float),
+        "k_body": np.array(arm.arrays()["stiffness"], dtype=float),
         "k_mount": np.full(n, np.inf),
         "play": np.zeros(n),
         "clearance": np.zeros(n),
@@ -273,7 +275,8 @@ def _effect_params(arm: Arm, effects: Any) -> dict[str, Any]:
             p["clearance"][i] = e.value
             p["clearance_up"][i] = e.unloaded == "taken_up"
         elif e.name == "link_bending":
-            if arm.links[i].A[0] == 0.0:
+            pin = arm.links[i].A
+            if pin is not None and pin[0] == 0.0:
                 raise EffectError(
                     f"effect {e.key}: link {i + 1} has its pin A at x = 0, so the beam has "
                     "only one support"

@@ -147,7 +147,7 @@ def status(
     turn0 = np.sign(_cross(a - b, o - b))
     turn1 = np.sign(_cross(loaded["A"] - loaded["B"], loaded["O"][:, :n] - loaded["B"]))
     mark((turn0 * turn1 < 0).any(axis=1), 3)
-    fmax = np.array([x.max_force_n or math.inf for x in arm.actuators])
+    fmax = np.array([getattr(x, "max_force_n", None) or math.inf for x in arm.actuators])
     mark((np.abs(np.asarray(out["force_n"], dtype=float)) > fmax).any(axis=1), 4)
     reach = arm_reach(arm)
     dx, dy = np.asarray(out["dx_mm"], dtype=float), np.asarray(out["dy_mm"], dtype=float)
