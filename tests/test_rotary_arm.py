@@ -67,8 +67,8 @@ def test_the_mixed_example_keeps_the_pins_its_linear_joints_use() -> None:
     arm = Arm.from_toml(MIXED)
     assert arm.kinds == ("rotary", "linear", "linear")
     assert arm.B0 is None
-    assert arm.links[0].A is None and arm.links[0].B == (120.0, 70.0)
-    assert arm.links[1].A == (-90.0, -60.0) and arm.links[2].B is None
+    assert arm.links[0].A is None and arm.links[0].B == (300.0, 120.0)
+    assert arm.links[1].A == (-120.0, 80.0) and arm.links[2].B is None
     assert isinstance(arm.actuators[1], Actuator) and arm.actuators[1].kind == "linear"
     assert arm.linear(1).stiffness_n_per_mm == 12000.0
     with pytest.raises(eodarm.InputError, match="joint 1 is turned by a rotary drive"):

@@ -96,8 +96,8 @@ CATALOGUE: dict[str, EffectKind] = {
             None,
             "rotary",
         ),
-        EffectKind("drive_backlash", 11, "O", "backlash_deg", "deg", False, True, 13, "rotary"),
-        EffectKind("drive_friction", 12, "O", "torque_nmm", "N·mm", False, True, None, "rotary"),
+        EffectKind("drive_backlash", 11, "O", "backlash_deg", "deg", False, True, 12, "rotary"),
+        EffectKind("drive_friction", 13, "O", "torque_nmm", "N·mm", False, True, None, "rotary"),
     )
 }
 

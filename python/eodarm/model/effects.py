@@ -375,7 +375,7 @@ def effect_arrays(
     """Effects as (codes, 0-based place indices, values) for the compiled core.
 
     The code is the catalogue's, or for a gap taken up when unloaded its ``taken_up_code``
-    (6 ``actuator_play``, 7 ``joint_clearance``, 13 ``drive_backlash``). Every effect is
+    (6 ``actuator_play``, 7 ``joint_clearance``, 12 ``drive_backlash``). Every effect is
     checked, but user-written ones (:mod:`eodarm.model.custom`) are not in the arrays: they
     reach the core as extra deformations (:func:`split_effects`), and every caller must pass
     them on so. With ``kinds`` (:attr:`Arm.kinds`), an effect at a joint of the wrong kind

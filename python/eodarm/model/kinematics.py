@@ -47,9 +47,19 @@ def forward(arm: Arm, alpha_deg: npt.ArrayLike, backend: Backend = "rust") -> Ar
 
 def stroke_violations(arm: Arm, length_mm: npt.ArrayLike) -> npt.NDArray[np.int8]:
     """Stroke check of pin-to-pin lengths (N, n): −1 below ``min_length_mm``, +1 above
-    ``max_length_mm``, 0 within the stroke (or no limit set, or a rotary drive)."""
+    ``max_length_mm``, 0 within the stroke (or no limit set, or a rotary drive: its length,
+    NaN, is not checked)."""
     check_arm(arm, "stroke_violations")
-    length = _poses(length_mm, arm.n, "length_mm")
+    rot = np.array(arm.kinds) == "rotary"
+    given: npt.ArrayLike = length_mm
+    if rot.any():
+        try:
+            raw = np.asarray(real_array(length_mm, "length_mm"), dtype=float)
+        except (TypeError, ValueError, OverflowError):
+            raw = np.zeros(0)  # _poses names what is wrong
+        if raw.ndim >= 1 and raw.shape[-1] == arm.n:
+            given = np.where(rot, 0.0, raw)  # a drive has no length: its NaN is no bad value
+    length = _poses(given, arm.n, "length_mm")
     acts = [a if isinstance(a, Actuator) else Actuator(1.0, 0.0) for a in arm.actuators]
     lo = np.array([a.min_length_mm if a.min_length_mm is not None else -np.inf for a in acts])
     hi = np.array([a.max_length_mm if a.max_length_mm is not None else np.inf for a in acts])
