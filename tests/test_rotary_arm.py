@@ -10,11 +10,14 @@ from typing import Any
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import eodarm
 from eodarm.errors import ArmFileError, EffectError
 from eodarm.model.arm import Actuator, Arm, RotaryDrive
 from eodarm.model.effects import Effect, candidate_places, check_kinds, effect_arrays
+from strategies import arm_dicts
 
 ROOT = Path(__file__).resolve().parents[1]
 ROTARY = ROOT / "examples" / "rotary_arm.toml"
@@ -121,6 +124,17 @@ def test_writing_back_reads_the_same_arm(path: Path) -> None:
     # over its own file as a template, the text is kept whole (comments included)
     original = path.read_text()
     assert arm.to_toml(template=original) == original
+
+
+@settings(max_examples=150, deadline=None)
+@given(d=arm_dicts(st.integers(1, 7), rotary=True))
+def test_any_mixed_arm_written_back_reads_the_same(d: dict[str, Any]) -> None:
+    arm = Arm.from_dict(d)
+    assert arm.kinds == tuple(a.get("kind", "linear") for a in d["actuator"])
+    back = Arm.from_dict(tomllib.loads(arm.to_toml()))
+    assert back == arm and back.arrays().keys() == arm.arrays().keys()
+    for key, value in arm.arrays().items():
+        np.testing.assert_array_equal(back.arrays()[key], value, err_msg=key)
 
 
 def test_effects_written_over_a_rotary_template_keep_its_comments() -> None:
