@@ -29,7 +29,7 @@ POSE = [[30.0, 0.0, -20.0]]
 CYCLE = np.array([0.0, 1.5, 5.0, 6.5, 5.0, 1.5, 0.0])
 #: Below these a force (N) or a torque (N·mm) has no side (docs/model.md §4, §10).
 FORCE_ZERO_N = 1e-9
-TORQUE_ZERO_NMM = 1e-9
+TORQUE_ZERO_NMM = 1e-6
 MOTION = ("dx_mm", "dy_mm", "dalpha_deg", "dl_mm")
 #: Both sides close the same pose from the same causes: they differ by rounding of sums of
 #: terms of up to ~1e3 mm (1e-13 mm), far below this.

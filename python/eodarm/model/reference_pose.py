@@ -29,8 +29,9 @@ FloatArray = NDArray[np.float64]
 
 #: A force below this (N) has no direction: play and clearance stay centred (docs/model.md).
 FORCE_ZERO_N = 1e-9
-#: A drive torque below this (N·mm) has no sign: the backlash stays centred (docs/model.md §10).
-TORQUE_ZERO_NMM = 1e-9
+#: A drive torque below this (N·mm) has no sign: the backlash stays centred (docs/model.md §10);
+#: the force threshold on a lever of 1 m, as the compiled core has it.
+TORQUE_ZERO_NMM = 1e-6
 
 
 # ---------------------------------------------------------------------------- link bending
