@@ -286,10 +286,10 @@ def test_fit_refuses_to_write_over_its_arm_or_its_data(
     meas = no_sigma(tmp_path / "m.csv")
     before = arm.read_text(), meas.read_text()
     fit = ["fit", meas, "--arm", arm, "--add", "mount_compliance@M2"]
-    code, _, err = cli(capsys, *fit, "-o", arm)
-    assert "--arm input" in one_line(code, err) and "--force" in err
+    code, _, err = cli(capsys, *fit, "-o", arm, "--force")  # an input, even with --force
+    assert "is the --arm file, an input of this run" in one_line(code, err)
     code, _, err = cli(capsys, *fit, "-o", meas, "--force")
-    assert "measurement file" in one_line(code, err)
+    assert "is the measurement file, an input of this run" in one_line(code, err)
     other = tmp_path / "fitted.toml"
     other.write_text("# the user's\n")
     code, _, err = cli(capsys, *fit, "-o", other)

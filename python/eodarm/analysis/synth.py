@@ -328,7 +328,9 @@ def _synth_sequence(
 
     states = mass[1:] if mass[0] == 0 and mass.size > 1 else mass
     s = states.size
-    out = solve_sequence(arm, alpha, states, effects=as_effects(hidden), self_weight=self_weight)
+    out = solve_sequence(
+        arm, alpha, states, effects=as_effects(hidden), self_weight=self_weight, strict=True
+    )
     kc = alpha.shape[0]
     truth = np.concatenate(
         [out["dx_mm"][..., None], out["dy_mm"][..., None], out["dalpha_deg"], out["dl_mm"]],

@@ -5,6 +5,7 @@ measurements, number formatting, tables and figures.
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from collections.abc import Callable, Sequence
 from pathlib import Path
@@ -416,34 +417,111 @@ def _carried(args: argparse.Namespace, command: str, given: Sequence[str] = ()) 
 
 
 def _free_name(name: str) -> str:
-    """``name``, or ``stem-2.ext``, ``stem-3.ext`` … the first that does not exist here: an
-    output the ``next:`` line proposes is never one that would be refused (``--force``)."""
+    """``name``, or ``stem-2.ext``, ``stem-3.ext`` … (in the same folder) the first that does
+    not exist: an output the ``next:`` line proposes is never one that would be refused
+    (``--force``)."""
     p = Path(name)
     k = 2
-    while p.exists():
-        p = Path(f"{Path(name).stem}-{k}{Path(name).suffix}")
+    while p.exists() or p.is_symlink():
+        p = p.with_name(f"{Path(name).stem}-{k}{Path(name).suffix}")
         k += 1
     return str(p)
 
 
 def _force_arg(p: argparse.ArgumentParser, what: str) -> None:
     """``--force``: overwrite ``what`` (refused without it; docs/terminal.md, "Nothing
-    overwritten without asking")."""
-    p.add_argument("--force", action="store_true", help=f"overwrite {what}")
+    overwritten without asking"). A command's own inputs are never overwritten."""
+    p.add_argument(
+        "--force", action="store_true", help=f"overwrite {what} (never one of the inputs)"
+    )
 
 
-def _refuse_overwrite(path: str, force: bool, flag: str) -> None:
-    """Refuse, before any work, to write over an existing ``path`` without ``--force``.
+# ----------------------------------------------------------------------------- outputs
+#: The options whose files a command reads, and how a refusal names them.
+_INPUT_ARGS = (
+    ("measurements", "the measurement file"),
+    ("campaign", "the campaign file"),
+    ("arm", "the --arm file"),
+    ("poses", "the --poses file"),
+    ("effects", "the --effects file"),
+)
+
+
+def _inputs(args: argparse.Namespace) -> list[tuple[str, str]]:
+    """``(path, what)`` of every file the command reads: its measurement or campaign file,
+    ``--arm``, ``--poses``, ``--effects`` and, for a campaign, the records it lists."""
+    import warnings
+
+    from eodarm.data.records import is_campaign, read_campaign
+
+    out: list[tuple[str, str]] = []
+    for attr, what in _INPUT_ARGS:
+        given = getattr(args, attr, None)
+        for path in given if isinstance(given, list) else [given] if given else []:
+            out.append((str(path), what))
+    for path, what in list(out):
+        if what in ("the measurement file", "the campaign file") and is_campaign(path):
+            try:
+                with warnings.catch_warnings():  # its notes are the reading's to give
+                    warnings.simplefilter("ignore")
+                    camp = read_campaign(path)
+            except EodarmError:
+                continue  # refused with its own line when it is read
+            out += [(str(r.file), f"a record of the campaign {path}") for r in camp.records]
+    return out
+
+
+def _same_file(a: str | Path, b: str | Path) -> bool:
+    """Whether two spellings name one file: a symlink, a hard link, ``./x``, relative and
+    absolute (``os.path.samefile``; by their resolved paths where one does not exist)."""
+    try:
+        return os.path.samefile(a, b)
+    except OSError:
+        return os.path.realpath(a) == os.path.realpath(b)
+
+
+def _claim(
+    args: argparse.Namespace, path: str | Path, flag: str, force: bool | None = None
+) -> None:
+    """The rule of every output (docs/terminal.md, "Nothing overwritten without asking"),
+    checked before any work: ``path`` is never one of the run's inputs, even with
+    ``--force``, and an existing ``path`` is replaced only with ``--force``. (The write
+    itself goes through :mod:`eodarm.atomic`: whole or not at all.) ``force`` overrides
+    ``args.force`` (a resumed sweep: the overwrite was asked for when it started).
 
     Raises
     ------
     EodarmError
-        One line naming the path and the way out.
+        One line naming the path, and the input it is or the way out.
     """
+    named = f"{flag} {path}" if flag else str(path)
+    for given, what in _inputs(args):
+        if _same_file(path, given):
+            same = "" if str(given) == str(path) else f" ({given})"
+            raise EodarmError(
+                f"{named}: is {what}{same}, an input of this run; choose another name "
+                "(--force never replaces an input)"
+            )
+    if force is None:
+        force = bool(getattr(args, "force", False))
     if force or not (Path(path).exists() or Path(path).is_symlink()):
         return
+    raise EodarmError(f"{named}: exists; give --force to overwrite it, or choose another name")
+
+
+def _claim_folder(args: argparse.Namespace, folder: str | Path, flag: str) -> None:
+    """An output folder: refused when it is a file, and when it holds any file unless
+    ``--force`` (they may be the user's edited copies); the files written into it are then
+    each checked by :func:`_claim` once their names are known."""
+    d = Path(folder)
+    named = f"{flag} {folder}" if flag else str(folder)
+    if d.exists() and not d.is_dir():
+        raise EodarmError(f"{named}: exists and is not a folder")
+    if getattr(args, "force", False) or not d.exists() or not any(d.iterdir()):
+        return
     raise EodarmError(
-        f"{flag} {path}: exists; give --force to overwrite it, or choose another name"
+        f"{named}: the folder is not empty; give --force to overwrite the files written "
+        "into it, or choose an empty folder"
     )
 
 

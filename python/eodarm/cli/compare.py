@@ -16,8 +16,10 @@ if TYPE_CHECKING:
 from eodarm.cli._common import (
     _arm_argv,
     _channel,
+    _claim,
     _describe_data,
     _fmt,
+    _force_arg,
     _load_arm,
     _model,
     _model_keys,
@@ -74,6 +76,8 @@ def run(args: argparse.Namespace) -> int:
     from eodarm.analysis.outliers import outlier_table, robust_fit
     from eodarm.analysis.sequences import hysteresis
 
+    if args.residuals:
+        _claim(args, args.residuals, "--residuals")
     arm = _load_arm(args.arm, args.measurements)
     sw = not args.no_self_weight
     model = _model(args.add, allow_values=True)
@@ -257,7 +261,9 @@ def _write_residuals(path: str, res: FitResult, flagged: Any) -> None:
     meas = res.problem.meas
     chans = list(meas.measured_channels)
     cols = [meas.channels.index(ch) for ch in chans]
-    with open(path, "w", newline="", encoding="utf-8") as fh:
+    from eodarm.atomic import atomic_write
+
+    with atomic_write(path, newline="") as fh:  # whole or not at all
         wr = csv.writer(fh)
         head = ["line", "config", "mass_kg"]
         for ch in chans:
@@ -300,5 +306,6 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
         metavar="FILE.csv",
         help="write every row's measured, model, residual and z for each channel",
     )
+    _force_arg(c, "an existing --residuals file")
     c.set_defaults(func=run)
     return c

@@ -24,8 +24,10 @@ from eodarm.analysis.compensate import compensate
 from eodarm.cli._common import (
     ARM_HELP,
     _arm_argv,
+    _claim,
     _effects_args,
     _floats,
+    _force_arg,
     _load_arm,
     _model_words,
     _next,
@@ -39,6 +41,7 @@ from eodarm.cli._help import HELP
 from eodarm.errors import EodarmError
 from eodarm.model.arm import Arm
 from eodarm.model.effects import Effect, with_arm_effects
+from eodarm.model.hysteresis import has_branch, has_memory
 
 
 def _nominal_poses(
@@ -136,7 +139,9 @@ def _write_csv(
     def cell(x: float) -> str:
         return "" if math.isnan(x) else repr(float(x))
 
-    with open(path, "w", encoding="utf-8", newline="") as f:
+    from eodarm.atomic import atomic_write
+
+    with atomic_write(path, newline="") as f:  # whole or not at all
         w = csv.writer(f)
         w.writerow(head)
         for i in range(alpha.shape[0]):
@@ -175,7 +180,28 @@ def _predicted_miss(
     return miss
 
 
+def _hysteresis(
+    arm: Arm,
+    out: dict[str, npt.NDArray[Any]],
+    mass: npt.NDArray[np.float64],
+    effects: list[Effect],
+    self_weight: bool,
+) -> npt.NDArray[np.float64]:
+    """The hysteresis band at the commanded poses (mm; eodarm.model.hysteresis.band): how
+    far the point lands from the nominal one when the payload is reached by unloading; 0
+    without friction, NaN where not compensated."""
+    from eodarm.model.hysteresis import band
+
+    got = np.full(mass.shape[0], np.nan)
+    ok = np.asarray(out["status"]) == "ok"
+    if ok.any():
+        got[ok] = band(arm, out["alpha_deg"][ok], mass[ok], effects, self_weight)
+    return got
+
+
 def run(args: argparse.Namespace) -> int:
+    if args.output:
+        _claim(args, args.output, "-o")
     arm = _load_arm(args.arm)
     effects = [_valued_effect(s) for s in args.add or []]
     alpha, mass, config = _nominal_poses(args, arm)
@@ -211,6 +237,7 @@ def run(args: argparse.Namespace) -> int:
         _write_csv(args.output, arm, alpha, mass, config, out)
         _note(f"wrote {args.output}")
     predicted = _predicted_miss(arm, out, mass, effects, self_weight)
+    hysteresis = _hysteresis(arm, out, mass, effects, self_weight)
     if predicted is not None:
         from eodarm.model.uncertainty import inadequacy_note
 
@@ -224,6 +251,8 @@ def run(args: argparse.Namespace) -> int:
             "residual_mm": _json_list(out["residual_mm"]),
             "status": [str(s) for s in out["status"]],
         }
+        if has_branch(arm, effects):  # friction or a gap: the answer is the loading branch's
+            doc |= {"branch": "loading", "hysteresis_mm": _json_list(hysteresis)}
         if predicted is not None:
             doc["predicted_miss_mm"] = _json_list(predicted)
         json.dump(doc, sys.stdout)
@@ -237,6 +266,9 @@ def run(args: argparse.Namespace) -> int:
     head = ["pose", "kg", "nominal α deg", "command α deg", "length mm", "miss mm", "left mm"]
     if predicted is not None:
         head += ["2σ miss mm"]
+    memory = has_memory(arm, effects)
+    if memory:
+        head += ["band mm"]
     head += ["status"]
     rows = []
     for i in range(alpha.shape[0]):
@@ -252,6 +284,8 @@ def run(args: argparse.Namespace) -> int:
         ]
         if predicted is not None:
             row.append("—" if math.isnan(predicted[i]) else f"{predicted[i]:.2g}")
+        if memory:
+            row.append("—" if math.isnan(hysteresis[i]) else f"{hysteresis[i]:.3g}")
         rows.append([*row, str(out["status"][i])])
     _print_table(head, [[c.replace("-", "−") for c in r] for r in rows])
     _say(
@@ -260,12 +294,23 @@ def run(args: argparse.Namespace) -> int:
         "leaves with it"
         + (
             "; 2σ miss: how far the real arm may still miss, from the fitted model's σ "
-            "(parameters and inadequacy)"
+            "(parameters and inadequacy)" + (" on the loading branch" if memory else "")
             if predicted is not None
             else ""
         )
         + " (--json or -o: full precision)"
     )
+    if has_branch(arm, effects):
+        _say(
+            "on the loading branch: the payload put on from the unloaded pose; "
+            + (
+                "band: how far the point lands from there when the same payload is reached by "
+                "unloading from a heavier one (the frictions hold the other way; "
+                "docs/compensation.md §4)"
+                if memory
+                else "the gaps keep no memory, so unloading to it lands on the same point"
+            )
+        )
     first = next((i for i in range(alpha.shape[0]) if out["status"][i] == "ok"), None)
     if first is not None:  # check: solve at the command, the point lands on the nominal
         cmd = ",".join(f"{a:.6g}" for a in out["alpha_deg"][first])
@@ -319,6 +364,7 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     c.add_argument(
         "-o", "--output", metavar="OUT.csv", help="write the nominal and commanded poses as CSV"
     )
+    _force_arg(c, "an existing -o file")
     c.add_argument(
         "--partial",
         action="store_true",

@@ -8,6 +8,7 @@ from typing import Any
 
 from eodarm.cli._common import (
     _arm_argv,
+    _claim,
     _describe_data,
     _force_arg,
     _free_name,
@@ -20,7 +21,6 @@ from eodarm.cli._common import (
     _plots,
     _print_table,
     _read,
-    _refuse_overwrite,
     _rms_line,
     _say,
     _stages,
@@ -39,7 +39,7 @@ def run(args: argparse.Namespace) -> int:
     from eodarm.analysis.outliers import outlier_table, robust_fit
 
     if args.output:
-        _check_output(args)
+        _claim(args, args.output, "-o")
     arm = _load_arm(args.arm, args.measurements)
     sw = not args.no_self_weight
     model = _model(args.add, allow_values=True)
@@ -119,29 +119,6 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _check_output(args: argparse.Namespace) -> None:
-    """``-o`` never replaces the measurements it is fitted to; an existing file (the
-    ``--arm`` input included) only with ``--force``."""
-    import os
-
-    out = args.output
-
-    def same(a: str) -> bool:
-        try:
-            return os.path.samefile(out, a)
-        except OSError:
-            return False
-
-    if same(args.measurements):
-        raise EodarmError(f"-o {out}: is the measurement file being fitted; choose another name")
-    if args.arm and same(args.arm) and not args.force:
-        raise EodarmError(
-            f"-o {out}: is the --arm input; give --force to replace it with the fitted arm, "
-            "or choose another name"
-        )
-    _refuse_overwrite(out, args.force, "-o")
-
-
 def _print_fit(
     res: Any,
     meas: Any,
@@ -196,15 +173,15 @@ def _print_fit(
 
 
 def _write_fitted(res: Any, inad: Any, path: str, data: str) -> dict[str, Any]:
-    """The fitted arm file: written whole to a sibling, then renamed into place. The input
+    """The fitted arm file, whole or not at all (eodarm.atomic). The input
     arm file's text is the template, so its comments and layout survive. Says in a line
     each what was fixed at a bound and when the model does not explain its data; returns
     that for the JSON output (``bounded``, ``explained``, ``sigma_model``)."""
     import hashlib
-    import os
     from pathlib import Path
 
     from eodarm.analysis.handover import fitted_arm
+    from eodarm.atomic import atomic_write
     from eodarm.model.uncertainty import inadequacy_note
     from eodarm.viz.format import value
 
@@ -216,9 +193,8 @@ def _write_fitted(res: Any, inad: Any, path: str, data: str) -> dict[str, Any]:
         template = source.read_text(encoding="utf-8-sig")
     text = fitted.to_toml(template)
     out = Path(path)
-    tmp = out.with_name(f".{out.name}.part")
-    tmp.write_text(text, encoding="utf-8")
-    os.replace(tmp, out)
+    with atomic_write(out) as f:
+        f.write(text)
     _note(f"wrote the fitted arm to {out}")
     bounded = []
     for e, mark in fitted.bounded():
@@ -271,6 +247,6 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
         help="write the arm with the fitted effects, their errors, covariance and the model's "
         "inadequacy (docs/model.md); the input arm file's comments are kept",
     )
-    _force_arg(c, "an existing -o file (the --arm input included)")
+    _force_arg(c, "an existing -o file")
     c.set_defaults(func=run)
     return c

@@ -7,7 +7,7 @@ import json
 import sys
 from typing import Any
 
-from eodarm.cli._common import _next, _note, run_records
+from eodarm.cli._common import _claim, _force_arg, _next, _note, run_records
 from eodarm.cli._help import HELP
 
 
@@ -29,6 +29,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         metavar="MEAS.csv",
         help="the measurement file to write (default: stdout, unless --json)",
     )
+    _force_arg(p, "an existing -o file")
     p.add_argument(
         "--plot",
         metavar="DIR",
@@ -58,6 +59,8 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
 
 def run(args: argparse.Namespace) -> int:
     """Run ``eodarm records``; return the exit status 0 (bad input raises, exit 2)."""
+    if args.output:  # never a record of the campaign, nor its file
+        _claim(args, args.output, "-o")
     results, write = run_records(
         args.campaign,
         allow_drift=args.allow_drift,

@@ -13,12 +13,12 @@ import numpy.typing as npt
 
 from eodarm.cli._common import (
     ARM_HELP,
+    _claim,
     _effects_args,
     _force_arg,
     _load_arm,
     _note,
     _one_line,
-    _refuse_overwrite,
     _say,
     _valued_effect,
 )
@@ -294,9 +294,9 @@ def run(args: argparse.Namespace) -> int:
         )
     if args.resume and kind != "zarr":
         raise EodarmError("--resume continues an interrupted Zarr sweep: give -o OUT.zarr")
-    if out and not (args.resume and store.partial_path(out).exists()):
-        # a resumed overwrite was asked for when it started
-        _refuse_overwrite(out, args.force, "-o")
+    if out:  # a resumed overwrite was asked for when it started
+        resumed = args.resume and store.partial_path(out).exists()
+        _claim(args, out, "-o", force=True if resumed else None)
     scheduler: Any = None
     client = None
     if args.scheduler:

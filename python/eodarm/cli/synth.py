@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import math
 import sys
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -14,7 +15,11 @@ from eodarm.analysis.synth import random_configs, synth
 from eodarm.cli._common import (
     ARM_HELP,
     _arm_argv,
+    _claim,
+    _claim_folder,
     _effects_args,
+    _force_arg,
+    _free_name,
     _load_arm,
     _next,
     _note,
@@ -105,6 +110,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         "else use the default noise levels)",
     )
     p.add_argument("-o", "--output", metavar="OUT.csv", help="output file (default: stdout)")
+    _force_arg(p, "an existing -o file, or the files of --records in a folder that holds some")
     _records_args(p)
     _effects_args(p)
     p.set_defaults(func=run)
@@ -119,8 +125,12 @@ def run(args: argparse.Namespace) -> int:
     EodarmError
         With a one-line reason (the main CLI prints it and exits with status 2).
     """
-    arm = _load_arm(args.arm)
     if args.records:  # rehearsal records of a campaign instead of a measurement file
+        _claim_folder(args, args.records, "--records")
+    elif args.output:
+        _claim(args, args.output, "-o")
+    arm = _load_arm(args.arm)
+    if args.records:
         return _records(args, arm)
     n = arm.n
     sequence = getattr(args, "sequence", None)
@@ -325,8 +335,13 @@ def _records(args: argparse.Namespace, arm: Arm) -> int:
         hold_s=args.hold,
         drift=drift,
     )
-    path = write_synth_campaign(args.records, recs)
+
+    def refuse_inputs(paths: list[Path]) -> None:  # --force replaces no input
+        for p in paths:
+            _claim(args, p, "--records")
+
+    path = write_synth_campaign(args.records, recs, before=refuse_inputs)
     model = ", ".join(f"{e.key}={e.value:g}" for e in hidden) or "none"
     _note(f"wrote {len(recs)} records ({len(seq)} states each; hidden: {model}) and {path}")
-    _next("records", str(path), "-o", "meas.csv")
+    _next("records", str(path), "-o", _free_name("meas.csv"))
     return 0

@@ -73,6 +73,7 @@ from typing import TYPE_CHECKING, Any, TextIO
 import numpy as np
 import numpy.typing as npt
 
+from eodarm.atomic import atomic_write
 from eodarm.data.cells import (
     Cell,
     _cells_of,
@@ -440,7 +441,7 @@ class Measurements:
 
         if isinstance(path, (str, Path)):
             try:
-                with open(path, "w", encoding="utf-8", newline="") as f:
+                with atomic_write(path, newline="") as f:  # whole or not at all
                     write(f)
             except OSError as exc:
                 raise EodarmError(f"{path}: cannot write: {exc.strerror or exc}") from None

@@ -30,6 +30,7 @@ from typing import Any, TextIO
 import numpy as np
 import numpy.typing as npt
 
+from eodarm.atomic import atomic_write
 from eodarm.data.channels import _CHANNEL, channel_link, channel_names
 from eodarm.errors import EodarmError
 
@@ -200,9 +201,12 @@ def _numbers(v: Any, what: str) -> list[float]:
     return out
 
 
-def write_campaign(path: str | Path, specs: Sequence[RecordSpec]) -> None:
-    """Write a campaign file; each record's ``file`` relative to the campaign's folder when
-    it lies inside it."""
+def write_campaign(
+    path: str | Path, specs: Sequence[RecordSpec], out: TextIO | None = None
+) -> None:
+    """Write a campaign file (whole or not at all: eodarm.atomic); each record's ``file``
+    relative to the campaign's folder when it lies inside it. With ``out``, the text goes to
+    that open file instead (``path`` still names the campaign: its folder)."""
     p = Path(path)
 
     def arr(v: Sequence[float]) -> str:
@@ -222,7 +226,11 @@ def write_campaign(path: str | Path, specs: Sequence[RecordSpec]) -> None:
             f"masses_kg = {arr(s.masses_kg)}",
             "",
         ]
-    p.write_text("\n".join(lines), encoding="utf-8")
+    if out is not None:
+        out.write("\n".join(lines))
+        return
+    with atomic_write(p) as f:
+        f.write("\n".join(lines))
 
 
 # ---------------------------------------------------------------------------- records
@@ -372,21 +380,29 @@ def _finite(text: str) -> bool:
 
 
 def write_record(
-    path: str | Path,
+    path: str | Path | TextIO,
     time_s: npt.ArrayLike,
     channels: Sequence[str],
     values: npt.ArrayLike,
     digits: int = 7,
 ) -> None:
     """Write a record as a logger would: ``time_s`` and the channels, one sample per line,
-    ``digits`` significant digits."""
+    ``digits`` significant digits; to a path (whole or not at all: eodarm.atomic) or an open
+    text file."""
     t = np.asarray(time_s, dtype=float)
     v = np.asarray(values, dtype=float).reshape(t.size, len(channels))
     data = np.column_stack([t, v])
     fmt = ["%.6f"] + [f"%.{digits}g"] * len(channels)
-    with open(path, "w", encoding="utf-8", newline="") as f:
+
+    def write(f: TextIO) -> None:
         f.write(",".join([TIME, *channels]) + "\n")
         np.savetxt(f, data, fmt=fmt, delimiter=",")
+
+    if isinstance(path, (str, Path)):
+        with atomic_write(path, newline="") as f:
+            write(f)
+    else:
+        write(path)
 
 
 def write_rows(
@@ -430,7 +446,7 @@ def write_rows(
             )
 
     if isinstance(out, (str, Path)):
-        with open(out, "w", encoding="utf-8", newline="") as f:
+        with atomic_write(out, newline="") as f:  # whole or not at all
             write(f)
     else:
         write(out)

@@ -8,6 +8,7 @@ backends refuse bad input with the same one-line message naming the row.
 
 from __future__ import annotations
 
+import re
 from collections.abc import Mapping
 from typing import Any
 
@@ -153,7 +154,8 @@ def solve_sequence(
     backend: Backend = "rust",
     self_weight: bool = True,
     *,
-    nan_on_failure: bool = False,
+    strict: bool = False,
+    nan_on_failure: bool | None = None,
 ) -> Arrays:
     """N load sequences: each pose loaded and unloaded through S payloads from one reference.
 
@@ -179,26 +181,39 @@ def solve_sequence(
     backend : ``"rust"`` (compiled core) or ``"numpy"`` (the independent reference,
         ``eodarm.reference.solve_sequence``).
     self_weight : include link and actuator weights in the reference and every state.
-    nan_on_failure : give a state that cannot be solved (a singular pose, a triangle that
-        cannot close) NaN instead of raising (``backend="rust"``; a sweep's cells).
+    strict : as :func:`solve`'s, per state. False (the default): a state whose loaded pose
+        cannot be closed (an actuator triangle the loaded lengths cannot close, a pose that
+        will not settle) gets NaN in every output and a non-``ok`` ``status``, while the
+        other states, those after it included, are solved (what the frictions hold comes
+        from the forces on the undeformed geometry and steps through it). True: such a state
+        raises, naming its sequence and state. A pose singular *unloaded* is invalid input
+        and raises either way.
+    nan_on_failure : the older name of ``not strict`` (given, it wins).
 
     Returns
     -------
     dict of arrays, the keys of :func:`solve` with a state axis: ``force_n`` (N, S, n) actual
     actuator forces (compression +, N), ``dx_mm``, ``dy_mm`` (N, S) measure-point
     displacement from the reference (mm), ``dalpha_deg`` (N, S, n), ``dl_mm`` (N, S, n) body
-    length change as the actuator's sensor sees it (mm), and from the compiled core also
-    ``reaction_n`` (N, S, n, 2), ``dforce_n``, ``dlength_mm``, ``length_mm`` (N, S, n) and
-    ``status`` (N, S) uint8 (docs/model.md §7).
+    length change as the actuator's sensor sees it (mm), ``status`` (N, S) uint8 (docs/model.md
+    §7), and from the compiled core also ``reaction_n`` (N, S, n, 2), ``dforce_n``,
+    ``dlength_mm``, ``length_mm`` (N, S, n).
 
     Raises
     ------
-    ValueError
-        (an :class:`~eodarm.errors.EodarmError`) naming the sequence (and state) for a wrong
-        shape, a non-finite or negative mass, a singular pose or a triangle that cannot close.
+    InputError
+        (an :class:`~eodarm.errors.EodarmError`, a ``ValueError``) in one line naming the
+        sequence (and state) for a wrong shape, a non-finite or negative mass, a pose singular
+        unloaded, or (``strict=True``) a state that cannot be closed under its load.
+    OutOfMemoryError
+        When the outputs cannot fit in memory: refused from the shapes, before any input is
+        copied.
     """
     check_arm(arm, "solve_sequence")
     _check_backend(backend)
+    if nan_on_failure is not None:
+        strict = not nan_on_failure
+    _check_sequence_memory(alpha_deg, mass_kg, arm.n)
     alpha = _poses(alpha_deg, arm.n, "alpha_deg")
     rows = alpha.shape[0]
     mass = _sequence_masses(mass_kg, rows)
@@ -206,41 +221,86 @@ def solve_sequence(
         2 * mass.size * (8 * (8 * arm.n + 2) + 1), f"solve_sequence of {mass.size:,} states"
     )
     effs = with_arm_effects(arm.effects, effects)
-    custom_effs = split_effects(effs)[1]
-    if custom_effs:
+    if split_effects(effs)[1]:
         # A user-written effect holds no history: each state sees it loaded once from the
         # sequence's reference. Its deformations are computed in Python, state by state,
         # which the numpy reference does (the compiled core takes no extras in sequences).
-        if nan_on_failure:
-            raise InputError(
-                f"custom effect {custom_effs[0].key}: a sequence with user-written effects is "
-                "solved by the numpy reference, which has no nan_on_failure"
-            )
         backend = "numpy"
     if backend == "numpy":
-        if nan_on_failure:
-            raise InputError("nan_on_failure is for backend='rust'")
         from eodarm.model import reference
 
         # The numpy reference solves sequences too (eodarm.reference.solve_sequence).
-        res = dict(
-            reference.solve_sequence(arm, alpha, mass, effects=effs, self_weight=self_weight)
-        )
+        try:
+            res = dict(
+                reference.solve_sequence(
+                    arm, alpha, mass, effs, self_weight=self_weight, nan_on_failure=not strict
+                )
+            )
+        except InputError as exc:  # named as the compiled core's are
+            found = re.fullmatch(r"pose row (\d+): (.*) \(state (\d+) of the sequence\)", str(exc))
+            if found is None:
+                raise
+            q, s = int(found.group(1)), int(found.group(3)) - 1
+            raise InputError(f"{_state_words(q, s, mass)}: {found.group(2)}") from None
         n_seq, n_states = mass.shape
         flat_alpha = np.repeat(alpha, n_states, axis=0)
         flat_payload = np.stack([np.zeros(mass.size), -mass.ravel() * arm.g], axis=-1)
         flat = {k: v.reshape(n_seq * n_states, *v.shape[2:]) for k, v in res.items()}
         code = status(arm, flat_alpha, flat_payload, flat, load_rise=checks_load_rise(arm, effs))
         res["status"] = code.reshape(n_seq, n_states)  # type: ignore[assignment]
-        return res
+    else:
+        res = _core_sequence(arm, alpha, mass, effs, self_weight, strict)
+    if not strict:
+        failed = np.isnan(np.asarray(res["dy_mm"])).any(axis=1)
+        _refuse_unloaded_singular(arm, alpha, {"dy_mm": np.where(failed, np.nan, 0.0)}, "sequence")
+    return res
+
+
+def _core_sequence(
+    arm: Arm,
+    alpha: npt.NDArray[np.float64],
+    mass: npt.NDArray[np.float64],
+    effs: list[Effect],
+    self_weight: bool,
+    strict: bool,
+) -> Arrays:
+    """:func:`solve_sequence` on the compiled core; its refusals as :class:`InputError`
+    naming the sequence and, for a state that cannot be closed, the state."""
     from eodarm.model import native as _core
 
     codes, places, values = effect_arrays(effs, arm.n)
     payload = np.ascontiguousarray(mass * -arm.g)
-    seq: Arrays = _core.solve_sequence(
-        _core_arm(arm), alpha, payload, codes, places, values, self_weight, nan_on_failure
-    )
-    return seq
+
+    def run(a: npt.NDArray[np.float64], p: npt.NDArray[np.float64], nan: bool) -> Arrays:
+        out: Arrays = _core.solve_sequence(
+            _core_arm(arm), a, p, codes, places, values, self_weight, nan
+        )
+        return out
+
+    try:
+        return run(alpha, payload, not strict)
+    except _core.CoreError as exc:
+        text = " ".join(str(exc).split())
+        found = re.match(r"pose row (\d+)[:,]?\s*(.*)", text)
+        if found is None:
+            raise InputError(f"solve_sequence: {text}") from None
+        q, reason = int(found.group(1)), found.group(2)
+        state = None
+        if q < alpha.shape[0]:  # which state: the sequence again, each failed state NaN
+            try:
+                one = run(alpha[q : q + 1], payload[q : q + 1], True)
+                bad = np.flatnonzero(np.isnan(np.asarray(one["dy_mm"])[0]))
+                state = int(bad[0]) if bad.size else None
+            except _core.CoreError:
+                pass  # singular unloaded: every state fails alike, the sequence says it
+        raise InputError(f"{_state_words(q, state, mass)}: {reason}") from None
+
+
+def _state_words(q: int, s: int | None, mass: npt.NDArray[np.float64]) -> str:
+    """``sequence 3, state 1 (mass_kg[3, 1] = 90 kg)``: where a sequence failed."""
+    if s is None:
+        return f"sequence {q}"
+    return f"sequence {q}, state {s} (mass_kg[{q}, {s}] = {mass[q, s]:g} kg)"
 
 
 def cycle_returns(
@@ -283,6 +343,19 @@ def cycle_returns(
         _core_arm(arm), alpha, np.ascontiguousarray(mass), codes, places, values, self_weight
     )
     return np.asarray(dx), np.asarray(dy)
+
+
+def _check_sequence_memory(alpha_deg: npt.ArrayLike, mass_kg: npt.ArrayLike, n: int) -> None:
+    """Refuse, from the shapes alone and before any input is copied or checked, sequences
+    whose outputs cannot fit: as :func:`_check_memory`, per state (N·S of them). Arrays only
+    (the shape of a list is known only by converting it)."""
+    a = np.shape(alpha_deg) if isinstance(alpha_deg, np.ndarray) else None
+    m = np.shape(mass_kg) if isinstance(mass_kg, np.ndarray) else None
+    if m is None or len(m) not in (1, 2):
+        return
+    rows = m[0] if len(m) == 2 else (a[0] if a is not None and len(a) == 2 else 1)
+    states = int(rows) * int(m[-1])
+    check_output_memory(2 * states * (8 * (8 * n + 2) + 1), f"solve_sequence of {states:,} states")
 
 
 def _sequence_masses(mass_kg: npt.ArrayLike, rows: int) -> npt.NDArray[np.float64]:
@@ -469,14 +542,15 @@ def _solve_payload(
     return res
 
 
-def _refuse_unloaded_singular(arm: Arm, alpha: npt.NDArray[np.float64], res: Arrays) -> None:
+def _refuse_unloaded_singular(
+    arm: Arm, alpha: npt.NDArray[np.float64], res: Arrays, row: str = "pose row"
+) -> None:
     """Raise for a pose that failed because it is singular unloaded (invalid input, whatever
-    ``strict``), naming its row; the poses that failed only under load keep their NaN.
+    ``strict``), naming its row (``row``: how the caller names it, ``sequence`` for
+    :func:`solve_sequence`); the poses that failed only under load keep their NaN.
 
     The failed rows' statics without payload are solved again (numpy reference, few rows):
     they fail only for a pose that is singular on its undeformed geometry."""
-    import re
-
     failed = np.flatnonzero(np.isnan(np.asarray(res["dy_mm"])))
     if failed.size == 0:
         return
@@ -487,7 +561,7 @@ def _refuse_unloaded_singular(arm: Arm, alpha: npt.NDArray[np.float64], res: Arr
     except InputError as exc:
         # the message names the row among the failed ones: give the caller's row
         text = re.sub(
-            r"pose row (\d+)", lambda m: f"pose row {failed[int(m.group(1))]}", str(exc), count=1
+            r"pose row (\d+)", lambda m: f"{row} {failed[int(m.group(1))]}", str(exc), count=1
         )
         raise InputError(text) from None
 

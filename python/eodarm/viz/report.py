@@ -41,6 +41,7 @@ from eodarm.analysis.crossval import cross_validate
 from eodarm.analysis.diagnose import Diagnosis
 from eodarm.analysis.fit import FitResult, FitWarning
 from eodarm.analysis.ladder import build_ladder, check_same_model, model_name, solver_keywords
+from eodarm.atomic import atomic_write
 from eodarm.data.measurements import Measurements, default_sigma
 from eodarm.errors import EodarmError
 from eodarm.model.arm import Arm
@@ -205,7 +206,8 @@ def write_report(
     text = page.render_deferred("\n".join(parts) + "\n", figs, parallel=not forked)
     out = Path(path)
     try:
-        out.write_text(text, encoding="utf-8")
+        with atomic_write(out) as f:  # whole or not at all: a previous report stays whole
+            f.write(text)
     except OSError as exc:
         raise EodarmError(f"{out}: cannot write the report: {exc.strerror or exc}") from None
     return out

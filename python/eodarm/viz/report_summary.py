@@ -23,6 +23,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 
 from eodarm.analysis.diagnose import Diagnosis
 from eodarm.analysis.fit import FitResult, determining_channel
@@ -419,6 +420,36 @@ def parameter_section(fit: FitResult, meas: Measurements) -> list[str]:
 
 
 # ---------------------------------------------------------------------------- hand-over
+def _branch_paragraph(
+    fitted: Arm, alpha: npt.NDArray[np.float64], mass: float, self_weight: bool
+) -> list[str]:
+    """With friction in the fitted model: which branch solve and compensate answer on, and
+    the hysteresis band at the pose of the commands (eodarm.model.hysteresis.band) against
+    the loading branch's 2σ, which does not cover it."""
+    from eodarm.model.hysteresis import band, has_memory
+
+    if not has_memory(fitted, None):
+        return []
+    width = float(band(fitted, alpha[None, :], mass, None, self_weight)[0])
+    sigma = ""
+    if fitted.fit is not None:
+        from eodarm.model.solver import solve
+
+        got = solve(fitted, alpha[None, :], mass, self_weight=self_weight, uncertainty=True)
+        two = 2 * float(np.hypot(got["sigma_dx_mm"][0], got["sigma_dy_mm"][0]))
+        sigma = f", against a 2σ of {value(two, 'mm', 2)} on the loading branch"
+    where = "/".join(f"{a:g}" for a in alpha)
+    return [
+        "<p>The fitted model holds friction, so its answers depend on the way the payload "
+        "came: <code>solve</code> and <code>compensate</code> answer on the <b>loading "
+        "branch</b> (the payload put on from the unloaded pose). Reached by unloading from a "
+        f"heavier payload, the same {value(mass, 'kg', 3)} at α = {page.esc(where)}° puts the "
+        f"measure point {value(width, 'mm', 3)} away (the hysteresis band){sigma}. "
+        "<code>solve --uncertainty</code> and <code>compensate</code> give the band per pose "
+        "(docs/compensation.md §4).</p>"
+    ]
+
+
 def _grid(meas: Measurements, k: int) -> str:
     a = meas.alpha_deg[:, k]
     lo, hi = math.floor(float(np.min(a)) / 5) * 5, math.ceil(float(np.max(a)) / 5) * 5
@@ -489,6 +520,7 @@ def handover_section(
     items = "".join(
         f"<li>{page.esc(what)}:<br><code>{page.esc(cmd)}</code></li>" for what, cmd in cmds
     )
+    branch = _branch_paragraph(fitted, meas.alpha_deg[row0], mass, fit.problem.self_weight)
     return [
         "<h2>Take the model with you</h2>",
         f'<p><a download="fitted.toml" href="{uri}">Download the fitted arm file '
@@ -498,6 +530,7 @@ def handover_section(
         "it gives exactly the final model of this report, with what the data do not determine "
         f"fixed at its physical end{page.esc(bounded)}.{page.esc(honest)}</p>",
         f"<ul>{items}</ul>",
+        *branch,
         f"<details><summary>The fitted file, as embedded ({value(len(text), digits=6)} "
         f"characters)</summary><pre>{page.esc(text)}</pre></details>",
     ]

@@ -27,7 +27,6 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from eodarm.errors import InputError
 from eodarm.model.effects import split_effects
 from eodarm.workspace.chunk import _chunk, _core_grid_sweep, _Job
 
@@ -172,31 +171,14 @@ def _solve_rows(
 def _solve_sequences(
     job: _Job, alpha: FloatArray, states: FloatArray
 ) -> tuple[FloatArray, FloatArray]:
-    """(dx, dy) at the last state of each sequence, NaN where it cannot be solved.
-
-    The compiled core marks those itself; a model with a user-written effect is solved by the
-    numpy reference, which raises instead: the rows are then halved until the ones that
-    cannot be solved are alone (an error of the user's function is not caught).
-    """
+    """(dx, dy) at the last state of each sequence, NaN where it cannot be solved (a state
+    that cannot be closed is NaN on either backend, :func:`eodarm.solve_sequence`'s default;
+    an error of a user's function is not caught)."""
     from eodarm.model.solver import solve_sequence
 
-    users = bool(split_effects(job.effects)[1])
-    kw: dict[str, Any] = {"self_weight": job.self_weight, "nan_on_failure": not users}
     if not alpha.shape[0]:
         return np.empty(0), np.empty(0)
-    try:
-        res = solve_sequence(job.arm, alpha, states, list(job.effects), **kw)
-    except InputError:
-        if not users:
-            raise
-        if alpha.shape[0] == 1:
-            return np.full(1, np.nan), np.full(1, np.nan)
-        h = alpha.shape[0] // 2
-        (x0, y0), (x1, y1) = (
-            _solve_sequences(job, alpha[:h], states[:h]),
-            _solve_sequences(job, alpha[h:], states[h:]),
-        )
-        return np.concatenate([x0, x1]), np.concatenate([y0, y1])
+    res = solve_sequence(job.arm, alpha, states, list(job.effects), self_weight=job.self_weight)
     return np.asarray(res["dx_mm"][:, -1]), np.asarray(res["dy_mm"][:, -1])
 
 
