@@ -37,6 +37,7 @@ import numpy.typing as npt
 
 from eodarm.analysis.acceptance import MIN_CV_CONFIGS, Acceptance, accept, bic, held_out
 from eodarm.analysis.consistency import P_PASS, effective_nu, fit_p_value, lr_threshold
+from eodarm.analysis.datacheck import DataCheck, check_data
 from eodarm.analysis.fit import FitResult, FitWarning, Problem, fit
 from eodarm.analysis.outliers import outlier_table, peel_outliers
 from eodarm.data.measurements import Measurements, default_sigma
@@ -56,8 +57,9 @@ TIE_ORDER = (
     "base_compliance",
     "actuator_compliance",
 )
-#: The verdicts of docs/formats.md §7.
-VERDICTS = ("adequate", "missing", "unexplained")
+#: The verdicts of docs/formats.md §7: ``check_data`` when the data look mistaken
+#: (:mod:`eodarm.analysis.datacheck`), before any effect is looked for.
+VERDICTS = ("adequate", "missing", "unexplained", "check_data")
 CONFUSION_CHI2 = 3.841458820694124  # 95 % point of χ² with 1 dof
 OUTLIER_Z = 4.0
 
@@ -137,7 +139,10 @@ class Diagnosis:
     evaluated. ``examined`` lists the judgement of every set looked at, in search order.
     ``significance`` is the Δχ² a single candidate must exceed to improve the baseline
     significantly (the Bonferroni-corrected likelihood-ratio threshold or the BIC penalty
-    ln N, whichever is larger; docs/diagnosis.md, step 4).
+    ln N, whichever is larger; docs/diagnosis.md, step 4). ``data_checks`` lists the
+    mistakes the data look like (:func:`eodarm.analysis.datacheck.check_data`); when there
+    is any, the verdict is *check_data*: no candidate is ranked or suggested, the baseline is
+    only fitted.
     """
 
     model: list[Slot]
@@ -156,6 +161,7 @@ class Diagnosis:
     acceptance: Acceptance | None = None
     examined: list[Acceptance] = field(default_factory=list)
     significance: float = math.nan
+    data_checks: list[DataCheck] = field(default_factory=list)
 
     @property
     def suggested_explains(self) -> bool:
@@ -178,6 +184,7 @@ class Diagnosis:
             },
             "verdict": self.verdict,
             "suggested": [s.spec for s in self.suggested],
+            "data_checks": [c.to_json() for c in self.data_checks],
         }
         if self.verdict == "unexplained":
             be = self.best_effort_fit or self.baseline
@@ -268,6 +275,7 @@ def diagnose(
     advise: bool = True,
     solver_model: str = "analytic",
     fem_options: Mapping[str, Any] | None = None,
+    check: bool = True,
 ) -> Diagnosis:
     """Rank every candidate effect × place, search sets of up to ``max_set``, and decide.
 
@@ -283,6 +291,9 @@ def diagnose(
     solver_model : ``"analytic"`` or ``"fem"``: the model that predicts the channels, the
         ``model=`` of :func:`eodarm.solve` and :func:`eodarm.fit` (named so here because
         ``model`` is the list of effects already in the model); ``fem_options`` go with it.
+    check : first hold the data against the baseline model's scale and sign
+        (:func:`eodarm.analysis.datacheck.check_data`); if they look mistaken, the verdict
+        is *check_data* and nothing is searched.
     """
     from eodarm.model.kinds import integer
 
@@ -291,8 +302,11 @@ def diagnose(
     kw: dict[str, Any] = {"model": solver_model, "fem_options": fem_options}
     Problem(arm, meas, self_weight, **kw)  # refuses a bad solver_model before any work
     model_slots = [Slot.of(s) for s in model]
+    checks = check_data(arm, meas, self_weight, solver_model, fem_options) if check else []
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", FitWarning)
+        if checks:
+            return _mistaken(arm, meas, model_slots, self_weight, checks, kw)
         first = _diagnose_pass(
             arm, meas, model_slots, self_weight, max_set, candidates, refine_per_size, None, kw
         )
@@ -315,6 +329,34 @@ def diagnose(
         if advise and first.ranking:
             first.advice = _advice(arm, meas, first, self_weight, kw)
     return first
+
+
+def _mistaken(
+    arm: Arm,
+    meas: Measurements,
+    model_slots: list[Slot],
+    self_weight: bool,
+    checks: list[DataCheck],
+    kw: dict[str, Any],
+) -> Diagnosis:
+    """The diagnosis of data that look mistaken: the baseline fitted, nothing searched."""
+    prob = Problem(arm, meas, self_weight=self_weight, **kw)
+    if prob.n_values == 0:
+        raise EodarmError(f"{meas.source}: no measured values to diagnose")
+    base = fit(arm, meas, model_slots, problem=prob)
+    return Diagnosis(
+        model=model_slots,
+        baseline=base,
+        verdict="check_data",
+        suggested=[],
+        suggested_fit=None,
+        ranking=[],
+        outliers=[],
+        advice=[],
+        p_baseline=fit_p_value(base),
+        sets_searched=0,
+        data_checks=checks,
+    )
 
 
 def _judge_best_effort(d: Diagnosis) -> None:

@@ -38,7 +38,7 @@ import numpy as np
 import numpy.typing as npt
 
 from eodarm.data.measurements import Measurements
-from eodarm.errors import EodarmError
+from eodarm.errors import EodarmError, show, show_source
 from eodarm.model.arm import Arm
 from eodarm.model.effects import (
     Effect,
@@ -51,9 +51,11 @@ __all__ = [
     "FitResult",
     "FitWarning",
     "Problem",
+    "ValidityMark",
     "compare",
     "determining_channel",
     "fit",
+    "validity_mark",
 ]
 
 #: z of a two-sided 95 % normal interval.
@@ -446,21 +448,54 @@ class FitResult:
 _POSE_ROW = re.compile(r"pose row (\d+):\s*")
 
 
-def check_validity(result: FitResult) -> None:
-    """Refuse a fit whose parameters put measured states outside the model's validity
-    (:mod:`eodarm.model.validity`): one line naming the reasons and the parameters.
+@dataclass(frozen=True)
+class ValidityMark:
+    """The measured states a fitted model puts outside its validity (docs/model.md §7),
+    kept in the fit and marked (:func:`validity_mark`).
 
-    Raises
-    ------
-    EodarmError
-        When any measured state of the fitted model is not ``ok``.
+    Attributes
+    ----------
+    states : how many; ``of``: of how many measured states.
+    status : status name → count (``large_deflection`` …).
+    lines : the first ten states' lines in the measurement file.
+    before_fit : whether the model without the fitted effects (the arm file's) already puts
+        them there: then the data or the geometry hold them, not the fitted values.
+    message : the one line the commands print.
+    """
+
+    states: int
+    of: int
+    status: dict[str, int]
+    lines: list[int]
+    before_fit: bool
+    message: str
+
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "states": self.states,
+            "of": self.of,
+            "status": dict(self.status),
+            "lines": list(self.lines),
+            "before_fit": self.before_fit,
+        }
+
+
+def validity_mark(result: FitResult) -> ValidityMark | None:
+    """The measured states that the fitted model puts outside its validity
+    (:mod:`eodarm.model.validity`), or None.
+
+    Such states are not refused: data measured on a heavily loaded arm, or made by
+    :func:`eodarm.analysis.synth.synth` from this very model, can hold them, and the model
+    still predicts them (the loaded pose is closed exactly). They stay in the fit and are
+    marked: the model is not trusted there (its forces come from the undeformed geometry),
+    and the commands say so in one line naming the file, the statuses and the lines.
     """
     from eodarm.model.solver import solve
     from eodarm.model.validity import status_counts
 
     prob = result.problem
-    if prob.model != "analytic" or not result.slots:
-        return
+    if prob.model != "analytic":
+        return None
     meas = prob.meas
     mass = meas.mass_kg
     effects = [*result.fixed, *result.effects]
@@ -468,36 +503,33 @@ def check_validity(result: FitResult) -> None:
         solve(prob.arm, prob.alpha, mass, effects, self_weight=prob.self_weight)["status"]
     )
     if not (code != 0).any():
-        return
-    # the states that are outside already without the fitted effects are not the fit's fault
+        return None
     base = np.asarray(
         solve(prob.arm, prob.alpha, mass, list(result.fixed), self_weight=prob.self_weight)[
             "status"
         ]
     )
-    before = (base != 0) & (code != 0)
-    if before.any():
-        counts = status_counts(base[before])
-        lines = ", ".join(str(int(x)) for x in np.asarray(meas.line)[before][:10])
-        raise EodarmError(
-            f"{meas.source}: {int(before.sum())} of {meas.n_rows} measured states are "
-            "outside the model's validity before any effect is fitted ("
-            + ", ".join(f"{k} {v}" for k, v in counts.items() if k != "ok")
-            + f"; line(s) {lines}; docs/model.md, Validity): a data or geometry problem, not "
-            "the fit's"
+    bad = code != 0
+    before = bool(((base != 0) & bad).sum() == bad.sum())
+    counts = {k: v for k, v in status_counts(code[bad]).items() if k != "ok"}
+    lines = [int(x) for x in np.asarray(meas.line)[bad][:10]]
+    where = show_source(meas.source)
+    shown = ", ".join(str(x) for x in lines[:3]) + (" …" if bad.sum() > 3 else "")
+    what = (
+        f"{int(bad.sum())} of {meas.n_rows} measured states ("
+        + ", ".join(f"{k} {v}" for k, v in counts.items())
+        + f"; line(s) {shown})"
+    )
+    if before:
+        msg = f"{where}: {what} are outside the model's validity before any effect is fitted"
+    else:
+        params = ", ".join(
+            f"{s.spec} = {param_from_theta(s.name, float(t)):.4g} {s.kind.unit}".rstrip()
+            for s, t in zip(result.slots, result.theta, strict=True)
         )
-    counts = status_counts(code)
-    params = ", ".join(
-        f"{s.spec} = {param_from_theta(s.name, float(t)):.4g} {s.kind.unit}".rstrip()
-        for s, t in zip(result.slots, result.theta, strict=True)
-    )
-    lines = ", ".join(str(int(x)) for x in np.asarray(meas.line)[code != 0][:10])
-    raise EodarmError(
-        f"the fitted {params} put {int((code != 0).sum())} of {meas.n_rows} measured states "
-        f"of {meas.source} outside the model's validity ("
-        + ", ".join(f"{k} {v}" for k, v in counts.items() if k != "ok")
-        + f"; line(s) {lines}; docs/model.md, Validity): the data do not support this model"
-    )
+        msg = f"the fitted {show(params, 80)} puts {what} of {where} outside the model's validity"
+    msg += ": kept in the fit, the model is not trusted there (docs/model.md, Validity)"
+    return ValidityMark(int(bad.sum()), meas.n_rows, counts, lines, before, msg)
 
 
 def determining_channel(slot: Slot, measured: Sequence[str]) -> str:

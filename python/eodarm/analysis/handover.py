@@ -40,10 +40,14 @@ class Inadequacy:
     noise_rms: dict[str, float]
 
 
-def model_inadequacy(result: FitResult, cv: Mapping[str, Any] | None = None) -> Inadequacy:
+def model_inadequacy(
+    result: FitResult, cv: Mapping[str, Any] | None = None, trusted: bool = True
+) -> Inadequacy:
     """The model part of a prediction's σ, per channel (docs/model.md, "Prediction errors").
 
-    Where the fit explains its data the part is zero. Otherwise each configuration is left out
+    Where the fit explains its data the part is zero, unless ``trusted`` is false (the data
+    look mistaken, :mod:`eodarm.analysis.datacheck`: then the fit is never taken as
+    explaining them, and the part is computed). Otherwise each configuration is left out
     in turn, the model refitted without it and its cells predicted (``cv``, the result of
     :func:`cross_validate` for this fit's model and outliers, is used when given); the part is
     what the held-out residuals' mean square exceeds the measurements' noise by. With a
@@ -54,7 +58,7 @@ def model_inadequacy(result: FitResult, cv: Mapping[str, Any] | None = None) -> 
     prob = result.problem
     meas = prob.meas
     measured = [ch for c, ch in enumerate(meas.channels) if prob.use[:, c].any()]
-    if fit_p_value(result) >= P_PASS:
+    if trusted and fit_p_value(result) >= P_PASS:
         return Inadequacy(True, dict.fromkeys(measured, 0.0), {}, {})
     if cv is None and len(meas.configs) >= 2:
         outliers = np.isfinite(meas.values) & ~prob.use

@@ -125,7 +125,13 @@ def _error(exc: BaseException, debug: bool = False) -> None:
     if debug:
         traceback.print_exception(exc, file=sys.stderr)
         return
-    text = " ".join(str(exc).split()) or type(exc).__name__
+    from eodarm.errors import MAX_MESSAGE, show, show_source
+
+    if isinstance(exc, OSError) and exc.strerror and exc.filename is not None:
+        text = f"{show_source(exc.filename)}: {exc.strerror}"  # not a bare [Errno 2]
+    else:
+        # a safety net: every message of bad input is one line under MAX_MESSAGE already
+        text = show(" ".join(str(exc).split()) or type(exc).__name__, 4 * MAX_MESSAGE)
     print(f"eodarm: error: {text}", file=sys.stderr)
 
 

@@ -200,6 +200,50 @@ def _read(
     return meas
 
 
+class _Hinted:
+    """A context whose refusals carry a hint first in their one line (reusable)."""
+
+    def __init__(self, hint: str | None) -> None:
+        self.hint = hint
+
+    def __enter__(self) -> _Hinted:
+        return self
+
+    def __exit__(self, kind: Any, exc: BaseException | None, tb: Any) -> None:
+        if self.hint is None or not isinstance(exc, (EodarmError, ValueError)):
+            return  # ValueError: the core's errors
+        from eodarm.errors import MESSAGE_ROOM, show
+
+        text = f"{self.hint}; {' '.join(str(exc).split())}"  # the likely cause first
+        raise EodarmError(show(text, MESSAGE_ROOM)) from None
+
+
+def _payload_hint(arm: Arm, masses: Sequence[float] | np.ndarray, flag: str = "--mass") -> _Hinted:
+    """The payload hint of :func:`eodarm.data.plausible.payload_hint` for the largest of
+    ``masses`` (``--mass 5000``: is it grams?): a note (held until the command succeeds),
+    and a context whose refusals carry the hint first in their one line:
+    ``with _payload_hint(arm, masses): ...``."""
+    from eodarm.data.plausible import payload_hint
+
+    heavy = float(np.max(masses)) if len(masses) else 0.0
+    hint = payload_hint(heavy, arm)
+    if hint is not None:
+        hint = f"{flag} {hint}"
+        _note(hint)
+    return _Hinted(hint)
+
+
+def _check_data(meas: Measurements, arm: Arm, self_weight: bool, model_kw: Any) -> list[Any]:
+    """The mistakes the data look like (:func:`eodarm.analysis.datacheck.check_data`), each
+    said in a note on stderr (``check the data: …``); the checks, for the JSON."""
+    from eodarm.analysis.datacheck import check_data
+
+    checks = check_data(arm, meas, self_weight, **model_kw)
+    for c in checks:
+        _note(f"check the data: {c.message}")
+    return checks
+
+
 def _unit(channel: str) -> str:
     return "deg" if channel.endswith("_deg") else "mm"
 
@@ -426,6 +470,23 @@ def _free_name(name: str) -> str:
         p = p.with_name(f"{Path(name).stem}-{k}{Path(name).suffix}")
         k += 1
     return str(p)
+
+
+def file_part(label: str, taken: set[str] | None = None) -> str:
+    """A label (a configuration's, say) as part of a file name: every character but
+    letters, digits, ``.``, ``-`` and ``_`` becomes ``_`` (a ``/`` would name a folder, a
+    NUL no file at all), cut to 60 characters. With ``taken`` (the parts given so far, to
+    which the new one is added), ``-2``, ``-3`` … make two labels that differ only in such
+    characters two files."""
+    import re
+
+    base = re.sub(r"[^A-Za-z0-9._-]", "_", str(label))[:60].lstrip(".") or "_"
+    name, k = base, 2
+    while taken is not None and name in taken:
+        name, k = f"{base}-{k}", k + 1
+    if taken is not None:
+        taken.add(name)
+    return name
 
 
 def _force_arg(p: argparse.ArgumentParser, what: str) -> None:
@@ -675,6 +736,7 @@ def run_records(
         raise EodarmError(f"--min-duration must be > 0 s, got {min_duration_s}")
     camp = read_campaign(campaign)
     drawn: list[str] = []
+    parts: set[str] = set()  # the labels' parts of the figures' names
     draw = None
     if plot_dir or record_figures is not None:
         from eodarm.viz.records_plot import MAX_REPORT_RECORDS, record_figure, record_html
@@ -685,7 +747,7 @@ def run_records(
 
         def draw(record: Any, result: Any) -> None:
             if out is not None:
-                p = out / f"record_{result.spec.config}.png"
+                p = out / f"record_{file_part(result.spec.config, parts)}.png"
                 record_figure(record, result, path=p)
                 drawn.append(str(p))
             if record_figures is not None and len(record_figures) < MAX_REPORT_RECORDS:

@@ -16,6 +16,7 @@ if TYPE_CHECKING:
 from eodarm.cli._common import (
     _arm_argv,
     _channel,
+    _check_data,
     _claim,
     _describe_data,
     _fmt,
@@ -89,6 +90,7 @@ def run(args: argparse.Namespace) -> int:
     with _stages(names, "compare") as step:
         step("reading")  # a file of 10⁵ rows takes seconds to read and check
         meas = _read(args.measurements, arm, sw)
+        checks = _check_data(meas, arm, sw, _model_kw(args))
         step("comparing")
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always", FitWarning)
@@ -118,6 +120,7 @@ def run(args: argparse.Namespace) -> int:
             "worst": _worst(res),
             "outliers": outliers,
             "noise": _noise_json(meas),
+            "data_checks": [c.to_json() for c in checks],
         }
     for w in caught:
         _note(str(w.message))

@@ -32,6 +32,7 @@ from eodarm.cli._common import (
     _model_words,
     _next,
     _note,
+    _payload_hint,
     _print_table,
     _say,
     _stages,
@@ -210,7 +211,9 @@ def run(args: argparse.Namespace) -> int:
 
     from eodarm.analysis.compensate import CompensationWarning, failure_summary
 
+    hinted = _payload_hint(arm, mass)  # --mass 5000: is it grams?
     with (
+        hinted,
         warnings.catch_warnings(record=True) as caught,
         _stages(["compensating"], "compensate") as step,
     ):
@@ -228,7 +231,8 @@ def run(args: argparse.Namespace) -> int:
     summary = failure_summary(out, args.poses, lines)
     if summary and not args.partial:
         hint = "; --partial keeps the others" if alpha.shape[0] > 1 else ""
-        raise EodarmError(f"{summary}{hint}")
+        with hinted:
+            raise EodarmError(f"{summary}{hint}")
     if summary:
         warnings.warn(
             summary + "; their alpha_deg and length_mm are NaN", CompensationWarning, stacklevel=1

@@ -89,7 +89,9 @@ def _say_next(args: argparse.Namespace, d: Any) -> None:
     catalogue explains the data; the workspace maps when nothing is missing."""
     data = [args.measurements, *_arm_argv(args)]
     adds = [a for s in [*d.model, *d.suggested] for a in ("--add", s.spec)]
-    if d.verdict == "missing":
+    if d.verdict == "check_data":  # the residuals of every row, to look at the data
+        _next("compare", *data, "--residuals", _free_name("residuals.csv"), args=args)
+    elif d.verdict == "missing":
         _next("fit", *data, *adds, "--cv", "config", args=args)
     elif d.verdict == "unexplained":
         _next("report", *data, *[a for s in d.model for a in ("--add", s.spec)], args=args)
@@ -116,6 +118,9 @@ def _print_diagnosis(d: Any, arm: Arm, meas: Measurements) -> None:
         f"{given}: χ²/dof {d.baseline.chi2_per_dof:.4g} ({p_value(d.p_baseline)}); "
         f"RMS {_rms_line(d.baseline.rms())}"
     )
+    if d.verdict == "check_data":
+        _print_checks(d.data_checks)
+        return
     if d.verdict == "adequate":
         _say(
             "verdict: ADEQUATE — the model explains the data within their noise; nothing is missing"
@@ -160,6 +165,16 @@ def _print_diagnosis(d: Any, arm: Arm, meas: Measurements) -> None:
             "outliers (> 4σ after the best fit, left out): "
             + "; ".join(f"line {r['line']} {r['channel']} z={r['z']:+.1f}" for r in d.outliers)
         )
+
+
+def _print_checks(checks: Any) -> None:
+    """The verdict *check_data*: what the data look like, one line each, with the fix."""
+    _say(
+        "verdict: CHECK THE DATA — they look mistaken, not like a missing effect; no effect "
+        "was looked for (docs/diagnosis.md, Check the data first):"
+    )
+    for c in checks:
+        _say(c.message, "  ")
 
 
 def _print_ranking(d: Any, width: int = WIDTH) -> None:

@@ -8,6 +8,7 @@ from typing import Any
 
 from eodarm.cli._common import (
     _arm_argv,
+    _check_data,
     _claim,
     _describe_data,
     _force_arg,
@@ -34,7 +35,7 @@ def run(args: argparse.Namespace) -> int:
     import warnings
 
     from eodarm.analysis.crossval import cross_validate
-    from eodarm.analysis.fit import FitWarning, check_validity, compare
+    from eodarm.analysis.fit import FitWarning, compare, validity_mark
     from eodarm.analysis.handover import model_inadequacy, settle
     from eodarm.analysis.outliers import outlier_table, robust_fit
 
@@ -49,12 +50,13 @@ def run(args: argparse.Namespace) -> int:
     with _stages(names, "fit") as step:
         step("reading")  # a file of 10⁵ rows takes seconds to read and check
         meas = _read(args.measurements, arm, not args.no_self_weight)
+        checks = _check_data(meas, arm, sw, _model_kw(args))
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always", FitWarning)
             mk = _model_kw(args)
             step("fitting")
             res, flagged = robust_fit(arm, meas, model, self_weight=sw, **mk)
-            check_validity(res)
+            outside = validity_mark(res)  # states outside the validity: kept, marked
             outliers = outlier_table(res, flagged)
             cv = cv0 = None
             if args.cv:
@@ -78,9 +80,14 @@ def run(args: argparse.Namespace) -> int:
         {"parameter": f"{res.slots[i].key}:{res.slots[i].kind.param}", "why": why}
         for i, why in undetermined
     ]
+    doc["data_checks"] = [c.to_json() for c in checks]
+    if outside is not None:
+        _note(outside.message)
+        doc["outside_validity"] = outside.to_json()
     if args.output:
         final = settle(res, exclude=flagged if flagged.any() else None)
-        inad = model_inadequacy(final)
+        # data that look mistaken are never "explained", whatever the χ²
+        inad = model_inadequacy(final, trusted=not checks)
         doc["fitted_file"] = _write_fitted(final, inad, args.output, args.measurements)
     if args.json:
         print(json.dumps(doc, allow_nan=False))

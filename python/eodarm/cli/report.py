@@ -123,6 +123,8 @@ def _run(args: argparse.Namespace, step: Any) -> int:
         on_round=lambda k: step(f"round {k} of at most {args.rounds}"),
     )
     step("writing the report")
+    for c in inv.rounds[0].data_checks:  # docs/diagnosis.md, "Check the data first"
+        _note(f"check the data: {c.message}")
     last = inv.steps[-1]
     base = inv.rounds[0].baseline
     if title is None and args.measurements is None:

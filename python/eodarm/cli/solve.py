@@ -23,6 +23,7 @@ from eodarm.cli._common import (
     _model_words,
     _next,
     _note,
+    _payload_hint,
     _print_table,
     _say,
     _stages,
@@ -100,17 +101,18 @@ def run(args: argparse.Namespace) -> int:
     alpha = np.array([r[0] for r in rows_in], dtype=float)
     mass = np.array([r[1] for r in rows_in], dtype=float)
     adds = [a for spec in args.add or [] for a in ("--add", spec)]
-    out = solve(
-        arm,
-        alpha,
-        mass,
-        effects,
-        backend=args.backend,
-        self_weight=not args.no_self_weight,
-        uncertainty=args.uncertainty,
-        strict=args.strict,
-        **_model_kw(args),
-    )
+    with _payload_hint(arm, mass):
+        out = solve(
+            arm,
+            alpha,
+            mass,
+            effects,
+            backend=args.backend,
+            self_weight=not args.no_self_weight,
+            uncertainty=args.uncertainty,
+            strict=args.strict,
+            **_model_kw(args),
+        )
     dofs = int(out["n_dof"]) if args.model == "fem" else 0
     if args.plot:
         _fem_plots(args.plot, arm, out, alpha, mass, args.model)

@@ -19,6 +19,7 @@ from eodarm.cli._common import (
     _load_arm,
     _note,
     _one_line,
+    _payload_hint,
     _say,
     _valued_effect,
 )
@@ -284,6 +285,7 @@ def run(args: argparse.Namespace) -> int:
     arm = _load_arm(args.arm)
     grid = _cli_grid(args, arm.n)
     mass = parse_range(args.mass, "--mass")
+    _payload_hint(arm, mass)  # --mass 5000: is it grams? (a note)
     effects = [_valued_effect(s) for s in args.add or []]
     reduce = _cli_reduce(args.reduce)
     out = args.output

@@ -23,6 +23,7 @@ from eodarm.cli._common import (
     _load_arm,
     _next,
     _note,
+    _payload_hint,
     _stages,
     _valued_effect,
 )
@@ -153,6 +154,7 @@ def run(args: argparse.Namespace) -> int:
             raise EodarmError(
                 f"--sigma '{spec}': expected CHANNEL=VALUE, e.g. dy_mm=0.01"
             ) from None
+    hinted = _payload_hint(arm, masses, "--sequence" if sequence else "--masses")
     if args.alpha:
         alpha = np.array([_angles(a, n) for a in args.alpha])
     else:
@@ -160,10 +162,16 @@ def run(args: argparse.Namespace) -> int:
         if k < 1:
             raise EodarmError(f"--configs: need at least 1 configuration, got {k}")
         # configurations from their own stream, so that they do not share draws with the noise
-        alpha = _solvable_configs(
-            arm, k, np.random.default_rng([1, args.seed]), masses, hidden, not args.no_self_weight
-        )
-    with _stages(["solving", "writing"], "synth") as step:
+        with hinted:
+            alpha = _solvable_configs(
+                arm,
+                k,
+                np.random.default_rng([1, args.seed]),
+                masses,
+                hidden,
+                not args.no_self_weight,
+            )
+    with hinted, _stages(["solving", "writing"], "synth") as step:
         step("solving")
         meas = synth(
             arm,

@@ -99,8 +99,8 @@ from eodarm.data.noise import (
     sequence_state_groups,
     state_groups,
 )
-from eodarm.data.sequences import _check_sequences, _reference_rows
-from eodarm.errors import EodarmError
+from eodarm.data.sequences import _check_sequences, _reference_rows, sequence_rows
+from eodarm.errors import EodarmError, listing, show, show_source
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -306,12 +306,7 @@ class Measurements:
         """
         if self.step is None:
             return [np.array([r], dtype=np.int64) for r in range(self.n_rows)]
-        out = []
-        for label in self.configs:
-            rows = np.flatnonzero((self.config == label) & ~self.reference)
-            if rows.size:
-                out.append(rows[np.argsort(self.step[rows], kind="stable")].astype(np.int64))
-        return out
+        return sequence_rows(self.config, self.step, self.reference)
 
     @property
     def defaulted(self) -> tuple[str, ...]:
@@ -541,13 +536,14 @@ def build(
     chan_set = set(channels)
     alphas = [f"alpha{i + 1}_deg" for i in range(n)]
     required = ["config", *alphas, "mass_kg"]
+    where = show_source(source)
 
     # ---- header: every problem at once, on line 1
     problems: list[str] = []
     seen: dict[str, int] = {}
     for j, name in enumerate(header):
         if name in seen:
-            problems.append(f"column '{name}' appears twice")
+            problems.append(f"column '{show(name)}' appears twice")
         else:
             seen[name] = j
     missing = [c for c in required if c not in seen]
@@ -578,23 +574,21 @@ def build(
     if foreign:
         problems.append(
             "column(s) "
-            + ", ".join(f"'{c}'" for c in foreign)
+            + _names(foreign)
             + f" belong to a link beyond the arm's {n} (the data are for another arm)"
         )
     if unknown and unknown_is_error:
         problems.append(
-            "unknown column(s) "
-            + ", ".join(f"'{c}'{_did_you_mean(c, known)}" for c in unknown)
-            + f" (channels: {', '.join(channels)})"
+            "unknown column(s) " + _names(unknown, known) + f" (channels: {', '.join(channels)})"
         )
     if problems:
-        raise MeasurementFileError(f"{source}: line 1 (header): " + "; ".join(problems))
+        raise MeasurementFileError(listing(f"{where}: line 1 (header)", problems))
     if not body:
-        raise MeasurementFileError(f"{source}: no data rows after the header (line 1)")
+        raise MeasurementFileError(f"{where}: no data rows after the header (line 1)")
     if unknown:
         warnings.warn(
-            f"{source}: ignoring column(s) not in the measurement-file format: "
-            + ", ".join(f"'{c}'{_did_you_mean(c, known)}" for c in unknown),
+            f"{where}: ignoring column(s) not in the measurement-file format: "
+            + _names(unknown, known),
             UserWarning,
             stacklevel=stacklevel,
         )
@@ -613,11 +607,13 @@ def build(
     line = np.zeros(rows, dtype=np.int64)
     step = np.full(rows, -1, dtype=np.int64)
     step_given = np.zeros(rows, dtype=bool)
-    bad: list[str] = []
+    bad: list[str] = []  # one entry per bad cell: "line L: column why"
+    bad_rows = 0
     for r, (ln, cells) in enumerate(body):
         line[r] = ln
         if len(cells) != ncol:
             bad.append(f"line {ln}: {len(cells)} cells, the header has {ncol} columns")
+            bad_rows += 1
             continue
         errs: list[str] = []
         label = _label(cells[seen["config"]])
@@ -686,11 +682,11 @@ def build(
                 sigma[r, c] = s
                 given[r, c] = True
         if errs:
-            bad.append(f"line {ln}: " + ", ".join(errs))
+            bad += [f"line {ln}: {e}" for e in errs]
+            bad_rows += 1
     if bad:
-        listed = "; ".join(bad[:MAX_LISTED])
-        more = f"; …and {len(bad) - MAX_LISTED} more" if len(bad) > MAX_LISTED else ""
-        raise MeasurementFileError(f"{source}: {len(bad)} bad row(s): {listed}{more}")
+        cells_note = f", {len(bad)} bad cells" if len(bad) != bad_rows else ""
+        raise MeasurementFileError(listing(f"{where}: {bad_rows} bad row(s){cells_note}", bad))
     has_step = bool(step_given.any())
     reference = np.zeros(rows, dtype=bool)
     if has_step:
@@ -698,9 +694,7 @@ def build(
             config, alpha, mass, step, step_given, values, line, _cells_of(body, jstep)
         )
         if bad:
-            listed = "; ".join(bad[:MAX_LISTED])
-            more = f"; …and {len(bad) - MAX_LISTED} more" if len(bad) > MAX_LISTED else ""
-            raise MeasurementFileError(f"{source}: {len(bad)} bad row(s): {listed}{more}")
+            raise MeasurementFileError(listing(f"{where}: {len(bad)} bad row(s)", bad))
         reference = _reference_rows(config, mass, step, values)
         values[reference] = np.nan  # the written reference carries no information
         groups = sequence_state_groups(config, alpha, mass, step, reference)
@@ -724,3 +718,13 @@ def build(
         step=step if has_step else None,
         reference=reference,
     )
+
+
+def _names(names: Sequence[str], known: Sequence[str] | None = None) -> str:
+    """Column names in a message: the first three, each shown on one short line (with a
+    did-you-mean when ``known`` is given), and how many more."""
+    shown = [
+        f"'{show(c)}'" + (_did_you_mean(c, known) if known is not None else "") for c in names[:3]
+    ]
+    more = f" and {len(names) - 3} more" if len(names) > 3 else ""
+    return ", ".join(shown) + more

@@ -18,6 +18,7 @@ import numpy as np
 from eodarm.data.channels import (
     channel_names,
 )
+from eodarm.errors import show, show_source
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -56,26 +57,39 @@ def read_measurements(path: str | Path | TextIO, n: int) -> Measurements:
     channel_names(n)
     if isinstance(path, (str, Path)):
         source = str(path)
+        name = show_source(source)
         try:
             with open(path, "rb") as fb:
-                raw = _read_capped(fb, source)
+                raw = _read_capped(fb, name)
         except OSError as exc:
             raise MeasurementFileError(
-                f"{source}: cannot read measurement file: {exc.strerror or exc}"
+                f"{name}: cannot read measurement file: {exc.strerror or exc}"
+            ) from None
+        except MeasurementFileError:
+            raise
+        except ValueError:  # open() of a name with a NUL byte
+            raise MeasurementFileError(
+                f"{name}: cannot read measurement file: its name holds a NUL byte"
             ) from None
     else:
         source = str(getattr(path, "name", "<stream>"))
-        raw = _read_capped(path, source)
+        name = show_source(source)
+        raw = _read_capped(path, name)
     if isinstance(raw, bytes):
         try:
             raw = raw.decode("utf-8-sig")
         except UnicodeDecodeError as exc:
-            raise MeasurementFileError(f"{source}: not a UTF-8 text file ({exc.reason})") from None
+            raise MeasurementFileError(
+                f"{name}: not a UTF-8 text file ({exc.reason} at byte {exc.start})"
+            ) from None
     text = raw.removeprefix("\ufeff")
     if "\0" in text:
-        raise MeasurementFileError(f"{source}: a binary file (NUL bytes), not a CSV text file")
+        line = text.count("\n", 0, text.index("\0")) + 1
+        raise MeasurementFileError(
+            f"{name}: line {line}: a binary file (NUL bytes), not a CSV text file"
+        )
 
-    delimiter = _delimiter(text, source)
+    delimiter = _delimiter(text, name)
     reader = csv.reader(io.StringIO(text, newline=""), strict=True, delimiter=delimiter)
     records: list[tuple[int, list[str]]] = []
     empty: list[int] = []
@@ -91,25 +105,40 @@ def read_measurements(path: str | Path | TextIO, n: int) -> Measurements:
             records.append((start, cells))
     except csv.Error as exc:
         raise MeasurementFileError(
-            f"{source}: line {reader.line_num}: not valid CSV ({exc})"
+            f"{name}: line {reader.line_num}: not valid CSV ({show(exc, 80)})"
         ) from None
     if not records:
         raise MeasurementFileError(
-            f"{source}: line 1: the file is empty (expected a header with config, "
+            f"{name}: line 1: the file is empty (expected a header with config, "
             f"alpha1_deg…alpha{n}_deg, mass_kg)"
         )
     (hline, header), body = records[0], records[1:]
     if hline != 1:
-        raise MeasurementFileError(f"{source}: line 1: is blank; the header must be line 1")
+        raise MeasurementFileError(f"{name}: line 1: is blank; the header must be line 1")
     if empty:
         where = f"line {empty[0]}" if len(empty) == 1 else f"lines {empty[0]}…{empty[-1]}"
         warnings.warn(
-            f"{source}: skipped {len(empty)} row(s) with every cell empty ({where}; a "
+            f"{name}: skipped {len(empty)} row(s) with every cell empty ({where}; a "
             "spreadsheet's trailing rows)",
             UserWarning,
             stacklevel=2,
         )
-    return build(header, list(body), n, source, stacklevel=3)
+    return _with_values(build(header, list(body), n, source, stacklevel=3), name, header)
+
+
+def _with_values(meas: Measurements, name: str, header: list[str]) -> Measurements:
+    """``meas``, refused in one line when it holds no measured value: every cell of its
+    channel columns is empty (or it has none), and nothing could be compared or fitted (a
+    fit of nothing has χ² = 0 and would "explain" it)."""
+    if meas.n_values:
+        return meas
+    cols = [c for c in meas.channels if c in header]
+    what = (
+        f"every cell of {', '.join(cols[:3])}{' …' if len(cols) > 3 else ''} is empty"
+        if cols
+        else "it has no channel column (dx_mm, dy_mm, dalphaK_deg, dlK_mm)"
+    )
+    raise MeasurementFileError(f"{name}: no measured value: {what}; nothing to compare or fit")
 
 
 #: Largest measurement file read, bytes: about 600 000 rows of the seed's 19 columns, far
@@ -177,7 +206,7 @@ def from_dataframe(df: pd.DataFrame, n: int, source: str = "<DataFrame>") -> Mea
         j = header.index("line")
         raw = df.iloc[:, j]
         if not pd.api.types.is_integer_dtype(raw.dtype):
-            raise MeasurementFileError(f"{source}: column 'line' must hold integers")
+            raise MeasurementFileError(f"{show_source(source)}: column 'line' must hold integers")
         lines = [int(x) for x in raw]
         keep = [i for i in range(len(header)) if i != j]
     else:
@@ -191,7 +220,8 @@ def from_dataframe(df: pd.DataFrame, n: int, source: str = "<DataFrame>") -> Mea
         if jc >= 0 and cells[jc] is not None:
             cells[jc] = str(row[keep[jc]])  # a label, even when it looks like a number
         body.append((lines[r], cells))
-    return build(header, body, n, source, stacklevel=3)
+    meas = build(header, body, n, source, stacklevel=3)
+    return _with_values(meas, show_source(source), header)
 
 
 def _df_cell(x: Any) -> Cell:

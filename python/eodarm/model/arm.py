@@ -23,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from eodarm.errors import ArgumentTypeError, ArmFileError, InputError
+from eodarm.errors import ArgumentTypeError, ArmFileError, InputError, show, show_source
 from eodarm.model.arm_check import (
     BASE_KEYS,
     LINK_KEYS,
@@ -32,7 +32,6 @@ from eodarm.model.arm_check import (
     TOP_KEYS,
     Validator,
     misspelling_of,
-    one_line,
     read_drive,
     read_effects,
     read_fit,
@@ -52,6 +51,7 @@ from eodarm.model.arm_parts import (
     stiffness_of,
 )
 from eodarm.model.arm_toml import over_template, render
+from eodarm.model.arm_units import unit_hints
 from eodarm.model.effects import Effect
 
 __all__ = [
@@ -112,26 +112,31 @@ class Arm:
         if not isinstance(path, (str, Path)):
             raise ArmFileError(f"an arm file's path must be a str or Path, got {short(path)}")
         p = Path(path)
+        name = show_source(p)  # the file as messages name it: one short printable line
         try:
             with open(p, "rb") as fh:
                 raw = fh.read(MAX_FILE_BYTES + 1)
         except OSError as exc:
-            raise ArmFileError(f"{p}: cannot read arm file: {exc.strerror or exc}") from None
+            raise ArmFileError(f"{name}: cannot read arm file: {exc.strerror or exc}") from None
+        except ValueError:  # open() of a name with a NUL byte
+            raise ArmFileError(f"{name}: cannot read arm file: its name holds a NUL byte") from None
         if len(raw) > MAX_FILE_BYTES:
-            raise ArmFileError(f"{p}: larger than {MAX_FILE_BYTES:,} bytes: not an arm file")
+            raise ArmFileError(f"{name}: larger than {MAX_FILE_BYTES:,} bytes: not an arm file")
         try:
             text = raw.decode("utf-8-sig")  # a byte-order mark is allowed, as in CSV files
         except UnicodeDecodeError as exc:
-            raise ArmFileError(f"{p}: not UTF-8 text (byte {exc.start})") from None
+            raise ArmFileError(f"{name}: not UTF-8 text (byte {exc.start})") from None
         try:
             data = tomllib.loads(text)
         except tomllib.TOMLDecodeError as exc:
-            raise ArmFileError(f"{p}: not valid TOML: {one_line(str(exc))}") from None
+            raise ArmFileError(f"{name}: not valid TOML: {show(str(exc), 120)}") from None
         except RecursionError:
             raise ArmFileError(
-                f"{p}: not an arm file: arrays or tables nested too deeply"
+                f"{name}: not an arm file: arrays or tables nested too deeply"
             ) from None
-        return cls.from_dict(data, source=str(p))
+        arm = cls.from_dict(data, source=str(p))
+        unit_hints(arm, name)
+        return arm
 
     @classmethod
     def from_dict(cls, data: Mapping[str, Any], source: str = "<dict>") -> Arm:

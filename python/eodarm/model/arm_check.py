@@ -13,7 +13,7 @@ from typing import Any, NoReturn
 
 import numpy as np
 
-from eodarm.errors import ArmFileError, EffectError
+from eodarm.errors import ArmFileError, EffectError, show, show_source
 from eodarm.model.arm_parts import (
     BOUNDS,
     KINDS,
@@ -285,10 +285,12 @@ class Validator:
         self.source = source
 
     def fail(self, key: str, why: str) -> NoReturn:
-        raise ArmFileError(f"{self.source}: key '{key}': {why}")
+        raise ArmFileError(f"{show_source(self.source)}: key '{show(key, 60)}': {why}")
 
     def warn(self, key: str, why: str) -> None:
-        warnings.warn(f"{self.source}: key '{key}' {why}", UserWarning, stacklevel=4)
+        warnings.warn(
+            f"{show_source(self.source)}: key '{show(key, 60)}' {why}", UserWarning, stacklevel=4
+        )
 
     def unknown(self, table: Mapping[str, Any], allowed: set[str], prefix: str) -> None:
         """A key not in ``allowed``: refused when it looks like a misspelling of one (its

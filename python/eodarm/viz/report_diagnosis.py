@@ -53,6 +53,8 @@ def verdict_line(d: Diagnosis) -> str:
         what = "no effect of the catalogue explains these data"
         if d.best_effort:
             what += " (best effort: " + page.esc(_keys(d.best_effort)) + ")"
+    elif d.verdict == "check_data":
+        what = "the data look mistaken: check them first"
     else:
         what = "nothing to add"
     v = page.esc(d.verdict)
@@ -64,6 +66,13 @@ def _rule(acc: Acceptance) -> str:
 
 
 def _story(d: Diagnosis, main: str, unit: str) -> str:
+    if d.verdict == "check_data":  # docs/diagnosis.md, "Check the data first"
+        return (
+            "<b>Check the data first.</b> They look mistaken, not like a missing effect, and "
+            "no effect was looked for in them:</p><ul>"
+            + "".join(f"<li>{page.esc(c.message)}</li>" for c in d.data_checks)
+            + "</ul><p>"
+        )
     if d.verdict == "adequate":
         text = (
             "The baseline explains the data within their noise and no candidate improves it "

@@ -168,6 +168,8 @@ def _verdict_words(a: Answer) -> str:
         return "the final model explains the data within their noise"
     if a.verdict == "missing":
         return "something is still missing (the rounds ran out)"
+    if a.verdict == "check_data":
+        return "the data look mistaken (a unit, a sign, a zeroing): check them first"
     return "no effect of the catalogue explains what is left"
 
 
