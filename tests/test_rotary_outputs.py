@@ -219,3 +219,15 @@ def test_effect_state_of_a_linear_arm_has_nan_torques() -> None:
     assert state.torque_nmm.shape == (2, 3) and np.isnan(state.torque_nmm).all()
     assert np.isnan(state.rows(np.array([1])).torque0_nmm).all()
     assert not state.torque_nmm.flags.writeable
+
+
+def test_a_turn_at_a_linear_actuator_is_refused_on_either_backend() -> None:
+    """The compiled core of a linear arm has no drive to turn: the solver refuses the turn
+    rather than drop it."""
+    arm = eodarm.Arm.from_toml(LINEAR)
+    turn = np.array([[0.0, 1e-4, 0.0]])
+    for backend in ("rust", "numpy"):
+        with pytest.raises(InputError, match=r"extra_turn_rad is nonzero at joint 2"):
+            eodarm.solve(
+                arm, [[90.0, 10.0, 0.0]], 1.0, backend=backend, extra={"extra_turn_rad": turn}
+            )
