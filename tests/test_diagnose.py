@@ -238,10 +238,11 @@ def test_cli_diagnose_json_is_exactly_the_contract(two_hidden_csv: str) -> None:
     assert out.returncode == 0, out.stderr
     doc = json.loads(out.stdout)
     # every key of the contract, plus "noise" (where each channel's sigma came from) and
-    # "data_checks" (the mistakes the data look like: none here)
-    assert set(doc) == {"model", "baseline", "verdict", "suggested", "ranking", "noise"} | {
-        "data_checks"
-    }
+    # "alternatives" (the look-alikes of the suggested effects, an object even when empty)
+    # and "data_checks" (the mistakes the data look like: none here)
+    keys = {"model", "baseline", "verdict", "suggested", "alternatives", "ranking", "noise"}
+    assert set(doc) == keys | {"data_checks"}
+    assert isinstance(doc["alternatives"], dict)
     assert doc["data_checks"] == []
     assert doc["noise"]["dy_mm"] == {"sigma": None, "source": "given", "dof": None}
     assert set(doc["baseline"]) == {"rms", "chi2_per_dof"}
@@ -376,10 +377,12 @@ def test_an_effect_outside_the_catalogue_is_unexplained(
         "baseline",
         "verdict",
         "suggested",
+        "alternatives",
         "data_checks",
         "best_effort",
         "ranking",
     ]
+    assert doc["alternatives"] == {}
     assert doc["suggested"] == []
     best = doc["best_effort"]
     assert set(best) == {"set", "chi2_per_dof", "cv"} and set(best["cv"]) == {"rms"}
@@ -422,6 +425,7 @@ def test_cli_diagnose_says_unexplained_and_shows_what_is_left(
     assert set(doc) == {
         "model",
         "baseline",
+        "alternatives",
         "verdict",
         "suggested",
         "ranking",

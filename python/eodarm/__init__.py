@@ -12,11 +12,12 @@ compiled Rust core, with an independent numpy reference.
 
 from __future__ import annotations
 
-import importlib
-from typing import TYPE_CHECKING, Any
+import importlib as _importlib
+from typing import TYPE_CHECKING as _TYPE_CHECKING
+from typing import Any as _Any
 
 from eodarm._version import __version__
-from eodarm.errors import ArgumentTypeError, ArmFileError, EffectError, EodarmError, InputError
+from eodarm.errors import ArmFileError, EffectError, EodarmError, InputError
 
 #: Where each public name lives; a name is imported on first use (PEP 562), so that
 #: ``import eodarm`` and ``eodarm --help`` do not pay for the layers a script never touches.
@@ -40,7 +41,7 @@ _PUBLIC = {
     "Measurements": "eodarm.data.measurements",
     "read_measurements": "eodarm.data.reader",
     "FitResult": "eodarm.analysis.fit",
-    "cross_validate": "eodarm.analysis.fit",
+    "cross_validate": "eodarm.analysis.crossval",
     "fit": "eodarm.analysis.fit",
     "Diagnosis": "eodarm.analysis.diagnose",
     "diagnose": "eodarm.analysis.diagnose",
@@ -51,7 +52,6 @@ _PUBLIC = {
 __all__ = [
     "CATALOGUE",
     "Actuator",
-    "ArgumentTypeError",
     "Arm",
     "ArmFileError",
     "Diagnosis",
@@ -83,20 +83,22 @@ __all__ = [
 ]
 
 
-def __getattr__(name: str) -> Any:
+def __getattr__(name: str) -> _Any:
     where = _PUBLIC.get(name)
     if where is None:
         raise AttributeError(f"module 'eodarm' has no attribute '{name}'")
-    obj = getattr(importlib.import_module(where), name)
+    obj = getattr(_importlib.import_module(where), name)
     globals()[name] = obj  # once imported, an ordinary attribute
     return obj
 
 
 def __dir__() -> list[str]:
-    return sorted({*globals(), *_PUBLIC})
+    """The public API (``__all__``), not the helpers of this module (its imports, the
+    lazy-import table) nor the subpackages (``eodarm.model``, …, importable by name)."""
+    return sorted(__all__)
 
 
-if TYPE_CHECKING:
+if _TYPE_CHECKING:
     from eodarm.analysis.compensate import compensate
     from eodarm.analysis.crossval import cross_validate
     from eodarm.analysis.diagnose import Diagnosis, diagnose

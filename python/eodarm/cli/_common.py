@@ -390,10 +390,16 @@ def _print_table(
 
 
 def _describe_data(meas: Measurements) -> str:
-    masses = "/".join(f"{m:g}" for m in dict.fromkeys(np.asarray(meas.mass_kg).tolist()))
+    """``36 states, 6 configurations, payloads 1.5, 5, 6.5 and 0 kg, 288 values on …`` (the
+    payloads in the order they first appear)."""
+    from eodarm.viz.format import listing, plural
+
+    masses = list(dict.fromkeys(np.asarray(meas.mass_kg).tolist()))
+    what = "payload" if len(masses) == 1 else "payloads"
     return (
-        f"{meas.n_rows} states, {len(meas.configs)} configurations, payloads {masses} kg, "
-        f"{meas.n_values} values on {', '.join(meas.measured_channels)}"
+        f"{plural(meas.n_rows, 'state')}, {plural(len(meas.configs), 'configuration')}, "
+        f"{what} {listing(masses, 'kg')}, {plural(meas.n_values, 'value')} on "
+        f"{', '.join(meas.measured_channels)}"
     )
 
 

@@ -1,6 +1,8 @@
 """The commands and their one-line help: what ``eodarm --help`` lists without importing them."""
 
-__all__ = ["HELP"]
+import re
+
+__all__ = ["HELP", "NEGATIVE_VALUE"]
 
 #: One line per command, in the order of ``eodarm --help``; each command is the module of that
 #: name in this package, with ``add_parser(sub)`` and ``run(args)``.
@@ -16,3 +18,7 @@ HELP = {
     "datasets": "bundled data sets: list, export",
     "compensate": "the angles to command so that the payload does not move the measure point",
 }
+
+#: What the parser takes for a value rather than an option: a negative number, and a list or a
+#: range that starts with one (``--alpha -5,10,0``, ``--alpha3 -20:20:21``).
+NEGATIVE_VALUE = re.compile(r"^-\d+$|^-\d*\.\d+$|^-[\d.]+(:[-\d.]+)+$|^-[\d.]+[,;]")

@@ -239,7 +239,7 @@ def _print_loop(h: dict[str, Any]) -> None:
             row = [str(step), f"{kg:g}", br]
             for ch in group:
                 m, mo = h["measured"][ch][s], h["model"][ch][s]
-                row += [_fmt(np.nan if m is None else m), _fmt(mo)]
+                row += [_reading(np.nan if m is None else m, ch), _reading(mo, ch)]
             rows.append(row)
         _print_table(head, rows, left=(2,))
     left = h["left_at_return"]
@@ -249,12 +249,23 @@ def _print_loop(h: dict[str, Any]) -> None:
         _say(
             "left at the return to zero: "
             + "; ".join(
-                f"{ch} {_fmt(np.nan if v['measured'] is None else v['measured'])} measured, "
-                f"{_fmt(v['model'])} model"
+                f"{_channel(ch)[0]} "
+                f"{_reading(np.nan if v['measured'] is None else v['measured'], ch, True)} "
+                f"measured, {_reading(v['model'], ch, True)} model"
                 for ch, v in left.items()
             ),
             "  ",
         )
+
+
+def _reading(x: float, channel: str, unit: bool = False) -> str:
+    """A channel's value, four digits, a practical zero as ``0`` (a model without memory
+    comes back to 1e-10 mm: rounding); with ``unit``, its unit once."""
+    from eodarm.viz.format import channel_value
+
+    u = _channel(channel)[1]
+    text = channel_value(x, u, 4)
+    return text if unit else text.removesuffix(f" {u}")
 
 
 def _write_residuals(path: str, res: FitResult, flagged: Any) -> None:
@@ -267,7 +278,7 @@ def _write_residuals(path: str, res: FitResult, flagged: Any) -> None:
     from eodarm.atomic import atomic_write
 
     with atomic_write(path, newline="") as fh:  # whole or not at all
-        wr = csv.writer(fh)
+        wr = csv.writer(fh, lineterminator="\n")  # LF, as every file eodarm writes
         head = ["line", "config", "mass_kg"]
         for ch in chans:
             head += [ch, f"model_{ch}", f"residual_{ch}", f"z_{ch}", f"outlier_{ch}"]

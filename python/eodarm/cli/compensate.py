@@ -143,7 +143,7 @@ def _write_csv(
     from eodarm.atomic import atomic_write
 
     with atomic_write(path, newline="") as f:  # whole or not at all
-        w = csv.writer(f)
+        w = csv.writer(f, lineterminator="\n")  # LF, as every other file eodarm writes
         w.writerow(head)
         for i in range(alpha.shape[0]):
             row = [config[i]] if config is not None else []

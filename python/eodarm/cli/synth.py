@@ -195,20 +195,23 @@ def run(args: argparse.Namespace) -> int:
             meas.to_csv(sys.stdout)
             sys.stdout.flush()
             where = "stdout"
+    from eodarm.viz.format import plural
+
     model = ", ".join(f"{e.key}={e.value:g}" for e in hidden) or "none"
+    configs = plural(alpha.shape[0], "config")
+    repeats = f" × {plural(args.repeats, 'repeat')}" if args.repeats > 1 else ""
     if sequence:
         what = (
-            f"{meas.n_rows} states ({alpha.shape[0]} configs × {args.repeats} × the sequence "
+            f"{plural(meas.n_rows, 'state')} ({configs}{repeats} × the sequence "
             f"{','.join(f'{m:g}' for m in masses)}"
         )
-    elif args.repeats == 1:
-        what = f"{meas.n_rows} states ({alpha.shape[0]} configs × {len(masses)} payloads"
     else:
-        what = (
-            f"{meas.n_rows} rows ({alpha.shape[0]} configs × {len(masses)} payloads × "
-            f"{args.repeats} repeats"
-        )
-    _note(f"wrote {what}, {len(meas.measured_channels)} channels; hidden: {model}) to {where}")
+        rows = plural(meas.n_rows, "state" if args.repeats == 1 else "row")
+        what = f"{rows} ({configs} × {plural(len(masses), 'payload')}{repeats}"
+    _note(
+        f"wrote {what}, {plural(len(meas.measured_channels), 'channel')}; hidden: {model}) "
+        f"to {where}"
+    )
     _next("diagnose", args.output or "FILE.csv", *_arm_argv(args, always=True), args=args)
     return 0
 
@@ -351,5 +354,5 @@ def _records(args: argparse.Namespace, arm: Arm) -> int:
     path = write_synth_campaign(args.records, recs, before=refuse_inputs)
     model = ", ".join(f"{e.key}={e.value:g}" for e in hidden) or "none"
     _note(f"wrote {len(recs)} records ({len(seq)} states each; hidden: {model}) and {path}")
-    _next("records", str(path), "-o", _free_name("meas.csv"))
+    _next("records", str(path), "-o", _free_name("meas.csv"), *_arm_argv(args, always=True))
     return 0

@@ -33,6 +33,7 @@ import numpy.typing as npt
 from eodarm.atomic import atomic_write
 from eodarm.data.channels import _CHANNEL, channel_link, channel_names
 from eodarm.errors import EodarmError
+from eodarm.model.effects import did_you_mean
 
 __all__ = [
     "Campaign",
@@ -136,12 +137,18 @@ def read_campaign(path: str | Path) -> Campaign:
         raise RecordError(f"{p}: cannot read campaign file: {exc.strerror or exc}") from None
     except tomllib.TOMLDecodeError as exc:
         raise RecordError(f"{p}: not a TOML file ({exc})") from None
+    unknown = sorted(set(doc) - {"record"})
+    for key in unknown:  # a misspelled [[record]] would drop its records with only a note
+        if did_you_mean(key, ["record"], cutoff=0.75):
+            raise RecordError(
+                f"{p}: [[{key}]] is not a table of a campaign (did you mean [[record]]?); "
+                "its records would be left out"
+            )
     tables = doc.get("record")
     if not isinstance(tables, list) or not tables:
         raise RecordError(
             f"{p}: no [[record]] table (each gives file, config, alpha_deg, masses_kg)"
         )
-    unknown = sorted(set(doc) - {"record"})
     if unknown:
         warnings.warn(
             f"{p}: ignoring key(s) {', '.join(unknown)} (a campaign has [[record]] tables)",
@@ -153,17 +160,20 @@ def read_campaign(path: str | Path) -> Campaign:
         where = f"{p}: record {i}"
         if not isinstance(t, dict):
             raise RecordError(f"{where}: expected a table")
-        extra = sorted(set(t) - {"file", "config", "alpha_deg", "masses_kg"})
+        keys = ("file", "config", "alpha_deg", "masses_kg")
+        extra = sorted(set(t) - set(keys))
         if extra:
             warnings.warn(
-                f"{where}: ignoring key(s) {', '.join(extra)} "
-                "(file, config, alpha_deg, masses_kg are read)",
+                f"{where}: ignoring key(s) "
+                + ", ".join(f"{k}{did_you_mean(k, keys, cutoff=0.75)}" for k in extra)
+                + " (file, config, alpha_deg, masses_kg are read)",
                 UserWarning,
                 stacklevel=2,
             )
-        for key in ("file", "config", "alpha_deg", "masses_kg"):
-            if key not in t:
-                raise RecordError(f"{where}: missing key '{key}'")
+        for key in keys:
+            if key not in t:  # named with the key given in its place, if one looks like it
+                close = did_you_mean(key, extra).replace("did you mean", "is it")
+                raise RecordError(f"{where}: missing key '{key}'{close}")
         if not isinstance(t["file"], str) or not t["file"].strip():
             raise RecordError(f"{where}: 'file' must be a file name")
         if not isinstance(t["config"], str) or not t["config"].strip():

@@ -8,7 +8,10 @@
 * :func:`bounded_interval`: a 95 % interval given by its ends (from the fit's own
   parameterisation, so that it never crosses a physical bound), ``≥ lo`` when it reaches ∞;
 * :func:`parameter_name`: a parameter in words (``"actuator 1 body stiffness"``), for the
-  identifier ``mount_compliance@M1`` shown alongside.
+  identifier ``mount_compliance@M1`` shown alongside;
+* :func:`channel_value`: a length or angle of a channel, a practical zero as ``0`` or
+  ``< 1e-6 mm`` rather than ``3e−10 mm``;
+* :func:`plural` and :func:`listing`: ``1 payload``, ``4 payloads``, ``1.5, 5, 6.5 and 0 kg``.
 
 Infinite and undefined numbers read as words, never as ``inf`` or ``nan``.
 """
@@ -16,15 +19,26 @@ Infinite and undefined numbers read as words, never as ``inf`` or ``nan``.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 __all__ = [
+    "RESOLUTION",
     "bounded_interval",
+    "channel_value",
     "interval95",
+    "listing",
     "p_value",
     "parameter_name",
+    "plural",
     "value",
     "value_error",
 ]
+
+#: Below these a channel's value is a practical zero: a length in mm, an angle in deg. The
+#: model's kernels agree to about 1e-10 mm; no sensor of an arm resolves 1e-6 mm.
+RESOLUTION = {"mm": 1e-6, "deg": 1e-6, "µm": 1e-3}
+#: Below this a value is the rounding of the solvers (it reads 0, not "< 1e-6").
+ROUNDING = 1e-9
 
 #: z of a two-sided 95 % normal interval.
 Z95 = 1.959963984540054
@@ -45,8 +59,13 @@ def _with_unit(text: str, unit: str) -> str:
     return f"{text} {unit}" if unit else text
 
 
-def value(x: float, unit: str = "", digits: int = 4) -> str:
-    """``x`` to ``digits`` significant digits with its unit; words for ∞ and NaN."""
+def value(x: float, unit: str = "", digits: int = 4, zeros: bool = False) -> str:
+    """``x`` to ``digits`` significant digits with its unit; words for ∞ and NaN.
+
+    Trailing zeros are dropped as ``%g`` drops them (``1.5``, not ``1.500``: a payload, an
+    angle) unless ``zeros``: then a computed quantity keeps its ``digits`` figures, so that a
+    column reads ``0.00030`` beside ``0.00033``, not ``0.0003`` (an integer stays one).
+    """
     if x is None or math.isnan(x):
         return "—"
     if math.isinf(x):
@@ -55,15 +74,46 @@ def value(x: float, unit: str = "", digits: int = 4) -> str:
     if x == 0:
         return _with_unit("0", unit)
     exp = math.floor(math.log10(abs(x)))
-    if -3 <= exp < 5:  # positional: 2002, 0.257, 71100, not 2e+03
+    keep = zeros and x != round(x)
+    if -5 <= exp < 5:  # positional: 2002, 0.257, 71100, 0.00033, not 2e+03
         if exp >= digits:  # round the integer to the digits asked for
             x = round(x, digits - 1 - exp)
         text = f"{x:.{max(digits - 1 - exp, 0)}f}"
-        text = text.rstrip("0").rstrip(".") if "." in text else text  # as %g: 1.5, not 1.500
+        if "." in text and not keep:
+            text = text.rstrip("0").rstrip(".")  # as %g: 1.5, not 1.500
     else:  # a power of ten as in value_error: 4.87×10⁸
-        mant = f"{x / 10**exp:.{digits - 1}f}".rstrip("0").rstrip(".")
+        mant = f"{x / 10**exp:.{digits - 1}f}"
+        if not keep:
+            mant = mant.rstrip("0").rstrip(".")
+        if mant.lstrip("-") == "10":  # 9.9996e4 to 4 digits: 1×10⁵, not 10×10⁴
+            mant, exp = mant.replace("10", "1"), exp + 1
         text = f"{mant}×10{str(exp).translate(_SUPERSCRIPT)}"
     return _with_unit(text.replace("-", "−"), unit)
+
+
+def channel_value(x: float, unit: str = "mm", digits: int = 3) -> str:
+    """A channel's value (a deflection, a residual, what a cycle leaves), to ``digits``
+    significant digits with its unit, a practical zero as words: ``0 mm`` below the solvers'
+    rounding (10⁻⁹), ``< 1e-6 mm`` below the resolution of :data:`RESOLUTION`."""
+    res = RESOLUTION.get(unit)
+    if res is not None and x is not None and math.isfinite(x) and abs(x) < res:
+        if abs(x) < ROUNDING:
+            return _with_unit("0", unit)
+        return _with_unit(f"< {res:.0e}".replace("e-0", "e-"), unit)
+    return value(x, unit, digits)
+
+
+def plural(count: int, word: str, words: str | None = None) -> str:
+    """``1 payload``, ``4 payloads``, ``12,345 poses`` (``words``: an irregular plural)."""
+    return f"{count:,} {word if count == 1 else words or word + 's'}"
+
+
+def listing(values: Sequence[float], unit: str = "", digits: int = 4) -> str:
+    """Numbers in words' order: ``1.5, 5, 6.5 and 0 kg`` (the unit once)."""
+    texts = [value(float(v), digits=digits) for v in values]
+    if len(texts) > 1:
+        texts = [", ".join(texts[:-1]) + " and " + texts[-1]]
+    return _with_unit(texts[0] if texts else "none", unit)
 
 
 def value_error(x: float, err: float, unit: str = "", digits: int = 2) -> str:

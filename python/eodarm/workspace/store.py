@@ -148,7 +148,9 @@ def save(ds: xr.Dataset, path: str | os.PathLike[str]) -> None:
     Raises
     ------
     SweepInterrupted
-        On Ctrl-C while writing: the temporary is removed, a previous ``path`` is untouched.
+        On Ctrl-C while writing: the temporary is removed, a previous ``path`` is untouched
+        (``phase`` "writing"); during the rename into place: the new result is whole at
+        ``path`` (``phase`` "done").
     EodarmError
         For another ending, or Zarr without the zarr package.
     """
@@ -168,11 +170,18 @@ def save(ds: xr.Dataset, path: str | os.PathLike[str]) -> None:
             _netcdf3(ds).to_netcdf(tmp, engine="scipy")
             _fsync_path(tmp)  # on disk before it replaces a previous result
         _kill_point("save-written")
-        replace(tmp, out)
     except KeyboardInterrupt:
         with deferred_sigint():
             _remove(tmp)
         raise SweepInterrupted(out, "writing", previous) from None
+    except BaseException:
+        _remove(tmp)
+        raise
+    try:
+        replace(tmp, out)
+    except KeyboardInterrupt:
+        # replace() holds Ctrl-C until the new result is in place, then raises it
+        raise SweepInterrupted(out, "done", previous) from None
     except BaseException:
         _remove(tmp)
         raise
