@@ -25,6 +25,15 @@ Design (why the inputs are always valid, without heavy filtering):
   softer than the arm's own actuator stiffness / section stiffness. Together with the 0.01 rad
   design limit, all effects at once turn a triangle by well under 0.35 rad, so every loaded
   triangle still closes.
+* **Mixed arms** (:func:`mixed_arm_and_poses`, ``arm_dicts(..., rotary=True)``): 1–7 links,
+  each joint a linear actuator or a rotary drive (drawn independently, so all-linear and
+  all-rotary arms come up too). A drive has no pins (the link's ``A``, the previous body's
+  ``B`` or ``B0`` are left out), a torsional stiffness of 10⁶–10⁸ N·mm/rad (log-uniform, then
+  raised like an actuator's so that the largest payload turns it by at most
+  :data:`DESIGN_TURN`), 0–5 kg, and sometimes a torque limit and an angle range. At a drive
+  the pose draws the relative angle q_i in ±:data:`Q_RANGE` instead of a triangle's angle.
+  Each joint's effects are those of its kind (the drive's: ``drive_compliance``,
+  ``drive_backlash``, ``drive_friction``).
 """
 
 from __future__ import annotations
@@ -38,6 +47,7 @@ from hypothesis.strategies import SearchStrategy
 
 import eodarm
 from eodarm.model import reference
+from eodarm.model.effects import candidate_places
 
 #: Largest payload mass the tests apply (kg).
 MAX_PAYLOAD_KG = 8.0
@@ -46,16 +56,26 @@ MAX_PAYLOAD_KG = 8.0
 DESIGN_TURN = 0.01
 #: Angle at the joint between the actuator's base pin and its link pin (degrees).
 PHI_RANGE = (35.0, 145.0)
+#: The largest |q_i| (degrees) a pose gives a rotary drive.
+Q_RANGE = 150.0
+#: The torsional stiffness (N·mm/rad) a drive is drawn with, before :func:`make_plausible`.
+DRIVE_STIFFNESS = (1e6, 1e8)
 #: An actuator stiffness that does not deform measurably (N/mm).
 RIGID = 1e18
 
 #: Default number of links of a random arm.
 LINK_COUNTS = st.integers(1, 4)
-ELASTIC = ("actuator_compliance", "mount_compliance", "link_bending", "base_compliance")
+ELASTIC = (
+    "actuator_compliance",
+    "mount_compliance",
+    "link_bending",
+    "base_compliance",
+    "drive_compliance",
+)
 #: The effects with memory (codes 8, 9): drawn where a test asks for them (``kinds=``). The
 #: compiled core's own kernels (sweep, block kernel, Jacobian) are tested without them until
 #: the core has them; ``solve`` and ``solve_sequence`` take them on both backends.
-FRICTIONS = ("actuator_friction", "joint_friction")
+FRICTIONS = ("actuator_friction", "joint_friction", "drive_friction")
 ALL_KINDS = tuple(k for k in eodarm.CATALOGUE if k not in FRICTIONS)
 
 
@@ -75,14 +95,24 @@ def _rot(theta: float, v: np.ndarray) -> np.ndarray:
 
 # ---------------------------------------------------------------------------- arms
 @st.composite
-def arm_dicts(draw: Any, n: int | SearchStrategy[int] = LINK_COUNTS) -> dict[str, Any]:
-    """A valid arm as the dict of its arm file (see :func:`arms`)."""
+def arm_dicts(
+    draw: Any, n: int | SearchStrategy[int] = LINK_COUNTS, rotary: bool = False
+) -> dict[str, Any]:
+    """A valid arm as the dict of its arm file (see :func:`arms`); with ``rotary`` each joint
+    is a linear actuator or a rotary drive (see the module notes), else every joint linear."""
     n_links = draw(n) if isinstance(n, SearchStrategy) else int(n)
+    kinds = ["linear"] * n_links
+    if rotary:
+        kinds = draw(
+            st.lists(st.sampled_from(["linear", "rotary"]), min_size=n_links, max_size=n_links),
+            label="kinds",
+        )
     o1 = [draw(_f(-100.0, 100.0)), draw(_f(-100.0, 100.0))]
-    r_b0 = draw(_f(100.0, 350.0))
-    t_b0 = math.radians(draw(_f(-180.0, 180.0)))
-    b0 = [o1[0] + r_b0 * math.cos(t_b0), o1[1] + r_b0 * math.sin(t_b0)]
-    base: dict[str, Any] = {"O1": o1, "B0": b0}
+    base: dict[str, Any] = {"O1": o1}
+    if kinds[0] == "linear":
+        r_b0 = draw(_f(100.0, 350.0))
+        t_b0 = math.radians(draw(_f(-180.0, 180.0)))
+        base["B0"] = [o1[0] + r_b0 * math.cos(t_b0), o1[1] + r_b0 * math.sin(t_b0)]
     if draw(st.booleans()):
         base["pivot"] = [o1[0] + draw(_f(-300.0, 300.0)), o1[1] + draw(_f(-300.0, 300.0))]
     links = []
@@ -92,11 +122,10 @@ def arm_dicts(draw: Any, n: int | SearchStrategy[int] = LINK_COUNTS) -> dict[str
         rho = draw(_f(40.0, 150.0))  # |A|: actuator pin distance from the joint
         y_a = draw(_f(-1.0, 1.0)) * min(80.0, 0.9 * rho)
         x_a = math.copysign(math.sqrt(rho * rho - y_a * y_a), draw(st.sampled_from([1.0, -1.0])))
-        link: dict[str, Any] = {
-            "next": [length, draw(_f(-40.0, 40.0))],
-            "A": [x_a, y_a],
-        }
-        if not last:
+        link: dict[str, Any] = {"next": [length, draw(_f(-40.0, 40.0))]}
+        if kinds[i] == "linear":
+            link["A"] = [x_a, y_a]
+        if not last and kinds[i + 1] == "linear":
             # the next actuator's base pin: ≥ 100 mm behind the next joint
             link["B"] = [draw(_f(-150.0, length - 100.0)), draw(_f(-80.0, 80.0))]
         link["C"] = [draw(_f(-50.0, length)), draw(_f(-80.0, 80.0))]
@@ -108,12 +137,29 @@ def arm_dicts(draw: Any, n: int | SearchStrategy[int] = LINK_COUNTS) -> dict[str
         links.append(link)
     actuators = [
         {"stiffness_n_per_mm": draw(_log(200.0, 20000.0)), "mass_kg": draw(_f(0.0, 5.0))}
-        for _ in range(n_links)
+        if kind == "linear"
+        else _drive_table(draw)
+        for kind in kinds
     ]
     d: dict[str, Any] = {"name": "random-arm", "base": base, "link": links, "actuator": actuators}
     if draw(st.booleans()):
         d["g"] = draw(_f(9.7, 9.9))
     return d
+
+
+def _drive_table(draw: Any) -> dict[str, Any]:
+    """A rotary drive's ``[[actuator]]`` table: stiffness, mass, sometimes limits."""
+    table: dict[str, Any] = {
+        "kind": "rotary",
+        "stiffness_nmm_per_rad": draw(_log(*DRIVE_STIFFNESS)),
+        "mass_kg": draw(_f(0.0, 5.0)),
+    }
+    if draw(st.booleans(), label="torque limit"):
+        table["max_torque_nmm"] = draw(_log(1e4, 1e7))
+    if draw(st.booleans(), label="angle range"):
+        lo, hi = sorted(draw(st.lists(_f(-180.0, 180.0), min_size=2, max_size=2)))
+        table["min_angle_deg"], table["max_angle_deg"] = lo, hi
+    return table
 
 
 def arms(n: int | SearchStrategy[int] = LINK_COUNTS) -> SearchStrategy[eodarm.Arm]:
@@ -129,15 +175,25 @@ def arms(n: int | SearchStrategy[int] = LINK_COUNTS) -> SearchStrategy[eodarm.Ar
 def pose_from_joint_angles(
     arm: eodarm.Arm, sides: list[float], phis_deg: list[float]
 ) -> list[float]:
-    """Absolute angles (deg) that put A_i at angle ``side·φ_i`` from B_{i−1}, seen from O_i."""
+    """Absolute angles (deg) that put A_i at angle ``side·φ_i`` from B_{i−1}, seen from O_i, at
+    a linear joint; at a rotary joint, ``side·φ_i`` is the drive's angle q_i = α_i − α_{i−1}."""
     o = np.array(arm.O1, dtype=float)
-    b = np.array(arm.B0, dtype=float)
+    b = np.array(arm.B0 or (0.0, 0.0), dtype=float)
     out = []
+    prev = 0.0
     for i, lk in enumerate(arm.links):
-        d = b - o
-        a = np.array(lk.A, dtype=float)
-        al = math.atan2(d[1], d[0]) + sides[i] * math.radians(phis_deg[i]) - math.atan2(a[1], a[0])
+        if lk.A is None:
+            al = prev + sides[i] * math.radians(phis_deg[i])
+        else:
+            d = b - o
+            a = np.array(lk.A, dtype=float)
+            al = (
+                math.atan2(d[1], d[0])
+                + sides[i] * math.radians(phis_deg[i])
+                - math.atan2(a[1], a[0])
+            )
         al = (al + math.pi) % (2.0 * math.pi) - math.pi
+        prev = al
         out.append(math.degrees(al))
         if lk.B is not None:
             b = o + _rot(al, np.array(lk.B, dtype=float))
@@ -152,7 +208,10 @@ def poses_for(draw: Any, arm: eodarm.Arm, min_size: int = 1, max_size: int = 8) 
     out = []
     for _ in range(rows):
         sides = [draw(st.sampled_from([1.0, -1.0])) for _ in range(arm.n)]
-        phis = [draw(_f(*PHI_RANGE)) for _ in range(arm.n)]
+        phis = [
+            draw(_f(*PHI_RANGE)) if kind == "linear" else draw(_f(0.0, Q_RANGE))
+            for kind in arm.kinds
+        ]
         out.append(pose_from_joint_angles(arm, sides, phis))
     return np.array(out, dtype=float).reshape(rows, arm.n)
 
@@ -175,7 +234,7 @@ def payload_vectors(draw: Any, rows: int, g: float = 9.81) -> np.ndarray:
 
 # ---------------------------------------------------------------------------- plausible loads
 def moment_arms(arm: eodarm.Arm, alpha_deg: np.ndarray) -> np.ndarray:
-    """|h_i| (N, n): distance from joint O_i to actuator i's line, mm."""
+    """|h_i| (N, n): distance from joint O_i to actuator i's line, mm (NaN at a drive)."""
     geo = eodarm.forward(arm, alpha_deg, backend="numpy")
     n = arm.n
     r = geo["A"] - geo["O"][:, :n]
@@ -183,39 +242,54 @@ def moment_arms(arm: eodarm.Arm, alpha_deg: np.ndarray) -> np.ndarray:
     return np.abs(r[..., 0] * e[..., 1] - r[..., 1] * e[..., 0])
 
 
+def _stiffness_key(table: dict[str, Any]) -> str:
+    """The stiffness key of an ``[[actuator]]`` table: its kind's."""
+    return "stiffness_nmm_per_rad" if table.get("kind") == "rotary" else "stiffness_n_per_mm"
+
+
 def _with(d: dict[str, Any], **actuator_or_link: Any) -> dict[str, Any]:
+    """A copy of an arm dict with per-joint values set: ``stiffness`` (each actuator table's
+    own stiffness key) or a link key such as ``ei_n_mm2``."""
     out = {**d, "base": dict(d["base"])}
     out["link"] = [dict(lk) for lk in d["link"]]
     out["actuator"] = [dict(a) for a in d["actuator"]]
     for key, values in actuator_or_link.items():
-        table = "actuator" if key == "stiffness_n_per_mm" else "link"
-        for row, v in zip(out[table], values, strict=True):
+        if key == "stiffness":
+            for row, v in zip(out["actuator"], values, strict=True):
+                row[_stiffness_key(row)] = float(v)
+            continue
+        for row, v in zip(out["link"], values, strict=True):
             row[key] = float(v)
     return out
 
 
 def make_plausible(d: dict[str, Any], alpha_deg: np.ndarray) -> dict[str, Any]:
-    """Raise actuator stiffness and link EI where the largest payload, in any direction, would
-    turn an actuator triangle of a drawn pose by more than :data:`DESIGN_TURN` rad."""
+    """Raise actuator and drive stiffness and link EI where the largest payload, in any
+    direction, would turn a joint of a drawn pose by more than :data:`DESIGN_TURN` rad (an
+    actuator's triangle, Δq = ΔF/(k·h); a drive, Δq = ΔT/k)."""
     arm0 = eodarm.Arm.from_dict(d)
     n = arm0.n
     p_max = MAX_PAYLOAD_KG * arm0.g
     h = moment_arms(arm0, alpha_deg)  # (N, n)
     unit = [
-        reference.statics(arm0, alpha_deg, np.array(p), self_weight=False)["force_n"]
+        reference.statics(arm0, alpha_deg, np.array(p), self_weight=False)
         for p in ([1.0, 0.0], [0.0, 1.0])
     ]
-    gain = np.hypot(unit[0], unit[1])  # |ΔF_i| per N of payload, worst direction
-    k_need = (gain * p_max / (DESIGN_TURN * h)).max(axis=0)
-    k = [
-        max(a["stiffness_n_per_mm"], float(kn)) for a, kn in zip(d["actuator"], k_need, strict=True)
-    ]
+    rot = np.array(arm0.kinds) == "rotary"
+    # |ΔF_i| or |ΔT_i| per N of payload, worst direction, over the arm of each
+    gain = np.where(
+        rot,
+        np.hypot(unit[0]["torque_nmm"], unit[1]["torque_nmm"]),
+        np.hypot(unit[0]["force_n"], unit[1]["force_n"]) / np.where(rot, 1.0, h),
+    )
+    k_need = (gain * p_max / DESIGN_TURN).max(axis=0)
+    k = [max(a[_stiffness_key(a)], float(kn)) for a, kn in zip(d["actuator"], k_need, strict=True)]
 
     # Bending: response of all links bent at a huge test EI with rigid actuators, linear in 1/EI.
     # Both the turn of every triangle and the load point's displacement over the arm's reach
     # (a link bent like a long overhanging beam moves the next joint sideways) are bounded.
     ei_test = 1e16
-    rigid = _with(d, stiffness_n_per_mm=[RIGID] * n)
+    rigid = _with(d, stiffness=[RIGID] * n)
     rigid["link"][-1].pop("measure", None)
     rigid_arm = eodarm.Arm.from_dict(rigid)
     reach = np.linalg.norm(
@@ -230,7 +304,7 @@ def make_plausible(d: dict[str, Any], alpha_deg: np.ndarray) -> dict[str, Any]:
         turn = max(turn, float(np.abs(rel).max()), float(shift.max()))
     ei_need = ei_test * turn / DESIGN_TURN
     ei = [max(lk.get("ei_n_mm2", 1e8), ei_need) for lk in d["link"]]
-    return _with(d, stiffness_n_per_mm=k, ei_n_mm2=ei)
+    return _with(d, stiffness=k, ei_n_mm2=ei)
 
 
 @st.composite
@@ -246,19 +320,34 @@ def arm_and_poses(
     return eodarm.Arm.from_dict(make_plausible(d, alpha)), alpha, mass
 
 
+@st.composite
+def mixed_arm_and_poses(
+    draw: Any, max_links: int = 7, max_poses: int = 6, min_links: int = 1
+) -> tuple[eodarm.Arm, np.ndarray, np.ndarray]:
+    """(arm, alpha_deg (N, n), mass_kg (N,)) as :func:`arm_and_poses`, the arm's joints each a
+    linear actuator or a rotary drive (1–7 links; see the module notes)."""
+    d = draw(arm_dicts(st.integers(min_links, max_links), rotary=True))
+    arm0 = eodarm.Arm.from_dict(d)
+    alpha = draw(poses_for(arm0, max_size=max_poses))
+    mass = draw(masses(alpha.shape[0]))
+    return eodarm.Arm.from_dict(make_plausible(d, alpha)), alpha, mass
+
+
 # ---------------------------------------------------------------------------- effects
 def effect_places(arm: eodarm.Arm, kinds: tuple[str, ...] = ALL_KINDS) -> list[tuple[str, str]]:
-    """Every (effect, place) that may sit on ``arm`` (no bending where A_x ≈ 0)."""
+    """Every (effect, place) that may sit on ``arm``: each joint's effects of its kind of
+    drive only, no bending of a link turned by a linear actuator whose pin A has x ≈ 0."""
     out = []
     for name in kinds:
-        letter = eodarm.CATALOGUE[name].place_letter
-        if letter == "":
-            out.append((name, "base"))
-            continue
-        for i, lk in enumerate(arm.links):
-            if name == "link_bending" and abs(lk.A[0]) <= 0.05 * math.hypot(*lk.A):
+        for at in candidate_places(name, arm.n, arm.kinds):
+            pin = arm.links[int(at[1:]) - 1].A if at != "base" else None
+            if (
+                name == "link_bending"
+                and pin is not None
+                and abs(pin[0]) <= 0.05 * math.hypot(*pin)
+            ):
                 continue
-            out.append((name, f"{letter}{i + 1}"))
+            out.append((name, at))
     return out
 
 
@@ -280,10 +369,13 @@ def effect_value(
     elif name == "link_bending":
         lo = max(1e8, (arm.links[i].ei_n_mm2 or 4e8) / 4.0)
         value = draw(_log(lo, max(1e11, 4.0 * lo)))
-    elif name == "actuator_friction":
-        value = draw(_f(0.0, 200.0))  # N: seals and a screw hold tens to hundreds of newtons
-    elif name == "joint_friction":
-        value = draw(_f(0.0, 20000.0))  # N·mm: up to 200 N on a 100 mm moment arm
+    elif name == "drive_compliance":
+        lo = max(DRIVE_STIFFNESS[0], arm.arrays()["stiffness"][i] / 4.0)
+        value = draw(_log(lo, max(DRIVE_STIFFNESS[1], 4.0 * lo)))
+    elif name == "drive_backlash":
+        value = draw(_f(0.0, 0.2))  # degrees: a worn planetary stage has a few tenths
+    elif name == "drive_friction":
+        value = draw(_f(0.0, 3.0e4))  # N·mm: up to 30 N·m in the gear
     else:
         value = draw(_log(1e7, 1e9))
     mode = "centred"
@@ -350,10 +442,11 @@ def extra_deformations(draw: Any, arm: eodarm.Arm, rows: int) -> dict[str, np.nd
 
 # ---------------------------------------------------------------------------- arm variants
 def rigid_copy(arm: eodarm.Arm) -> eodarm.Arm:
-    """The same arm with actuators that do not deform measurably (k = 1e18 N/mm)."""
+    """The same arm with actuators and drives that do not deform measurably (k = 1e18 N/mm or
+    N·mm/rad)."""
     d = arm.to_dict()
     for a in d["actuator"]:
-        a["stiffness_n_per_mm"] = RIGID
+        a[_stiffness_key(a)] = RIGID
     return eodarm.Arm.from_dict(d)
 
 

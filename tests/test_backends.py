@@ -25,8 +25,10 @@ from strategies import (
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "example_arm.toml"
 SOLVE_KEYS = {
     "force_n",
+    "torque_nmm",
     "reaction_n",
     "dforce_n",
+    "dtorque_nmm",
     "dx_mm",
     "dy_mm",
     "dalpha_deg",
@@ -52,7 +54,7 @@ def assert_same(rust: dict[str, np.ndarray], ref: dict[str, np.ndarray], keys: s
     for key in sorted(keys):
         r, n = np.asarray(rust[key]), np.asarray(ref[key])
         assert r.shape == n.shape, key
-        atol = 1e-9 * max(1.0, float(np.abs(n).max(initial=0.0)))
+        atol = 1e-9 * max(1.0, float(np.nanmax(np.abs(n), initial=0.0)))
         np.testing.assert_allclose(r, n, rtol=0.0, atol=atol, err_msg=key)
 
 

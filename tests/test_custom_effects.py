@@ -457,7 +457,9 @@ def test_names_places_and_ranges_are_checked() -> None:
             eodarm.Effect("contact_mount", "M2", c_mm_per_n23=-1.0)
         with pytest.raises(EffectError, match="takes exactly the parameter 'c_mm_per_n23'"):
             eodarm.Effect("contact_mount", "M2", play_mm=1.0)
-        with pytest.raises(EffectError, match="only actuator_play and joint_clearance"):
+        with pytest.raises(
+            EffectError, match="only actuator_play, joint_clearance, drive_backlash take"
+        ):
             eodarm.Effect("contact_mount", "M2", c_mm_per_n23=1e-4, unloaded="taken_up")
         with pytest.raises(EffectError, match="the arm has only 3 links"):
             eodarm.solve(

@@ -250,7 +250,9 @@ def test_effect_option_and_codes() -> None:
     assert list(effect_arrays([taken], 3)[0]) == [7]
     with pytest.raises(eodarm.EffectError, match="given twice"):
         effect_arrays([centred, taken], 3)
-    with pytest.raises(eodarm.EffectError, match="only actuator_play and joint_clearance"):
+    with pytest.raises(
+        eodarm.EffectError, match="only actuator_play, joint_clearance, drive_backlash take"
+    ):
         eodarm.Effect("mount_compliance", "M1", stiffness_n_per_mm=1e3, unloaded="taken_up")
     with pytest.raises(eodarm.EffectError, match="'centred' or 'taken_up'"):
         eodarm.Effect("actuator_play", "M1", play_mm=0.1, unloaded="loose")

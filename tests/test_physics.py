@@ -204,7 +204,10 @@ def test_elastic_response_is_linear_to_second_order(case, self_weight, data) -> 
     m = MAX_PAYLOAD_KG / 4
     big = np.linalg.norm(response(2 * m) - 2 * response(m), axis=1)
     small = np.linalg.norm(response(0.2 * m) - 2 * response(0.1 * m), axis=1)
-    ratio = big / small
+    # a pose whose payload line passes through every joint (a link hanging straight down
+    # from its actuated joint) does not move at all: no defect to compare there
+    moves = np.linalg.norm(response(2 * m), axis=1) > 1e-9
+    ratio = big[moves] / small[moves]
     assert ((ratio > 100.0 / 3.0) & (ratio < 100.0 * 3.0)).all(), ratio
 
 

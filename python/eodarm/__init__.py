@@ -1,8 +1,8 @@
 """eodarm: why does a robot arm not go where its model says?
 
 Statics, actuator/mount compliance, play, joint clearance, link bending and base tilt of planar
-arms driven by linear actuators, solved exactly for many poses at once by a compiled Rust core,
-with an independent numpy reference.
+arms driven by linear actuators or rotary drives, solved exactly for many poses at once by a
+compiled Rust core, with an independent numpy reference.
 
 >>> import eodarm
 >>> arm = eodarm.Arm.from_toml("examples/example_arm.toml")            # doctest: +SKIP
@@ -28,6 +28,7 @@ _PUBLIC = {
     "EffectState": "eodarm.model.custom",
     "custom_effect": "eodarm.model.custom",
     "Actuator": "eodarm.model.arm",
+    "RotaryDrive": "eodarm.model.arm",
     "Arm": "eodarm.model.arm",
     "Link": "eodarm.model.arm",
     "angles_from_lengths": "eodarm.model.solver",
@@ -68,6 +69,7 @@ __all__ = [
     "Link",
     "Measurements",
     "Plan",
+    "RotaryDrive",
     "Slot",
     "__version__",
     "angles_from_lengths",
@@ -117,7 +119,7 @@ if _TYPE_CHECKING:
     from eodarm.analysis.plan import Plan, plan
     from eodarm.data.measurements import Measurements
     from eodarm.data.reader import read_measurements
-    from eodarm.model.arm import Actuator, Arm, Link
+    from eodarm.model.arm import Actuator, Arm, Link, RotaryDrive
     from eodarm.model.custom import EffectState, custom_effect
     from eodarm.model.effects import CATALOGUE, Effect, Slot
     from eodarm.model.solver import (

@@ -38,7 +38,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from eodarm.model.arm import Arm
+from eodarm.model.arm import Arm, RotaryDrive
 from eodarm.model.effects import Effect
 from eodarm.model.solver import solve
 
@@ -101,6 +101,13 @@ def components(arm: Arm, effects: Sequence[Effect]) -> list[tuple[str, list[str]
         model[e.key] = e
     out = []
     for i, act in enumerate(arm.actuators, start=1):
+        if isinstance(act, RotaryDrive):
+            key = f"drive_compliance@O{i}"
+            gear = model.pop(key, None) or Effect(
+                "drive_compliance", f"O{i}", stiffness_nmm_per_rad=act.stiffness_nmm_per_rad
+            )
+            out.append((f"drive {i} gear", [key], [gear]))
+            continue
         key = f"actuator_compliance@M{i}"
         body = model.pop(key, None)
         if body is None:

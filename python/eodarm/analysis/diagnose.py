@@ -73,14 +73,20 @@ VERDICTS = ("adequate", "missing", "unexplained", "check_data")
 OUTLIER_Z = 4.0
 
 
-def all_slots(n: int, taken_up: bool = True, custom: bool = True) -> list[Slot]:
-    """Every candidate effect × place on an n-link arm: the catalogue's 5n + 1, with
-    ``taken_up`` the gaps taken up when unloaded too (play and clearance, 2n more), and with
-    ``custom`` every registered user-written effect at every place of its kind."""
+def all_slots(
+    n: int, taken_up: bool = True, custom: bool = True, kinds: Sequence[str] | None = None
+) -> list[Slot]:
+    """Every candidate effect × place on an n-link arm: the catalogue's (7n + 1 when every
+    joint is linear), with ``taken_up`` the gaps taken up when unloaded too (play and
+    clearance, 2n more), and with ``custom`` every registered user-written effect at every
+    place of its kind. ``kinds`` (:attr:`Arm.kinds`, default all linear) keeps each joint's
+    effects to its kind of drive (an actuator's effects at a linear actuator, a drive's at a
+    rotary drive)."""
     names = known_effects() if custom else list(CATALOGUE)
+    joints = tuple(kinds) if kinds is not None else ("linear",) * n
     out = []
     for name in names:
-        for at in candidate_places(name, n):
+        for at in candidate_places(name, n, joints):
             out.append(Slot(name, at))
             if taken_up and name in CATALOGUE and CATALOGUE[name].taken_up_code is not None:
                 out.append(Slot(name, at, "taken_up"))
@@ -455,7 +461,9 @@ def _diagnose_pass(
         # the FE model has neither taken-up gaps nor user effects; without self-weight a
         # taken-up gap is the centred one
         analytic = kw.get("model", "analytic") == "analytic"
-        every = all_slots(arm.n, taken_up=analytic and self_weight, custom=analytic)
+        every = all_slots(
+            arm.n, taken_up=analytic and self_weight, custom=analytic, kinds=arm.kinds
+        )
         if not analytic:  # frictions are modelled by the analytic model only
             every = [s for s in every if s.name not in ("actuator_friction", "joint_friction")]
         cands = [s for s in every if s.key not in taken]

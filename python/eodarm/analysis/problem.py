@@ -229,7 +229,7 @@ class Problem:
         if kind.custom:
             return float(getattr(kind, "neutral", 0.0))
         if slot.name == "actuator_compliance":
-            return 1.0 / self.arm.actuators[slot.index(self.arm.n)].stiffness_n_per_mm
+            return 1.0 / self.arm.linear(slot.index(self.arm.n)).stiffness_n_per_mm
         return 0.0
 
     def start(self, slot: Slot) -> float:

@@ -221,5 +221,5 @@ class CustomEvaluator:
 def _neutral(arm: Arm, slot: Slot) -> float:
     """θ of a catalogue slot that is not in the model (as ``Problem.neutral``)."""
     if slot.name == "actuator_compliance":
-        return 1.0 / arm.actuators[slot.index(arm.n)].stiffness_n_per_mm
+        return 1.0 / arm.linear(slot.index(arm.n)).stiffness_n_per_mm
     return 0.0

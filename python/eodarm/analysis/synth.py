@@ -32,7 +32,7 @@ from eodarm.data.measurements import (
     expand_channels,
 )
 from eodarm.errors import EodarmError
-from eodarm.model.arm import Arm
+from eodarm.model.arm import Actuator, Arm
 from eodarm.model.effects import Effect, as_effects
 from eodarm.model.solver import forward, solve, stroke_violations
 
@@ -153,6 +153,8 @@ def random_configs(
         ]
         strokes = []
         for i, act in enumerate(arm.actuators):
+            if not isinstance(act, Actuator):
+                continue  # a rotary drive has no stroke
             a, b = act.min_length_mm, act.max_length_mm
             if (a is not None and lmax[i] < a) or (b is not None and lmin[i] > b):
                 strokes.append(

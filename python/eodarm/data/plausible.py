@@ -234,7 +234,7 @@ def check_states(arm: Arm, meas: Measurements, self_weight: bool = True) -> None
     viol = np.asarray(stroke_violations(arm, lengths), dtype=bool)
     for r in np.flatnonzero(viol.any(axis=1))[: MAX_LISTED + 1]:
         i = int(np.flatnonzero(viol[r])[0])
-        act = arm.actuators[i]
+        act = arm.linear(i)  # only a linear actuator has a stroke
         cols = ",".join(f"alpha{k}_deg" for k in (i, i + 1) if k >= 1)
         bad[int(r)] = (
             f"{cols}: actuator {i + 1} is out of stroke unloaded (pin-to-pin "

@@ -16,6 +16,7 @@ from dataclasses import dataclass
 from typing import Any
 
 __all__ = [
+    "APPLIES_THERE",
     "CATALOGUE",
     "ENTRY_POINT_GROUP",
     "THETA_MAX",
@@ -33,7 +34,9 @@ class EffectKind:
     """One entry of the catalogue: where it may sit, its parameter and physical bounds.
 
     ``compliance_like`` says whether the deflection grows with ``1/parameter`` (springs,
-    bending) rather than with the parameter itself (clearance, play).
+    bending) rather than with the parameter itself (clearance, play). ``joint_kind`` is the
+    kind of drive the effect's joint must have (``"linear"`` for the actuator's effects,
+    ``"rotary"`` for the drive's), ``None`` where any joint will do.
     """
 
     name: str
@@ -45,6 +48,8 @@ class EffectKind:
     allow_zero: bool
     #: The compiled core's code of this effect taken up when unloaded (gaps only).
     taken_up_code: int | None = None
+    #: The kind of drive at the effect's joint ("linear", "rotary"), None: any.
+    joint_kind: str | None = None
 
     @property
     def custom(self) -> bool:
@@ -67,19 +72,49 @@ class EffectKind:
 CATALOGUE: dict[str, EffectKind] = {
     k.name: k
     for k in (
-        EffectKind("actuator_compliance", 0, "M", "stiffness_n_per_mm", "N/mm", True, False),
-        EffectKind("mount_compliance", 1, "M", "stiffness_n_per_mm", "N/mm", True, False),
-        EffectKind("actuator_play", 2, "M", "play_mm", "mm", False, True, 6),
+        EffectKind(
+            "actuator_compliance", 0, "M", "stiffness_n_per_mm", "N/mm", True, False, None, "linear"
+        ),
+        EffectKind(
+            "mount_compliance", 1, "M", "stiffness_n_per_mm", "N/mm", True, False, None, "linear"
+        ),
+        EffectKind("actuator_play", 2, "M", "play_mm", "mm", False, True, 6, "linear"),
         EffectKind("joint_clearance", 3, "O", "clearance_mm", "mm", False, True, 7),
         EffectKind("link_bending", 4, "L", "ei_n_mm2", "N·mm²", True, False),
         EffectKind("base_compliance", 5, "", "stiffness_nmm_per_rad", "N·mm/rad", True, False),
-        EffectKind("actuator_friction", 8, "M", "friction_n", "N", False, True),
+        EffectKind("actuator_friction", 8, "M", "friction_n", "N", False, True, None, "linear"),
         EffectKind("joint_friction", 9, "O", "torque_nmm", "N·mm", False, True),
+        # Rotary drives (docs/model.md §10): at the joint O_i of a drive only.
+        EffectKind(
+            "drive_compliance",
+            10,
+            "O",
+            "stiffness_nmm_per_rad",
+            "N·mm/rad",
+            True,
+            False,
+            None,
+            "rotary",
+        ),
+        EffectKind("drive_backlash", 11, "O", "backlash_deg", "deg", False, True, 12, "rotary"),
+        EffectKind("drive_friction", 13, "O", "torque_nmm", "N·mm", False, True, None, "rotary"),
     )
 }
 
-#: Upper bound of the fitted θ of the gaps (mm).
-THETA_MAX = {"actuator_play": 5.0, "joint_clearance": 5.0}
+#: At a joint of the other kind, the effect that applies there instead of each kind-bound one:
+#: what a refusal of an effect at the wrong kind of joint names.
+APPLIES_THERE = {
+    "actuator_compliance": "drive_compliance",
+    "mount_compliance": "drive_compliance",
+    "actuator_play": "drive_backlash",
+    "actuator_friction": "drive_friction",
+    "drive_compliance": "actuator_compliance",
+    "drive_backlash": "actuator_play",
+    "drive_friction": "actuator_friction",
+}
+
+#: Upper bound of the fitted θ of the gaps (mm; degrees for a drive's backlash).
+THETA_MAX = {"actuator_play": 5.0, "joint_clearance": 5.0, "drive_backlash": 5.0}
 
 
 # ---------------------------------------------------------------------------- user-written kinds

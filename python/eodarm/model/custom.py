@@ -86,14 +86,20 @@ F = TypeVar("F", bound=Callable[..., Any])
 #: * ``actuator_unseen_mm`` (N,): one its sensor does not see (a mount, a play);
 #: * ``joint_offset_mm`` (N, 2): offset of link i's pin centre at joint O_i;
 #: * ``base_tilt_rad`` (N,): chassis tilt about the base pivot, counter-clockwise positive;
-#: * ``measure_mm`` (N, 2): displacement of the measure point that moves no link.
+#: * ``measure_mm`` (N, 2): displacement of the measure point that moves no link;
+#: * ``joint_turn_rad`` (N,): at a joint with a rotary drive, an extra turn of link i relative
+#:   to body i−1, counter-clockwise positive, added to the gear's own.
 DEFORMATION_KEYS: dict[str, tuple[str, tuple[int, ...]]] = {
     "actuator_mm": ("extra_seen_mm", ()),
     "actuator_unseen_mm": ("extra_unseen_mm", ()),
     "joint_offset_mm": ("extra_joint_mm", (2,)),
     "base_tilt_rad": ("extra_tilt_rad", ()),
     "measure_mm": ("extra_measure_mm", (2,)),
+    "joint_turn_rad": ("extra_turn_rad", ()),
 }
+#: The keys that belong to one kind of joint (docs/model.md §10): what a user function may
+#: return at place i only when joint i is of that kind.
+KEY_KIND = {"actuator_mm": "linear", "actuator_unseen_mm": "linear", "joint_turn_rad": "rotary"}
 
 #: ``places=`` of :func:`custom_effect` → the place letter of :class:`EffectKind`.
 PLACES = {"M": "M", "O": "O", "L": "L", "base": ""}
@@ -257,12 +263,16 @@ class EffectState:
     arm : the arm.
     alpha_deg : (N, n) unloaded absolute link angles, degrees.
     mass_kg : (N,) payload mass, kg (for a payload given as a force, −F_y/g).
-    force_n, force0_n : (N, n) loaded / unloaded actuator forces, N, compression positive.
+    force_n, force0_n : (N, n) loaded / unloaded actuator forces, N, compression positive;
+        NaN at a joint with a rotary drive.
     reaction_n, reaction0_n : (N, n, 2) loaded / unloaded joint reactions, N, global: the
         force of body i−1 on link i at O_i.
-    length_mm : (N, n) unloaded pin-to-pin actuator lengths, mm.
+    length_mm : (N, n) unloaded pin-to-pin actuator lengths, mm; NaN at a rotary joint.
     payload_n : (N, 2) the payload force at the load point, N, global.
     self_weight : whether both states carry the weights.
+    torque_nmm, torque0_nmm : (N, n) loaded / unloaded drive torques on link i, N·mm,
+        counter-clockwise positive; NaN at a joint with a linear actuator (all NaN on an arm
+        of linear actuators).
 
     The arrays are read-only: the same state serves every evaluation of a fit.
     """
@@ -277,6 +287,14 @@ class EffectState:
     length_mm: FloatArray
     payload_n: FloatArray = field(default_factory=lambda: np.zeros((0, 2)))
     self_weight: bool = True
+    torque_nmm: FloatArray = field(default_factory=lambda: np.zeros((0, 0)))
+    torque0_nmm: FloatArray = field(default_factory=lambda: np.zeros((0, 0)))
+
+    def __post_init__(self) -> None:
+        # a state built without torques (an arm of linear actuators) has NaN torques
+        for key in ("torque_nmm", "torque0_nmm"):
+            if getattr(self, key).shape != self.force_n.shape:
+                object.__setattr__(self, key, _frozen(np.full(self.force_n.shape, np.nan)))
 
     @classmethod
     def from_statics(
@@ -288,11 +306,13 @@ class EffectState:
         self_weight: bool = True,
     ) -> EffectState:
         """The state of N poses from a statics result (``force_n``, ``force0_n``,
-        ``reaction_n``, ``reaction0_n``, ``length_mm``, as :func:`eodarm.solver.statics`)."""
+        ``reaction_n``, ``reaction0_n``, ``length_mm``, and ``torque_nmm``, ``torque0_nmm``
+        where it has them, as :func:`eodarm.solver.statics`)."""
         payload = _frozen(payload_n)
+        nan = np.full(np.shape(statics["force_n"]), np.nan)
 
         def get(key: str) -> FloatArray:
-            return _frozen(statics[key])
+            return _frozen(statics[key] if key in statics else nan)
 
         return cls(
             arm=arm,
@@ -305,6 +325,8 @@ class EffectState:
             length_mm=get("length_mm"),
             payload_n=payload,
             self_weight=bool(self_weight),
+            torque_nmm=get("torque_nmm"),
+            torque0_nmm=get("torque0_nmm"),
         )
 
     @property
@@ -325,6 +347,8 @@ class EffectState:
             length_mm=_frozen(self.length_mm[rows]),
             payload_n=_frozen(self.payload_n[rows]),
             self_weight=self.self_weight,
+            torque_nmm=_frozen(self.torque_nmm[rows]),
+            torque0_nmm=_frozen(self.torque0_nmm[rows]),
         )
 
 
@@ -347,8 +371,10 @@ def deformation(
     ------
     CustomEffectError
         One line naming ``effect@place`` and the key: the function raised (the exception is
-        chained), returned no dict, an unknown key, an array of the wrong shape or type, or a
-        non-finite value (with the first bad row).
+        chained), returned no dict, an unknown key, a key that does not fit the kind of joint
+        ``i`` (``actuator_mm`` or ``actuator_unseen_mm`` at a rotary drive, ``joint_turn_rad``
+        at a linear actuator), an array of the wrong shape or type, or a non-finite value
+        (with the first bad row).
     """
     label = f"custom effect {kind.name}@{at}"
     fn = kind.fn
@@ -375,6 +401,15 @@ def deformation(
             )
         if val is None:
             continue
+        need = KEY_KIND.get(key)
+        have = state.arm.kinds[i] if i < state.arm.n else None
+        if need is not None and have != need:
+            other = "joint_turn_rad" if need == "linear" else "actuator_mm"
+            raise CustomEffectError(
+                f"{label}: {key!r} is for a joint with a {need} "
+                f"{'actuator' if need == 'linear' else 'drive'}; joint {i + 1} is turned by a "
+                f"{have} {'actuator' if have == 'linear' else 'drive'} (use {other!r} there)"
+            )
         shape = (rows, *DEFORMATION_KEYS[key][1])
         raw = np.asarray(val) if not isinstance(val, str | bytes) else None
         if raw is None or raw.dtype.kind not in "iuf":
@@ -399,7 +434,7 @@ def place_extras(got: Mapping[str, FloatArray], i: int, rows: int, n: int) -> di
     out: dict[str, FloatArray] = {}
     for key, a in got.items():
         extra = DEFORMATION_KEYS[key][0]
-        if extra in ("extra_seen_mm", "extra_unseen_mm"):
+        if extra in ("extra_seen_mm", "extra_unseen_mm", "extra_turn_rad"):
             full = np.zeros((rows, n))
             full[:, i] = a
         elif extra == "extra_joint_mm":

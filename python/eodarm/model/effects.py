@@ -17,14 +17,17 @@ from eodarm.model.catalogue import CATALOGUE, THETA_MAX, EffectKind
 
 __all__ = [
     "CATALOGUE",
+    "GAPS",
     "THETA_MAX",
     "UNLOADED",
     "Effect",
     "EffectKind",
     "Slot",
     "candidate_places",
+    "check_kinds",
     "effect_arrays",
     "effect_from_table",
+    "kind_mismatch",
     "kind_of",
     "known_effects",
     "param_from_theta",
@@ -33,10 +36,12 @@ __all__ = [
     "with_arm_effects",
 ]
 
-#: Where a gap (``actuator_play``, ``joint_clearance``) sits in the unloaded state:
-#: ``"centred"`` (the whole offset appears under load, docs/model.md §4) or ``"taken_up"`` (the
-#: unloaded forces already closed it; only the change of offset shows). docs/model.md §4.
+#: Where a gap (``actuator_play``, ``joint_clearance``, ``drive_backlash``) sits in the
+#: unloaded state: ``"centred"`` (the whole offset appears under load, docs/model.md §4) or
+#: ``"taken_up"`` (the unloaded forces already closed it; only the change of offset shows).
 UNLOADED = ("centred", "taken_up")
+#: The gaps: the effects that take the ``unloaded`` mode.
+GAPS = tuple(k.name for k in CATALOGUE.values() if k.taken_up_code is not None)
 
 
 def kind_of(name: str) -> EffectKind | None:
@@ -82,12 +87,14 @@ class Effect:
     Parameters
     ----------
     name : one of :data:`CATALOGUE` (``actuator_compliance``, ``mount_compliance``,
-        ``actuator_play``, ``joint_clearance``, ``link_bending``, ``base_compliance``) or a
-        user-written effect registered with :func:`eodarm.custom_effect`.
+        ``actuator_play``, ``joint_clearance``, ``link_bending``, ``base_compliance``,
+        ``actuator_friction``, ``joint_friction``, ``drive_compliance``, ``drive_backlash``,
+        ``drive_friction``) or a user-written effect registered with
+        :func:`eodarm.custom_effect`.
     at : the place: ``M1``…``Mn`` (actuators), ``O1``…``On`` (joints), ``L1``…``Ln`` (links)
         or ``base``.
-    unloaded : keyword, for ``actuator_play`` and ``joint_clearance`` only: ``"centred"``
-        (default: the
+    unloaded : keyword, for the gaps ``actuator_play``, ``joint_clearance`` and
+        ``drive_backlash`` only: ``"centred"`` (default: the
         gap is centred in the unloaded state, so under load its whole offset appears, even at
         zero payload when the weights load it) or ``"taken_up"`` (the unloaded forces, i.e.
         self-weight, already closed it: only the change of the offset between the states
@@ -110,8 +117,7 @@ class Effect:
             )
         if unloaded != "centred" and kind.taken_up_code is None:
             raise EffectError(
-                f"effect {name}@{at}: only actuator_play and joint_clearance take "
-                f"unloaded={unloaded!r}"
+                f"effect {name}@{at}: only {', '.join(GAPS)} take unloaded={unloaded!r}"
             )
         if set(params) != {kind.param}:
             raise EffectError(
@@ -310,26 +316,76 @@ def _place_hint(kind: EffectKind, at: object) -> str:
     return ""
 
 
-def candidate_places(name: str, n: int) -> list[str]:
-    """Every place an effect can sit on an arm of ``n`` links."""
+def candidate_places(name: str, n: int, kinds: Sequence[str] | None = None) -> list[str]:
+    """Every place an effect can sit on an arm of ``n`` links; with ``kinds`` (each joint's
+    ``"linear"`` or ``"rotary"``, :attr:`Arm.kinds`) only the joints of the effect's kind."""
     kind = _kind(name)
     if kind.place_letter == "":
         return ["base"]
-    return [f"{kind.place_letter}{i + 1}" for i in range(n)]
+    need = kind.joint_kind
+    return [
+        f"{kind.place_letter}{i + 1}"
+        for i in range(n)
+        if need is None or kinds is None or kinds[i] == need
+    ]
 
 
-def effect_arrays(effects: Iterable[Effect], n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Effects as (codes, 0-based place indices, values) for the compiled core.
+#: How a refusal names a joint's kind of drive.
+_KIND_WORD = {"linear": "a linear actuator", "rotary": "a rotary drive"}
 
-    The code is the catalogue's, or for a gap taken up when unloaded its ``taken_up_code``
-    (6 ``actuator_play``, 7 ``joint_clearance``). Every effect is checked, but user-written
-    ones (:mod:`eodarm.model.custom`) are not in the arrays: they reach the core as extra
-    deformations (:func:`split_effects`), and every caller must pass them on so.
+
+def kind_mismatch(effect: Effect, kinds: Sequence[str]) -> str | None:
+    """Why ``effect`` cannot sit at its joint, given each joint's kind of drive
+    (:attr:`Arm.kinds`), naming the effect and what applies there; None when it can."""
+    kind = effect.kind
+    need = kind.joint_kind
+    if need is None:
+        return None
+    i = effect.index(len(kinds))
+    have = kinds[i]
+    if have == need:
+        return None
+    there = catalogue.APPLIES_THERE[effect.name]
+    letter = CATALOGUE[there].place_letter
+    return (
+        f"effect {effect.key}: joint {i + 1} is turned by {_KIND_WORD.get(have, have)}, not "
+        f"{_KIND_WORD[need]}: use {there}@{letter}{i + 1} there"
+    )
+
+
+def check_kinds(effects: Iterable[Effect], kinds: Sequence[str]) -> None:
+    """Refuse an effect at a joint of the wrong kind of drive (an actuator's effect at a
+    rotary drive, a drive's at a linear actuator), naming the effect, its joint and the effect
+    that applies there.
 
     Raises
     ------
     EffectError
-        On a place beyond the arm or the same effect twice at the same place.
+        On the first such effect.
+    """
+    for e in effects:
+        why = kind_mismatch(e, kinds)
+        if why is not None:
+            raise EffectError(why)
+
+
+def effect_arrays(
+    effects: Iterable[Effect], n: int, kinds: Sequence[str] | None = None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Effects as (codes, 0-based place indices, values) for the compiled core.
+
+    The code is the catalogue's, or for a gap taken up when unloaded its ``taken_up_code``
+    (6 ``actuator_play``, 7 ``joint_clearance``, 12 ``drive_backlash``). Every effect is
+    checked, but user-written ones (:mod:`eodarm.model.custom`) are not in the arrays: they
+    reach the core as extra deformations (:func:`split_effects`), and every caller must pass
+    them on so. With ``kinds`` (:attr:`Arm.kinds`), an effect at a joint of the wrong kind
+    of drive is refused too (:func:`check_kinds`).
+
+    Raises
+    ------
+    EffectError
+        On a place beyond the arm, the same effect twice at the same place, or (``kinds``)
+        an effect at a joint of the wrong kind.
     """
     effs: Sequence[Effect] = list(effects)
     seen: set[str] = set()
@@ -340,6 +396,8 @@ def effect_arrays(effects: Iterable[Effect], n: int) -> tuple[np.ndarray, np.nda
         if e.key in seen:
             raise EffectError(f"effect {e.key} is given twice")
         seen.add(e.key)
+    if kinds is not None:
+        check_kinds(effs, kinds)
     builtin = [e for e in effs if not e.kind.custom]
     codes = np.array([e.code for e in builtin], dtype=np.int64)
     places = np.array([e.index(n) for e in builtin], dtype=np.int64)

@@ -23,7 +23,7 @@ import numpy as np
 import numpy.typing as npt
 
 from eodarm.errors import InputError
-from eodarm.model.arm import Arm
+from eodarm.model.arm import Actuator, Arm
 from eodarm.model.effects import CATALOGUE, Effect, effect_arrays
 
 if TYPE_CHECKING:
@@ -135,10 +135,10 @@ def theta_step(arm: Arm, slot: Slot, theta: float) -> float:
     in θ, so a large step costs no accuracy; a tiny one (a nearly rigid element next to the
     actuators' springs) would drown the difference in round-off.
     """
-    k = max(a.stiffness_n_per_mm for a in arm.actuators)
+    k = max(a.stiffness_n_per_mm for a in arm.actuators if isinstance(a, Actuator))
     i = slot.index(arm.n)
     if slot.name in ("actuator_compliance", "mount_compliance"):
-        ref = 1.0 / arm.actuators[i].stiffness_n_per_mm
+        ref = 1.0 / arm.linear(i).stiffness_n_per_mm
     elif slot.name == "link_bending":
         length = math.hypot(*arm.links[i].next)
         ref = 1.0 / (k * length**3)
@@ -154,7 +154,7 @@ def neutral(arm: Arm, slot: Slot) -> float:
     """θ of a slot absent from the FE model: the arm file's 1/k or 1/EI, else 0."""
     i = slot.index(arm.n)
     if slot.name == "actuator_compliance":
-        return 1.0 / arm.actuators[i].stiffness_n_per_mm
+        return 1.0 / arm.linear(i).stiffness_n_per_mm
     ei = arm.links[i].ei_n_mm2
     if slot.name == "link_bending" and ei is not None:
         return 1.0 / ei

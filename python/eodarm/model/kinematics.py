@@ -18,7 +18,7 @@ import numpy as np
 import numpy.typing as npt
 
 from eodarm.errors import InputError
-from eodarm.model.arm import Arm, check_arm
+from eodarm.model.arm import Actuator, Arm, check_arm
 from eodarm.model.kinds import real_array
 
 __all__ = ["Arrays", "Backend", "forward", "stroke_violations"]
@@ -48,15 +48,22 @@ def forward(arm: Arm, alpha_deg: npt.ArrayLike, backend: Backend = "rust") -> Ar
 
 def stroke_violations(arm: Arm, length_mm: npt.ArrayLike) -> npt.NDArray[np.int8]:
     """Stroke check of pin-to-pin lengths (N, n): −1 below ``min_length_mm``, +1 above
-    ``max_length_mm``, 0 within the stroke (or no limit set)."""
+    ``max_length_mm``, 0 within the stroke (or no limit set, or a rotary drive: its length,
+    NaN, is not checked)."""
     check_arm(arm, "stroke_violations")
-    length = _poses(length_mm, arm.n, "length_mm")
-    lo = np.array(
-        [a.min_length_mm if a.min_length_mm is not None else -np.inf for a in arm.actuators]
-    )
-    hi = np.array(
-        [a.max_length_mm if a.max_length_mm is not None else np.inf for a in arm.actuators]
-    )
+    rot = np.array(arm.kinds) == "rotary"
+    given: npt.ArrayLike = length_mm
+    if rot.any():
+        try:
+            raw = np.asarray(real_array(length_mm, "length_mm"), dtype=float)
+        except (TypeError, ValueError, OverflowError):
+            raw = np.zeros(0)  # _poses names what is wrong
+        if raw.ndim >= 1 and raw.shape[-1] == arm.n:
+            given = np.where(rot, 0.0, raw)  # a drive has no length: its NaN is no bad value
+    length = _poses(given, arm.n, "length_mm")
+    acts = [a if isinstance(a, Actuator) else Actuator(1.0, 0.0) for a in arm.actuators]
+    lo = np.array([a.min_length_mm if a.min_length_mm is not None else -np.inf for a in acts])
+    hi = np.array([a.max_length_mm if a.max_length_mm is not None else np.inf for a in acts])
     return (np.where(length < lo, -1, 0) + np.where(length > hi, 1, 0)).astype(np.int8)
 
 
@@ -101,7 +108,7 @@ def _core_arm(arm: Arm) -> Any:
 
     def lim(key: str) -> npt.NDArray[np.float64]:
         return np.array(
-            [np.nan if getattr(a, key) is None else getattr(a, key) for a in arm.actuators]
+            [np.nan if getattr(a, key, None) is None else getattr(a, key) for a in arm.actuators]
         )
 
     return _core.CoreArm(

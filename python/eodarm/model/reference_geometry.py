@@ -102,7 +102,10 @@ def _as_mass(x: ArrayLike, n_rows: int) -> FloatArray:
 
 # ---------------------------------------------------------------------------- kinematics
 def _forward(arr: dict[str, FloatArray], alpha: FloatArray) -> dict[str, FloatArray]:
-    """Global points of every pose; ``alpha`` in radians, (N, n). No validation."""
+    """Global points of every pose; ``alpha`` in radians, (N, n). No validation.
+
+    A pin no actuator uses (a rotary joint's) is the zero point of its frame here, so that
+    every array stays finite for the statics; ``length_mm`` is NaN at a rotary joint."""
     n_rows, n = alpha.shape
     o = np.empty((n_rows, n + 1, 2))
     a = np.empty((n_rows, n, 2))
@@ -118,7 +121,7 @@ def _forward(arr: dict[str, FloatArray], alpha: FloatArray) -> dict[str, FloatAr
         if i + 1 < n:
             b[:, i + 1] = o[:, i] + _rotate(ai, arr["B"][i])
     measure = o[:, n - 1] + _rotate(alpha[:, n - 1], arr["measure"])
-    length = np.linalg.norm(a - b, axis=-1)
+    length = np.where(arr["kind"] == 1.0, np.nan, np.linalg.norm(a - b, axis=-1))
     return {"O": o, "A": a, "B": b, "C": c, "measure": measure, "length_mm": length}
 
 
@@ -140,15 +143,16 @@ def forward(arm: Arm, alpha_deg: ArrayLike) -> dict[str, FloatArray]:
         ``"O"`` (N, n+1, 2)
             Joints O_1…O_n followed by the load point.
         ``"A"`` (N, n, 2)
-            Pin A_i of actuator i on link i.
+            Pin A_i of actuator i on link i (NaN where a rotary drive turns link i).
         ``"B"`` (N, n, 2)
-            Base pin of actuator i: row 0 is the chassis pin B_0, row i is link i's B point.
+            Base pin of actuator i: row 0 is the chassis pin B_0, row i is link i's B point
+            (NaN where joint i is turned by a rotary drive).
         ``"C"`` (N, n, 2)
             Centre of mass of each link.
         ``"measure"`` (N, 2)
             The measurement point.
         ``"length_mm"`` (N, n)
-            Pin-to-pin length |A_i − B_{i−1}| of every actuator, mm.
+            Pin-to-pin length |A_i − B_{i−1}| of every actuator, mm (NaN at a rotary joint).
 
     Raises
     ------
@@ -156,7 +160,12 @@ def forward(arm: Arm, alpha_deg: ArrayLike) -> dict[str, FloatArray]:
         On a wrong shape or a non-finite angle (the row is named).
     """
     alpha = _as_poses(alpha_deg, arm.n, "alpha_deg")
-    return _forward(arm.arrays(), np.radians(alpha))
+    arr = arm.arrays()
+    geo = _forward(arr, np.radians(alpha))
+    unused = (arr["kind"] == 1.0)[None, :, None]
+    geo["A"] = np.where(unused, np.nan, geo["A"])
+    geo["B"] = np.where(unused, np.nan, geo["B"])
+    return geo
 
 
 def _circle_intersection(
@@ -208,6 +217,11 @@ def angles_from_lengths(arm: Arm, length_mm: ArrayLike, alpha_ref_deg: ArrayLike
         and actuator named).
     """
     n = arm.n
+    if "rotary" in arm.kinds:
+        raise InputError(
+            f"angles_from_lengths: joint {arm.kinds.index('rotary') + 1} is turned by a rotary "
+            "drive, which has no length: give the angles of such an arm directly"
+        )
     arr = arm.arrays()
     ell = _as_poses(length_mm, n, "length_mm")
     n_rows = ell.shape[0]
@@ -269,7 +283,8 @@ def inverse_kinematics(arm: Arm, target: ArrayLike, elbow: int = -1) -> dict[str
         ``"alpha_deg"`` (N, 3)
             Absolute link angles, degrees (α_1, α_2 in [−180°, 180°); NaN where unreachable).
         ``"length_mm"`` (N, 3)
-            Pin-to-pin actuator lengths of that pose, mm (NaN where unreachable).
+            Pin-to-pin actuator lengths of that pose, mm (NaN where unreachable, and at a
+            joint turned by a rotary drive).
         ``"reachable"`` (N,)
             Whether the arccos argument lies within [−1, 1].
 

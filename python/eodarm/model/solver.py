@@ -241,6 +241,10 @@ def _solve_payload(
     custom_effs = split_effects(effs)[1]
     fem.check_model(model)
     extras = _extras(extra, alpha.shape[0], arm.n)
+    from eodarm.model.reference import check_extra_kinds
+
+    # a turn at a linear actuator or a length at a rotary drive would be dropped: refused
+    check_extra_kinds(arm.kinds, extras)
     if extras and model == "fem":
         raise InputError("extra deformations are for model='analytic'")
     if custom_effs and model == "fem":

@@ -25,7 +25,7 @@ def typical_theta(arm: Arm, slot: Slot) -> float:
     1000 N·mm for a friction limit, 10⁻⁸ rad/(N·mm) for the base."""
     name = slot.name
     if name in ("actuator_compliance", "mount_compliance"):
-        return 1.0 / arm.actuators[slot.index(arm.n)].stiffness_n_per_mm
+        return 1.0 / arm.linear(slot.index(arm.n)).stiffness_n_per_mm
     if name in ("actuator_play", "joint_clearance"):
         return 0.1
     if name == "actuator_friction":

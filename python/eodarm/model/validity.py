@@ -10,12 +10,15 @@ a ``status`` per pose (uint8 codes, :data:`STATUS`):
 code   name                meaning (thresholds below)
 =====  ==================  ===============================================================
 0      ok                  inside every limit
-1      out_of_stroke       an unloaded pin-to-pin length outside [min_length_mm, max_length_mm]
+1      out_of_stroke       an unloaded pin-to-pin length outside [min_length_mm, max_length_mm];
+                           a drive's angle q_i, unloaded or loaded, outside [min_angle_deg,
+                           max_angle_deg]
 2      near_singular       an actuator's moment arm about its joint below 5 % of the pin's
                            distance from the joint (forces amplified more than 20×)
 3      branch_flip         a loaded actuator triangle turned over (the exact closure left
                            the branch of the unloaded pose)
-4      over_force          a loaded |force| above the actuator's ``max_force_n``
+4      over_force          a loaded |force| above the actuator's ``max_force_n``, a loaded
+                           |torque| above the drive's ``max_torque_nmm``
 5      large_deflection    a link turned by more than 10°, the measure point moved by more
                            than 5 % of the arm's length (Σ|next_i|), or rose by more than
                            0.1 % of it under a downward payload (negative work: not an
@@ -25,14 +28,15 @@ code   name                meaning (thresholds below)
                            load point cannot rise: docs/model.md §7)
 =====  ==================  ===============================================================
 
-When several apply, the first in this order is reported.
+When several apply, the first in this order is reported. A rotary drive has no stroke, no
+moment arm and no triangle: at its joint only its angle range and its torque are checked.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 import numpy.typing as npt
@@ -48,6 +52,7 @@ __all__ = [
     "STATUS",
     "arm_reach",
     "checks_load_rise",
+    "drive_angles",
     "quiet_rows",
     "status",
     "status_counts",
@@ -89,6 +94,8 @@ def checks_load_rise(arm: Arm, effects: Any) -> bool:
             return False
         if name == "link_bending" and getattr(e, "at", "") == f"L{arm.n}":
             return False
+        if name == "drive_backlash":
+            return False  # a gap
         if name not in (
             "actuator_compliance",
             "mount_compliance",
@@ -96,6 +103,8 @@ def checks_load_rise(arm: Arm, effects: Any) -> bool:
             "base_compliance",
             "actuator_friction",
             "joint_friction",
+            "drive_compliance",
+            "drive_friction",
         ):
             return False  # a user-written effect
     return True
@@ -127,28 +136,41 @@ def status(
     and :func:`quiet_rows` say where it applies)."""
     from eodarm.model.kinematics import forward, stroke_violations
 
-    geo = forward(arm, alpha_deg)
+    arr = arm.arrays()
+    rot = arr["kind"] == 1.0
+    lin = ~rot
+    # an arm with a drive: the reference's kinematics (its unused pins are NaN)
+    backend: Literal["rust", "numpy"] = "numpy" if rot.any() else "rust"
+    geo = forward(arm, alpha_deg, backend=backend)
     n = arm.n
     code = np.zeros(alpha_deg.shape[0], dtype=np.uint8)
 
     def mark(bad: Any, c: int) -> None:
         code[(code == 0) & bad] = c
 
-    mark(stroke_violations(arm, geo["length_mm"]).any(axis=1), 1)
+    dalpha = np.asarray(out["dalpha_deg"], dtype=float)
+    q0, q1 = drive_angles(alpha_deg, np.where(np.isfinite(dalpha), dalpha, 0.0))
+    lo = np.where(np.isnan(arr["min_angle_deg"]), -np.inf, arr["min_angle_deg"])
+    hi = np.where(np.isnan(arr["max_angle_deg"]), np.inf, arr["max_angle_deg"])
+    off_range = ((q0 < lo) | (q0 > hi) | (q1 < lo) | (q1 > hi)) & rot
+    mark(stroke_violations(arm, geo["length_mm"]).any(axis=1) | off_range.any(axis=1), 1)
     o, a, b = geo["O"][:, :n], geo["A"], geo["B"]
     line = a - b
     arm_len = np.linalg.norm(a - o, axis=2)
     h = np.abs(_cross(line, o - b)) / np.maximum(np.linalg.norm(line, axis=2), 1e-300)
-    mark((h < MIN_MOMENT_ARM * arm_len).any(axis=1), 2)
-    dalpha = np.asarray(out["dalpha_deg"], dtype=float)
+    mark(((h < MIN_MOMENT_ARM * arm_len) & lin).any(axis=1), 2)
     # a pose that failed (NaN) is judged on what is known of it: its unloaded checks, else
     # too large a deflection (below), as the compiled core judges it
-    loaded = forward(arm, alpha_deg + np.where(np.isfinite(dalpha), dalpha, 0.0))
+    loaded = forward(arm, alpha_deg + np.where(np.isfinite(dalpha), dalpha, 0.0), backend=backend)
     turn0 = np.sign(_cross(a - b, o - b))
     turn1 = np.sign(_cross(loaded["A"] - loaded["B"], loaded["O"][:, :n] - loaded["B"]))
     mark((turn0 * turn1 < 0).any(axis=1), 3)
-    fmax = np.array([x.max_force_n or math.inf for x in arm.actuators])
-    mark((np.abs(np.asarray(out["force_n"], dtype=float)) > fmax).any(axis=1), 4)
+    fmax = np.array([getattr(x, "max_force_n", None) or math.inf for x in arm.actuators])
+    over = np.abs(np.asarray(out["force_n"], dtype=float)) > fmax
+    if "torque_nmm" in out:
+        tmax = np.where(np.isnan(arr["max_torque"]), np.inf, arr["max_torque"])
+        over |= np.abs(np.asarray(out["torque_nmm"], dtype=float)) > tmax
+    mark(over.any(axis=1), 4)
     reach = arm_reach(arm)
     dx, dy = np.asarray(out["dx_mm"], dtype=float), np.asarray(out["dy_mm"], dtype=float)
     moved = np.hypot(dx, dy)
@@ -168,6 +190,22 @@ def status(
     lift = np.asarray(load_rise) & down & (load_dy > MAX_LOAD_RISE_MM)
     mark(big | rise | lift, 5)
     return code
+
+
+def drive_angles(
+    alpha_deg: npt.NDArray[np.float64], dalpha_deg: npt.NDArray[np.float64]
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+    """Each joint's relative angle q_i = α_i − α_{i−1} (α_0 = 0), unloaded and loaded, in
+    degrees within [−180, 180): the angle a rotary drive holds (docs/model.md §10).
+
+    **Reading:** the loaded angle is that of the rigid arm at the loaded angles with the
+    chassis fixed (as for ``branch_flip``): q_i + Δα_i − Δα_{i−1}, Δα_0 = 0."""
+
+    def rel(a: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
+        q = np.diff(a, axis=1, prepend=0.0)
+        return np.asarray((q + 180.0) % 360.0 - 180.0, dtype=np.float64)
+
+    return rel(alpha_deg), rel(alpha_deg + dalpha_deg)
 
 
 def status_counts(codes: npt.ArrayLike) -> dict[str, int]:

@@ -272,7 +272,9 @@ def _moment_panel(
     ax.axhline(0.0, color=GREY, lw=0.8)
     link = arm.links[i]
     k = i + 1
-    marks = [(f"O{k}", 0.0), (f"A{k}", link.A[0]), (f"C{k}", link.C[0])]
+    marks = [(f"O{k}", 0.0), (f"C{k}", link.C[0])]
+    if link.A is not None:
+        marks.insert(1, (f"A{k}", link.A[0]))
     marks.append((f"B{k}", link.B[0]) if link.B is not None else ("measure", arm.measure[0]))
     marks.append((f"O{k + 1}" if k < arm.n else "load", link.next[0]))
     # Marks closer than 2 % of the link share one label.

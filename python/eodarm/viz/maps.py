@@ -46,7 +46,7 @@ except ImportError as exc:  # pragma: no cover - depends on the environment
     ) from exc
 
 from eodarm.errors import EodarmError
-from eodarm.model.arm import Arm
+from eodarm.model.arm import Actuator, Arm
 from eodarm.model.effects import Effect
 from eodarm.model.solver import forward
 from eodarm.viz.format import value
@@ -151,8 +151,9 @@ class _Canvas:
         self.arm = arm
         self.not_ok = ""  # legend text of the grey pixels (set by shade)
         self.ref = ref if ref is not None and np.isfinite(ref).all() else None
-        px = [arm.O1[0], arm.B0[0]]
-        py = [arm.O1[1], arm.B0[1]]
+        base = [arm.O1] + ([arm.B0] if arm.B0 is not None else [])
+        px = [p[0] for p in base]
+        py = [p[1] for p in base]
         self.geo = forward(arm, self.ref[None, :]) if self.ref is not None else None
         if self.geo is not None:
             px += [*self.geo["O"][0, :, 0], *self.geo["B"][0, :, 0]]
@@ -237,7 +238,8 @@ class _Canvas:
             for a, b in zip(self.geo["A"][0], self.geo["B"][0], strict=True):
                 ax.plot([a[0], b[0]], [a[1], b[1]], "-", color="0.45", lw=0.9, zorder=3)
         ax.plot(*self.arm.O1, marker="^", color="k", ms=7, zorder=5, ls="none")
-        ax.plot(*self.arm.B0, marker="s", color="k", ms=4, zorder=5, ls="none")
+        if self.arm.B0 is not None:
+            ax.plot(*self.arm.B0, marker="s", color="k", ms=4, zorder=5, ls="none")
 
     def legend(self, ax: Axes) -> None:
         """The key to the arm drawing, added without replacing another legend."""
@@ -464,7 +466,7 @@ def force_maps(
             continue
         x, y, f = pts[i]
         cv.shade(ax, bad)
-        lim = arm.actuators[i].max_force_n
+        lim = getattr(arm.actuators[i], "max_force_n", None)
         if f.size:
             lo, hi, extend = _robust(f, 0.02, 0.98)
             if lo < 0 < hi:
@@ -561,6 +563,9 @@ def capacity_map(
     limits = []
     for i, a in enumerate(arm.actuators):
         parts = []
+        if not isinstance(a, Actuator):
+            limits.append(f"A{i + 1}: a rotary drive")
+            continue
         if a.max_force_n is not None:
             parts.append(f"|F| ≤ {a.max_force_n:g} N")
         if a.min_length_mm is not None or a.max_length_mm is not None:
@@ -687,7 +692,11 @@ def render_all(
     written.append(p)
     cap_arm = arm
     if assumed_max_force_n is not None:
-        missing = [str(i + 1) for i, a in enumerate(arm.actuators) if a.max_force_n is None]
+        missing = [
+            str(i + 1)
+            for i, a in enumerate(arm.actuators)
+            if isinstance(a, Actuator) and a.max_force_n is None
+        ]
         if missing:
             cap_arm = assume_max_force(arm, assumed_max_force_n)
             if note is not None:

@@ -174,7 +174,8 @@ def payload_capacity(
     f0, f1 = f[..., 0, :], f[..., 1, :]
     s = (f1 - f0) / probe_kg  # N per kg
     ell0 = ds["length_mm"].values
-    kb = np.array([a.stiffness_n_per_mm for a in arm.actuators], dtype=float)
+    acts = [arm.linear(i) for i in range(n)]  # the capacity of linear actuators
+    kb = np.array([a.stiffness_n_per_mm for a in acts], dtype=float)
     km = np.full(n, np.inf)
     play = np.zeros(n)
     for e in effs:
@@ -186,9 +187,9 @@ def payload_capacity(
         elif e.name == "actuator_play":
             play[i] = e.value
     comp = 1.0 / kb + 1.0 / km  # mm per N
-    fmax = np.array([np.inf if a.max_force_n is None else a.max_force_n for a in arm.actuators])
-    lo = np.array([-np.inf if a.min_length_mm is None else a.min_length_mm for a in arm.actuators])
-    hi = np.array([np.inf if a.max_length_mm is None else a.max_length_mm for a in arm.actuators])
+    fmax = np.array([np.inf if a.max_force_n is None else a.max_force_n for a in acts])
+    lo = np.array([-np.inf if a.min_length_mm is None else a.min_length_mm for a in acts])
+    hi = np.array([np.inf if a.max_length_mm is None else a.max_length_mm for a in acts])
     m_force = _force_limit(f0, s, fmax)
     m_stroke = _stroke_limit(ell0, f0, s, comp, play, lo, hi)
     cand = np.concatenate(
