@@ -159,7 +159,8 @@ pub enum CompensateStatus {
     /// Converged; the commanded pose is within every stroke.
     Ok = 0,
     /// Converged, but a commanded (unloaded) pin-to-pin length is outside its actuator's
-    /// `[min_length_mm, max_length_mm]`.
+    /// `[min_length_mm, max_length_mm]`, or a rotary drive's commanded angle outside its
+    /// `[min_angle_deg, max_angle_deg]`.
     OutOfStroke = 1,
     /// An actuator's moment arm is tiny (below `min_moment_ratio`, or its line passes through
     /// its joint, or its triangle cannot close under the load) at the nominal or the
@@ -265,8 +266,9 @@ impl Compensator {
         &self.alpha
     }
 
-    /// Unloaded pin-to-pin lengths (mm) of [`Self::alpha`], valid after a pose whose status
-    /// is [`CompensateStatus::Ok`] or [`CompensateStatus::OutOfStroke`].
+    /// Unloaded pin-to-pin lengths (mm) of [`Self::alpha`] (NaN at rotary drives), valid
+    /// after a pose whose status is [`CompensateStatus::Ok`] or
+    /// [`CompensateStatus::OutOfStroke`].
     pub fn length(&self) -> &[f64] {
         &self.ws.lines.length
     }
