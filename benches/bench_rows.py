@@ -11,7 +11,10 @@ has nothing fitted, ``fit`` fits the clearance only, so that the data are not ex
 refitted once per left-out cell); ``diagnose`` (sets of up to two) ranks every candidate and
 cross-validates the best set over the configurations. The figures are the wall time and the CPU
 time of the process (user + system, which a busy machine inflates less than the wall time).
-``--quick`` runs 10³ and 3·10³ rows only (under a minute).
+``--quick`` runs 10³ and 3·10³ rows only (under a minute). ``--sequence`` writes load cycles
+instead (a ``step`` column: 0 → 1.5 → 5 → 6.5 → 5 → 1.5 → 0 kg, six rows per configuration,
+the same hidden effects) and times ``compare`` alone (issue 27: files with ``step`` were read
+in quadratic time).
 """
 
 from __future__ import annotations
@@ -71,23 +74,27 @@ def main() -> None:
     ap.add_argument("--quick", action="store_true", help="10³ and 3·10³ rows only")
     ap.add_argument("--rows", default="1000,10000,100000", help="sizes (rows), comma-separated")
     ap.add_argument("--markdown", type=Path, help="append the table to this file")
+    ap.add_argument("--sequence", action="store_true", help="load cycles (step), compare only")
     args = ap.parse_args()
+    per = 6 if args.sequence else 3  # rows per configuration
+    loads = ["--sequence", "0,1.5,5,6.5,5,1.5,0"] if args.sequence else ["--masses", MASSES]
+    commands = {"compare": []} if args.sequence else COMMANDS
     sizes = [1000, 3000] if args.quick else [int(s) for s in args.rows.split(",")]
     print(f"machine: {cpu_model()}, {os.cpu_count()} cores; python {platform.python_version()}")
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         for n in sizes:
             path = Path(tmp) / f"rows{n}.csv"
-            configs = max(1, round(n / 3))
+            configs = max(1, round(n / per))
             hidden = [a for h in HIDDEN for a in ("--hidden", h)]
             eodarm(
-                "synth", "--arm", str(EXAMPLE), "--configs", str(configs), "--masses", MASSES,
+                "synth", "--arm", str(EXAMPLE), "--configs", str(configs), *loads,
                 *hidden, "--seed", "1", "-o", str(path),
             )  # fmt: skip
-            for cmd, extra in COMMANDS.items():
+            for cmd, extra in commands.items():
                 wall, cpu, code = eodarm(cmd, str(path), "--arm", str(EXAMPLE), "--json", *extra)
-                rows.append((cmd, 3 * configs, wall, cpu, code))
-                print(f"{cmd:9s} {3 * configs:7d} rows  wall {wall:7.2f} s  cpu {cpu:7.2f} s")
+                rows.append((cmd, per * configs, wall, cpu, code))
+                print(f"{cmd:9s} {per * configs:7d} rows  wall {wall:7.2f} s  cpu {cpu:7.2f} s")
     table = ["| command | rows | wall s | CPU s | exit |", "|---|---:|---:|---:|---:|"]
     table += [f"| {c} | {n} | {w:.2f} | {u:.2f} | {e} |" for c, n, w, u, e in rows]
     print("\n".join(table))

@@ -61,9 +61,10 @@ def main() -> None:
 
     res = eodarm.fit(arm, meas, ["contact_mount@M2"])
     before = eodarm.fit(arm, meas, [])
+    c = res.params["contact_mount@M2:c_mm_per_n23"]
     print(
-        f"c_mm_per_n23 = {res.estimate(0):.4g} ± {res.stderr(0):.2g} mm/N^(2/3) (truth 0.001); "
-        f"RMS dy_mm {before.rms()['dy_mm']:.4f} -> {res.rms()['dy_mm']:.4f} mm"
+        f"c_mm_per_n23 = {c.value:.4g} ± {c.stderr:.2g} mm/N^(2/3) (truth 0.001); "
+        f"RMS dy_mm {before.rms['dy_mm']:.4f} -> {res.rms['dy_mm']:.4f} mm"
     )
 
 

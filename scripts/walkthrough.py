@@ -156,9 +156,12 @@ def main() -> None:
                 else f"The best single candidate, {top_key}, is neither of them: only the "
                 "search over every pair finds the right two. "
             )
-            + "The tool also says what it cannot tell: without a sensor on actuator 1, a soft "
-            "mount and a soft actuator body move the arm identically (`confused with`), and "
-            "it says how to find out: measure `dl1_mm`; no pose will separate them.\n"
+            + "The tool also says what it cannot tell, on the verdict's own line: without a "
+            "sensor on actuator 1, a soft mount and a soft actuator body move the arm "
+            "identically, so the suggested mount could as well be a softer body (its value in "
+            "the set is under the mount's); the mount is named first only because it does not "
+            "overrule the arm file's stiffness. It says how to find out: measure `dl1_mm`; no "
+            "pose will separate them. The JSON's `alternatives` says the same.\n"
         )
         cmd = f"eodarm diagnose meas.csv --arm {ARM} --json"
         out = run(cmd, work)

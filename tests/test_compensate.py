@@ -269,7 +269,15 @@ def test_cli_json_is_exactly_the_contract(capsys: pytest.CaptureFixture[str]) ->
     )
     assert code == 0, err
     doc = json.loads(out)
-    assert set(doc) == {"alpha_deg", "length_mm", "residual_mm", "status"}
+    # a gap in the model: the answer says its branch (docs/compensation.md §4)
+    assert set(doc) == {
+        "alpha_deg",
+        "length_mm",
+        "residual_mm",
+        "status",
+        "branch",
+        "hysteresis_mm",
+    }
     arm = eodarm.Arm.from_toml(ARM_FILE)
     want = compensate(
         arm, [[90, 10, 0], [70, 20, -10]], 5.0, [E("joint_clearance", "O2", clearance_mm=0.15)]

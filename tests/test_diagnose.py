@@ -237,8 +237,13 @@ def test_cli_diagnose_json_is_exactly_the_contract(two_hidden_csv: str) -> None:
     out = run_cli("diagnose", two_hidden_csv, "--arm", str(ARMS_FILE), "--json")
     assert out.returncode == 0, out.stderr
     doc = json.loads(out.stdout)
-    # every key of the contract, plus "noise" (where each channel's sigma came from)
-    assert set(doc) == {"model", "baseline", "verdict", "suggested", "ranking", "noise"}
+    # every key of the contract, plus "noise" (where each channel's sigma came from) and
+    # "alternatives" (the look-alikes of the suggested effects, an object even when empty)
+    # and "data_checks" (the mistakes the data look like: none here)
+    keys = {"model", "baseline", "verdict", "suggested", "alternatives", "ranking", "noise"}
+    assert set(doc) == keys | {"data_checks"}
+    assert isinstance(doc["alternatives"], dict)
+    assert doc["data_checks"] == []
     assert doc["noise"]["dy_mm"] == {"sigma": None, "source": "given", "dof": None}
     assert set(doc["baseline"]) == {"rms", "chi2_per_dof"}
     assert doc["verdict"] == "missing"
@@ -273,8 +278,9 @@ def test_cli_fit_json_with_cv(two_hidden_csv: str) -> None:
     )
     assert out.returncode == 0, out.stderr
     doc = json.loads(out.stdout)
-    # the contract's keys, then the covariance of the fitted parameters (issue 12/13)
-    extra = {"parameters", "covariance", "correlation", "undetermined"}
+    # the contract's keys, then the covariance of the fitted parameters (issue 12/13), and
+    # the mistakes the data look like (issue 27)
+    extra = {"parameters", "covariance", "correlation", "undetermined", "data_checks"}
     assert set(doc) == {"effects", "before", "after", "cv"} | extra
     est = {e["effect"] + "@" + e["at"]: e for e in doc["effects"]}
     assert est["joint_clearance@O2"]["estimate"]["clearance_mm"] == pytest.approx(0.15, rel=0.05)
@@ -366,7 +372,17 @@ def test_an_effect_outside_the_catalogue_is_unexplained(
     assert d.verdict == "unexplained"
     assert d.suggested == [] and d.suggested_fit is None
     doc = d.to_json()
-    assert list(doc) == ["model", "baseline", "verdict", "suggested", "best_effort", "ranking"]
+    assert list(doc) == [
+        "model",
+        "baseline",
+        "verdict",
+        "suggested",
+        "alternatives",
+        "data_checks",
+        "best_effort",
+        "ranking",
+    ]
+    assert doc["alternatives"] == {}
     assert doc["suggested"] == []
     best = doc["best_effort"]
     assert set(best) == {"set", "chi2_per_dof", "cv"} and set(best["cv"]) == {"rms"}
@@ -404,16 +420,20 @@ def test_cli_diagnose_says_unexplained_and_shows_what_is_left(
     out = run_cli("diagnose", str(csv), "--arm", str(ARMS_FILE), "--json")
     assert out.returncode == 0, out.stderr
     doc = json.loads(out.stdout)
-    # the contract's keys, best_effort, and where each channel's σ came from
+    # the contract's keys, best_effort, where each channel's σ came from, and the
+    # mistakes the data look like (none: a friction is physics, not a mistake)
     assert set(doc) == {
         "model",
         "baseline",
+        "alternatives",
         "verdict",
         "suggested",
         "ranking",
         "best_effort",
         "noise",
+        "data_checks",
     }
+    assert doc["data_checks"] == []
     assert doc["verdict"] == "unexplained" and doc["suggested"] == []
     assert set(doc["best_effort"]) == {"set", "chi2_per_dof", "cv"}
     text = run_cli("diagnose", str(csv), "--arm", str(ARMS_FILE), "--plot", str(tmp_path))

@@ -7,7 +7,16 @@ import math
 
 import pytest
 
-from eodarm.viz.format import bounded_interval, interval95, parameter_name, value, value_error
+from eodarm.viz.format import (
+    bounded_interval,
+    channel_value,
+    interval95,
+    listing,
+    parameter_name,
+    plural,
+    value,
+    value_error,
+)
 
 
 @pytest.mark.parametrize(
@@ -49,3 +58,30 @@ def test_an_interval_that_reaches_infinity_reads_as_a_lower_bound() -> None:
     assert bounded_interval(19295.4, math.inf, "N/mm") == "≥ 19300 N/mm (up to rigid)"
     assert bounded_interval(0.0, 0.0312, "mm") == "[0, 0.0312] mm"
     assert bounded_interval(0.0, math.inf) == "—"  # nothing known
+
+
+def test_a_practical_zero_reads_as_zero_not_as_rounding() -> None:
+    """What a model without memory leaves at the return (1e-10 mm: the solvers' rounding)
+    reads 0; below a micrometre of a micrometre it is below any sensor; above, a number."""
+    assert channel_value(3e-10, "mm") == "0 mm"
+    assert channel_value(-3e-10, "deg") == "0 deg"
+    assert channel_value(4e-7, "mm") == "< 1e-6 mm"
+    assert channel_value(-0.0425, "mm") == "−0.0425 mm"
+    assert channel_value(0.00033, "mm") == "0.00033 mm"
+
+
+def test_a_column_keeps_its_significant_figures() -> None:
+    # "0.0003" beside "0.00033" reads as a less precise number: both to two figures
+    assert value(0.0003, "mm", 2, zeros=True) == "0.00030 mm"
+    assert value(0.00033, "mm", 2, zeros=True) == "0.00033 mm"
+    assert value(6.0, digits=4, zeros=True) == "6"  # a count stays a count
+    assert value(1.5, "kg") == "1.5 kg"  # an input keeps its own digits
+
+
+def test_counts_and_lists_read_as_words() -> None:
+    assert plural(1, "payload") == "1 payload"
+    assert plural(4, "payload") == "4 payloads"
+    assert plural(10044, "pose") == "10,044 poses"
+    assert listing([1.5, 5.0, 6.5, 0.0], "kg") == "1.5, 5, 6.5 and 0 kg"
+    assert listing([6.5], "kg") == "6.5 kg"
+    assert listing([1.5, 5.0], "kg") == "1.5 and 5 kg"

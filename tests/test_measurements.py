@@ -249,7 +249,9 @@ def test_bad_files_are_refused_naming_file_and_line(
     assert f"line {line}" in msg and column in msg
 
 
-def test_every_bad_row_is_listed_in_one_error(tmp_path: Path) -> None:
+def test_bad_rows_are_counted_and_the_first_three_cells_named(tmp_path: Path) -> None:
+    """Every bad row is found; the message names the first three bad cells, each with its
+    line and column, and counts the rest (a message stays one short line)."""
     text = (
         f"{HEAD},dy_mm\n"
         "c1,90,10,0,5,-1\n"
@@ -261,18 +263,18 @@ def test_every_bad_row_is_listed_in_one_error(tmp_path: Path) -> None:
     with pytest.raises(MeasurementFileError) as info:
         read_measurements(write(tmp_path, text), 3)
     msg = str(info.value)
-    assert "3 bad row(s)" in msg
+    assert "3 bad row(s), 4 bad cells" in msg
     assert "line 3: mass_kg 'abc' is not a number" in msg
-    assert "line 5: alpha2_deg is empty (unknown config angle), dy_mm 'x' is not a number" in msg
-    assert "line 6: mass_kg '-1' is negative" in msg
+    assert "line 5: alpha2_deg is empty (unknown config angle); line 5: dy_mm 'x' is not" in msg
+    assert msg.endswith("…and 1 more") and "line 6" not in msg
     assert "line 2" not in msg and "line 4" not in msg
 
     many = HEAD + "\n" + "".join(f"c{i},90,10,0,heavy\n" for i in range(25))
     with pytest.raises(MeasurementFileError) as info:
         read_measurements(write(tmp_path, many, "many.csv"), 3)
     msg = str(info.value)
-    assert "25 bad row(s)" in msg and "line 11:" in msg and "line 12:" not in msg
-    assert msg.endswith("…and 15 more")
+    assert "25 bad row(s)" in msg and "line 4:" in msg and "line 5:" not in msg
+    assert msg.endswith("…and 22 more")
 
 
 @pytest.mark.parametrize(

@@ -262,7 +262,7 @@ def test_cli_says_where_sigma_came_from_in_one_line_per_kind(
         "compare": {"model", "rms", "chi2_per_dof"},
         "diagnose": {"model", "baseline", "verdict", "suggested", "ranking"},
         "fit": {"effects", "before", "after", "parameters", "covariance", "correlation"}
-        | {"undetermined"},
+        | {"undetermined", "data_checks"},
     }[command]
     assert contract <= set(doc)
     if command == "fit":

@@ -143,7 +143,7 @@ def test_compare_shows_each_sequence_loading_unloading_and_what_is_left(
     assert main(args) == 0
     text = capsys.readouterr().out
     assert "load sequence c1" in text and "unloading" in text
-    assert "left at the return to zero: dx_mm" in " ".join(text.split())
+    assert "left at the return to zero: dx " in " ".join(text.split())
     assert max(len(line) for line in text.splitlines()) <= 100
 
 
@@ -173,13 +173,18 @@ def test_the_loops_figure_and_the_report_section(tmp_path: Path) -> None:
         assert "left" in ax.get_title()
     d = eodarm.diagnose(arm, meas, advise=False)
     html = write_report(tmp_path / "r.html", arm, meas, d).read_text(encoding="utf-8")
-    assert "Load cycles: the loops" in html
-    section = html[html.index("Load cycles: the loops") :]
-    assert all(f"<td>{label}</td>" in section for label in meas.configs)
+    # the return of every sequence on the first screen, with the loops
+    first = html.split("<h2>The answer</h2>", 1)[1].split("<h3>What is left</h3>", 1)[0]
+    assert "The return to zero load" in first and 'alt="hysteresis loops"' in first
+    assert all(f"<td>{label}</td>" in first for label in meas.configs)
+    assert "Load cycles: every channel" in html
+    section = html[html.index("Load cycles: every channel") :]
     # every channel of every sequence, measured and model, folded per sequence
     assert section.count("<details><summary>sequence ") == 3
     for ch in meas.channels:
-        assert f"{ch} measured / model" in section
+        name = ch.removesuffix("_mm").removesuffix("_deg").replace("alpha", "α")
+        unit = "deg" if ch.endswith("_deg") else "mm"
+        assert f"{name} [{unit}] measured / model" in section
 
 
 def test_frictions_of_one_actuator_at_one_pose_are_confused_and_the_tool_says_what_separates(

@@ -26,6 +26,7 @@ import xarray as xr
 
 import eodarm
 from arms import example_arm
+from eodarm import atomic
 from eodarm.cli import main
 from eodarm.errors import ClusterError, SweepTooLargeError
 
@@ -354,7 +355,7 @@ def test_ctrl_c_while_the_result_is_renamed_into_place_is_taken_after_it(
     out = tmp_path / "sweep.zarr"
     assert cli(arm_file, out, grid=OTHER) == 0
     capsys.readouterr()
-    real = store._remove
+    real = atomic._remove
 
     def interrupting(path: Path) -> None:
         # between putting the new store in place and removing the old one (exchanged into
@@ -363,7 +364,7 @@ def test_ctrl_c_while_the_result_is_renamed_into_place_is_taken_after_it(
             _thread.interrupt_main()
         real(path)
 
-    monkeypatch.setattr(store, "_remove", interrupting)
+    monkeypatch.setattr(atomic, "_remove", interrupting)
     assert cli(arm_file, out) == 130
     assert one_line(capsys.readouterr().err) == f"eodarm: interrupted: {out} was written completely"
     xr.testing.assert_identical(xr.open_zarr(out, consolidated=False).load(), want(arm))

@@ -36,6 +36,7 @@ COMMANDS = {
     ],
     "compensate": ["compensate", "--alpha", "90,10,0", "--alpha", "70,25,-8", "--mass", "5"],
     "synth": ["synth", "--configs", "3", "--masses", "1.5,6.5"],
+    "plan": ["plan", "--configs", "3", "--pool", "100"],
     "datasets": ["datasets", "list"],
     "sweep": [
         "sweep", "--alpha1", "60:120:3", "--alpha2", "0:20:2", "--alpha3", "0", "--mass", "5",
@@ -44,7 +45,7 @@ COMMANDS = {
 }  # fmt: skip
 
 #: The commands that end with a next: line.
-WITH_NEXT = ("compare", "diagnose", "fit", "synth", "solve", "compensate")
+WITH_NEXT = ("compare", "diagnose", "fit", "synth", "plan", "solve", "compensate")
 
 
 #: The eodarm under test, for subprocesses that run in another directory.

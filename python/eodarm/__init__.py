@@ -12,11 +12,12 @@ with an independent numpy reference.
 
 from __future__ import annotations
 
-import importlib
-from typing import TYPE_CHECKING, Any
+import importlib as _importlib
+from typing import TYPE_CHECKING as _TYPE_CHECKING
+from typing import Any as _Any
 
 from eodarm._version import __version__
-from eodarm.errors import ArgumentTypeError, ArmFileError, EffectError, EodarmError, InputError
+from eodarm.errors import ArmFileError, EffectError, EodarmError, InputError
 
 #: Where each public name lives; a name is imported on first use (PEP 562), so that
 #: ``import eodarm`` and ``eodarm --help`` do not pay for the layers a script never touches.
@@ -39,18 +40,22 @@ _PUBLIC = {
     "Measurements": "eodarm.data.measurements",
     "read_measurements": "eodarm.data.reader",
     "FitResult": "eodarm.analysis.fit",
-    "cross_validate": "eodarm.analysis.fit",
+    "cross_validate": "eodarm.analysis.crossval",
     "fit": "eodarm.analysis.fit",
     "Diagnosis": "eodarm.analysis.diagnose",
     "diagnose": "eodarm.analysis.diagnose",
+    "Plan": "eodarm.analysis.plan",
+    "plan": "eodarm.analysis.plan",
     "compensate": "eodarm.analysis.compensate",
     "sweep": "eodarm.workspace.sweep",
 }
+#: Public modules under their own name, imported on first use too: ``eodarm.datasets.load``,
+#: ``eodarm.reference.solve``.
+_MODULES = ("datasets", "reference")
 
 __all__ = [
     "CATALOGUE",
     "Actuator",
-    "ArgumentTypeError",
     "Arm",
     "ArmFileError",
     "Diagnosis",
@@ -62,17 +67,21 @@ __all__ = [
     "InputError",
     "Link",
     "Measurements",
+    "Plan",
     "Slot",
     "__version__",
     "angles_from_lengths",
     "compensate",
     "cross_validate",
     "custom_effect",
+    "datasets",
     "diagnose",
     "fit",
     "forward",
     "inverse_kinematics",
+    "plan",
     "read_measurements",
+    "reference",
     "solve",
     "solve_payload",
     "solve_sequence",
@@ -81,24 +90,31 @@ __all__ = [
 ]
 
 
-def __getattr__(name: str) -> Any:
+def __getattr__(name: str) -> _Any:
+    if name in _MODULES:
+        return _importlib.import_module(f"eodarm.{name}")  # the import binds it here
     where = _PUBLIC.get(name)
     if where is None:
         raise AttributeError(f"module 'eodarm' has no attribute '{name}'")
-    obj = getattr(importlib.import_module(where), name)
+    obj = getattr(_importlib.import_module(where), name)
     globals()[name] = obj  # once imported, an ordinary attribute
     return obj
 
 
 def __dir__() -> list[str]:
-    return sorted({*globals(), *_PUBLIC})
+    """The public API (``__all__``, the modules ``datasets`` and ``reference`` among it),
+    not the helpers of this module (its imports, the lazy-import tables) nor the subpackages
+    (``eodarm.model``, …, importable by name)."""
+    return sorted(__all__)
 
 
-if TYPE_CHECKING:
+if _TYPE_CHECKING:
+    from eodarm import datasets, reference
     from eodarm.analysis.compensate import compensate
     from eodarm.analysis.crossval import cross_validate
     from eodarm.analysis.diagnose import Diagnosis, diagnose
     from eodarm.analysis.fit import FitResult, fit
+    from eodarm.analysis.plan import Plan, plan
     from eodarm.data.measurements import Measurements
     from eodarm.data.reader import read_measurements
     from eodarm.model.arm import Actuator, Arm, Link

@@ -16,6 +16,8 @@
 //! * [`solve_sequence`]: load sequences, the states of each loaded and unloaded in order from
 //!   one reference, with the friction elements' memory;
 //! * [`mod@sweep`]: poses × payloads in bounded memory, with per-group reductions (fast kernel);
+//! * [`lanes`]: what the block kernels of `solve` and `sweep` share: a block of poses in
+//!   lanes, its trigonometry and its transposes back into rows;
 //! * [`compensate`]: the angles to command so that the loaded measure point lands on the
 //!   nominal one (Gauss–Newton on the exact model, minimum change for n > 3);
 //! * [`sensitivity`]: predicted channels and their derivatives by effect parameter, for fits;
@@ -37,6 +39,7 @@ pub mod examples;
 pub mod fem;
 pub mod geometry;
 pub mod kinematics;
+pub mod lanes;
 pub mod pose;
 pub mod sensitivity;
 pub mod solve;

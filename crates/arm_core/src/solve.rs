@@ -6,9 +6,9 @@
 //! and longer arms go through the general path, one [`Workspace`] per chunk (nothing is
 //! allocated per pose). Both give the status of every pose ([`solve_batch_status`]).
 
-mod batch;
+pub(crate) mod batch;
 pub(crate) mod fast;
-mod general;
+pub(crate) mod general;
 pub mod sequence;
 mod status;
 

@@ -41,10 +41,7 @@
 mod cells;
 mod fallback;
 pub(crate) mod fast;
-pub mod lanes;
 mod reduce;
-mod transpose;
-pub mod trig;
 
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::Mutex;
@@ -52,12 +49,13 @@ use std::sync::Mutex;
 use crate::arm::Arm;
 use crate::effects::EffectSet;
 use crate::error::{ArmError, Result};
+use crate::lanes::transpose::transpose_into;
+use crate::lanes::trig;
 use cells::{cut, PoseOut};
 pub use cells::{CellFields, Cells, ReduceOp};
 pub use fast::L;
 use fast::{CellBlock, FastArm, PoseBlock};
 use reduce::{fold_op, n_fields, write_group, Acc, Sink, ARGMAX, ARGMIN, MAX, MIN};
-pub(crate) use transpose::{transpose_into, transpose_xy_into};
 
 /// Default number of rows (cells) per chunk.
 pub const CHUNK_ROWS: usize = 16_384;

@@ -24,7 +24,7 @@
 
 use crate::arm::{Arm, Drive};
 use crate::geometry::{cross, V2};
-use crate::sweep::lanes::Lane;
+use crate::lanes::Lane;
 
 /// Moment arm of an actuator about its joint, as a fraction of |A_i − O_i|, below which the
 /// pose is near singular (forces amplified more than 20×).

@@ -106,6 +106,11 @@ class Acceptance:
     cv: Mapping[str, Any] | None = None
     baseline_cv: Mapping[str, Any] | None = None
 
+    def __repr__(self) -> str:
+        from eodarm.analysis.diagnosis_display import acceptance_repr
+
+        return acceptance_repr(self)
+
     @property
     def consistent(self) -> bool:
         """(a) The set's χ² is consistent with the noise."""

@@ -28,7 +28,7 @@ from eodarm.errors import EodarmError, InputError
 from eodarm.model.arm import Arm, check_arm
 from eodarm.model.effects import Effect, effect_arrays, split_effects, with_arm_effects
 from eodarm.model.kinds import integer, real_number
-from eodarm.model.solver import _core_arm, _per_row, _poses
+from eodarm.model.kinematics import _core_arm, _poses_and_masses
 
 __all__ = [
     "JACOBIANS",
@@ -86,7 +86,8 @@ def compensate(
         the model.
     alpha_deg : (N, n) nominal unloaded absolute angles, degrees: the poses a user would
         command without compensation (a single pose (n,) is N = 1).
-    mass_kg : payload mass, kg; scalar or (N,).
+    mass_kg : payload mass, kg; scalar or (N,), or (M,) with a single pose: that pose under
+        each of M payloads (M rows; docs/python.md, "Broadcasting").
     effects : effects on top of the arm's (the same ``effect@place`` replaces the arm's),
         built-in or user-written (:func:`eodarm.custom_effect`): with user-written effects
         the core's compensation with the built-in ones is the start of a Gauss–Newton
@@ -131,8 +132,7 @@ def compensate(
         option; :class:`~eodarm.errors.EffectError` for a bad effect.
     """
     check_arm(arm, "compensate")
-    alpha = _poses(alpha_deg, arm.n, "alpha_deg")
-    mass = _per_row(mass_kg, alpha.shape[0], "mass_kg")
+    alpha, mass = _poses_and_masses(alpha_deg, mass_kg, arm.n)
     bad = np.flatnonzero(mass < 0)
     if bad.size:
         raise InputError(f"pose row {bad[0]}: mass_kg is negative ({mass[bad[0]]})")

@@ -3,14 +3,14 @@
 
 from __future__ import annotations
 
-import warnings
 from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 
-from eodarm.analysis.fit import FitWarning, Problem, _rms, fit
+from eodarm.analysis.gauss_newton import iterate
+from eodarm.analysis.problem import Problem, _rms
 from eodarm.data.measurements import Measurements
 from eodarm.errors import EodarmError
 from eodarm.model.arm import Arm
@@ -75,9 +75,7 @@ def cross_validate(
                 exclude=gone if exclude is None else gone | exclude,
                 **kw,
             )
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore", FitWarning)
-                res = fit(arm, meas, slots, problem=train, start=start)
+            res = iterate(train, slots, start=start)
             # the fit's prediction covers every row, the held-out ones included
             rows = np.flatnonzero(held)
             y = res.prediction[rows]
@@ -105,9 +103,7 @@ def _linearised_folds(
     G − G_k = Aᵀ A − A_kᵀ A_k and b − b_k = Aᵀ r − A_kᵀ r_k, within the bounds of θ + d; its
     rows are then predicted as y_k + J_k d. Exact for a model linear in θ (the compliance-like
     θ are nearly so). Costs one fit and (P × P) work per configuration."""
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", FitWarning)
-        base = fit(arm, meas, slots, problem=full, start=start)
+    base = iterate(full, slots, start=start)
     theta = base.theta
     y, jac = full.evaluate(list(zip(slots, theta, strict=True)), slots)
     use = full.use

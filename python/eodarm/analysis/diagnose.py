@@ -36,15 +36,26 @@ import numpy as np
 import numpy.typing as npt
 
 from eodarm.analysis.acceptance import MIN_CV_CONFIGS, Acceptance, accept, bic, held_out
+from eodarm.analysis.confusions import CONFUSION_CHI2, advice, alternatives, confusions
+from eodarm.analysis.confusions import friction_advice as friction_advice
 from eodarm.analysis.consistency import P_PASS, effective_nu, fit_p_value, lr_threshold
+from eodarm.analysis.datacheck import DataCheck, check_data
 from eodarm.analysis.fit import FitResult, FitWarning, Problem, fit
 from eodarm.analysis.outliers import outlier_table, peel_outliers
-from eodarm.data.measurements import Measurements, default_sigma
+from eodarm.data.measurements import Measurements
 from eodarm.errors import EodarmError
 from eodarm.model.arm import Arm
 from eodarm.model.effects import CATALOGUE, Slot, candidate_places, known_effects
 
-__all__ = ["P_PASS", "VERDICTS", "Candidate", "Diagnosis", "all_slots", "diagnose"]
+__all__ = [
+    "CONFUSION_CHI2",
+    "P_PASS",
+    "VERDICTS",
+    "Candidate",
+    "Diagnosis",
+    "all_slots",
+    "diagnose",
+]
 
 # When the data cannot tell two candidates apart (equal χ² to 1e-9), prefer the one that does
 # not overrule the arm file: an unknown mount or joint over a changed actuator body stiffness.
@@ -56,9 +67,9 @@ TIE_ORDER = (
     "base_compliance",
     "actuator_compliance",
 )
-#: The verdicts of docs/formats.md §7.
-VERDICTS = ("adequate", "missing", "unexplained")
-CONFUSION_CHI2 = 3.841458820694124  # 95 % point of χ² with 1 dof
+#: The verdicts of docs/formats.md §7: ``check_data`` when the data look mistaken
+#: (:mod:`eodarm.analysis.datacheck`), before any effect is looked for.
+VERDICTS = ("adequate", "missing", "unexplained", "check_data")
 OUTLIER_Z = 4.0
 
 
@@ -103,6 +114,11 @@ class Candidate:
     delta_chi2: float
     confused_with: list[str] = field(default_factory=list)
 
+    def __repr__(self) -> str:
+        from eodarm.analysis.diagnosis_display import candidate_repr
+
+        return candidate_repr(self)
+
     def to_json(self) -> dict[str, Any]:
         i = self.fit.slots.index(self.slot)
         value = self.fit.estimate(i)
@@ -110,7 +126,7 @@ class Candidate:
             "effect": self.slot.name,
             "at": self.slot.at,
             "estimate": {self.slot.kind.param: value if math.isfinite(value) else None},
-            "rms": self.fit.rms(),
+            "rms": dict(self.fit.rms),
             "chi2_per_dof": self.fit.chi2_per_dof,
             "confused_with": list(self.confused_with),
         }
@@ -131,7 +147,13 @@ class Diagnosis:
     evaluated. ``examined`` lists the judgement of every set looked at, in search order.
     ``significance`` is the Δχ² a single candidate must exceed to improve the baseline
     significantly (the Bonferroni-corrected likelihood-ratio threshold or the BIC penalty
-    ln N, whichever is larger; docs/diagnosis.md, step 4).
+    ln N, whichever is larger; docs/diagnosis.md, step 4). ``alternatives`` maps each
+    suggested effect's spec to the candidates the data cannot tell apart from it in the set
+    (:func:`eodarm.analysis.confusions.alternatives`; empty lists when none), and
+    ``alternative_fits`` holds the set refitted with each alternative in its member's place.
+    ``data_checks`` lists the mistakes the data look like
+    (:func:`eodarm.analysis.datacheck.check_data`); when there is any, the verdict is
+    *check_data*: no candidate is ranked or suggested, the baseline is only fitted.
     """
 
     model: list[Slot]
@@ -150,6 +172,19 @@ class Diagnosis:
     acceptance: Acceptance | None = None
     examined: list[Acceptance] = field(default_factory=list)
     significance: float = math.nan
+    alternatives: dict[str, list[str]] = field(default_factory=dict)
+    alternative_fits: dict[tuple[str, str], FitResult] = field(default_factory=dict)
+    data_checks: list[DataCheck] = field(default_factory=list)
+
+    def __repr__(self) -> str:
+        from eodarm.analysis.diagnosis_display import diagnosis_repr
+
+        return diagnosis_repr(self)
+
+    def _repr_html_(self) -> str:
+        from eodarm.analysis.diagnosis_display import diagnosis_html
+
+        return diagnosis_html(self)
 
     @property
     def suggested_explains(self) -> bool:
@@ -167,11 +202,13 @@ class Diagnosis:
         out: dict[str, Any] = {
             "model": [s.spec for s in self.model],
             "baseline": {
-                "rms": self.baseline.rms(),
+                "rms": dict(self.baseline.rms),
                 "chi2_per_dof": self.baseline.chi2_per_dof,
             },
             "verdict": self.verdict,
             "suggested": [s.spec for s in self.suggested],
+            "alternatives": {k: list(v) for k, v in self.alternatives.items() if v},
+            "data_checks": [c.to_json() for c in self.data_checks],
         }
         if self.verdict == "unexplained":
             be = self.best_effort_fit or self.baseline
@@ -262,6 +299,7 @@ def diagnose(
     advise: bool = True,
     solver_model: str = "analytic",
     fem_options: Mapping[str, Any] | None = None,
+    check: bool = True,
 ) -> Diagnosis:
     """Rank every candidate effect × place, search sets of up to ``max_set``, and decide.
 
@@ -277,6 +315,9 @@ def diagnose(
     solver_model : ``"analytic"`` or ``"fem"``: the model that predicts the channels, the
         ``model=`` of :func:`eodarm.solve` and :func:`eodarm.fit` (named so here because
         ``model`` is the list of effects already in the model); ``fem_options`` go with it.
+    check : first hold the data against the baseline model's scale and sign
+        (:func:`eodarm.analysis.datacheck.check_data`); if they look mistaken, the verdict
+        is *check_data* and nothing is searched.
     """
     from eodarm.model.kinds import integer
 
@@ -285,8 +326,11 @@ def diagnose(
     kw: dict[str, Any] = {"model": solver_model, "fem_options": fem_options}
     Problem(arm, meas, self_weight, **kw)  # refuses a bad solver_model before any work
     model_slots = [Slot.of(s) for s in model]
+    checks = check_data(arm, meas, self_weight, solver_model, fem_options) if check else []
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", FitWarning)
+        if checks:
+            return _mistaken(arm, meas, model_slots, self_weight, checks, kw)
         first = _diagnose_pass(
             arm, meas, model_slots, self_weight, max_set, candidates, refine_per_size, None, kw
         )
@@ -307,8 +351,36 @@ def diagnose(
         if first.verdict == "unexplained":
             _judge_best_effort(first)
         if advise and first.ranking:
-            first.advice = _advice(arm, meas, first, self_weight, kw)
+            first.advice = advice(arm, meas, first, self_weight, kw)
     return first
+
+
+def _mistaken(
+    arm: Arm,
+    meas: Measurements,
+    model_slots: list[Slot],
+    self_weight: bool,
+    checks: list[DataCheck],
+    kw: dict[str, Any],
+) -> Diagnosis:
+    """The diagnosis of data that look mistaken: the baseline fitted, nothing searched."""
+    prob = Problem(arm, meas, self_weight=self_weight, **kw)
+    if prob.n_values == 0:
+        raise EodarmError(f"{meas.source}: no measured values to diagnose")
+    base = fit(arm, meas, model_slots, problem=prob)
+    return Diagnosis(
+        model=model_slots,
+        baseline=base,
+        verdict="check_data",
+        suggested=[],
+        suggested_fit=None,
+        ranking=[],
+        outliers=[],
+        advice=[],
+        p_baseline=fit_p_value(base),
+        sets_searched=0,
+        data_checks=checks,
+    )
 
 
 def _judge_best_effort(d: Diagnosis) -> None:
@@ -454,7 +526,7 @@ def _diagnose_pass(
     lrt = lr_threshold(1e-3 / max(k, 1), effective_nu(prob.meas, prob.use))
 
     # Confusions, on the linearised columns with the model's columns projected out.
-    _confusions(ranking, cands, an[:, :m], an[:, m:], norms[m:], prob, max(lrt, math.log(n_val)))
+    confusions(ranking, cands, an[:, :m], an[:, m:], norms[m:], prob, max(lrt, math.log(n_val)))
     best1 = ranking[0] if ranking else None
     threshold = max(lrt, math.log(n_val))
     significant = best1 is not None and best1.delta_chi2 > threshold
@@ -491,6 +563,10 @@ def _diagnose_pass(
     best_effort: FitResult | None = None
     if verdict == "unexplained":
         best_effort = min([base, *tried], key=bic)
+    alts: dict[str, list[str]] = {}
+    alt_fits: dict[tuple[str, str], FitResult] = {}
+    if accepted is not None:
+        alts, alt_fits = alternatives(arm, meas, accepted.fit, m, cands, an, norms, prob, threshold)
     return Diagnosis(
         model=model_slots,
         baseline=base,
@@ -507,6 +583,8 @@ def _diagnose_pass(
         acceptance=accepted,
         examined=examined,
         significance=threshold,
+        alternatives=alts,
+        alternative_fits=alt_fits,
     )
 
 
@@ -527,171 +605,6 @@ def _rank(ranking: list[Candidate]) -> None:
     """Best (least χ²) first; χ² equal to 1e-9 of the largest are ties, broken by TIE_ORDER."""
     quantum = 1e-9 * max([abs(c.fit.chi2) for c in ranking] + [1e-300])
     ranking.sort(key=lambda c: (round(c.fit.chi2 / quantum), _tie_rank(c.slot), c.slot.at))
-
-
-def _confusions(
-    ranking: list[Candidate],
-    cands: list[Slot],
-    am: npt.NDArray[np.float64],
-    ac: npt.NDArray[np.float64],
-    cnorm: npt.NDArray[np.float64],
-    prob: Problem,
-    detectable: float,
-) -> None:
-    """Fill ``confused_with``: B reproduces A's significant contribution within the noise.
-
-    A's contribution (whitened, the model's own columns projected out) must itself be
-    significant (χ² above ``detectable``), and B's best imitation must leave less than
-    χ²₁(95 %) of it and less than a tenth of it unexplained.
-    """
-    if am.shape[1]:
-        q, _ = np.linalg.qr(am)
-        ac = ac - q @ (q.T @ ac)
-    index = {s.spec: j for j, s in enumerate(cands)}
-    # Every quantity below is a product of two columns: from their Gram matrix (one pass over
-    # the values, K² numbers), not column by column over the whole file for each pair.
-    gram = ac.T @ ac
-    scale = np.zeros(len(cands))  # contribution of candidate j = scale[j] · ac[:, j]
-    for cand in ranking:
-        j = index[cand.slot.spec]
-        scale[j] = (cand.fit.theta[-1] - prob.neutral(cand.slot)) * cnorm[j]
-    for cand in ranking:
-        j = index[cand.slot.spec]
-        s = scale[j]
-        vv = float(s * s * gram[j, j])
-        if vv <= detectable:
-            continue
-        out = []
-        for other in ranking:
-            i = index[other.slot.spec]
-            if i == j:
-                continue
-            cc = float(gram[i, i])
-            if cc == 0:
-                continue
-            lo_i = (prob.bounds(other.slot)[0] - prob.neutral(other.slot)) * cnorm[i]
-            cv = float(s * gram[i, j])  # col · v
-            coef = max(cv / cc, lo_i)
-            # |v − coef·col|², never below 0 by rounding
-            left = max(vv - 2.0 * coef * cv + coef * coef * cc, 0.0)
-            if left < CONFUSION_CHI2 and left < 0.1 * vv:
-                out.append(other.slot.spec)
-        cand.confused_with = out
-
-
-def _advice(
-    arm: Arm, meas: Measurements, diag: Diagnosis, self_weight: bool, kw: dict[str, Any]
-) -> list[dict[str, Any]]:
-    """For the leading candidate's confusions: the channel and the pose that separate them."""
-    from eodarm.analysis.synth import random_configs
-
-    top = diag.ranking[0]
-    if not top.confused_with:
-        return []
-    prob = diag.baseline.problem
-    model = list(zip(diag.model, diag.baseline.theta, strict=True))
-    rows_all = np.arange(meas.n_rows)
-    out = []
-    measured = set(meas.measured_channels)
-    rng = np.random.default_rng(0)
-    lo = meas.alpha_deg.min(axis=0) - 15.0
-    hi = meas.alpha_deg.max(axis=0) + 15.0
-    try:
-        poses = random_configs(arm, 400, rng, alpha_ranges=list(zip(lo, hi, strict=True)))
-    except EodarmError:
-        poses = np.zeros((0, arm.n))
-    mass = float(np.max(meas.mass_kg))
-    sig = np.array([default_sigma(ch) for ch in meas.channels])
-    for other_key in top.confused_with[:3]:
-        other = next(c for c in diag.ranking if c.slot.spec == other_key)
-        # B refitted alone to the data already; compare the two fitted models.
-        ya, _ = prob.evaluate([*model, (top.slot, float(top.fit.theta[-1]))], rows=rows_all)
-        yb, _ = prob.evaluate([*model, (other.slot, float(other.fit.theta[-1]))], rows=rows_all)
-        sep = (((ya - yb) / sig) ** 2).sum(axis=0)
-        unmeasured = [c for c, ch in enumerate(meas.channels) if ch not in measured]
-        channel = None
-        if unmeasured:
-            c = max(unmeasured, key=lambda c: sep[c])
-            channel = {"channel": meas.channels[c], "chi2_separation": float(sep[c])}
-        pose = None
-        if len(poses):
-            sub = _problem_at(arm, poses, mass, self_weight, kw)
-            pa, _ = sub.evaluate(
-                [*model, (top.slot, float(top.fit.theta[-1]))], nan_on_failure=True
-            )
-            pb, _ = sub.evaluate(
-                [*model, (other.slot, float(other.fit.theta[-1]))], nan_on_failure=True
-            )
-            cols = [c for c, ch in enumerate(meas.channels) if ch in measured]
-            score = (((pa - pb)[:, cols] / sig[cols]) ** 2).sum(axis=1)
-            score[~np.isfinite(score)] = -1.0  # poses where either model bottoms out
-            i = int(np.argmax(score))
-            pose = {
-                "alpha_deg": [float(x) for x in poses[i]],
-                "mass_kg": mass,
-                "chi2_separation": float(score[i]),
-            }
-        entry: dict[str, Any] = {
-            "pair": [top.slot.spec, other.slot.spec],
-            "channel": channel,
-            "pose": pose,
-        }
-        memory = friction_advice(top.slot, other.slot, meas.has_sequences)
-        if memory:
-            entry["memory"] = memory
-        out.append(entry)
-    return out
-
-
-def friction_advice(a: Slot, b: Slot, has_sequences: bool) -> str | None:
-    """The measurement that tells a friction from what it is confused with, in words (None
-    when neither is a friction).
-
-    Loaded once, a friction is a deadband: it takes a constant off each force change, which
-    an elastic effect or a gap can imitate. Only the history shows it for what it is: the
-    unloading branch lies on the other side of the frictionless curve and the arm does not
-    come back at zero payload. Two frictions on one actuator differ by their limit: an
-    actuator friction's is a force, a joint friction's a torque T/r_i, so it changes with
-    the moment arm r_i of actuator i about O_i from pose to pose.
-    """
-    frictions = ("actuator_friction", "joint_friction")
-    if a.name not in frictions and b.name not in frictions:
-        return None
-    if a.name in frictions and b.name in frictions:
-        if a.name != b.name and a.at[1:] == b.at[1:]:
-            i = a.at[1:]
-            return (
-                f"poses with a different moment arm of actuator {i} about O{i}: the joint "
-                f"friction's limit (torque / moment arm) changes with it, the actuator "
-                "friction's does not"
-            )
-        return "poses and channels that load the two places differently"
-    if not has_sequences:
-        return (
-            "an unloading branch (a load cycle written with a step column): only a friction "
-            "leaves the loading and unloading branches apart and the arm short of its "
-            "reference at the return to zero payload"
-        )
-    return "a longer unloading branch, back to zero payload"
-
-
-def _problem_at(
-    arm: Arm, alpha: npt.NDArray[np.float64], mass: float, sw: bool, kw: dict[str, Any]
-) -> Problem:
-    """A measurement-less Problem at given poses (for predictions only)."""
-    from eodarm.data.measurements import channel_names
-
-    n = len(alpha)
-    chans = channel_names(arm.n)
-    meas = Measurements.from_arrays(
-        config=np.array([f"p{i}" for i in range(n)]),
-        alpha_deg=alpha,
-        mass_kg=np.full(n, mass),
-        values={ch: np.full(n, np.nan) for ch in chans},
-        sigma=None,
-        source="<poses>",
-    )
-    return Problem(arm, meas, self_weight=sw, **kw)
 
 
 def describe(param: str, value: float) -> str:

@@ -15,7 +15,8 @@ base_compliance        1/stiffness_nmm_per_rad     θ ≥ 0 (θ = 0: rigid base)
 
 The compiled core returns the model's channels and their sensitivities ∂y/∂θ for any set of
 places in one call (:func:`eodarm._core.jacobian`); each Gauss–Newton step is then a small
-bounded linear least-squares problem. Residuals are whitened by the measurement σ.
+bounded linear least-squares problem (:mod:`eodarm.analysis.gauss_newton`). Residuals are
+whitened by the measurement σ (:class:`~eodarm.analysis.problem.Problem`).
 
 With ``model="fem"`` the channels come from the finite-element model (:mod:`eodarm.model.fem`) and
 the sensitivities from forward differences of it, one more FE solve per parameter.
@@ -28,7 +29,7 @@ A user-written effect (docs/custom-effects.md) is fitted through its parameter i
 from __future__ import annotations
 
 import math
-import re
+import os
 import warnings
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -37,248 +38,39 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from eodarm import reprs
+from eodarm import text as fmt
+from eodarm.analysis.gauss_newton import iterate
+from eodarm.analysis.params import ChannelRms, Param, Params
+from eodarm.analysis.problem import Z95, FitWarning, Problem, _rms
 from eodarm.data.measurements import Measurements
-from eodarm.errors import EodarmError
+from eodarm.errors import show, show_source
 from eodarm.model.arm import Arm
-from eodarm.model.effects import (
-    Effect,
-    Slot,
-    param_from_theta,
-    theta_from_param,
-)
+from eodarm.model.effects import Effect, Slot, param_from_theta, theta_from_param
 
 __all__ = [
     "FitResult",
     "FitWarning",
     "Problem",
+    "ValidityMark",
     "compare",
     "determining_channel",
     "fit",
+    "validity_mark",
 ]
 
-#: z of a two-sided 95 % normal interval.
-Z95 = 1.959963984540054
 
-
-class Problem:
-    """An arm, measurements and the whitened residual machinery shared by fits.
-
-    Parameters
-    ----------
-    arm : the arm.
-    meas : the measurements (their ``n`` must equal the arm's).
-    self_weight : include weights in both states (as the measured arm carried them).
-    exclude : optional boolean (N, C) mask of measured cells to leave out (outliers).
-    model : ``"analytic"`` or ``"fem"``, the model that predicts the channels (as in
-        :func:`eodarm.solve`); ``fem_options`` go with ``"fem"``.
-    """
-
-    def __init__(
-        self,
-        arm: Arm,
-        meas: Measurements,
-        self_weight: bool = True,
-        exclude: npt.NDArray[np.bool_] | None = None,
-        model: str = "analytic",
-        fem_options: Mapping[str, Any] | None = None,
-    ) -> None:
-        from eodarm.model import fem
-
-        fem.check_model(model)
-        self.model = model
-        self.fem_options = fem.options(fem_options) if model == "fem" else None
-        if meas.n != arm.n:
-            raise EodarmError(
-                f"{meas.source}: the measurements are for a {meas.n}-link arm, "
-                f"the arm '{arm.name}' has {arm.n} links"
-            )
-        self.arm = arm
-        self.meas = meas
-        self.self_weight = self_weight
-        self.alpha = np.ascontiguousarray(meas.alpha_deg, dtype=float)
-        self.payload = np.zeros((meas.n_rows, 2))
-        self.payload[:, 1] = -np.asarray(meas.mass_kg, dtype=float) * arm.g
-        use = np.isfinite(meas.values)
-        if exclude is not None:
-            use &= ~exclude
-        self.use = use
-        self.obs = meas.values[use]
-        self.sig = meas.sigma[use]
-        self.n_values = int(use.sum())
-        #: The arm file's own effects (docs/formats.md §2), held at their values in every evaluation
-        #: unless the same effect@place is in the model being evaluated (then it is refitted).
-        self.fixed = [(Slot.of(e), theta_from_param(e.name, e.value)) for e in arm.effects]
-        self._custom: Any = None  # the evaluator of user-written effects, made on first use
-        self._seq: Any = None  # the evaluator of sequences and frictions, made on first use
-
-    # --------------------------------------------------------------- evaluation
-    def evaluate(
-        self,
-        model: Sequence[tuple[Slot, float]],
-        probes: Sequence[Slot] = (),
-        rows: npt.NDArray[np.intp] | None = None,
-        nan_on_failure: bool = False,
-    ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
-        """:meth:`_evaluate`, whose refusal of a pose (``pose row k: …``, k counted in the
-        rows solved) names the measurement file and the state's 1-based line instead."""
-        try:
-            return self._evaluate(model, probes, rows, nan_on_failure)
-        except ValueError as exc:
-            m = _POSE_ROW.search(str(exc))
-            if m is None:
-                raise
-            k = int(m.group(1))
-            index = np.arange(self.meas.n_rows) if rows is None else np.asarray(rows).ravel()
-            if k >= index.size:
-                raise
-            row = int(index[k])
-            # a file's 1-based line, or the 0-based row of arrays given in memory
-            where = (
-                f"row {row}"
-                if self.meas.source.startswith("<")
-                else f"line {int(self.meas.line[row])}"
-            )
-            under = ", ".join(  # the effects of the model that the state could not take
-                f"{s.spec} = {param_from_theta(s.name, float(t)):.4g} {s.kind.unit}".rstrip()
-                for s, t in [
-                    *(f for f in self.fixed if f[0].key not in {s.key for s, _ in model}),
-                    *model,
-                ]
-            )
-            raise EodarmError(
-                f"{self.meas.source} {where}: {str(exc)[m.end() :]}"
-                + (f" (with {under})" if under else "")
-            ) from None
-
-    def _evaluate(
-        self,
-        model: Sequence[tuple[Slot, float]],
-        probes: Sequence[Slot] = (),
-        rows: npt.NDArray[np.intp] | None = None,
-        nan_on_failure: bool = False,
-    ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
-        """Channels (N, C) of the model with θ values, and ∂y/∂θ (N, C, P) for ``probes``.
-
-        With ``nan_on_failure`` a pose the model cannot solve is NaN instead of an error. The
-        arm's own effects (:attr:`fixed`) are included where the model and the probes do not
-        name the same effect@place.
-        A model or probes with user-written effects go through
-        :class:`~eodarm.analysis.sensitivity.CustomEvaluator` (forward differences).
-        """
-        from eodarm.model import native as _core
-        from eodarm.model.solver import _core_arm
-
-        if self.fixed:
-            named = {s.key for s, _ in model} | {s.key for s in probes}
-            model = [*(f for f in self.fixed if f[0].key not in named), *model]
-
-        from eodarm.analysis import sequences
-
-        if self.meas.has_sequences or sequences.has_friction([*(s for s, _ in model), *probes]):
-            # Memory (load sequences, frictions): :mod:`eodarm.analysis.sequences`.
-            if self.model == "fem":
-                raise EodarmError(
-                    "load sequences and frictions are modelled by the analytic model only"
-                )
-            if self._seq is None:
-                self._seq = sequences.SequenceEvaluator(self.arm, self.meas, self.self_weight)
-            return self._seq.evaluate(  # type: ignore[no-any-return]
-                model,
-                probes,
-                rows,
-                nan_on_failure,
-                lambda m, p: self.evaluate(m, p, None, nan_on_failure),
-            )
-        n = self.arm.n
-        alpha, payload = self.alpha, self.payload
-        if rows is not None:
-            alpha = np.ascontiguousarray(alpha[rows])
-            payload = np.ascontiguousarray(payload[rows])
-        user = [s for s, _ in model if s.kind.custom] + [s for s in probes if s.kind.custom]
-        if user and self.model == "fem":
-            raise EodarmError(
-                f"custom effect {user[0].key}: the finite-element model cannot include "
-                "user-written effects; use the analytic model"
-            )
-        if user:
-            from eodarm.analysis.sensitivity import CustomEvaluator
-
-            if self._custom is None:
-                self._custom = CustomEvaluator(self.arm, self.alpha, self.payload, self.self_weight)
-            return self._custom.evaluate(  # type: ignore[no-any-return]
-                model,
-                probes,
-                rows,
-                nan_on_failure,
-                lambda m, p: self.evaluate(m, p, rows, nan_on_failure),
-            )
-        if self.model == "fem":
-            from eodarm.model import fem
-
-            return fem.evaluate(
-                self.arm,
-                alpha,
-                payload,
-                model,
-                probes,
-                self.self_weight,
-                self.fem_options,
-                nan_on_failure,
-            )
-        mc = np.array([s.code for s, _ in model], dtype=np.int64)
-        mp = np.array([s.index(n) for s, _ in model], dtype=np.int64)
-        mt = np.array([t for _, t in model], dtype=float)
-        pc = np.array([s.code for s in probes], dtype=np.int64)
-        pp = np.array([s.index(n) for s in probes], dtype=np.int64)
-        return _core.jacobian(
-            _core_arm(self.arm),
-            alpha,
-            payload,
-            mc,
-            mp,
-            mt,
-            pc,
-            pp,
-            self.self_weight,
-            nan_on_failure,
-        )
-
-    def neutral(self, slot: Slot) -> float:
-        """θ of a slot when it is not in the model."""
-        if self.model == "fem":
-            from eodarm.model import fem
-
-            return fem.neutral(self.arm, slot)
-        kind = slot.kind
-        if kind.custom:
-            return float(getattr(kind, "neutral", 0.0))
-        if slot.name == "actuator_compliance":
-            return 1.0 / self.arm.actuators[slot.index(self.arm.n)].stiffness_n_per_mm
-        return 0.0
-
-    def start(self, slot: Slot) -> float:
-        """θ where a fit of a slot without a given value starts: the effect absent, or a
-        user-written effect's ``start``."""
-        kind = slot.kind
-        if kind.custom and self.model != "fem":
-            return float(getattr(kind, "start", 0.0))
-        return self.neutral(slot)
-
-    @staticmethod
-    def bounds(slot: Slot) -> tuple[float, float]:
-        return slot.kind.theta_bounds
-
-    def whiten(self, y: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
-        """Whitened residual (obs − y)/σ over the used cells."""
-        return (self.obs - y[self.use]) / self.sig
-
-    def whiten_jac(self, jac: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
-        return jac[self.use] / self.sig[:, None]
-
-
-@dataclass
+@dataclass(repr=False)
 class FitResult:
-    """The outcome of fitting a model's effect parameters to measurements."""
+    """The outcome of fitting a model's effect parameters to measurements (:func:`fit`), or
+    of a model with nothing fitted (:func:`compare`).
+
+    By name: :attr:`params` (``"effect@place:parameter"`` → value, standard error, 95 %
+    interval, unit, determined), :attr:`chi2_per_dof`, :attr:`rms` (channel → mm or deg),
+    :attr:`effects`; :meth:`to_arm` the fitted arm that predicts with uncertainty. The
+    methods by index (:meth:`estimate`, :meth:`stderr`, :meth:`interval`) serve the package's
+    own tables. Its ``repr`` is a few lines; in a notebook, a table.
+    """
 
     problem: Problem
     slots: list[Slot]
@@ -306,15 +98,37 @@ class FitResult:
 
     @property
     def n_params(self) -> int:
+        """Number of fitted parameters P."""
         return len(self.slots)
 
     @property
     def dof(self) -> int:
+        """Degrees of freedom: measured values used minus P (at least 1)."""
         return max(self.problem.n_values - self.n_params, 1)
 
     @property
     def chi2_per_dof(self) -> float:
+        """χ²/dof: about 1 when the model explains the data within their σ."""
         return self.chi2 / self.dof
+
+    @property
+    def params(self) -> Params:
+        """The fitted parameters by name, in the fit's order: ``"effect@place:parameter"`` →
+        :class:`~eodarm.analysis.params.Param` (``value``, ``stderr``, ``interval``, ``unit``,
+        ``determined``, ``bound``)."""
+        loose = dict(self.undetermined())
+        return Params(
+            Param(
+                name=f"{s.key}:{s.kind.param}",
+                value=self.estimate(i),
+                stderr=self.stderr(i),
+                interval=self.interval(i),
+                unit=s.kind.unit,
+                determined=not self.at_bound[i] and i not in loose,
+                bound=self._bound(i, loose),
+            )
+            for i, s in enumerate(self.slots)
+        )
 
     @property
     def residual(self) -> npt.NDArray[np.float64]:
@@ -326,11 +140,21 @@ class FitResult:
         """Residual in units of σ (N, C)."""
         return self.residual / self.problem.meas.sigma
 
-    def rms(self, rows: npt.NDArray[np.bool_] | None = None) -> dict[str, float]:
-        """RMS residual per measured channel (mm or deg), over the used cells."""
-        return _rms(self.residual, self.problem.use, self.problem.meas.channels, rows)
+    @property
+    def rms(self) -> ChannelRms:
+        """RMS residual per measured channel (mm or deg) over the cells used: a dict.
+        (``rms()``, called as the method it was, gives the same; ``rms(rows)`` the RMS over
+        a boolean mask of rows.)"""
+        prob = self.problem
+
+        def over(rows: npt.NDArray[np.bool_] | None) -> dict[str, float]:
+            return _rms(self.residual, prob.use, prob.meas.channels, rows)
+
+        return ChannelRms(over(None), over)
 
     def estimate(self, i: int) -> float:
+        """The physical value of parameter ``i`` (its unit: :attr:`params` names it);
+        ``inf`` for a stiffness fitted as rigid."""
         return param_from_theta(self.slots[i].name, float(self.theta[i]))
 
     def stderr(self, i: int) -> float:
@@ -415,6 +239,97 @@ class FitResult:
         a, b = (param_from_theta(self.slots[i].name, x) for x in self.theta_interval(i))
         return (min(a, b), max(a, b))
 
+    def _bound(self, i: int, loose: Mapping[int, str]) -> str | None:
+        """``"lower"``/``"upper"`` when the data give parameter ``i`` only a bound: it is not
+        determined (``loose``, or stuck at θ = 0) and its 95 % interval in θ reaches θ = 0 but
+        has a finite other end (:class:`~eodarm.analysis.params.Param`); None otherwise, and
+        for a user-written effect (its own neutral value and bounds)."""
+        s = self.slots[i]
+        if s.kind.custom:
+            return None
+        lo_b = self.problem.bounds(s)[0]
+        t_lo, t_hi = self.theta_interval(i)
+        at_low = self.at_bound[i] and float(self.theta[i]) <= lo_b + 1e-15
+        if not (i in loose or at_low) or t_lo > lo_b or not math.isfinite(t_hi) or t_hi <= 0:
+            return None
+        return "lower" if s.kind.compliance_like else "upper"
+
+    # ------------------------------------------------------------------ hand-over
+    def to_arm(
+        self, data: str | os.PathLike[str] | None = None, *, trusted: bool | None = None
+    ) -> Arm:
+        """The fitted arm: what ``eodarm fit ... -o FITTED.toml`` writes, as an
+        :class:`~eodarm.model.arm.Arm` (:func:`eodarm.analysis.handover.hand_over`).
+
+        The problem's arm with the fitted effects and their standard errors, a parameter the
+        data give only a bound for fixed at its physical end (rigid, absent) and marked, and
+        the ``[fit]`` table: the parameters' covariance, χ²/dof and the model's held-out
+        inadequacy. ``eodarm.solve(fit.to_arm(), ..., uncertainty=True)`` then gives the σ of
+        ``eodarm solve --uncertainty`` on that file (docs/model.md §8); ``to_toml()`` is the
+        file's text.
+
+        Parameters
+        ----------
+        data : the measurement file to name in ``[fit]`` with its SHA-256; by default the
+            measurements' own file (:attr:`Measurements.sha256`), none for data that did not
+            come whole from a file.
+        trusted : whether a fit consistent with the noise may be written as explaining its
+            data; by default, when :func:`eodarm.analysis.datacheck.check_data` finds no
+            mistake in them (metres in an ``_mm`` column, a flipped sign …), as ``eodarm
+            fit`` decides.
+        """
+        from eodarm.analysis.handover import hand_over
+
+        return hand_over(self, data, trusted)
+
+    def _refit(
+        self,
+        arm: Arm,
+        slots: Sequence[Slot],
+        exclude: npt.NDArray[np.bool_] | None,
+        start: Sequence[float] | None,
+    ) -> FitResult:
+        """The same measurements and model options fitted again, on ``arm`` with ``slots``
+        (for :func:`eodarm.analysis.handover.settle`, which does not import this module)."""
+        prob = self.problem
+        return fit(
+            arm,
+            prob.meas,
+            slots,
+            self_weight=prob.self_weight,
+            exclude=exclude,
+            start=start,
+            model=prob.model,
+            fem_options=prob.fem_options,
+        )
+
+    # ------------------------------------------------------------------ display
+    def __repr__(self) -> str:
+        meas = self.problem.meas
+        if self.slots:
+            what = f"{self.n_params} parameter{'s' * (self.n_params != 1)} fitted to"
+            lines = self.params.lines()
+        else:
+            fixed = ", ".join(e.key for e in self.fixed) or "the baseline"
+            what = f"nothing fitted ({fixed}) against"
+            lines = []
+        title = (
+            f"FitResult: {what} {meas.n_rows} states of {meas.source} "
+            f"({self.problem.n_values} values), χ²/dof {fmt.value(self.chi2_per_dof, digits=4)}"
+        )
+        return reprs.block(title, [*lines, *reprs.wrap("RMS", self.rms.items_text())])
+
+    def _repr_html_(self) -> str:
+        meas = self.problem.meas
+        caption = (
+            f"{meas.source}: {meas.n_rows} states, {self.problem.n_values} values; "
+            f"χ²/dof {fmt.value(self.chi2_per_dof, digits=4)}; RMS {self.rms.line()}"
+        )
+        if self.slots:
+            return self.params.html(caption)
+        model = ", ".join(e.key for e in self.fixed) or "the baseline"
+        return reprs.html_table(["model", "fitted parameters"], [[model, "none"]], caption)
+
     def summary(self) -> dict[str, Any]:
         """Contract-shaped summary: effects with estimate and stderr, rms and χ²/dof."""
         return {
@@ -427,7 +342,7 @@ class FitResult:
                 }
                 for i, s in enumerate(self.slots)
             ],
-            "rms": self.rms(),
+            "rms": dict(self.rms),
             "chi2_per_dof": self.chi2_per_dof,
         }
 
@@ -442,25 +357,54 @@ class FitResult:
         }
 
 
-#: The solvers' way of naming a pose: ``pose row k: `` (0-based, in the rows solved).
-_POSE_ROW = re.compile(r"pose row (\d+):\s*")
+@dataclass(frozen=True)
+class ValidityMark:
+    """The measured states a fitted model puts outside its validity (docs/model.md §7),
+    kept in the fit and marked (:func:`validity_mark`).
+
+    Attributes
+    ----------
+    states : how many; ``of``: of how many measured states.
+    status : status name → count (``large_deflection`` …).
+    lines : the first ten states' lines in the measurement file.
+    before_fit : whether the model without the fitted effects (the arm file's) already puts
+        them there: then the data or the geometry hold them, not the fitted values.
+    message : the one line the commands print.
+    """
+
+    states: int
+    of: int
+    status: dict[str, int]
+    lines: list[int]
+    before_fit: bool
+    message: str
+
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "states": self.states,
+            "of": self.of,
+            "status": dict(self.status),
+            "lines": list(self.lines),
+            "before_fit": self.before_fit,
+        }
 
 
-def check_validity(result: FitResult) -> None:
-    """Refuse a fit whose parameters put measured states outside the model's validity
-    (:mod:`eodarm.model.validity`): one line naming the reasons and the parameters.
+def validity_mark(result: FitResult) -> ValidityMark | None:
+    """The measured states that the fitted model puts outside its validity
+    (:mod:`eodarm.model.validity`), or None.
 
-    Raises
-    ------
-    EodarmError
-        When any measured state of the fitted model is not ``ok``.
+    Such states are not refused: data measured on a heavily loaded arm, or made by
+    :func:`eodarm.analysis.synth.synth` from this very model, can hold them, and the model
+    still predicts them (the loaded pose is closed exactly). They stay in the fit and are
+    marked: the model is not trusted there (its forces come from the undeformed geometry),
+    and the commands say so in one line naming the file, the statuses and the lines.
     """
     from eodarm.model.solver import solve
     from eodarm.model.validity import status_counts
 
     prob = result.problem
-    if prob.model != "analytic" or not result.slots:
-        return
+    if prob.model != "analytic":
+        return None
     meas = prob.meas
     mass = meas.mass_kg
     effects = [*result.fixed, *result.effects]
@@ -468,36 +412,33 @@ def check_validity(result: FitResult) -> None:
         solve(prob.arm, prob.alpha, mass, effects, self_weight=prob.self_weight)["status"]
     )
     if not (code != 0).any():
-        return
-    # the states that are outside already without the fitted effects are not the fit's fault
+        return None
     base = np.asarray(
         solve(prob.arm, prob.alpha, mass, list(result.fixed), self_weight=prob.self_weight)[
             "status"
         ]
     )
-    before = (base != 0) & (code != 0)
-    if before.any():
-        counts = status_counts(base[before])
-        lines = ", ".join(str(int(x)) for x in np.asarray(meas.line)[before][:10])
-        raise EodarmError(
-            f"{meas.source}: {int(before.sum())} of {meas.n_rows} measured states are "
-            "outside the model's validity before any effect is fitted ("
-            + ", ".join(f"{k} {v}" for k, v in counts.items() if k != "ok")
-            + f"; line(s) {lines}; docs/model.md, Validity): a data or geometry problem, not "
-            "the fit's"
+    bad = code != 0
+    before = bool(((base != 0) & bad).sum() == bad.sum())
+    counts = {k: v for k, v in status_counts(code[bad]).items() if k != "ok"}
+    lines = [int(x) for x in np.asarray(meas.line)[bad][:10]]
+    where = show_source(meas.source)
+    shown = ", ".join(str(x) for x in lines[:3]) + (" …" if bad.sum() > 3 else "")
+    what = (
+        f"{int(bad.sum())} of {meas.n_rows} measured states ("
+        + ", ".join(f"{k} {v}" for k, v in counts.items())
+        + f"; line(s) {shown})"
+    )
+    if before:
+        msg = f"{where}: {what} are outside the model's validity before any effect is fitted"
+    else:
+        params = ", ".join(
+            f"{s.spec} = {param_from_theta(s.name, float(t)):.4g} {s.kind.unit}".rstrip()
+            for s, t in zip(result.slots, result.theta, strict=True)
         )
-    counts = status_counts(code)
-    params = ", ".join(
-        f"{s.spec} = {param_from_theta(s.name, float(t)):.4g} {s.kind.unit}".rstrip()
-        for s, t in zip(result.slots, result.theta, strict=True)
-    )
-    lines = ", ".join(str(int(x)) for x in np.asarray(meas.line)[code != 0][:10])
-    raise EodarmError(
-        f"the fitted {params} put {int((code != 0).sum())} of {meas.n_rows} measured states "
-        f"of {meas.source} outside the model's validity ("
-        + ", ".join(f"{k} {v}" for k, v in counts.items() if k != "ok")
-        + f"; line(s) {lines}; docs/model.md, Validity): the data do not support this model"
-    )
+        msg = f"the fitted {show(params, 80)} puts {what} of {where} outside the model's validity"
+    msg += ": kept in the fit, the model is not trusted there (docs/model.md, Validity)"
+    return ValidityMark(int(bad.sum()), meas.n_rows, counts, lines, before, msg)
 
 
 def determining_channel(slot: Slot, measured: Sequence[str]) -> str:
@@ -525,20 +466,6 @@ def determining_channel(slot: Slot, measured: Sequence[str]) -> str:
 
 def _json_num(x: float) -> float | None:
     return float(x) if math.isfinite(x) else None
-
-
-def _rms(
-    residual: npt.NDArray[np.float64],
-    use: npt.NDArray[np.bool_],
-    channels: Sequence[str],
-    rows: npt.NDArray[np.bool_] | None = None,
-) -> dict[str, float]:
-    out: dict[str, float] = {}
-    for c, ch in enumerate(channels):
-        m = use[:, c] if rows is None else use[:, c] & rows
-        if m.any():
-            out[ch] = float(np.sqrt(np.mean(residual[m, c] ** 2)))
-    return out
 
 
 def fit(
@@ -573,123 +500,21 @@ def fit(
         ``result.warnings``.
     """
     prob = problem or Problem(arm, meas, self_weight, exclude, model=model, fem_options=fem_options)
-    given = list(effects)
-    slots = [Slot.of(e) for e in given]
-    keys = [s.key for s in slots]
-    if len(set(keys)) != len(keys):
-        raise EodarmError(f"an effect is given twice: {keys}")
-    for s in slots:
-        s.index(arm.n)
-    in_file = {s.key: th for s, th in prob.fixed}
-    theta = np.array(
-        [
-            theta_from_param(e.name, e.value)
-            if isinstance(e, Effect)
-            else in_file.get(s.key, prob.start(s))  # a file's effect starts at its value
-            for s, e in zip(slots, given, strict=True)
-        ],
-        dtype=float,
+    sol = iterate(prob, effects, start, max_iter)
+    for msg in sol.notes:
+        warnings.warn(msg, FitWarning, stacklevel=2)
+    return FitResult(
+        prob,
+        sol.slots,
+        sol.theta,
+        sol.theta_stderr,
+        sol.at_bound,
+        sol.prediction,
+        sol.chi2,
+        sol.iterations,
+        sol.notes,
+        theta_cov=sol.theta_cov,
     )
-    lo = np.array([prob.bounds(s)[0] for s in slots])
-    hi = np.array([prob.bounds(s)[1] for s in slots])
-    default = np.clip(theta, lo, hi)
-    theta = default if start is None else np.clip(np.asarray(start, dtype=float), lo, hi)
-
-    def at(th: npt.NDArray[np.float64]) -> tuple[Any, Any, float]:
-        y, jac = prob.evaluate(list(zip(slots, th, strict=True)), slots)
-        r = prob.whiten(y)
-        return y, jac, float(r @ r)
-
-    # A given start (e.g. diagnose's linearised estimate) may lie outside the model's domain
-    # (a measured state that cannot be closed there): move it back towards the default start
-    # (the effects absent, or the file's values) until every state closes.
-    for lam in (0.5, 0.25, 0.125, 0.0625, 0.0):
-        try:
-            y, jac, chi2 = at(theta)
-            break
-        except EodarmError:
-            if start is None:
-                raise
-            theta = default + lam * (np.clip(np.asarray(start, dtype=float), lo, hi) - default)
-    else:
-        y, jac, chi2 = at(theta)
-    it = 0
-    for it in range(1, max_iter + 1):  # noqa: B007
-        if not slots:
-            break
-        r = prob.whiten(y)
-        a = prob.whiten_jac(jac)
-        step = _bounded_step(a, r, lo - theta, hi - theta)
-        # Backtrack if the exact model disagrees with the linear one (rare: it is ~linear).
-        lam = 1.0
-        accepted = False
-        for _ in range(8):
-            trial = np.clip(theta + lam * step, lo, hi)
-            try:
-                y2, jac2, chi2b = at(trial)
-            except EodarmError:
-                # The trial left the model's domain (a triangle that cannot close, a singular
-                # pose): too long a step, like one that raises χ²; the current θ was solvable.
-                lam *= 0.5
-                continue
-            if chi2b <= chi2 * (1 + 1e-12) + 1e-12:
-                accepted = True
-                break
-            lam *= 0.5
-        if not accepted:
-            break
-        improvement = chi2 - chi2b
-        theta, y, jac, chi2 = trial, y2, jac2, chi2b
-        if improvement <= 1e-9 * max(chi2, 1.0):
-            break
-    # Covariance of θ from the whitened Jacobian at the solution.
-    stderr = np.full(len(slots), np.nan)
-    theta_cov = np.zeros((len(slots), len(slots)))
-    at_bound = [bool(theta[i] <= lo[i] + 1e-15 or theta[i] >= hi[i]) for i in range(len(slots))]
-    notes: list[str] = []
-    if slots:
-        a = prob.whiten_jac(jac)
-        free = ~np.array(at_bound)
-        dof = max(prob.n_values - len(slots), 1)
-        scale = max(1.0, chi2 / dof)
-        if free.any():
-            # Scale the columns first: θ of different effects differ by 1e8 (mm vs 1/EI),
-            # and an unscaled pseudo-inverse would cut the small directions off.
-            af = a[:, free]
-            norms = np.linalg.norm(af, axis=0)
-            norms[norms == 0] = 1.0
-            an = af / norms
-            cov_n = np.linalg.pinv(an.T @ an) * scale
-            stderr[free] = np.sqrt(np.clip(np.diag(cov_n), 0, None)) / norms
-            theta_cov[np.ix_(free, free)] = cov_n / np.outer(norms, norms)
-        for i, s in enumerate(slots):
-            if at_bound[i]:
-                # Half-normal bound: how far θ could go before χ² rises by 1.
-                col = a[:, i]
-                stderr[i] = math.sqrt(scale) / max(float(np.linalg.norm(col)), 1e-300)
-                # (a column of zeros: the data do not see it at all, an infinite variance)
-                theta_cov[i, i] = stderr[i] ** 2 if stderr[i] < 1e150 else math.inf
-                where = "its upper bound" if theta[i] >= hi[i] else "its lower bound (absent)"
-                notes.append(f"{s.key}: parameter stuck at {where}; the data do not want it")
-        for msg in notes:
-            warnings.warn(msg, FitWarning, stacklevel=2)
-    return FitResult(prob, slots, theta, stderr, at_bound, y, chi2, it, notes, theta_cov=theta_cov)
-
-
-class FitWarning(UserWarning):
-    """A fitted parameter sits at a physical bound."""
-
-
-def _bounded_step(
-    a: npt.NDArray[np.float64],
-    r: npt.NDArray[np.float64],
-    lo: npt.NDArray[np.float64],
-    hi: npt.NDArray[np.float64],
-) -> npt.NDArray[np.float64]:
-    """argmin ||r − a·d|| subject to lo ≤ d ≤ hi (exact; :mod:`eodarm.analysis.boxlsq`)."""
-    from eodarm.analysis.boxlsq import bounded_lstsq
-
-    return bounded_lstsq(a, r, lo, hi)
 
 
 def compare(

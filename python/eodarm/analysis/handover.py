@@ -1,24 +1,79 @@
 """What a fitted model hands over: the fitted arm file with its ``[fit]`` table, the model's
 own inadequacy it carries, and the undetermined parameters settled at their bounds
-(docs/model.md §8, "Prediction errors", "Undetermined parameters")."""
+(docs/model.md §8, "Prediction errors", "Undetermined parameters").
+
+:meth:`FitResult.to_arm <eodarm.analysis.fit.FitResult.to_arm>` is :func:`hand_over`, and so
+is ``eodarm fit -o``. This module reads a fit through the :class:`Fitted` protocol and refits
+through the fit's own ``_refit``, instead of importing :mod:`eodarm.analysis.fit`, which
+imports it (docs/architecture.md, "No cycles").
+"""
 
 from __future__ import annotations
 
 import dataclasses
+import hashlib
 import math
+import os
 import warnings
-from collections.abc import Mapping
-from typing import Any
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any, Protocol
 
 import numpy as np
 import numpy.typing as npt
 
+from eodarm.analysis.consistency import FitLike
 from eodarm.analysis.crossval import cross_validate
-from eodarm.analysis.fit import FitResult, FitWarning, fit
+from eodarm.analysis.problem import FitWarning, Problem
+from eodarm.errors import EodarmError
 from eodarm.model.arm import Arm
-from eodarm.model.effects import param_from_theta
+from eodarm.model.effects import Effect, Slot, param_from_theta
 
-__all__ = ["Inadequacy", "fitted_arm", "model_inadequacy", "settle"]
+__all__ = ["Fitted", "Inadequacy", "fitted_arm", "hand_over", "model_inadequacy", "settle"]
+
+
+class Fitted(FitLike, Protocol):
+    """What the hand-over reads of a fit (an :class:`eodarm.analysis.fit.FitResult`), named
+    by shape, and ``_refit``, the fit's way of fitting its problem again."""
+
+    @property
+    def problem(self) -> Problem: ...
+
+    slots: list[Slot]
+    theta: npt.NDArray[np.float64]
+    at_bound: list[bool]
+    fixed: list[Effect]
+
+    @property
+    def n_params(self) -> int: ...
+
+    @property
+    def chi2_per_dof(self) -> float: ...
+
+    @property
+    def residual(self) -> npt.NDArray[np.float64]: ...
+
+    def estimate(self, i: int) -> float: ...
+
+    def stderr(self, i: int) -> float: ...
+
+    def covariance(self) -> npt.NDArray[np.float64]: ...
+
+    def undetermined(
+        self, max_relative: float = 1.0, max_correlation: float = 0.95
+    ) -> list[tuple[int, str]]: ...
+
+    def theta_interval(self, i: int) -> tuple[float, float]: ...
+
+    def _bound(self, i: int, loose: Mapping[int, str]) -> str | None: ...
+
+    def _refit(
+        self,
+        arm: Arm,
+        slots: Sequence[Slot],
+        exclude: npt.NDArray[np.bool_] | None,
+        start: Sequence[float] | None,
+    ) -> Fitted: ...
 
 
 @dataclasses.dataclass(frozen=True)
@@ -40,10 +95,14 @@ class Inadequacy:
     noise_rms: dict[str, float]
 
 
-def model_inadequacy(result: FitResult, cv: Mapping[str, Any] | None = None) -> Inadequacy:
+def model_inadequacy(
+    result: Fitted, cv: Mapping[str, Any] | None = None, trusted: bool = True
+) -> Inadequacy:
     """The model part of a prediction's σ, per channel (docs/model.md, "Prediction errors").
 
-    Where the fit explains its data the part is zero. Otherwise each configuration is left out
+    Where the fit explains its data the part is zero, unless ``trusted`` is false (the data
+    look mistaken, :mod:`eodarm.analysis.datacheck`: then the fit is never taken as
+    explaining them, and the part is computed). Otherwise each configuration is left out
     in turn, the model refitted without it and its cells predicted (``cv``, the result of
     :func:`cross_validate` for this fit's model and outliers, is used when given); the part is
     what the held-out residuals' mean square exceeds the measurements' noise by. With a
@@ -54,7 +113,7 @@ def model_inadequacy(result: FitResult, cv: Mapping[str, Any] | None = None) -> 
     prob = result.problem
     meas = prob.meas
     measured = [ch for c, ch in enumerate(meas.channels) if prob.use[:, c].any()]
-    if fit_p_value(result) >= P_PASS:
+    if trusted and fit_p_value(result) >= P_PASS:
         return Inadequacy(True, dict.fromkeys(measured, 0.0), {}, {})
     if cv is None and len(meas.configs) >= 2:
         outliers = np.isfinite(meas.values) & ~prob.use
@@ -88,7 +147,7 @@ def model_inadequacy(result: FitResult, cv: Mapping[str, Any] | None = None) -> 
     return Inadequacy(False, sm, ho, nr)
 
 
-def settle(result: FitResult, exclude: npt.NDArray[np.bool_] | None = None) -> FitResult:
+def settle(result: Fitted, exclude: npt.NDArray[np.bool_] | None = None) -> Fitted:
     """The fit with what the data give only a bound for fixed at its physical end, the rest
     refitted (docs/model.md, "Undetermined parameters").
 
@@ -105,21 +164,14 @@ def settle(result: FitResult, exclude: npt.NDArray[np.bool_] | None = None) -> F
 
     res = result
     for _ in range(len(result.slots)):
-        loose = {i for i, _why in res.undetermined()}
+        loose = dict(res.undetermined())
         pinned = []
         for i, s in enumerate(res.slots):
-            if s.kind.custom:
-                continue  # a user's effect has its own neutral value and bounds
-            lo_b = res.problem.bounds(s)[0]
-            t_lo, t_hi = res.theta_interval(i)
-            at_low = res.at_bound[i] and float(res.theta[i]) <= lo_b + 1e-15
-            if not (i in loose or at_low) or t_lo > lo_b or not math.isfinite(t_hi) or t_hi <= 0:
+            bound = res._bound(i, loose)
+            if bound is None:
                 continue
-            limit = param_from_theta(s.name, t_hi)
-            if s.kind.compliance_like:
-                fixed_at, bound = MAX_STIFFNESS, "lower"
-            else:
-                fixed_at, bound = 0.0, "upper"
+            limit = param_from_theta(s.name, res.theta_interval(i)[1])
+            fixed_at = MAX_STIFFNESS if bound == "lower" else 0.0
             pinned.append((i, s.effect(fixed_at), EffectMark(False, bound, limit)))
         if not pinned:
             return res
@@ -132,21 +184,12 @@ def settle(result: FitResult, exclude: npt.NDArray[np.bool_] | None = None) -> F
         start = [float(res.theta[i]) for i in range(len(res.slots)) if i not in gone]
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", FitWarning)
-            res = fit(
-                arm,
-                prob.meas,
-                rest,
-                self_weight=prob.self_weight,
-                exclude=exclude,
-                start=start or None,
-                model=prob.model,
-                fem_options=prob.fem_options,
-            )
+            res = res._refit(arm, rest, exclude, start or None)
     return res
 
 
 def fitted_arm(
-    result: FitResult,
+    result: Fitted,
     data: str = "",
     data_sha256: str = "",
     inadequacy: Inadequacy | None = None,
@@ -200,3 +243,45 @@ def fitted_arm(
         fit=record,
         marks=[*([None] * len(fixed)), *marks],
     )
+
+
+def hand_over(
+    result: Fitted, data: str | os.PathLike[str] | None = None, trusted: bool | None = None
+) -> Arm:
+    """What ``eodarm fit ... -o FITTED.toml`` writes, as an :class:`Arm`: the fit settled
+    (:func:`settle`, the outlier cells it left out still left out), its model's inadequacy
+    (:func:`model_inadequacy`) and the fitted arm (:func:`fitted_arm`).
+
+    ``data``: the measurement file named in ``[fit]``, with the SHA-256 of its bytes now;
+    None: the measurements' own file and the hash of the bytes they were read from
+    (nothing for data that did not come whole from a file). ``trusted``: whether a fit
+    consistent with the noise may be written as explaining its data; None: when
+    :func:`eodarm.analysis.datacheck.check_data` finds no mistake in them (as ``eodarm fit``
+    decides).
+
+    Raises
+    ------
+    EodarmError
+        When ``data`` cannot be read.
+    """
+    prob = result.problem
+    if trusted is None:
+        from eodarm.analysis.datacheck import check_data
+
+        trusted = not check_data(
+            prob.arm, prob.meas, prob.self_weight, prob.model, prob.fem_options
+        )
+    outliers = np.isfinite(prob.meas.values) & ~prob.use
+    final = settle(result, exclude=outliers if outliers.any() else None)
+    inadequacy = model_inadequacy(final, trusted=trusted)
+    if data is None:
+        meas = prob.meas
+        name, digest = (Path(meas.source).name, meas.sha256) if meas.sha256 else ("", "")
+    else:
+        path = Path(data)
+        try:
+            digest = hashlib.sha256(path.read_bytes()).hexdigest()
+        except OSError as exc:
+            raise EodarmError(f"{path}: cannot read the data file: {exc.strerror or exc}") from None
+        name = path.name
+    return fitted_arm(final, data=name, data_sha256=digest, inadequacy=inadequacy)

@@ -134,7 +134,7 @@ def build_ladder(
             {
                 "label": base_label if i == 0 else f"+ {added[i - 1].key}",
                 "effects": [s.key for s in slots],
-                "rms": res.rms(),
+                "rms": dict(res.rms),
                 "cv_rms": cv_rms,
                 "chi2_per_dof": res.chi2_per_dof,
                 "fit": res,

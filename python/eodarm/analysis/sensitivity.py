@@ -42,6 +42,7 @@ import numpy.typing as npt
 
 from eodarm.model import custom
 from eodarm.model.effects import Slot, param_from_theta
+from eodarm.model.steps import typical_theta
 
 if TYPE_CHECKING:
     from eodarm.model.arm import Arm
@@ -65,22 +66,12 @@ def step(arm: Arm, slot: Slot, theta: float) -> float:
     if isinstance(kind, custom.CustomKind):
         scale = max(abs(theta), abs(kind.start - kind.neutral), abs(kind.start), abs(kind.neutral))
     else:
-        scale = max(abs(theta), _typical_theta(arm, slot))
+        scale = max(abs(theta), typical_theta(arm, slot))
     h = FD_STEP * (scale if scale > 0 else 1.0)
     lo, hi = kind.theta_bounds
     if math.isfinite(hi):
         h = min(h, 0.5 * (hi - lo))
     return -h if theta + h > hi else h
-
-
-def _typical_theta(arm: Arm, slot: Slot) -> float:
-    """The core's typical θ (``sensitivity.rs``), the scale of a step from θ = 0."""
-    name = slot.name
-    if name in ("actuator_compliance", "mount_compliance"):
-        return 1.0 / arm.actuators[slot.index(arm.n)].stiffness_n_per_mm
-    if name in ("actuator_play", "joint_clearance"):
-        return 0.1
-    return 1e-10 if name == "link_bending" else 1e-8
 
 
 class CustomEvaluator:

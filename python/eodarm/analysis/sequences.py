@@ -156,13 +156,12 @@ class SequenceEvaluator:
                 self.mass,
                 effects=effects,
                 self_weight=self.self_weight,
+                strict=True,
             )
             ch = _stack(out)
-        except ValueError as exc:  # EodarmError from Python, CoreError from the compiled core
+        except EodarmError:  # the fit's backtracking catches these
             if not nan_on_failure:
-                if isinstance(exc, EodarmError):
-                    raise
-                raise EodarmError(str(exc)) from None  # the fit's backtracking catches these
+                raise
             ch = self._one_by_one(effects)
         y = np.zeros((self.meas.n_rows, ch.shape[-1]))
         live = self.seq >= 0
@@ -183,8 +182,9 @@ class SequenceEvaluator:
                     self.mass[k : k + 1],
                     effects=effects,
                     self_weight=self.self_weight,
+                    strict=True,
                 )
-            except ValueError:  # EodarmError or the compiled core's CoreError
+            except ValueError:  # an EodarmError naming the sequence and state
                 continue
             ch[k] = _stack(out)[0]
         return ch

@@ -70,6 +70,7 @@ def random_configs(
     *,
     min_moment_ratio: float = 0.2,
     max_draws: int = 200_000,
+    partial: bool = False,
 ) -> npt.NDArray[np.float64]:
     """``k`` reachable, well-conditioned configurations (unloaded absolute angles, degrees).
 
@@ -90,16 +91,20 @@ def random_configs(
         α3… ∈ [−30, 30].
     min_moment_ratio : smallest accepted |h_i| / |A_i − O_i|.
     max_draws : poses drawn at most before giving up.
+    partial : return the poses found (at least one) when fewer than ``k`` pass within
+        ``max_draws`` draws, instead of refusing.
 
     Returns
     -------
-    (k, n) array of angles, degrees, in the order they were found.
+    (k, n) array of angles, degrees, in the order they were found ((m, n), 1 ≤ m ≤ k, with
+    ``partial``).
 
     Raises
     ------
     EodarmError
-        If fewer than ``k`` poses pass after ``max_draws`` draws; the message says which
-        condition rejected them (e.g. a stroke that the ranges never reach).
+        If fewer than ``k`` poses (with ``partial``: none) pass after ``max_draws`` draws;
+        the message says which condition rejected them (e.g. a stroke that the ranges never
+        reach).
     """
     if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or k < 1:
         raise EodarmError(f"random_configs: k must be an integer >= 1, got {k!r}")
@@ -140,7 +145,7 @@ def random_configs(
         good = alpha[ok_moment & ok_stroke & ok_ahead]
         found.append(good)
         count += good.shape[0]
-    if count < k:
+    if count < k and not (partial and count > 0):
         why = [
             f"moment arm < {min_moment_ratio:g}·|A−O| in {rejected['moment']}",
             f"outside the stroke in {rejected['stroke']}",
@@ -326,7 +331,9 @@ def _synth_sequence(
 
     states = mass[1:] if mass[0] == 0 and mass.size > 1 else mass
     s = states.size
-    out = solve_sequence(arm, alpha, states, effects=as_effects(hidden), self_weight=self_weight)
+    out = solve_sequence(
+        arm, alpha, states, effects=as_effects(hidden), self_weight=self_weight, strict=True
+    )
     kc = alpha.shape[0]
     truth = np.concatenate(
         [out["dx_mm"][..., None], out["dy_mm"][..., None], out["dalpha_deg"], out["dl_mm"]],

@@ -19,7 +19,7 @@ sampled at ``rate_hz`` with a little jitter. What the sensors read:
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -28,6 +28,7 @@ import numpy as np
 import numpy.typing as npt
 
 from eodarm.analysis.synth import _sigmas
+from eodarm.atomic import atomic_files
 from eodarm.data.channels import channel_names, channel_values, expand_channels
 from eodarm.data.records import RecordSpec, write_campaign, write_record
 from eodarm.errors import EodarmError
@@ -82,7 +83,9 @@ def state_values(
     effects = as_effects(hidden)
     if after.size == 0:
         return np.zeros((k, 1, len(names)))
-    out = solve_sequence(arm, alpha_deg, after, effects=effects, self_weight=self_weight)
+    out = solve_sequence(
+        arm, alpha_deg, after, effects=effects, self_weight=self_weight, strict=True
+    )
     s = after.size
     flat = {key: a.reshape(k * s, *a.shape[2:]) for key, a in out.items()}
     vals = channel_values(flat, names).reshape(k, s, -1)
@@ -217,17 +220,27 @@ def synth_records(
 
 
 def write_synth_campaign(
-    directory: str | Path, records: Sequence[SynthRecord], name: str = "campaign.toml"
+    directory: str | Path,
+    records: Sequence[SynthRecord],
+    name: str = "campaign.toml",
+    before: Callable[[list[Path]], None] | None = None,
 ) -> Path:
-    """Write each record as ``<config>.csv`` and the campaign file into ``directory``;
-    return the campaign file's path."""
+    """Write each record as ``<config>.csv`` and the campaign file into ``directory``, all or
+    none (each to a temporary sibling, renamed into place when the last is complete:
+    eodarm.atomic); return the campaign file's path.
+
+    ``before``, when given, is called with every path to be written before any is (the
+    command line refuses there what it must not replace)."""
     d = Path(directory)
+    path = d / name
+    files = [d / f"{r.config}.csv" for r in records]
+    if before is not None:
+        before([*files, path])
     d.mkdir(parents=True, exist_ok=True)
     specs = []
-    for r in records:
-        f = d / f"{r.config}.csv"
-        write_record(f, r.time_s, r.channels, r.values)
-        specs.append(RecordSpec(f, r.config, r.alpha_deg, r.masses_kg))
-    path = d / name
-    write_campaign(path, specs)
+    with atomic_files() as batch:
+        for f, r in zip(files, records, strict=True):
+            write_record(batch.open(f, newline=""), r.time_s, r.channels, r.values)
+            specs.append(RecordSpec(f, r.config, r.alpha_deg, r.masses_kg))
+        write_campaign(path, specs, out=batch.open(path))
     return path

@@ -69,7 +69,8 @@ def investigate(
     :func:`~eodarm.analysis.acceptance.accept` finds that it improves the model: every
     parameter away from its bounds, held-out configurations (≥ 3) predicted no worse, a
     lower BIC, and every added parameter determined by the data. The investigation stops
-    when the verdict is *adequate*, when an unexplained round has nothing that improves the
+    when the verdict is *adequate* or *check_data* (the data look mistaken: nothing is
+    looked for in them), when an unexplained round has nothing that improves the
     model (the reason is in ``stopped``), or after ``max_rounds``. Each step of the ladder is
     the round's own joint fit of all its effects, with its leave-one-configuration-out
     cross-validation when ``cv`` and there are two or more configurations.
@@ -95,7 +96,7 @@ def investigate(
         return {
             "label": label,
             "effects": [s.key for s in res.slots],
-            "rms": res.rms(),
+            "rms": dict(res.rms),
             "cv_rms": dict(cvr["rms"]) if cvr else None,
             "cv": cvr if do_cv else None,
             "cv_chi2": cv_chi2,
@@ -122,6 +123,12 @@ def investigate(
             steps.append(step(label, d.baseline, _baseline_cv(d)))
         if d.verdict == "adequate":
             stopped = "the model explains the data within their noise"
+            break
+        if d.verdict == "check_data":
+            stopped = (
+                "the data look mistaken (a unit, a sign or a zeroing): check them first; "
+                "no effect is looked for in them"
+            )
             break
         acc = d.acceptance
         if d.verdict == "missing" and acc is not None:

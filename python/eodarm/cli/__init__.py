@@ -10,14 +10,15 @@ from __future__ import annotations
 import argparse
 import importlib
 import os
+import re
 import sys
 import traceback
 import warnings
 from collections.abc import Sequence
-from typing import NoReturn
+from typing import Any, NoReturn
 
 from eodarm._version import __version__
-from eodarm.cli._help import HELP
+from eodarm.cli._help import HELP, NEGATIVE_VALUE
 from eodarm.errors import EodarmError
 
 # One BLAS thread unless the user says otherwise, set before numpy is imported (nothing above
@@ -35,9 +36,17 @@ COMMANDS = tuple(HELP)
 
 
 class _Parser(argparse.ArgumentParser):
-    """Usage errors as one line on stderr, exit status 2, like every other bad input."""
+    """Usage errors as one line on stderr, exit status 2, like every other bad input; a value
+    that starts with ``-`` (a negative angle first in a list) is a value, not an option."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        self._negative_number_matcher = NEGATIVE_VALUE
 
     def error(self, message: str) -> NoReturn:
+        m = re.match(r"argument (--[\w-]+)(?:/\S+)?: expected one argument", message)
+        if m:  # the value started with "-" and looked like an option
+            message += f" (a value that starts with '-' is given as {m[1]}=VALUE)"
         self.exit(2, f"{self.prog}: error: {message}\n")
 
 
@@ -125,7 +134,13 @@ def _error(exc: BaseException, debug: bool = False) -> None:
     if debug:
         traceback.print_exception(exc, file=sys.stderr)
         return
-    text = " ".join(str(exc).split()) or type(exc).__name__
+    from eodarm.errors import MAX_MESSAGE, show, show_source
+
+    if isinstance(exc, OSError) and exc.strerror and exc.filename is not None:
+        text = f"{show_source(exc.filename)}: {exc.strerror}"  # not a bare [Errno 2]
+    else:
+        # a safety net: every message of bad input is one line under MAX_MESSAGE already
+        text = show(" ".join(str(exc).split()) or type(exc).__name__, 4 * MAX_MESSAGE)
     print(f"eodarm: error: {text}", file=sys.stderr)
 
 

@@ -5,6 +5,7 @@ measurements, number formatting, tables and figures.
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from collections.abc import Callable, Sequence
 from pathlib import Path
@@ -199,6 +200,50 @@ def _read(
     return meas
 
 
+class _Hinted:
+    """A context whose refusals carry a hint first in their one line (reusable)."""
+
+    def __init__(self, hint: str | None) -> None:
+        self.hint = hint
+
+    def __enter__(self) -> _Hinted:
+        return self
+
+    def __exit__(self, kind: Any, exc: BaseException | None, tb: Any) -> None:
+        if self.hint is None or not isinstance(exc, (EodarmError, ValueError)):
+            return  # ValueError: the core's errors
+        from eodarm.errors import MESSAGE_ROOM, show
+
+        text = f"{self.hint}; {' '.join(str(exc).split())}"  # the likely cause first
+        raise EodarmError(show(text, MESSAGE_ROOM)) from None
+
+
+def _payload_hint(arm: Arm, masses: Sequence[float] | np.ndarray, flag: str = "--mass") -> _Hinted:
+    """The payload hint of :func:`eodarm.data.plausible.payload_hint` for the largest of
+    ``masses`` (``--mass 5000``: is it grams?): a note (held until the command succeeds),
+    and a context whose refusals carry the hint first in their one line:
+    ``with _payload_hint(arm, masses): ...``."""
+    from eodarm.data.plausible import payload_hint
+
+    heavy = float(np.max(masses)) if len(masses) else 0.0
+    hint = payload_hint(heavy, arm)
+    if hint is not None:
+        hint = f"{flag} {hint}"
+        _note(hint)
+    return _Hinted(hint)
+
+
+def _check_data(meas: Measurements, arm: Arm, self_weight: bool, model_kw: Any) -> list[Any]:
+    """The mistakes the data look like (:func:`eodarm.analysis.datacheck.check_data`), each
+    said in a note on stderr (``check the data: …``); the checks, for the JSON."""
+    from eodarm.analysis.datacheck import check_data
+
+    checks = check_data(arm, meas, self_weight, **model_kw)
+    for c in checks:
+        _note(f"check the data: {c.message}")
+    return checks
+
+
 def _unit(channel: str) -> str:
     return "deg" if channel.endswith("_deg") else "mm"
 
@@ -345,10 +390,16 @@ def _print_table(
 
 
 def _describe_data(meas: Measurements) -> str:
-    masses = "/".join(f"{m:g}" for m in dict.fromkeys(np.asarray(meas.mass_kg).tolist()))
+    """``36 states, 6 configurations, payloads 1.5, 5, 6.5 and 0 kg, 288 values on …`` (the
+    payloads in the order they first appear)."""
+    from eodarm.viz.format import listing, plural
+
+    masses = list(dict.fromkeys(np.asarray(meas.mass_kg).tolist()))
+    what = "payload" if len(masses) == 1 else "payloads"
     return (
-        f"{meas.n_rows} states, {len(meas.configs)} configurations, payloads {masses} kg, "
-        f"{meas.n_values} values on {', '.join(meas.measured_channels)}"
+        f"{plural(meas.n_rows, 'state')}, {plural(len(meas.configs), 'configuration')}, "
+        f"{what} {listing(masses, 'kg')}, {plural(meas.n_values, 'value')} on "
+        f"{', '.join(meas.measured_channels)}"
     )
 
 
@@ -416,34 +467,129 @@ def _carried(args: argparse.Namespace, command: str, given: Sequence[str] = ()) 
 
 
 def _free_name(name: str) -> str:
-    """``name``, or ``stem-2.ext``, ``stem-3.ext`` … the first that does not exist here: an
-    output the ``next:`` line proposes is never one that would be refused (``--force``)."""
+    """``name``, or ``stem-2.ext``, ``stem-3.ext`` … (in the same folder) the first that does
+    not exist: an output the ``next:`` line proposes is never one that would be refused
+    (``--force``)."""
     p = Path(name)
     k = 2
-    while p.exists():
-        p = Path(f"{Path(name).stem}-{k}{Path(name).suffix}")
+    while p.exists() or p.is_symlink():
+        p = p.with_name(f"{Path(name).stem}-{k}{Path(name).suffix}")
         k += 1
     return str(p)
 
 
+def file_part(label: str, taken: set[str] | None = None) -> str:
+    """A label (a configuration's, say) as part of a file name: every character but
+    letters, digits, ``.``, ``-`` and ``_`` becomes ``_`` (a ``/`` would name a folder, a
+    NUL no file at all), cut to 60 characters. With ``taken`` (the parts given so far, to
+    which the new one is added), ``-2``, ``-3`` … make two labels that differ only in such
+    characters two files."""
+    import re
+
+    base = re.sub(r"[^A-Za-z0-9._-]", "_", str(label))[:60].lstrip(".") or "_"
+    name, k = base, 2
+    while taken is not None and name in taken:
+        name, k = f"{base}-{k}", k + 1
+    if taken is not None:
+        taken.add(name)
+    return name
+
+
 def _force_arg(p: argparse.ArgumentParser, what: str) -> None:
     """``--force``: overwrite ``what`` (refused without it; docs/terminal.md, "Nothing
-    overwritten without asking")."""
-    p.add_argument("--force", action="store_true", help=f"overwrite {what}")
+    overwritten without asking"). A command's own inputs are never overwritten."""
+    p.add_argument(
+        "--force", action="store_true", help=f"overwrite {what} (never one of the inputs)"
+    )
 
 
-def _refuse_overwrite(path: str, force: bool, flag: str) -> None:
-    """Refuse, before any work, to write over an existing ``path`` without ``--force``.
+# ----------------------------------------------------------------------------- outputs
+#: The options whose files a command reads, and how a refusal names them.
+_INPUT_ARGS = (
+    ("measurements", "the measurement file"),
+    ("campaign", "the campaign file"),
+    ("arm", "the --arm file"),
+    ("poses", "the --poses file"),
+    ("effects", "the --effects file"),
+    ("fixed", "the --fixed file"),
+)
+
+
+def _inputs(args: argparse.Namespace) -> list[tuple[str, str]]:
+    """``(path, what)`` of every file the command reads: its measurement or campaign file,
+    ``--arm``, ``--poses``, ``--effects`` and, for a campaign, the records it lists."""
+    import warnings
+
+    from eodarm.data.records import is_campaign, read_campaign
+
+    out: list[tuple[str, str]] = []
+    for attr, what in _INPUT_ARGS:
+        given = getattr(args, attr, None)
+        for path in given if isinstance(given, list) else [given] if given else []:
+            out.append((str(path), what))
+    for path, what in list(out):
+        if what in ("the measurement file", "the campaign file") and is_campaign(path):
+            try:
+                with warnings.catch_warnings():  # its notes are the reading's to give
+                    warnings.simplefilter("ignore")
+                    camp = read_campaign(path)
+            except EodarmError:
+                continue  # refused with its own line when it is read
+            out += [(str(r.file), f"a record of the campaign {path}") for r in camp.records]
+    return out
+
+
+def _same_file(a: str | Path, b: str | Path) -> bool:
+    """Whether two spellings name one file: a symlink, a hard link, ``./x``, relative and
+    absolute (``os.path.samefile``; by their resolved paths where one does not exist)."""
+    try:
+        return os.path.samefile(a, b)
+    except OSError:
+        return os.path.realpath(a) == os.path.realpath(b)
+
+
+def _claim(
+    args: argparse.Namespace, path: str | Path, flag: str, force: bool | None = None
+) -> None:
+    """The rule of every output (docs/terminal.md, "Nothing overwritten without asking"),
+    checked before any work: ``path`` is never one of the run's inputs, even with
+    ``--force``, and an existing ``path`` is replaced only with ``--force``. (The write
+    itself goes through :mod:`eodarm.atomic`: whole or not at all.) ``force`` overrides
+    ``args.force`` (a resumed sweep: the overwrite was asked for when it started).
 
     Raises
     ------
     EodarmError
-        One line naming the path and the way out.
+        One line naming the path, and the input it is or the way out.
     """
+    named = f"{flag} {path}" if flag else str(path)
+    for given, what in _inputs(args):
+        if _same_file(path, given):
+            same = "" if str(given) == str(path) else f" ({given})"
+            raise EodarmError(
+                f"{named}: is {what}{same}, an input of this run; choose another name "
+                "(--force never replaces an input)"
+            )
+    if force is None:
+        force = bool(getattr(args, "force", False))
     if force or not (Path(path).exists() or Path(path).is_symlink()):
         return
+    raise EodarmError(f"{named}: exists; give --force to overwrite it, or choose another name")
+
+
+def _claim_folder(args: argparse.Namespace, folder: str | Path, flag: str) -> None:
+    """An output folder: refused when it is a file, and when it holds any file unless
+    ``--force`` (they may be the user's edited copies); the files written into it are then
+    each checked by :func:`_claim` once their names are known."""
+    d = Path(folder)
+    named = f"{flag} {folder}" if flag else str(folder)
+    if d.exists() and not d.is_dir():
+        raise EodarmError(f"{named}: exists and is not a folder")
+    if getattr(args, "force", False) or not d.exists() or not any(d.iterdir()):
+        return
     raise EodarmError(
-        f"{flag} {path}: exists; give --force to overwrite it, or choose another name"
+        f"{named}: the folder is not empty; give --force to overwrite the files written "
+        "into it, or choose an empty folder"
     )
 
 
@@ -597,6 +743,7 @@ def run_records(
         raise EodarmError(f"--min-duration must be > 0 s, got {min_duration_s}")
     camp = read_campaign(campaign)
     drawn: list[str] = []
+    parts: set[str] = set()  # the labels' parts of the figures' names
     draw = None
     if plot_dir or record_figures is not None:
         from eodarm.viz.records_plot import MAX_REPORT_RECORDS, record_figure, record_html
@@ -607,7 +754,7 @@ def run_records(
 
         def draw(record: Any, result: Any) -> None:
             if out is not None:
-                p = out / f"record_{result.spec.config}.png"
+                p = out / f"record_{file_part(result.spec.config, parts)}.png"
                 record_figure(record, result, path=p)
                 drawn.append(str(p))
             if record_figures is not None and len(record_figures) < MAX_REPORT_RECORDS:

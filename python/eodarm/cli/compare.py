@@ -16,8 +16,11 @@ if TYPE_CHECKING:
 from eodarm.cli._common import (
     _arm_argv,
     _channel,
+    _check_data,
+    _claim,
     _describe_data,
     _fmt,
+    _force_arg,
     _load_arm,
     _model,
     _model_keys,
@@ -74,6 +77,8 @@ def run(args: argparse.Namespace) -> int:
     from eodarm.analysis.outliers import outlier_table, robust_fit
     from eodarm.analysis.sequences import hysteresis
 
+    if args.residuals:
+        _claim(args, args.residuals, "--residuals")
     arm = _load_arm(args.arm, args.measurements)
     sw = not args.no_self_weight
     model = _model(args.add, allow_values=True)
@@ -85,6 +90,7 @@ def run(args: argparse.Namespace) -> int:
     with _stages(names, "compare") as step:
         step("reading")  # a file of 10⁵ rows takes seconds to read and check
         meas = _read(args.measurements, arm, sw)
+        checks = _check_data(meas, arm, sw, _model_kw(args))
         step("comparing")
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always", FitWarning)
@@ -114,6 +120,7 @@ def run(args: argparse.Namespace) -> int:
             "worst": _worst(res),
             "outliers": outliers,
             "noise": _noise_json(meas),
+            "data_checks": [c.to_json() for c in checks],
         }
     for w in caught:
         _note(str(w.message))
@@ -232,7 +239,7 @@ def _print_loop(h: dict[str, Any]) -> None:
             row = [str(step), f"{kg:g}", br]
             for ch in group:
                 m, mo = h["measured"][ch][s], h["model"][ch][s]
-                row += [_fmt(np.nan if m is None else m), _fmt(mo)]
+                row += [_reading(np.nan if m is None else m, ch), _reading(mo, ch)]
             rows.append(row)
         _print_table(head, rows, left=(2,))
     left = h["left_at_return"]
@@ -242,12 +249,23 @@ def _print_loop(h: dict[str, Any]) -> None:
         _say(
             "left at the return to zero: "
             + "; ".join(
-                f"{ch} {_fmt(np.nan if v['measured'] is None else v['measured'])} measured, "
-                f"{_fmt(v['model'])} model"
+                f"{_channel(ch)[0]} "
+                f"{_reading(np.nan if v['measured'] is None else v['measured'], ch, True)} "
+                f"measured, {_reading(v['model'], ch, True)} model"
                 for ch, v in left.items()
             ),
             "  ",
         )
+
+
+def _reading(x: float, channel: str, unit: bool = False) -> str:
+    """A channel's value, four digits, a practical zero as ``0`` (a model without memory
+    comes back to 1e-10 mm: rounding); with ``unit``, its unit once."""
+    from eodarm.viz.format import channel_value
+
+    u = _channel(channel)[1]
+    text = channel_value(x, u, 4)
+    return text if unit else text.removesuffix(f" {u}")
 
 
 def _write_residuals(path: str, res: FitResult, flagged: Any) -> None:
@@ -257,8 +275,10 @@ def _write_residuals(path: str, res: FitResult, flagged: Any) -> None:
     meas = res.problem.meas
     chans = list(meas.measured_channels)
     cols = [meas.channels.index(ch) for ch in chans]
-    with open(path, "w", newline="", encoding="utf-8") as fh:
-        wr = csv.writer(fh)
+    from eodarm.atomic import atomic_write
+
+    with atomic_write(path, newline="") as fh:  # whole or not at all
+        wr = csv.writer(fh, lineterminator="\n")  # LF, as every file eodarm writes
         head = ["line", "config", "mass_kg"]
         for ch in chans:
             head += [ch, f"model_{ch}", f"residual_{ch}", f"z_{ch}", f"outlier_{ch}"]
@@ -300,5 +320,6 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
         metavar="FILE.csv",
         help="write every row's measured, model, residual and z for each channel",
     )
+    _force_arg(c, "an existing --residuals file")
     c.set_defaults(func=run)
     return c

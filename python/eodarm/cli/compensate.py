@@ -24,12 +24,15 @@ from eodarm.analysis.compensate import compensate
 from eodarm.cli._common import (
     ARM_HELP,
     _arm_argv,
+    _claim,
     _effects_args,
     _floats,
+    _force_arg,
     _load_arm,
     _model_words,
     _next,
     _note,
+    _payload_hint,
     _print_table,
     _say,
     _stages,
@@ -39,6 +42,7 @@ from eodarm.cli._help import HELP
 from eodarm.errors import EodarmError
 from eodarm.model.arm import Arm
 from eodarm.model.effects import Effect, with_arm_effects
+from eodarm.model.hysteresis import has_branch, has_memory
 
 
 def _nominal_poses(
@@ -136,8 +140,10 @@ def _write_csv(
     def cell(x: float) -> str:
         return "" if math.isnan(x) else repr(float(x))
 
-    with open(path, "w", encoding="utf-8", newline="") as f:
-        w = csv.writer(f)
+    from eodarm.atomic import atomic_write
+
+    with atomic_write(path, newline="") as f:  # whole or not at all
+        w = csv.writer(f, lineterminator="\n")  # LF, as every other file eodarm writes
         w.writerow(head)
         for i in range(alpha.shape[0]):
             row = [config[i]] if config is not None else []
@@ -175,7 +181,28 @@ def _predicted_miss(
     return miss
 
 
+def _hysteresis(
+    arm: Arm,
+    out: dict[str, npt.NDArray[Any]],
+    mass: npt.NDArray[np.float64],
+    effects: list[Effect],
+    self_weight: bool,
+) -> npt.NDArray[np.float64]:
+    """The hysteresis band at the commanded poses (mm; eodarm.model.hysteresis.band): how
+    far the point lands from the nominal one when the payload is reached by unloading; 0
+    without friction, NaN where not compensated."""
+    from eodarm.model.hysteresis import band
+
+    got = np.full(mass.shape[0], np.nan)
+    ok = np.asarray(out["status"]) == "ok"
+    if ok.any():
+        got[ok] = band(arm, out["alpha_deg"][ok], mass[ok], effects, self_weight)
+    return got
+
+
 def run(args: argparse.Namespace) -> int:
+    if args.output:
+        _claim(args, args.output, "-o")
     arm = _load_arm(args.arm)
     effects = [_valued_effect(s) for s in args.add or []]
     alpha, mass, config = _nominal_poses(args, arm)
@@ -184,7 +211,9 @@ def run(args: argparse.Namespace) -> int:
 
     from eodarm.analysis.compensate import CompensationWarning, failure_summary
 
+    hinted = _payload_hint(arm, mass)  # --mass 5000: is it grams?
     with (
+        hinted,
         warnings.catch_warnings(record=True) as caught,
         _stages(["compensating"], "compensate") as step,
     ):
@@ -202,7 +231,8 @@ def run(args: argparse.Namespace) -> int:
     summary = failure_summary(out, args.poses, lines)
     if summary and not args.partial:
         hint = "; --partial keeps the others" if alpha.shape[0] > 1 else ""
-        raise EodarmError(f"{summary}{hint}")
+        with hinted:
+            raise EodarmError(f"{summary}{hint}")
     if summary:
         warnings.warn(
             summary + "; their alpha_deg and length_mm are NaN", CompensationWarning, stacklevel=1
@@ -211,6 +241,7 @@ def run(args: argparse.Namespace) -> int:
         _write_csv(args.output, arm, alpha, mass, config, out)
         _note(f"wrote {args.output}")
     predicted = _predicted_miss(arm, out, mass, effects, self_weight)
+    hysteresis = _hysteresis(arm, out, mass, effects, self_weight)
     if predicted is not None:
         from eodarm.model.uncertainty import inadequacy_note
 
@@ -224,6 +255,8 @@ def run(args: argparse.Namespace) -> int:
             "residual_mm": _json_list(out["residual_mm"]),
             "status": [str(s) for s in out["status"]],
         }
+        if has_branch(arm, effects):  # friction or a gap: the answer is the loading branch's
+            doc |= {"branch": "loading", "hysteresis_mm": _json_list(hysteresis)}
         if predicted is not None:
             doc["predicted_miss_mm"] = _json_list(predicted)
         json.dump(doc, sys.stdout)
@@ -237,6 +270,9 @@ def run(args: argparse.Namespace) -> int:
     head = ["pose", "kg", "nominal α deg", "command α deg", "length mm", "miss mm", "left mm"]
     if predicted is not None:
         head += ["2σ miss mm"]
+    memory = has_memory(arm, effects)
+    if memory:
+        head += ["band mm"]
     head += ["status"]
     rows = []
     for i in range(alpha.shape[0]):
@@ -252,6 +288,8 @@ def run(args: argparse.Namespace) -> int:
         ]
         if predicted is not None:
             row.append("—" if math.isnan(predicted[i]) else f"{predicted[i]:.2g}")
+        if memory:
+            row.append("—" if math.isnan(hysteresis[i]) else f"{hysteresis[i]:.3g}")
         rows.append([*row, str(out["status"][i])])
     _print_table(head, [[c.replace("-", "−") for c in r] for r in rows])
     _say(
@@ -260,12 +298,23 @@ def run(args: argparse.Namespace) -> int:
         "leaves with it"
         + (
             "; 2σ miss: how far the real arm may still miss, from the fitted model's σ "
-            "(parameters and inadequacy)"
+            "(parameters and inadequacy)" + (" on the loading branch" if memory else "")
             if predicted is not None
             else ""
         )
         + " (--json or -o: full precision)"
     )
+    if has_branch(arm, effects):
+        _say(
+            "on the loading branch: the payload put on from the unloaded pose; "
+            + (
+                "band: how far the point lands from there when the same payload is reached by "
+                "unloading from a heavier one (the frictions hold the other way; "
+                "docs/compensation.md §4)"
+                if memory
+                else "the gaps keep no memory, so unloading to it lands on the same point"
+            )
+        )
     first = next((i for i in range(alpha.shape[0]) if out["status"][i] == "ok"), None)
     if first is not None:  # check: solve at the command, the point lands on the nominal
         cmd = ",".join(f"{a:.6g}" for a in out["alpha_deg"][first])
@@ -319,6 +368,7 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     c.add_argument(
         "-o", "--output", metavar="OUT.csv", help="write the nominal and commanded poses as CSV"
     )
+    _force_arg(c, "an existing -o file")
     c.add_argument(
         "--partial",
         action="store_true",

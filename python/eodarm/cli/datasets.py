@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from eodarm.cli._common import _force_arg, _note, _say
+from eodarm.cli._common import _claim_folder, _force_arg, _note, _say
 from eodarm.cli._help import HELP
 from eodarm.errors import EodarmError
 
@@ -21,30 +21,13 @@ def run(args: argparse.Namespace) -> int:
     if args.action == "export":
         if not args.name or not args.directory:
             raise EodarmError("usage: eodarm datasets export NAME DIR")
-        _refuse_nonempty(args.directory, args.force)
+        _claim_folder(args, args.directory, "")
         written = datasets.export(args.name, args.directory)
         for p in written:
             print(p)
         _note(f"wrote {len(written)} files of '{args.name}' to {args.directory}")
         return 0
     raise EodarmError(f"unknown datasets action '{args.action}'")
-
-
-def _refuse_nonempty(directory: str, force: bool) -> None:
-    """Refuse to export into a folder that already holds files (they may be the user's
-    edited copies) unless ``--force``; an empty or new folder is fine."""
-    from pathlib import Path
-
-    d = Path(directory)
-    if force or not d.exists():
-        return
-    if not d.is_dir():
-        raise EodarmError(f"{directory}: exists and is not a folder")
-    if any(d.iterdir()):
-        raise EodarmError(
-            f"{directory}: the folder is not empty; give --force to overwrite the data set's "
-            "files in it, or choose an empty folder"
-        )
 
 
 def add_parser(sub: Any) -> argparse.ArgumentParser:

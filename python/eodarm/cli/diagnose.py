@@ -85,11 +85,26 @@ def _output(args: argparse.Namespace, d: Any, arm: Arm, meas: Any, sw: bool, mk:
 
 
 def _say_next(args: argparse.Namespace, d: Any) -> None:
-    """What to run next: fit the suggested set; the rounds of a report when nothing in the
-    catalogue explains the data; the workspace maps when nothing is missing."""
+    """What to run next: a plan of more configurations when the leading candidates are
+    confused (docs/plan.md); fit the suggested set; the rounds of a report when nothing in
+    the catalogue explains the data; the workspace maps when nothing is missing."""
     data = [args.measurements, *_arm_argv(args)]
+    from eodarm.analysis.plan.follow import confused_lead
+
+    if confused_lead(d):
+        from eodarm.analysis.plan.pool import payloads_of
+
+        pl = payloads_of(d.baseline.problem.meas)
+        loads = [
+            "--sequence" if pl.sequence else "--masses",
+            ",".join(f"{m:g}" for m in pl.masses_kg),
+        ]
+        _next("plan", "--fixed", *data, "--configs", "3", *loads, args=args)
+        return
     adds = [a for s in [*d.model, *d.suggested] for a in ("--add", s.spec)]
-    if d.verdict == "missing":
+    if d.verdict == "check_data":  # the residuals of every row, to look at the data
+        _next("compare", *data, "--residuals", _free_name("residuals.csv"), args=args)
+    elif d.verdict == "missing":
         _next("fit", *data, *adds, "--cv", "config", args=args)
     elif d.verdict == "unexplained":
         _next("report", *data, *[a for s in d.model for a in ("--add", s.spec)], args=args)
@@ -107,7 +122,7 @@ def _candidate(slot: Any) -> str:
 
 
 def _print_diagnosis(d: Any, arm: Arm, meas: Measurements) -> None:
-    from eodarm.viz.format import p_value
+    from eodarm.viz.format import p_value, value
 
     _say(f"diagnose {meas.source} with arm '{arm.name}', model: {_model_words(arm, d.model)}")
     _say(_describe_data(meas))
@@ -116,17 +131,20 @@ def _print_diagnosis(d: Any, arm: Arm, meas: Measurements) -> None:
         f"{given}: χ²/dof {d.baseline.chi2_per_dof:.4g} ({p_value(d.p_baseline)}); "
         f"RMS {_rms_line(d.baseline.rms())}"
     )
+    if d.verdict == "check_data":
+        _print_checks(d.data_checks)
+        return
     if d.verdict == "adequate":
         _say(
             "verdict: ADEQUATE — the model explains the data within their noise; nothing is missing"
         )
     elif d.verdict == "missing":
         _say(
-            f"verdict: MISSING — suggested: {' + '.join(s.label for s in d.suggested)} "
+            f"verdict: MISSING — suggested: {suggested_words(d)} "
             f"({d.sets_searched} candidate sets searched)"
         )
         if d.suggested_fit is not None:
-            _print_fit(d.suggested_fit)
+            _print_fit(d.suggested_fit, d)
         if d.acceptance is not None:
             _say("accepted: " + "; ".join(d.acceptance.reasons()), "    ")
     else:
@@ -135,13 +153,14 @@ def _print_diagnosis(d: Any, arm: Arm, meas: Measurements) -> None:
     for a in d.advice:
         x, y = a["pair"]
         print()
-        _say(f"{x} and {y} cannot be told apart with these channels and poses.")
+        what = " (suggested)" if a.get("suggested") else ""
+        _say(f"{x}{what} and {y} cannot be told apart with these channels and poses.")
         if a.get("memory"):
             _say(f"what separates them: {a['memory']}", "  ")
         if a["channel"]:
             _say(
                 f"measure {a['channel']['channel']}: it separates them by "
-                f"χ² = {a['channel']['chi2_separation']:.3g} on the same poses",
+                f"χ² = {value(a['channel']['chi2_separation'], digits=3)} on the same poses",
                 "  ",
             )
         pose = a["pose"]
@@ -149,7 +168,8 @@ def _print_diagnosis(d: Any, arm: Arm, meas: Measurements) -> None:
             ang = ", ".join(f"{v:.1f}" for v in pose["alpha_deg"])
             _say(
                 f"or add the pose alpha = ({ang}) deg at {pose['mass_kg']:g} kg: "
-                f"χ² = {pose['chi2_separation']:.3g} between them on the measured channels",
+                f"χ² = {value(pose['chi2_separation'], digits=3)} between them on the measured "
+                "channels",
                 "  ",
             )
         elif pose:
@@ -162,14 +182,53 @@ def _print_diagnosis(d: Any, arm: Arm, meas: Measurements) -> None:
         )
 
 
-def _print_ranking(d: Any, width: int = WIDTH) -> None:
-    """The candidates that lower χ² as a table (the RMS of as many channels as fit within
-    ``width`` columns), the others folded into one wrapped line."""
+def _print_checks(checks: Any) -> None:
+    """The verdict *check_data*: what the data look like, one line each, with the fix."""
+    _say(
+        "verdict: CHECK THE DATA — they look mistaken, not like a missing effect; no effect "
+        "was looked for (docs/diagnosis.md, Check the data first):"
+    )
+    for c in checks:
+        _say(c.message, "  ")
+
+
+def suggested_words(d: Any) -> str:
+    """The suggested set on the verdict's line, each effect that the data cannot tell apart
+    from another with its look-alikes and what would separate them: ``mount_compliance@M4
+    (or actuator_compliance@M4: the data cannot tell them apart; a dl4_mm sensor would) +
+    joint_clearance@O2``."""
+    from eodarm.analysis.confusions import separated_by
+
+    parts = []
+    for s in d.suggested:
+        alts = d.alternatives.get(s.spec) or []
+        if not alts:
+            parts.append(s.label)
+            continue
+        entry = next((a for a in d.advice if a["pair"] == [s.spec, alts[0]]), None)
+        how = separated_by(entry)
+        tail = f"; {how} would" if how else "; no channel or pose found would"
+        parts.append(f"{s.label} (or {' or '.join(alts)}: the data cannot tell them apart{tail})")
+    return " + ".join(parts)
+
+
+def _estimate(fit: Any, j: int) -> str:
+    """A ranked candidate's estimate, three digits, marked where it sits at a bound."""
     from eodarm.viz.format import value
 
+    slot = fit.slots[j]
+    text = value(fit.estimate(j), slot.kind.unit, digits=3)
+    return text + " (at bound)" if fit.at_bound[j] else text
+
+
+def _print_ranking(d: Any, width: int = WIDTH) -> None:
+    """The candidates that lower χ² as a table (the RMS of as many channels as fit within
+    ``width`` columns), the others folded into one wrapped line. A suggested effect is a row
+    of the table even when it does not help alone, with a line saying so."""
     floor = 1e-6 * max(d.baseline.chi2, 1.0)
-    helping = [c for c in d.ranking if c.delta_chi2 > floor]
-    idle = [c for c in d.ranking if c.delta_chi2 <= floor]
+    sugg = {s.key for s in d.suggested}
+    helping = [c for c in d.ranking if c.delta_chi2 > floor or c.slot.key in sugg]
+    idle = [c for c in d.ranking if c.delta_chi2 <= floor and c.slot.key not in sugg]
     print("\nranking (each candidate added alone, its parameter fitted):")
     chans = list(d.baseline.rms())
     main = [ch for ch in ("dy_mm", "dx_mm") if ch in chans]
@@ -183,7 +242,7 @@ def _print_ranking(d: Any, width: int = WIDTH) -> None:
             [
                 str(i + 1),
                 _candidate(c.slot),
-                value(c.fit.estimate(j), c.slot.kind.unit, digits=3),
+                _estimate(c.fit, j),
                 f"{c.fit.chi2_per_dof:.4g}",
                 ", ".join(f"#{number[k]}" if k in number else k for k in c.confused_with),
                 *(_fmt(rms.get(ch, np.nan)) for ch in chans),
@@ -213,11 +272,27 @@ def _print_ranking(d: Any, width: int = WIDTH) -> None:
             )
     else:
         print("no single candidate lowers χ²")
+    _print_alone(d, [c for c in helping if c.delta_chi2 <= floor], number)
     if idle:
         unchanged = idle[0].fit.chi2_per_dof
         _say(
-            f"do not help (their parameter stays where the effect is absent; χ²/dof "
-            f"{unchanged:.4g}): " + ", ".join(c.slot.spec for c in idle)
+            f"do not help alone (added alone, their parameter stays where the effect is "
+            f"absent; χ²/dof {unchanged:.4g}): " + ", ".join(c.slot.spec for c in idle)
+        )
+
+
+def _print_alone(d: Any, alone: list[Any], number: dict[str, str]) -> None:
+    """A line for each suggested effect that does not help alone: its value in the set."""
+    from eodarm.viz.format import value_error
+
+    f = d.suggested_fit
+    for c in alone:
+        if f is None:
+            continue
+        i = [s.key for s in f.slots].index(c.slot.key)
+        _say(
+            f"#{number[c.slot.label]} {c.slot.spec} does not help alone; with the rest of the "
+            f"suggested set it is {value_error(f.estimate(i), f.stderr(i), c.slot.kind.unit)}"
         )
 
 
@@ -227,13 +302,22 @@ def _span(head: list[str], rows: list[list[str]]) -> int:
     return sum(widths) + 2 * (len(widths) - 1)
 
 
-def _print_fit(f: Any) -> None:
+def _print_fit(f: Any, d: Any = None) -> None:
+    """The fitted parameters of a set, and under each suggested effect that the data cannot
+    tell apart from another the look-alike's value in the set refitted with it instead."""
     from eodarm.viz.format import value_error
 
     rows = []
     for i, s in enumerate(f.slots):
         note = "  (at its bound)" if f.at_bound[i] else ""
         rows.append((_candidate(s), value_error(f.estimate(i), f.stderr(i), s.kind.unit) + note))
+        for alt in (d.alternatives.get(s.spec) or []) if d is not None else []:
+            g = d.alternative_fits.get((s.spec, alt))
+            if g is None:
+                continue
+            j = [t.spec for t in g.slots].index(alt)
+            est = value_error(g.estimate(j), g.stderr(j), g.slots[j].kind.unit)
+            rows.append(("  or " + _candidate(g.slots[j]), f"{est}  (as well)"))
     w = max(len(r[0]) for r in rows)
     for name, est in rows:
         _say(f"{name.ljust(w)}  {est}", "    ")

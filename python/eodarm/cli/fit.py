@@ -8,6 +8,8 @@ from typing import Any
 
 from eodarm.cli._common import (
     _arm_argv,
+    _check_data,
+    _claim,
     _describe_data,
     _force_arg,
     _free_name,
@@ -20,7 +22,6 @@ from eodarm.cli._common import (
     _plots,
     _print_table,
     _read,
-    _refuse_overwrite,
     _rms_line,
     _say,
     _stages,
@@ -34,12 +35,11 @@ def run(args: argparse.Namespace) -> int:
     import warnings
 
     from eodarm.analysis.crossval import cross_validate
-    from eodarm.analysis.fit import FitWarning, check_validity, compare
-    from eodarm.analysis.handover import model_inadequacy, settle
+    from eodarm.analysis.fit import FitWarning, compare, validity_mark
     from eodarm.analysis.outliers import outlier_table, robust_fit
 
     if args.output:
-        _check_output(args)
+        _claim(args, args.output, "-o")
     arm = _load_arm(args.arm, args.measurements)
     sw = not args.no_self_weight
     model = _model(args.add, allow_values=True)
@@ -49,12 +49,13 @@ def run(args: argparse.Namespace) -> int:
     with _stages(names, "fit") as step:
         step("reading")  # a file of 10⁵ rows takes seconds to read and check
         meas = _read(args.measurements, arm, not args.no_self_weight)
+        checks = _check_data(meas, arm, sw, _model_kw(args))
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always", FitWarning)
             mk = _model_kw(args)
             step("fitting")
             res, flagged = robust_fit(arm, meas, model, self_weight=sw, **mk)
-            check_validity(res)
+            outside = validity_mark(res)  # states outside the validity: kept, marked
             outliers = outlier_table(res, flagged)
             cv = cv0 = None
             if args.cv:
@@ -78,10 +79,16 @@ def run(args: argparse.Namespace) -> int:
         {"parameter": f"{res.slots[i].key}:{res.slots[i].kind.param}", "why": why}
         for i, why in undetermined
     ]
+    doc["data_checks"] = [c.to_json() for c in checks]
+    if outside is not None:
+        _note(outside.message)
+        doc["outside_validity"] = outside.to_json()
     if args.output:
-        final = settle(res, exclude=flagged if flagged.any() else None)
-        inad = model_inadequacy(final)
-        doc["fitted_file"] = _write_fitted(final, inad, args.output, args.measurements)
+        # the fit settled, its inadequacy and the [fit] table: FitResult.to_arm, the same
+        # arm a script gets (the outliers robust_fit left out stay out); data that look
+        # mistaken are never "explained", whatever the χ²
+        fitted = res.to_arm(data=args.measurements, trusted=not checks)
+        doc["fitted_file"] = _write_fitted(fitted, res.problem.arm, args.output)
     if args.json:
         print(json.dumps(doc, allow_nan=False))
     else:
@@ -117,29 +124,6 @@ def run(args: argparse.Namespace) -> int:
             args=args,
         )
     return 0
-
-
-def _check_output(args: argparse.Namespace) -> None:
-    """``-o`` never replaces the measurements it is fitted to; an existing file (the
-    ``--arm`` input included) only with ``--force``."""
-    import os
-
-    out = args.output
-
-    def same(a: str) -> bool:
-        try:
-            return os.path.samefile(out, a)
-        except OSError:
-            return False
-
-    if same(args.measurements):
-        raise EodarmError(f"-o {out}: is the measurement file being fitted; choose another name")
-    if args.arm and same(args.arm) and not args.force:
-        raise EodarmError(
-            f"-o {out}: is the --arm input; give --force to replace it with the fitted arm, "
-            "or choose another name"
-        )
-    _refuse_overwrite(out, args.force, "-o")
 
 
 def _print_fit(
@@ -195,30 +179,25 @@ def _print_fit(
         )
 
 
-def _write_fitted(res: Any, inad: Any, path: str, data: str) -> dict[str, Any]:
-    """The fitted arm file: written whole to a sibling, then renamed into place. The input
-    arm file's text is the template, so its comments and layout survive. Says in a line
-    each what was fixed at a bound and when the model does not explain its data; returns
-    that for the JSON output (``bounded``, ``explained``, ``sigma_model``)."""
-    import hashlib
-    import os
+def _write_fitted(fitted: Any, arm: Any, path: str) -> dict[str, Any]:
+    """The fitted arm file, whole or not at all (eodarm.atomic). The input
+    arm file's text (``arm.source``) is the template, so its comments and layout survive.
+    Says in a line each what was fixed at a bound and when the model does not explain its
+    data; returns that for the JSON output (``bounded``, ``explained``, ``sigma_model``)."""
     from pathlib import Path
 
-    from eodarm.analysis.handover import fitted_arm
+    from eodarm.atomic import atomic_write
     from eodarm.model.uncertainty import inadequacy_note
     from eodarm.viz.format import value
 
-    digest = hashlib.sha256(Path(data).read_bytes()).hexdigest()
-    fitted = fitted_arm(res, data=Path(data).name, data_sha256=digest, inadequacy=inad)
-    source = Path(res.problem.arm.source)
+    source = Path(arm.source)
     template = None
     if source.suffix == ".toml" and source.is_file():
         template = source.read_text(encoding="utf-8-sig")
     text = fitted.to_toml(template)
     out = Path(path)
-    tmp = out.with_name(f".{out.name}.part")
-    tmp.write_text(text, encoding="utf-8")
-    os.replace(tmp, out)
+    with atomic_write(out) as f:
+        f.write(text)
     _note(f"wrote the fitted arm to {out}")
     bounded = []
     for e, mark in fitted.bounded():
@@ -241,11 +220,12 @@ def _write_fitted(res: Any, inad: Any, path: str, data: str) -> dict[str, Any]:
     line = inadequacy_note(fitted)
     if line:
         _note(line)
+    record = fitted.fit
     return {
         "path": str(out),
         "bounded": bounded,
-        "explained": inad.explained,
-        "sigma_model": inad.sigma_model,
+        "explained": record.explained,
+        "sigma_model": dict(record.sigma_model),
     }
 
 
@@ -271,6 +251,6 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
         help="write the arm with the fitted effects, their errors, covariance and the model's "
         "inadequacy (docs/model.md); the input arm file's comments are kept",
     )
-    _force_arg(c, "an existing -o file (the --arm input included)")
+    _force_arg(c, "an existing -o file")
     c.set_defaults(func=run)
     return c

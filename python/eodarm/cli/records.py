@@ -7,8 +7,10 @@ import json
 import sys
 from typing import Any
 
-from eodarm.cli._common import _next, _note, run_records
+from eodarm.cli._common import _claim, _force_arg, _next, _note, run_records
 from eodarm.cli._help import HELP
+from eodarm.errors import EodarmError
+from eodarm.model.arm import Arm
 
 
 def add_parser(subparsers: Any) -> argparse.ArgumentParser:
@@ -24,11 +26,18 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     )
     p.add_argument("campaign", metavar="CAMPAIGN.toml", help="campaign file (docs/records.md)")
     p.add_argument(
+        "--arm",
+        metavar="ARM.toml",
+        help="the arm the records were taken on: its links are checked against the "
+        "campaign's alpha_deg, and the next: line (diagnose) carries it",
+    )
+    p.add_argument(
         "-o",
         "--output",
         metavar="MEAS.csv",
         help="the measurement file to write (default: stdout, unless --json)",
     )
+    _force_arg(p, "an existing -o file")
     p.add_argument(
         "--plot",
         metavar="DIR",
@@ -58,6 +67,18 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
 
 def run(args: argparse.Namespace) -> int:
     """Run ``eodarm records``; return the exit status 0 (bad input raises, exit 2)."""
+    if args.output:  # never a record of the campaign, nor its file
+        _claim(args, args.output, "-o")
+    arm = Arm.from_toml(args.arm) if args.arm else None
+    if arm is not None:  # before any record is read
+        from eodarm.data.records import read_campaign
+
+        n = read_campaign(args.campaign).n
+        if n != arm.n:
+            raise EodarmError(
+                f"{args.campaign}: its records give {n} angles (alpha_deg), the arm "
+                f"{args.arm} has {arm.n} links: records of another arm?"
+            )
     results, write = run_records(
         args.campaign,
         allow_drift=args.allow_drift,
@@ -79,6 +100,11 @@ def run(args: argparse.Namespace) -> int:
     ]
     if drifting:
         _note("kept with --allow-drift, drifting: " + ", ".join(drifting))
-    if args.output:
-        _next("diagnose", args.output, "--arm", "ARM.toml")
+    if args.output and arm is not None:
+        _next("diagnose", args.output, "--arm", args.arm, args=args)
+    elif args.output:  # no next: line with a placeholder in it: say what the next one needs
+        _note(
+            f"to diagnose {args.output}, give the arm the records were taken on: with "
+            "--arm ARM.toml here, the next: line is that command"
+        )
     return 0

@@ -8,7 +8,9 @@ from pathlib import Path
 from typing import Any
 
 from eodarm.cli._common import (
+    _claim,
     _effects_args,
+    _force_arg,
     _load_arm,
     _model,
     _model_args,
@@ -48,6 +50,7 @@ def run(args: argparse.Namespace) -> int:
 
     if args.rounds < 1:
         raise InputError(f"--rounds must be 1 or more, got {args.rounds}")
+    _claim(args, args.output, "-o")  # before hours of work, never over an input
 
     rounds = [f"round {k} of at most {args.rounds}" for k in range(1, args.rounds + 1)]
     names = ["reading", *rounds, "writing the report"]
@@ -120,6 +123,8 @@ def _run(args: argparse.Namespace, step: Any) -> int:
         on_round=lambda k: step(f"round {k} of at most {args.rounds}"),
     )
     step("writing the report")
+    for c in inv.rounds[0].data_checks:  # docs/diagnosis.md, "Check the data first"
+        _note(f"check the data: {c.message}")
     last = inv.steps[-1]
     base = inv.rounds[0].baseline
     if title is None and args.measurements is None:
@@ -219,6 +224,7 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
         metavar="FILE.html",
         help="where to write the report (default: eodarm-report.html)",
     )
+    _force_arg(r, "an existing -o report")
     r.add_argument("--rounds", type=int, default=3, help="at most this many rounds (default 3)")
     r.add_argument("--title", help="the report's title")
     r.add_argument("--no-self-weight", action="store_true")

@@ -23,6 +23,7 @@ from eodarm.cli._common import (
     _model_words,
     _next,
     _note,
+    _payload_hint,
     _print_table,
     _say,
     _stages,
@@ -100,17 +101,18 @@ def run(args: argparse.Namespace) -> int:
     alpha = np.array([r[0] for r in rows_in], dtype=float)
     mass = np.array([r[1] for r in rows_in], dtype=float)
     adds = [a for spec in args.add or [] for a in ("--add", spec)]
-    out = solve(
-        arm,
-        alpha,
-        mass,
-        effects,
-        backend=args.backend,
-        self_weight=not args.no_self_weight,
-        uncertainty=args.uncertainty,
-        strict=args.strict,
-        **_model_kw(args),
-    )
+    with _payload_hint(arm, mass):
+        out = solve(
+            arm,
+            alpha,
+            mass,
+            effects,
+            backend=args.backend,
+            self_weight=not args.no_self_weight,
+            uncertainty=args.uncertainty,
+            strict=args.strict,
+            **_model_kw(args),
+        )
     dofs = int(out["n_dof"]) if args.model == "fem" else 0
     if args.plot:
         _fem_plots(args.plot, arm, out, alpha, mass, args.model)
@@ -132,18 +134,25 @@ def run(args: argparse.Namespace) -> int:
             + ", ".join(f"{k} {v}" for k, v in counts.items() if k != "ok")
             + f" of {len(out['status'])} poses"
         )
+    memory = branch = False
     if args.uncertainty:
+        from eodarm.model.hysteresis import band, has_branch, has_memory
         from eodarm.model.uncertainty import inadequacy_note
 
         line = inadequacy_note(arm)
         if line:
             _note(line)
+        # σ is the loading branch's; the band is how far the other branch lies from it
+        memory, branch = has_memory(arm, effects), has_branch(arm, effects)
+        if branch:
+            out["hysteresis_mm"] = band(arm, alpha, mass, effects, not args.no_self_weight)
     if args.json:
         doc = {
             "arm": arm.name,
             "model": _model_keys(arm, effects),
             "solver_model": args.model,
             "self_weight": not args.no_self_weight,
+            **({"branch": "loading"} if branch else {}),
             "poses": [
                 {
                     "alpha_deg": alpha[i].tolist(),
@@ -165,6 +174,8 @@ def run(args: argparse.Namespace) -> int:
     head = ["α deg", "kg", "dx mm", "dy mm", "force N", "dα deg", "dl mm"]
     if args.uncertainty:
         head += ["σ dx mm", "σ dy mm"]
+    if memory:
+        head += ["band mm"]
     head += ["status"]
     rows = []
     for i in range(len(rows_in)):
@@ -179,12 +190,21 @@ def run(args: argparse.Namespace) -> int:
         ]
         if args.uncertainty:
             cells += [_sd(out["sigma_dx_mm"][i]), _sd(out["sigma_dy_mm"][i])]
+        if memory:
+            cells += [_sd(out["hysteresis_mm"][i])]
         cells += [STATUS[int(out["status"][i])]]
         rows.append([c.replace("-", "−") for c in cells])
     _print_table(head, rows)
     _say(
         "a/b/c: links or actuators 1…n; dα: loaded − unloaded angle; dl: actuator length "
         "change (--json: every output, full precision)"
+        + (
+            "; on the loading branch (the payload put on from the unloaded pose): band is how "
+            "far the point lands from it when the payload is reached by unloading from a "
+            "heavier one, which σ does not cover (docs/compensation.md §4)"
+            if memory
+            else ""
+        )
     )
     a0 = ",".join(f"{a:g}" for a in alpha[0])
     _next("compensate", *_arm_argv(args), *adds, "--alpha", a0, "--mass", f"{mass[0]:g}", args=args)

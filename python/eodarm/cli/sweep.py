@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import argparse
 import math
-import re
 import time
 from typing import TYPE_CHECKING, Any
 
@@ -13,16 +12,17 @@ import numpy.typing as npt
 
 from eodarm.cli._common import (
     ARM_HELP,
+    _claim,
     _effects_args,
     _force_arg,
     _load_arm,
     _note,
     _one_line,
-    _refuse_overwrite,
+    _payload_hint,
     _say,
     _valued_effect,
 )
-from eodarm.cli._help import HELP
+from eodarm.cli._help import HELP, NEGATIVE_VALUE
 from eodarm.errors import EodarmError
 from eodarm.workspace import store
 from eodarm.workspace.sweep import CHUNK_SIZE, REDUCE_OPS, sweep
@@ -81,9 +81,9 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         "payload capacity and the dominant effect. Without --arm: the bundled seed2022 arm; "
         "without a grid: alpha1 40:130:46, alpha2 -20:40:31, alpha3 -20:20:21 (degrees).",
     )
-    # let "--alpha3 -20:20:21" read the range as a value, not as an option (argparse only
-    # knows plain negative numbers); "--alpha3=-20:20:21" works regardless
-    p._negative_number_matcher = re.compile(r"^-\d+$|^-\d*\.\d+$|^-[\d.]+(:[-\d.]+)+$|^-[\d.]+,")
+    # "--alpha3 -20:20:21" reads the range as a value, not as an option (argparse only knows
+    # plain negative numbers; eodarm.cli's parser class sets the same for every command)
+    p._negative_number_matcher = NEGATIVE_VALUE
     p.add_argument("--arm", metavar="ARM.toml", help=ARM_HELP)
     for k in range(1, _MAX_LINKS + 1):
         p.add_argument(
@@ -124,7 +124,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     p.add_argument(
         "--mask-unreachable",
         action="store_true",
-        help="no effect any more: out-of-stroke cells are never ok (status out_of_stroke)",
+        help=argparse.SUPPRESS,  # accepted for old scripts: out-of-stroke cells are never ok
     )
     p.add_argument("--no-self-weight", action="store_true", help="drop link/actuator weights")
     p.add_argument(
@@ -284,6 +284,7 @@ def run(args: argparse.Namespace) -> int:
     arm = _load_arm(args.arm)
     grid = _cli_grid(args, arm.n)
     mass = parse_range(args.mass, "--mass")
+    _payload_hint(arm, mass)  # --mass 5000: is it grams? (a note)
     effects = [_valued_effect(s) for s in args.add or []]
     reduce = _cli_reduce(args.reduce)
     out = args.output
@@ -294,9 +295,9 @@ def run(args: argparse.Namespace) -> int:
         )
     if args.resume and kind != "zarr":
         raise EodarmError("--resume continues an interrupted Zarr sweep: give -o OUT.zarr")
-    if out and not (args.resume and store.partial_path(out).exists()):
-        # a resumed overwrite was asked for when it started
-        _refuse_overwrite(out, args.force, "-o")
+    if out:  # a resumed overwrite was asked for when it started
+        resumed = args.resume and store.partial_path(out).exists()
+        _claim(args, out, "-o", force=True if resumed else None)
     scheduler: Any = None
     client = None
     if args.scheduler:
@@ -355,12 +356,22 @@ def run(args: argparse.Namespace) -> int:
         return 130
     dt = time.perf_counter() - t0
     size = math.prod(len(v) for v in next(v for v in grid.values() if isinstance(v, dict)).values())
+    from eodarm.viz.format import plural
+
     _note(
-        f"swept {size:,} poses × {len(mass)} payloads in {dt:.2f} s "
+        f"swept {plural(size, 'pose')} × {plural(len(mass), 'payload')} in {dt:.2f} s "
         f"({size * len(mass) / max(dt, 1e-9):,.0f} cells/s, {args.model} model)"
         + (f"; wrote {out}" if out else "")
     )
-    _summary(ds)
+    try:
+        _summary(ds)
+    except KeyboardInterrupt:  # the result is whole and in place: say so, not just "interrupted"
+        _one_line(
+            f"interrupted: {out} was written completely; the summary was not printed"
+            if out
+            else "interrupted while summarising: nothing written"
+        )
+        return 130
     if args.plot:
         from eodarm.progress import stages
         from eodarm.viz import maps
@@ -501,6 +512,8 @@ SUMMARY_QUANTILES_MAX = 10**8
 
 def _summary(ds: xr.Dataset) -> None:
     """A few lines on stdout: the sweep's shape, reachable share, extreme sag and forces."""
+    from eodarm.viz.format import value
+
     dims = ", ".join(f"{d} {s}" for d, s in ds.sizes.items())
     _say(f"arm '{ds.attrs['arm']}', model {ds.attrs['model']}, reduce: {ds.attrs['reduce']}")
     print(f"dimensions: {dims}")
@@ -515,7 +528,7 @@ def _summary(ds: xr.Dataset) -> None:
         if dy_all.size > SUMMARY_QUANTILES_MAX:
             lo, hi = float(dy_all.min()), float(dy_all.max())
             if math.isfinite(lo):
-                print(f"dy over the ok cells: {lo:.4g} … {hi:.4g} mm")
+                print(f"dy over the ok cells: {value(lo)} … {value(hi, 'mm')}")
             dy = np.empty(0)
         else:
             dy = dy_all.values
@@ -523,15 +536,43 @@ def _summary(ds: xr.Dataset) -> None:
         if dy.size:
             q = np.quantile(dy, [0.02, 0.5, 0.98])
             print(
-                f"dy over the ok cells: {dy.min():.4g} … {dy.max():.4g} mm "
-                f"(2 %, 50 %, 98 %: {q[0]:.4g}, {q[1]:.4g}, {q[2]:.4g} mm)"
+                f"dy over the ok cells: {value(dy.min())} … {value(dy.max(), 'mm')} "
+                f"(2 %, 50 %, 98 %: {value(q[0])}, {value(q[1])}, {value(q[2], 'mm')})"
             )
         f = abs(ds["force_n"].where(ds["reachable"]))
         for i in ds["actuator"].values:
             fi = f.sel(actuator=i)
             if bool(np.isfinite(fi).any()):
-                print(f"|F{i}| up to {float(fi.max()):.4g} N")
+                print(f"|F{i}| up to {value(float(fi.max()), 'N')}")
     from eodarm.workspace.uncertainty import summary_lines
 
     for line in summary_lines(ds):
         print(line)
+    for line in return_lines(ds):
+        _say(line)
+
+
+def return_lines(ds: xr.Dataset) -> list[str]:
+    """The summary of ``--cycle``: where the arm comes back worst after a cycle reference →
+    payload → 0, and by how much; or that nothing in the model can hold it off."""
+    from eodarm.viz.format import channel_value, value
+    from eodarm.workspace.cycle import worst_return
+
+    w = worst_return(ds)
+    if w is None:
+        return [] if "return_dx_mm" not in ds else ["return to 0 kg: no ok cell"]
+    if not w["memory"] or w["distance_mm"] == 0.0:
+        return [
+            "return to 0 kg: the arm comes back exactly in every ok cell (no friction or gap "
+            "in the model holds it off its reference)"
+        ]
+    angles = ", ".join(value(a, digits=4) for a in w["alpha_deg"])
+    where = f"alpha ({angles}) deg"
+    if "x_mm" in w:
+        where += f", load point ({w['x_mm']:.0f}, {w['y_mm']:.0f}) mm"
+    return [
+        f"return to 0 kg: worst at {where} after {value(w['mass_kg'])} kg: "
+        f"{channel_value(w['distance_mm'], 'mm')} off its reference (dx "
+        f"{channel_value(w['dx_mm'], 'mm')}, dy {channel_value(w['dy_mm'], 'mm')}); median "
+        f"{channel_value(w['median_mm'], 'mm')} over the {w['cells']:,} ok cells"
+    ]

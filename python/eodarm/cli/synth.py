@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import math
 import sys
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -14,10 +15,15 @@ from eodarm.analysis.synth import random_configs, synth
 from eodarm.cli._common import (
     ARM_HELP,
     _arm_argv,
+    _claim,
+    _claim_folder,
     _effects_args,
+    _force_arg,
+    _free_name,
     _load_arm,
     _next,
     _note,
+    _payload_hint,
     _stages,
     _valued_effect,
 )
@@ -105,6 +111,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         "else use the default noise levels)",
     )
     p.add_argument("-o", "--output", metavar="OUT.csv", help="output file (default: stdout)")
+    _force_arg(p, "an existing -o file, or the files of --records in a folder that holds some")
     _records_args(p)
     _effects_args(p)
     p.set_defaults(func=run)
@@ -119,8 +126,12 @@ def run(args: argparse.Namespace) -> int:
     EodarmError
         With a one-line reason (the main CLI prints it and exits with status 2).
     """
-    arm = _load_arm(args.arm)
     if args.records:  # rehearsal records of a campaign instead of a measurement file
+        _claim_folder(args, args.records, "--records")
+    elif args.output:
+        _claim(args, args.output, "-o")
+    arm = _load_arm(args.arm)
+    if args.records:
         return _records(args, arm)
     n = arm.n
     sequence = getattr(args, "sequence", None)
@@ -143,6 +154,7 @@ def run(args: argparse.Namespace) -> int:
             raise EodarmError(
                 f"--sigma '{spec}': expected CHANNEL=VALUE, e.g. dy_mm=0.01"
             ) from None
+    hinted = _payload_hint(arm, masses, "--sequence" if sequence else "--masses")
     if args.alpha:
         alpha = np.array([_angles(a, n) for a in args.alpha])
     else:
@@ -150,10 +162,16 @@ def run(args: argparse.Namespace) -> int:
         if k < 1:
             raise EodarmError(f"--configs: need at least 1 configuration, got {k}")
         # configurations from their own stream, so that they do not share draws with the noise
-        alpha = _solvable_configs(
-            arm, k, np.random.default_rng([1, args.seed]), masses, hidden, not args.no_self_weight
-        )
-    with _stages(["solving", "writing"], "synth") as step:
+        with hinted:
+            alpha = _solvable_configs(
+                arm,
+                k,
+                np.random.default_rng([1, args.seed]),
+                masses,
+                hidden,
+                not args.no_self_weight,
+            )
+    with hinted, _stages(["solving", "writing"], "synth") as step:
         step("solving")
         meas = synth(
             arm,
@@ -177,20 +195,23 @@ def run(args: argparse.Namespace) -> int:
             meas.to_csv(sys.stdout)
             sys.stdout.flush()
             where = "stdout"
+    from eodarm.viz.format import plural
+
     model = ", ".join(f"{e.key}={e.value:g}" for e in hidden) or "none"
+    configs = plural(alpha.shape[0], "config")
+    repeats = f" × {plural(args.repeats, 'repeat')}" if args.repeats > 1 else ""
     if sequence:
         what = (
-            f"{meas.n_rows} states ({alpha.shape[0]} configs × {args.repeats} × the sequence "
+            f"{plural(meas.n_rows, 'state')} ({configs}{repeats} × the sequence "
             f"{','.join(f'{m:g}' for m in masses)}"
         )
-    elif args.repeats == 1:
-        what = f"{meas.n_rows} states ({alpha.shape[0]} configs × {len(masses)} payloads"
     else:
-        what = (
-            f"{meas.n_rows} rows ({alpha.shape[0]} configs × {len(masses)} payloads × "
-            f"{args.repeats} repeats"
-        )
-    _note(f"wrote {what}, {len(meas.measured_channels)} channels; hidden: {model}) to {where}")
+        rows = plural(meas.n_rows, "state" if args.repeats == 1 else "row")
+        what = f"{rows} ({configs} × {plural(len(masses), 'payload')}{repeats}"
+    _note(
+        f"wrote {what}, {plural(len(meas.measured_channels), 'channel')}; hidden: {model}) "
+        f"to {where}"
+    )
     _next("diagnose", args.output or "FILE.csv", *_arm_argv(args, always=True), args=args)
     return 0
 
@@ -325,8 +346,13 @@ def _records(args: argparse.Namespace, arm: Arm) -> int:
         hold_s=args.hold,
         drift=drift,
     )
-    path = write_synth_campaign(args.records, recs)
+
+    def refuse_inputs(paths: list[Path]) -> None:  # --force replaces no input
+        for p in paths:
+            _claim(args, p, "--records")
+
+    path = write_synth_campaign(args.records, recs, before=refuse_inputs)
     model = ", ".join(f"{e.key}={e.value:g}" for e in hidden) or "none"
     _note(f"wrote {len(recs)} records ({len(seq)} states each; hidden: {model}) and {path}")
-    _next("records", str(path), "-o", "meas.csv")
+    _next("records", str(path), "-o", _free_name("meas.csv"), *_arm_argv(args, always=True))
     return 0

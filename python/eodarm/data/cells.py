@@ -7,6 +7,8 @@ import math
 import re
 from collections.abc import Sequence
 
+from eodarm.errors import show
+
 Cell = str | float | None
 
 _NUMBER = re.compile(r"^[+-]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][+-]?[0-9]+)?$")
@@ -20,10 +22,14 @@ _NONFINITE = {"nan", "+nan", "-nan", "inf", "+inf", "-inf", "infinity", "+infini
 
 def _did_you_mean(name: str, known: Sequence[str], form: str = " (did you mean '{}'?)") -> str:
     """`` (did you mean 'x'?)`` for the closest of ``known`` to a misspelled ``name``
-    (difflib's ratio ≥ 0.75, case ignored), or nothing."""
+    (difflib's ratio ≥ 0.75, case ignored), or nothing. Names longer than 100 characters
+    are not compared (difflib's time grows with the square of their length, and no column
+    name is that long)."""
     import difflib
 
-    lower = {k.lower(): k for k in known}
+    if len(name) > 100:
+        return ""
+    lower = {k.lower(): k for k in known if len(k) <= 100}
     close = difflib.get_close_matches(name.strip().lower(), list(lower), n=1, cutoff=0.75)
     return form.format(lower[close[0]]) if close else ""
 
@@ -39,12 +45,11 @@ def _label(cell: Cell) -> str:
     return cell if isinstance(cell, str) else repr(cell)
 
 
-def _show(cell: Cell, limit: int = 40) -> str:
-    """A cell as an error message shows it: one line (control characters and newlines of a
-    quoted cell escaped), at most ``limit`` characters."""
-    text = repr(cell) if isinstance(cell, float) else str(cell).strip()
-    text = text.encode("unicode_escape").decode("ascii") if not text.isprintable() else text
-    return text if len(text) <= limit else text[: limit - 1] + "…"
+def _show(cell: Cell, limit: int = 20) -> str:
+    """A cell as an error message shows it (:func:`eodarm.errors.show`): one printable line
+    (control characters, NUL and newlines of a quoted cell escaped), at most ``limit``
+    characters, so that three of them fit in one message."""
+    return show(cell if isinstance(cell, float) else str(cell).strip(), limit)
 
 
 def _number(cell: Cell) -> tuple[float | None, str]:
@@ -68,8 +73,6 @@ def _number(cell: Cell) -> tuple[float | None, str]:
     if text.lower() in _NONFINITE:
         return None, f"'{text}' is not finite"
     if _DECIMAL_COMMA.match(text):
-        return (
-            None,
-            f"'{_show(text)}' is not a number (a decimal comma? write {text.replace(',', '.')})",
-        )
+        dot = _show(text.replace(",", "."))
+        return None, f"'{_show(text)}': a decimal comma? (write {dot})"
     return None, f"'{_show(text)}' is not a number"

@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from eodarm.atomic import atomic_files
 from eodarm.data.measurements import Measurements
 from eodarm.data.reader import read_measurements
 from eodarm.errors import EodarmError
@@ -79,6 +80,20 @@ class Dataset:
     measurements: Measurements
     tables: dict[str, Any] = field(default_factory=dict)
 
+    def __repr__(self) -> str:
+        from eodarm import reprs
+
+        tables = ", ".join(self.tables) or "not loaded"
+        return reprs.block(
+            f"Dataset {self.name}: {self.description}",
+            [
+                f"arm: '{self.arm.name}', {self.arm.n} links (calibrated; also arm_published)",
+                f"measurements: {self.measurements.n_rows} states ({self.measurements.source})",
+                f"tables: {tables}",
+                f"files: {self.root}",
+            ],
+        )
+
     @property
     def notes(self) -> str:
         return (self.root / "NOTES.md").read_text(encoding="utf-8")
@@ -132,19 +147,20 @@ def export(name: str, directory: str | Path) -> list[Path]:
     """Write the data set's files into ``directory`` (created if needed).
 
     Writes ``arm_published.toml``, ``arm.toml``, ``measurements.csv``, ``NOTES.md`` and
-    ``paper_tables/table1.csv`` … ``table9.csv``. Returns the paths written.
+    ``paper_tables/table1.csv`` … ``table9.csv``, all or none (each to a temporary sibling,
+    renamed into place when the last is complete: eodarm.atomic). Returns the paths written.
     """
     root = _root(name)
     out = Path(directory)
     (out / "paper_tables").mkdir(parents=True, exist_ok=True)
-    written = []
-    for fname in ("arm_published.toml", "arm.toml", "measurements.csv", "NOTES.md"):
-        shutil.copyfile(root / fname, out / fname)
-        written.append(out / fname)
-    for p in sorted(root.glob("table*.csv")):
-        shutil.copyfile(p, out / "paper_tables" / p.name)
-        written.append(out / "paper_tables" / p.name)
-    return written
+    pairs = [(root / f, out / f) for f in ("arm_published.toml", "arm.toml")]
+    pairs += [(root / f, out / f) for f in ("measurements.csv", "NOTES.md")]
+    pairs += [(p, out / "paper_tables" / p.name) for p in sorted(root.glob("table*.csv"))]
+    with atomic_files() as batch:
+        for src, dst in pairs:
+            with open(src, "rb") as f:
+                shutil.copyfileobj(f, batch.open(dst, "wb"))
+    return [dst for _, dst in pairs]
 
 
 # ------------------------------------------------------------------ building seed2022

@@ -73,6 +73,7 @@ from typing import TYPE_CHECKING, Any, TextIO
 import numpy as np
 import numpy.typing as npt
 
+from eodarm.atomic import atomic_write
 from eodarm.data.cells import (
     Cell,
     _cells_of,
@@ -98,8 +99,8 @@ from eodarm.data.noise import (
     sequence_state_groups,
     state_groups,
 )
-from eodarm.data.sequences import _check_sequences, _reference_rows
-from eodarm.errors import EodarmError
+from eodarm.data.sequences import _check_sequences, _reference_rows, sequence_rows
+from eodarm.errors import EodarmError, listing, show, show_source
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -181,6 +182,9 @@ class Measurements:
         degrees of freedom, or ``"default"`` with the reason). Read-only mapping. A
         :meth:`subset` keeps the records (and sigmas) estimated on the whole data: the noise
         is a property of the instrument, not of the rows selected.
+    sha256 : SHA-256 (hex) of the file's bytes as they were read, for the ``[fit]`` table
+        of a model fitted to them (``data_sha256``); empty for data that did not come whole
+        from one file (arrays, a DataFrame, a :meth:`subset`).
     """
 
     source: str
@@ -201,6 +205,7 @@ class Measurements:
     step: npt.NDArray[np.int64] | None = None
     # None means "no reference rows"; __post_init__ replaces it by the (N,) array
     reference: npt.NDArray[np.bool_] = field(default=None)  # type: ignore[arg-type]
+    sha256: str = ""
 
     def __post_init__(self) -> None:
         n = int(self.n)
@@ -266,6 +271,16 @@ class Measurements:
         object.__setattr__(self, "sigma_columns", bool(self.sigma_columns))
 
     # ------------------------------------------------------------------ views
+    def __repr__(self) -> str:
+        from eodarm.data.display import measurements_repr
+
+        return measurements_repr(self)
+
+    def _repr_html_(self) -> str:
+        from eodarm.data.display import measurements_html
+
+        return measurements_html(self)
+
     @property
     def n_rows(self) -> int:
         """Number of states (rows)."""
@@ -305,12 +320,7 @@ class Measurements:
         """
         if self.step is None:
             return [np.array([r], dtype=np.int64) for r in range(self.n_rows)]
-        out = []
-        for label in self.configs:
-            rows = np.flatnonzero((self.config == label) & ~self.reference)
-            if rows.size:
-                out.append(rows[np.argsort(self.step[rows], kind="stable")].astype(np.int64))
-        return out
+        return sequence_rows(self.config, self.step, self.reference)
 
     @property
     def defaulted(self) -> tuple[str, ...]:
@@ -380,6 +390,7 @@ class Measurements:
             sigma_pooled=self.sigma_pooled[idx],
             step=None if self.step is None else self.step[idx],
             reference=self.reference[idx],
+            sha256="",  # no longer the whole file's data
         )
 
     def to_dataframe(self) -> pd.DataFrame:
@@ -440,7 +451,7 @@ class Measurements:
 
         if isinstance(path, (str, Path)):
             try:
-                with open(path, "w", encoding="utf-8", newline="") as f:
+                with atomic_write(path, newline="") as f:  # whole or not at all
                     write(f)
             except OSError as exc:
                 raise EodarmError(f"{path}: cannot write: {exc.strerror or exc}") from None
@@ -534,19 +545,22 @@ def build(
     *,
     unknown_is_error: bool = False,
     stacklevel: int = 3,
+    sha256: str = "",
 ) -> Measurements:
-    """Validate a table (header + rows of cells) and build :class:`Measurements`."""
+    """Validate a table (header + rows of cells) and build :class:`Measurements`
+    (``sha256``: of the file's bytes, :attr:`Measurements.sha256`)."""
     channels = channel_names(n)
     chan_set = set(channels)
     alphas = [f"alpha{i + 1}_deg" for i in range(n)]
     required = ["config", *alphas, "mass_kg"]
+    where = show_source(source)
 
     # ---- header: every problem at once, on line 1
     problems: list[str] = []
     seen: dict[str, int] = {}
     for j, name in enumerate(header):
         if name in seen:
-            problems.append(f"column '{name}' appears twice")
+            problems.append(f"column '{show(name)}' appears twice")
         else:
             seen[name] = j
     missing = [c for c in required if c not in seen]
@@ -577,23 +591,21 @@ def build(
     if foreign:
         problems.append(
             "column(s) "
-            + ", ".join(f"'{c}'" for c in foreign)
+            + _names(foreign)
             + f" belong to a link beyond the arm's {n} (the data are for another arm)"
         )
     if unknown and unknown_is_error:
         problems.append(
-            "unknown column(s) "
-            + ", ".join(f"'{c}'{_did_you_mean(c, known)}" for c in unknown)
-            + f" (channels: {', '.join(channels)})"
+            "unknown column(s) " + _names(unknown, known) + f" (channels: {', '.join(channels)})"
         )
     if problems:
-        raise MeasurementFileError(f"{source}: line 1 (header): " + "; ".join(problems))
+        raise MeasurementFileError(listing(f"{where}: line 1 (header)", problems))
     if not body:
-        raise MeasurementFileError(f"{source}: no data rows after the header (line 1)")
+        raise MeasurementFileError(f"{where}: no data rows after the header (line 1)")
     if unknown:
         warnings.warn(
-            f"{source}: ignoring column(s) not in the measurement-file format: "
-            + ", ".join(f"'{c}'{_did_you_mean(c, known)}" for c in unknown),
+            f"{where}: ignoring column(s) not in the measurement-file format: "
+            + _names(unknown, known),
             UserWarning,
             stacklevel=stacklevel,
         )
@@ -612,11 +624,13 @@ def build(
     line = np.zeros(rows, dtype=np.int64)
     step = np.full(rows, -1, dtype=np.int64)
     step_given = np.zeros(rows, dtype=bool)
-    bad: list[str] = []
+    bad: list[str] = []  # one entry per bad cell: "line L: column why"
+    bad_rows = 0
     for r, (ln, cells) in enumerate(body):
         line[r] = ln
         if len(cells) != ncol:
             bad.append(f"line {ln}: {len(cells)} cells, the header has {ncol} columns")
+            bad_rows += 1
             continue
         errs: list[str] = []
         label = _label(cells[seen["config"]])
@@ -685,11 +699,11 @@ def build(
                 sigma[r, c] = s
                 given[r, c] = True
         if errs:
-            bad.append(f"line {ln}: " + ", ".join(errs))
+            bad += [f"line {ln}: {e}" for e in errs]
+            bad_rows += 1
     if bad:
-        listed = "; ".join(bad[:MAX_LISTED])
-        more = f"; …and {len(bad) - MAX_LISTED} more" if len(bad) > MAX_LISTED else ""
-        raise MeasurementFileError(f"{source}: {len(bad)} bad row(s): {listed}{more}")
+        cells_note = f", {len(bad)} bad cells" if len(bad) != bad_rows else ""
+        raise MeasurementFileError(listing(f"{where}: {bad_rows} bad row(s){cells_note}", bad))
     has_step = bool(step_given.any())
     reference = np.zeros(rows, dtype=bool)
     if has_step:
@@ -697,9 +711,7 @@ def build(
             config, alpha, mass, step, step_given, values, line, _cells_of(body, jstep)
         )
         if bad:
-            listed = "; ".join(bad[:MAX_LISTED])
-            more = f"; …and {len(bad) - MAX_LISTED} more" if len(bad) > MAX_LISTED else ""
-            raise MeasurementFileError(f"{source}: {len(bad)} bad row(s): {listed}{more}")
+            raise MeasurementFileError(listing(f"{where}: {len(bad)} bad row(s)", bad))
         reference = _reference_rows(config, mass, step, values)
         values[reference] = np.nan  # the written reference carries no information
         groups = sequence_state_groups(config, alpha, mass, step, reference)
@@ -722,4 +734,15 @@ def build(
         noise=noise,
         step=step if has_step else None,
         reference=reference,
+        sha256=sha256,
     )
+
+
+def _names(names: Sequence[str], known: Sequence[str] | None = None) -> str:
+    """Column names in a message: the first three, each shown on one short line (with a
+    did-you-mean when ``known`` is given), and how many more."""
+    shown = [
+        f"'{show(c)}'" + (_did_you_mean(c, known) if known is not None else "") for c in names[:3]
+    ]
+    more = f" and {len(names) - 3} more" if len(names) > 3 else ""
+    return ", ".join(shown) + more

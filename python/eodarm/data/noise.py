@@ -32,6 +32,7 @@ import numpy as np
 import numpy.typing as npt
 
 from eodarm.data.channels import default_sigma
+from eodarm.data.sequences import sequence_rows
 from eodarm.errors import EodarmError
 
 __all__ = [
@@ -144,26 +145,28 @@ def sequence_state_groups(
     label). Written reference rows are not states of the history; they get groups of their
     own.
     """
-    labels = [str(c) for c in np.asarray(config, dtype=object).ravel()]
-    rows = len(labels)
-    alpha = np.asarray(alpha_deg, dtype=float).reshape(rows, -1)
-    mass = np.asarray(mass_kg, dtype=float).reshape(rows)
+    labels = np.array([str(c) for c in np.asarray(config, dtype=object).ravel()], dtype=str)
+    rows = labels.size
+    alpha = np.asarray(alpha_deg, dtype=float).reshape(rows, -1) + 0.0  # -0.0 is 0.0
+    mass = np.asarray(mass_kg, dtype=float).reshape(rows) + 0.0
     steps = np.asarray(step, dtype=np.int64).reshape(rows)
     refs = np.asarray(reference, dtype=bool).reshape(rows)
-    history: dict[int, tuple[float, ...]] = {}
-    for label in dict.fromkeys(labels):
-        rs = [r for r in range(rows) if labels[r] == label and not refs[r]]
-        rs.sort(key=lambda r: steps[r])
-        past: tuple[float, ...] = ()
-        for r in rs:
-            past = (*past, float(mass[r]) + 0.0)
+    # A history is numbered by a trie: (the number of the payloads before, this payload) →
+    # a number, so that a row's key is built in constant time (a tuple of every payload
+    # before it would cost the square of a sequence's length).
+    history = np.full(rows, -1, dtype=np.int64)
+    trie: dict[tuple[int, float], int] = {}
+    masses = mass.tolist()
+    for seq in sequence_rows(labels, steps, refs):
+        past = -1
+        for r in seq.tolist():
+            past = trie.setdefault((past, masses[r]), len(trie))
             history[r] = past
     ids: dict[tuple[Any, ...], int] = {}
     out = []
-    for r in range(rows):
-        key: tuple[Any, ...] = (
-            ("reference", r) if refs[r] else ((alpha[r] + 0.0).tolist().__repr__(), history[r])
-        )
+    rows_of = zip(alpha.tolist(), history.tolist(), refs.tolist(), strict=True)
+    for r, (a, h, ref) in enumerate(rows_of):
+        key: tuple[Any, ...] = ("reference", r) if ref else (*a, h)
         out.append(ids.setdefault(key, len(ids)))
     return np.array(out, dtype=np.int64)
 

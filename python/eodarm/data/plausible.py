@@ -46,9 +46,10 @@ import numpy.typing as npt
 
 from eodarm.data.channels import channel_values
 from eodarm.data.measurements import MAX_LISTED, MeasurementFileError, Measurements
+from eodarm.errors import listing, show_source
 from eodarm.model.arm import Arm
 
-__all__ = ["GRAMS_FACTOR", "RADIAN_CHI2_RATIO", "check_states", "own_mass_kg"]
+__all__ = ["GRAMS_FACTOR", "RADIAN_CHI2_RATIO", "check_states", "own_mass_kg", "payload_hint"]
 
 #: The radian reading of angles within ±2π must explain the measured deflections this many
 #: times better (in χ²) than the degree reading for the file to be refused as radians.
@@ -121,6 +122,30 @@ def own_mass_kg(arm: Arm) -> float:
     return float(sum(x.mass_kg for x in arm.links) + sum(x.mass_kg for x in arm.actuators))
 
 
+def payload_hint(mass_kg: float, arm: Arm) -> str | None:
+    """One line when a payload is more than the arm can plausibly carry, else None.
+
+    The rule: a payload above :data:`GRAMS_FACTOR` (10) times the arm's own mass (its links
+    and actuators, :func:`own_mass_kg`). Arms of this kind carry a fraction of their own
+    weight (the seed's 10 kg arm, 6.5 kg); ten times it loads every actuator and pin far
+    beyond what they were sized for. When ``mass_kg / 1000`` is within that limit the mass
+    was most probably written in grams, and the line says so: ``5000 kg is over 10 times
+    the arm's own 10.1 kg: is it grams? (5 kg)``; the caller puts in front what names the
+    mass (``--mass``, ``masses_kg[3]``, ``line 7 mass_kg``). An arm file without masses (own
+    mass 0) gives no hint. A warning, not a refusal: a light arm with a heavy payload is
+    possible, and the states it cannot take are refused on their own (``check_states``, the
+    solver).
+    """
+    own = own_mass_kg(arm)
+    limit = GRAMS_FACTOR * own
+    if not (own > 0 and math.isfinite(mass_kg) and mass_kg > limit):
+        return None
+    line = f"{mass_kg:g} kg is over {GRAMS_FACTOR:g} times the arm's own {own:.3g} kg"
+    if mass_kg / 1000.0 <= limit:
+        return f"{line}: is it grams? ({mass_kg / 1000.0:g} kg)"
+    return f"{line}: check its unit (kg)"
+
+
 def _outside(out: dict[str, Any] | None, failed: dict[int, str], rows: int) -> int:
     """How many states cannot be solved or are outside the model's validity (status ≠ ok)."""
     if out is None:
@@ -160,11 +185,12 @@ def _check_radians(arm: Arm, meas: Measurements, self_weight: bool) -> None:
         why = ""
     if why:
         raise MeasurementFileError(
-            f"{meas.source}: every alphaK_deg is within ±2π: the angles look like radians "
+            f"{show_source(meas.source)}: every alphaK_deg is within ±2π: the angles look like "
+            "radians "
             f"({example}; {why}); give degrees (multiply by 180/π)"
         )
     warnings.warn(
-        f"{meas.source}: every alphaK_deg is within ±2π, read as degrees ({example}); "
+        f"{show_source(meas.source)}: every alphaK_deg is within ±2π, read as degrees ({example}); "
         "convert them if they are radians",
         UserWarning,
         stacklevel=3,
@@ -234,16 +260,19 @@ def check_states(arm: Arm, meas: Measurements, self_weight: bool = True) -> None
             bad[int(r)] = f"mass_kg {mass[r]:g}: {why} under this load{hint}"
     if bad:
         order = sorted(bad)
-        listed = "; ".join(f"line {int(lines[r])}: {bad[r]}" for r in order[:MAX_LISTED])
+        where = show_source(meas.source)
         if len(order) == 1:
             raise MeasurementFileError(
-                f"{meas.source} line {int(lines[order[0]])}: {bad[order[0]]} (a data or "
+                f"{where} line {int(lines[order[0]])}: {bad[order[0]]} (a data or "
                 "geometry problem, not the model's)"
             )
-        more = "; …and more" if len(order) > MAX_LISTED else ""
+        counted = f"{'at least ' if len(order) > MAX_LISTED else ''}{len(order)}"
         raise MeasurementFileError(
-            f"{meas.source}: {len(order)} states that this arm cannot take, a data or "
-            f"geometry problem, not the model's: {listed}{more}"
+            listing(
+                f"{where}: {counted} states that this arm cannot take, a data or geometry "
+                "problem, not the model's",
+                [f"line {int(lines[r])}: {bad[r]}" for r in order],
+            )
         )
     if out is None or "status" not in out:
         return
@@ -257,8 +286,10 @@ def check_states(arm: Arm, meas: Measurements, self_weight: bool = True) -> None
             grams = suspects[ok]
             if grams.size:
                 warnings.warn(
-                    f"{meas.source}: under mass_kg the deflection leaves the model's validity "
-                    f"on line(s) {', '.join(str(int(lines[r])) for r in grams[:MAX_LISTED])}"
+                    f"{show_source(meas.source)}: under mass_kg the deflection leaves the "
+                    "model's validity on line(s) "
+                    f"{', '.join(str(int(lines[r])) for r in grams[:3])}"
+                    f"{' …' if grams.size > 3 else ''}"
                     f" (e.g. {mass[grams[0]]:g} kg); are the masses in grams?",
                     UserWarning,
                     stacklevel=2,

@@ -17,12 +17,9 @@ from pathlib import Path
 import numpy as np
 import numpy.typing as npt
 
-from eodarm.errors import EodarmError, InputError
+from eodarm.errors import EodarmError, InputError, listing, show, show_source
 
 __all__ = ["Poses", "read_poses"]
-
-#: Bad cells named in the message before the rest are counted.
-MAX_BAD = 5
 
 
 @dataclass(frozen=True)
@@ -49,31 +46,37 @@ def read_poses(path: str | Path, n: int) -> Poses:
     """
     from eodarm.data.reader import _read_capped
 
-    source = str(path)
+    source = show_source(path)
     try:
         with open(path, "rb") as f:
             raw = _read_capped(f, source)  # a binary or huge file: one line
         text = (raw if isinstance(raw, str) else raw.decode("utf-8-sig")).removeprefix("\ufeff")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise InputError(f"{source}: cannot read the pose file ({exc})") from None
-    except EodarmError as exc:
+    except OSError as exc:
+        raise InputError(f"{source}: cannot read the pose file ({exc.strerror or exc})") from None
+    except UnicodeDecodeError as exc:
+        raise InputError(f"{source}: not a UTF-8 text file (byte {exc.start})") from None
+    except ValueError as exc:
+        if isinstance(exc, EodarmError):
+            raise InputError(
+                str(exc)
+                .replace("not a CSV text", "not a pose")
+                .replace("not a measurement file", "not a pose file")
+            ) from None
         raise InputError(
-            str(exc)
-            .replace("not a CSV text", "not a pose")
-            .replace("not a measurement file", "not a pose file")
+            f"{source}: cannot read the pose file: its name holds a NUL byte"
         ) from None
-    reader = csv.reader(io.StringIO(text))
+    reader = csv.reader(io.StringIO(text, newline=""))
     try:
         header = [h.strip() for h in next(reader)]
     except StopIteration:
         raise InputError(f"{source}: the pose file is empty") from None
     except csv.Error as exc:
-        raise InputError(f"{source}: not a CSV file ({exc})") from None
+        raise InputError(f"{source}: line {reader.line_num}: not a CSV file ({exc})") from None
     angles = [f"alpha{k + 1}_deg" for k in range(n)]
     missing = [c for c in angles if c not in header]
     if missing:
         raise InputError(
-            f"{source}: missing column {', '.join(missing)} (a pose file has "
+            f"{source}: line 1: missing column {', '.join(missing)} (a pose file has "
             f"{', '.join(angles)} and optionally mass_kg, config)"
         )
     col = {h: i for i, h in enumerate(header)}
@@ -84,36 +87,37 @@ def read_poses(path: str | Path, n: int) -> Poses:
     config: list[str] = []
     lines: list[int] = []
     bad: list[str] = []
+    bad_rows: set[int] = set()
+    prev = reader.line_num
     try:
-        rows = list(reader)
+        for row in reader:  # the line a row starts on: a quoted cell may span lines
+            line, prev = prev + 1, reader.line_num
+            if not any(cell.strip() for cell in row):
+                continue
+            values = []
+            for name in angles + (["mass_kg"] if has_mass else []):
+                i = col[name]
+                cell = row[i].strip() if i < len(row) else ""
+                try:
+                    x = float(cell)
+                except ValueError:
+                    x = math.nan
+                if not math.isfinite(x) or (name == "mass_kg" and x < 0):
+                    want = "a mass >= 0" if name == "mass_kg" else "a finite angle"
+                    bad.append(f"line {line} {name} '{show(cell, 20)}' (need {want})")
+                    bad_rows.add(line)
+                values.append(x)
+            alpha.append(values[:n])
+            if has_mass:
+                mass.append(values[n])
+            if has_config:
+                i = col["config"]
+                config.append(row[i].strip() if i < len(row) else "")
+            lines.append(line)
     except csv.Error as exc:
-        raise InputError(f"{source}: not a CSV file ({exc})") from None
-    for k, row in enumerate(rows):
-        line = k + 2
-        if not any(cell.strip() for cell in row):
-            continue
-        values = []
-        for name in angles + (["mass_kg"] if has_mass else []):
-            i = col[name]
-            cell = row[i].strip() if i < len(row) else ""
-            try:
-                x = float(cell)
-            except ValueError:
-                x = math.nan
-            if not math.isfinite(x) or (name == "mass_kg" and x < 0):
-                want = "a mass >= 0" if name == "mass_kg" else "a finite angle"
-                bad.append(f"line {line} {name} {cell!r} (need {want})")
-            values.append(x)
-        alpha.append(values[:n])
-        if has_mass:
-            mass.append(values[n])
-        if has_config:
-            i = col["config"]
-            config.append(row[i].strip() if i < len(row) else "")
-        lines.append(line)
+        raise InputError(f"{source}: line {reader.line_num}: not a CSV file ({exc})") from None
     if bad:
-        more = f" and {len(bad) - MAX_BAD} more" if len(bad) > MAX_BAD else ""
-        raise InputError(f"{source}: bad cells: {'; '.join(bad[:MAX_BAD])}{more}")
+        raise InputError(listing(f"{source}: {len(bad)} bad cells in {len(bad_rows)} row(s)", bad))
     if not alpha:
         raise InputError(f"{source}: no poses (a header but no rows)")
     return Poses(

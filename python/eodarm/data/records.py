@@ -30,8 +30,10 @@ from typing import Any, TextIO
 import numpy as np
 import numpy.typing as npt
 
+from eodarm.atomic import atomic_write
 from eodarm.data.channels import _CHANNEL, channel_link, channel_names
 from eodarm.errors import EodarmError
+from eodarm.model.effects import did_you_mean
 
 __all__ = [
     "Campaign",
@@ -135,12 +137,18 @@ def read_campaign(path: str | Path) -> Campaign:
         raise RecordError(f"{p}: cannot read campaign file: {exc.strerror or exc}") from None
     except tomllib.TOMLDecodeError as exc:
         raise RecordError(f"{p}: not a TOML file ({exc})") from None
+    unknown = sorted(set(doc) - {"record"})
+    for key in unknown:  # a misspelled [[record]] would drop its records with only a note
+        if did_you_mean(key, ["record"], cutoff=0.75):
+            raise RecordError(
+                f"{p}: [[{key}]] is not a table of a campaign (did you mean [[record]]?); "
+                "its records would be left out"
+            )
     tables = doc.get("record")
     if not isinstance(tables, list) or not tables:
         raise RecordError(
             f"{p}: no [[record]] table (each gives file, config, alpha_deg, masses_kg)"
         )
-    unknown = sorted(set(doc) - {"record"})
     if unknown:
         warnings.warn(
             f"{p}: ignoring key(s) {', '.join(unknown)} (a campaign has [[record]] tables)",
@@ -152,17 +160,20 @@ def read_campaign(path: str | Path) -> Campaign:
         where = f"{p}: record {i}"
         if not isinstance(t, dict):
             raise RecordError(f"{where}: expected a table")
-        extra = sorted(set(t) - {"file", "config", "alpha_deg", "masses_kg"})
+        keys = ("file", "config", "alpha_deg", "masses_kg")
+        extra = sorted(set(t) - set(keys))
         if extra:
             warnings.warn(
-                f"{where}: ignoring key(s) {', '.join(extra)} "
-                "(file, config, alpha_deg, masses_kg are read)",
+                f"{where}: ignoring key(s) "
+                + ", ".join(f"{k}{did_you_mean(k, keys, cutoff=0.75)}" for k in extra)
+                + " (file, config, alpha_deg, masses_kg are read)",
                 UserWarning,
                 stacklevel=2,
             )
-        for key in ("file", "config", "alpha_deg", "masses_kg"):
-            if key not in t:
-                raise RecordError(f"{where}: missing key '{key}'")
+        for key in keys:
+            if key not in t:  # named with the key given in its place, if one looks like it
+                close = did_you_mean(key, extra).replace("did you mean", "is it")
+                raise RecordError(f"{where}: missing key '{key}'{close}")
         if not isinstance(t["file"], str) or not t["file"].strip():
             raise RecordError(f"{where}: 'file' must be a file name")
         if not isinstance(t["config"], str) or not t["config"].strip():
@@ -200,9 +211,12 @@ def _numbers(v: Any, what: str) -> list[float]:
     return out
 
 
-def write_campaign(path: str | Path, specs: Sequence[RecordSpec]) -> None:
-    """Write a campaign file; each record's ``file`` relative to the campaign's folder when
-    it lies inside it."""
+def write_campaign(
+    path: str | Path, specs: Sequence[RecordSpec], out: TextIO | None = None
+) -> None:
+    """Write a campaign file (whole or not at all: eodarm.atomic); each record's ``file``
+    relative to the campaign's folder when it lies inside it. With ``out``, the text goes to
+    that open file instead (``path`` still names the campaign: its folder)."""
     p = Path(path)
 
     def arr(v: Sequence[float]) -> str:
@@ -222,7 +236,11 @@ def write_campaign(path: str | Path, specs: Sequence[RecordSpec]) -> None:
             f"masses_kg = {arr(s.masses_kg)}",
             "",
         ]
-    p.write_text("\n".join(lines), encoding="utf-8")
+    if out is not None:
+        out.write("\n".join(lines))
+        return
+    with atomic_write(p) as f:
+        f.write("\n".join(lines))
 
 
 # ---------------------------------------------------------------------------- records
@@ -372,21 +390,29 @@ def _finite(text: str) -> bool:
 
 
 def write_record(
-    path: str | Path,
+    path: str | Path | TextIO,
     time_s: npt.ArrayLike,
     channels: Sequence[str],
     values: npt.ArrayLike,
     digits: int = 7,
 ) -> None:
     """Write a record as a logger would: ``time_s`` and the channels, one sample per line,
-    ``digits`` significant digits."""
+    ``digits`` significant digits; to a path (whole or not at all: eodarm.atomic) or an open
+    text file."""
     t = np.asarray(time_s, dtype=float)
     v = np.asarray(values, dtype=float).reshape(t.size, len(channels))
     data = np.column_stack([t, v])
     fmt = ["%.6f"] + [f"%.{digits}g"] * len(channels)
-    with open(path, "w", encoding="utf-8", newline="") as f:
+
+    def write(f: TextIO) -> None:
         f.write(",".join([TIME, *channels]) + "\n")
         np.savetxt(f, data, fmt=fmt, delimiter=",")
+
+    if isinstance(path, (str, Path)):
+        with atomic_write(path, newline="") as f:
+            write(f)
+    else:
+        write(path)
 
 
 def write_rows(
@@ -430,7 +456,7 @@ def write_rows(
             )
 
     if isinstance(out, (str, Path)):
-        with open(out, "w", encoding="utf-8", newline="") as f:
+        with atomic_write(out, newline="") as f:  # whole or not at all
             write(f)
     else:
         write(out)

@@ -22,8 +22,9 @@ from typing import Any, NoReturn
 
 import numpy as np
 
-from eodarm.errors import ArgumentTypeError, ArmFileError, EffectError
+from eodarm.errors import ArgumentTypeError, ArmFileError, EffectError, show, show_source
 from eodarm.model.arm_toml import over_template, render
+from eodarm.model.arm_units import unit_hints
 from eodarm.model.effects import Effect, effect_from_table
 
 __all__ = ["Actuator", "Arm", "EffectMark", "FitRecord", "Link", "check_arm"]
@@ -151,6 +152,11 @@ class FitRecord:
             kin = [v for c, v in known.items() if c[:6] == channel[:6] and c.endswith("_deg")]
         return max(kin) if kin else math.nan
 
+    def __repr__(self) -> str:
+        from eodarm.model.arm_display import record_repr
+
+        return record_repr(self)
+
     def matrix(self) -> np.ndarray:
         """The covariance as a (P, P) float array."""
         k = len(self.parameters)
@@ -244,26 +250,31 @@ class Arm:
         if not isinstance(path, (str, Path)):
             raise ArmFileError(f"an arm file's path must be a str or Path, got {_short(path)}")
         p = Path(path)
+        name = show_source(p)  # the file as messages name it: one short printable line
         try:
             with open(p, "rb") as fh:
                 raw = fh.read(MAX_FILE_BYTES + 1)
         except OSError as exc:
-            raise ArmFileError(f"{p}: cannot read arm file: {exc.strerror or exc}") from None
+            raise ArmFileError(f"{name}: cannot read arm file: {exc.strerror or exc}") from None
+        except ValueError:  # open() of a name with a NUL byte
+            raise ArmFileError(f"{name}: cannot read arm file: its name holds a NUL byte") from None
         if len(raw) > MAX_FILE_BYTES:
-            raise ArmFileError(f"{p}: larger than {MAX_FILE_BYTES:,} bytes: not an arm file")
+            raise ArmFileError(f"{name}: larger than {MAX_FILE_BYTES:,} bytes: not an arm file")
         try:
             text = raw.decode("utf-8-sig")  # a byte-order mark is allowed, as in CSV files
         except UnicodeDecodeError as exc:
-            raise ArmFileError(f"{p}: not UTF-8 text (byte {exc.start})") from None
+            raise ArmFileError(f"{name}: not UTF-8 text (byte {exc.start})") from None
         try:
             data = tomllib.loads(text)
         except tomllib.TOMLDecodeError as exc:
-            raise ArmFileError(f"{p}: not valid TOML: {_one_line(str(exc))}") from None
+            raise ArmFileError(f"{name}: not valid TOML: {show(str(exc), 120)}") from None
         except RecursionError:
             raise ArmFileError(
-                f"{p}: not an arm file: arrays or tables nested too deeply"
+                f"{name}: not an arm file: arrays or tables nested too deeply"
             ) from None
-        return cls.from_dict(data, source=str(p))
+        arm = cls.from_dict(data, source=str(p))
+        unit_hints(arm, name)
+        return arm
 
     @classmethod
     def from_dict(cls, data: Mapping[str, Any], source: str = "<dict>") -> Arm:
@@ -359,6 +370,16 @@ class Arm:
         )
 
     # ------------------------------------------------------------------ views
+    def __repr__(self) -> str:
+        from eodarm.model.arm_display import arm_repr
+
+        return arm_repr(self)
+
+    def _repr_html_(self) -> str:
+        from eodarm.model.arm_display import arm_html
+
+        return arm_html(self)
+
     @property
     def n(self) -> int:
         """Number of links (and actuators)."""
@@ -676,10 +697,12 @@ class _Validator:
         self.source = source
 
     def fail(self, key: str, why: str) -> NoReturn:
-        raise ArmFileError(f"{self.source}: key '{key}': {why}")
+        raise ArmFileError(f"{show_source(self.source)}: key '{show(key, 60)}': {why}")
 
     def warn(self, key: str, why: str) -> None:
-        warnings.warn(f"{self.source}: key '{key}' {why}", UserWarning, stacklevel=4)
+        warnings.warn(
+            f"{show_source(self.source)}: key '{show(key, 60)}' {why}", UserWarning, stacklevel=4
+        )
 
     def unknown(self, table: Mapping[str, Any], allowed: set[str], prefix: str) -> None:
         """A key not in ``allowed``: refused when it looks like a misspelling of one (its

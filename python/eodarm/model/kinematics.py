@@ -10,6 +10,7 @@ them under their old names.
 
 from __future__ import annotations
 
+import re
 from functools import lru_cache
 from typing import Any, Literal
 
@@ -64,14 +65,20 @@ def _check_backend(backend: str) -> None:
         raise InputError(f"backend must be 'rust' or 'numpy', got {backend!r}")
 
 
-def _poses(values: npt.ArrayLike, n: int, name: str) -> npt.NDArray[np.float64]:
-    """(N, n) contiguous float64, or a clear InputError naming the shape or the row."""
+def _floats(values: npt.ArrayLike, name: str, what: str) -> npt.NDArray[np.float64]:
+    """``values`` as a float64 array, or an InputError: ``<name>: cannot be read as <what>``
+    (or :func:`~eodarm.model.kinds.real_array`'s own refusal of booleans, text …)."""
     try:
-        a = np.asarray(real_array(values, name), dtype=float)
+        return np.asarray(real_array(values, name), dtype=float)
     except (TypeError, ValueError, OverflowError) as exc:
         if isinstance(exc, InputError):
             raise
-        raise InputError(f"{name}: cannot be read as an array of finite numbers") from None
+        raise InputError(f"{name}: cannot be read as {what}") from None
+
+
+def _poses(values: npt.ArrayLike, n: int, name: str) -> npt.NDArray[np.float64]:
+    """(N, n) contiguous float64, or a clear InputError naming the shape or the row."""
+    a = _floats(values, name, "an array of finite numbers")
     if a.ndim == 1 and a.shape[0] == n:
         a = a[None, :]
     if a.ndim != 2 or a.shape[1] != n:
@@ -114,3 +121,64 @@ def _core_arm(arm: Arm) -> Any:
         lim("max_length_mm"),
         lim("max_force_n"),
     )
+
+
+def _per_row(values: npt.ArrayLike, rows: int, name: str) -> npt.NDArray[np.float64]:
+    """(rows,) finite float64 of a scalar or (rows,) ``values``, or an InputError naming the
+    shape or the row."""
+    a = _floats(values, name, "finite numbers")
+    if a.ndim == 0:
+        a = np.full(rows, float(a))
+    if a.shape != (rows,):
+        raise InputError(f"{name}: expected a scalar or shape ({rows},), got {a.shape}")
+    bad = ~np.isfinite(a)
+    if bad.any():
+        raise InputError(f"pose row {int(np.flatnonzero(bad)[0])}: {name} is not finite")
+    return a
+
+
+def _poses_and_masses(
+    alpha_deg: npt.ArrayLike, mass_kg: npt.ArrayLike, n: int
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+    """Poses (R, n) and payload masses (R,), broadcast against each other over the rows as
+    numpy broadcasts: one pose ((n,) or (1, n)) with M masses gives M rows, N poses with one
+    mass (a scalar or (1,)) N rows, N poses with N masses N rows; anything else is an
+    InputError naming both shapes (docs/python.md, "Broadcasting")."""
+    alpha = _poses(alpha_deg, n, "alpha_deg")
+    mass = _floats(mass_kg, "mass_kg", "finite numbers")
+    rows = alpha.shape[0]
+    if mass.ndim == 1 and mass.shape[0] not in (1, rows) and rows == 1:
+        rows = mass.shape[0]
+        alpha = np.ascontiguousarray(np.broadcast_to(alpha, (rows, n)))
+    if mass.ndim > 1 or (mass.ndim == 1 and mass.shape[0] not in (1, rows)):
+        raise InputError(
+            f"alpha_deg of shape {np.shape(alpha_deg)} and mass_kg of shape {mass.shape} do "
+            "not broadcast: give one pose for M masses, N poses for one mass, or N of each"
+        )
+    if mass.ndim == 1 and mass.shape[0] == 1:
+        mass = mass[0]
+    return alpha, _per_row(mass, rows, "mass_kg")
+
+
+def _refuse_unloaded_singular(
+    arm: Arm, alpha: npt.NDArray[np.float64], res: Arrays, row: str = "pose row"
+) -> None:
+    """Raise for a pose that failed because it is singular unloaded (invalid input, whatever
+    ``strict``), naming its row (``row``: how the caller names it, ``sequence`` for
+    :func:`solve_sequence`); the poses that failed only under load keep their NaN.
+
+    The failed rows' statics without payload are solved again (numpy reference, few rows):
+    they fail only for a pose that is singular on its undeformed geometry."""
+    failed = np.flatnonzero(np.isnan(np.asarray(res["dy_mm"])))
+    if failed.size == 0:
+        return
+    from eodarm.model import reference
+
+    try:
+        reference.statics(arm, alpha[failed], np.zeros((failed.size, 2)), self_weight=True)
+    except InputError as exc:
+        # the message names the row among the failed ones: give the caller's row
+        text = re.sub(
+            r"pose row (\d+)", lambda m: f"{row} {failed[int(m.group(1))]}", str(exc), count=1
+        )
+        raise InputError(text) from None

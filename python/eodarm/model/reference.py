@@ -699,6 +699,7 @@ def solve_sequence(
     mass_kg: ArrayLike,
     effects: Any = (),
     self_weight: bool = True,
+    nan_on_failure: bool = False,
 ) -> dict[str, FloatArray]:
     """Response of N arms to sequences of S payloads, with memory (docs/model.md §4, sequences).
 
@@ -733,6 +734,10 @@ def solve_sequence(
         User-written effects see each state loaded once from the reference (no history).
     self_weight : bool, default True
         Whether every state and the reference carry the link and actuator weights.
+    nan_on_failure : bool, default False
+        Give a state whose loaded pose cannot be closed NaN instead of an error; what the
+        frictions hold still steps through it (their forces come from the undeformed
+        geometry), so the states after it are solved (as the compiled core's).
 
     Returns
     -------
@@ -779,7 +784,11 @@ def solve_sequence(
             if custom_effs:
                 ext = _custom_extras(arm, alpha_d, payload, geo, st, custom_effs, self_weight, ext)
             held = held_forces(par, st, joint, body)
-            states.append(_respond(arr, par, geo, alpha, st, payload, ext, held))
+            states.append(
+                _respond(
+                    arr, par, geo, alpha, st, payload, ext, held, nan_on_failure=nan_on_failure
+                )
+            )
         except InputError as exc:
             raise InputError(f"{exc} (state {s + 1} of the sequence)") from None
         joint, body = held["joint"], held["body"]

@@ -23,11 +23,15 @@ from eodarm.model.kinematics import (
     Backend,
     _check_backend,
     _core_arm,
+    _per_row,
     _poses,
+    _poses_and_masses,
+    _refuse_unloaded_singular,
     forward,
     stroke_violations,
 )
 from eodarm.model.resources import check_output_memory
+from eodarm.model.sequence import cycle_returns, solve_sequence
 from eodarm.model.validity import checks_load_rise, quiet_rows, status
 
 __all__ = [
@@ -63,7 +67,10 @@ def solve(
     ----------
     arm : the arm.
     alpha_deg : (N, n) unloaded absolute link angles, degrees (a single pose (n,) is N = 1).
-    mass_kg : payload mass, kg; scalar or (N,). Its weight ``m·g`` acts downward.
+    mass_kg : payload mass, kg; scalar or (N,). Its weight ``m·g`` acts downward. One pose
+        ((n,) or (1, n)) with (M,) masses is that pose under each payload: M rows (numpy's
+        broadcasting over the rows; any other pair of shapes is an
+        :class:`~eodarm.errors.InputError` naming both).
     effects : effects added to the baseline model (docs/model.md §4), built-in or user-written
         (:func:`eodarm.custom_effect`; their functions are called once each, on the statics of
         the N poses, and what they return is added to ``extra``).
@@ -125,9 +132,9 @@ def solve(
         cannot be closed under its load.
     """
     check_arm(arm, "solve")
-    _check_memory(alpha_deg, arm.n)
-    alpha = _poses(alpha_deg, arm.n, "alpha_deg")
-    payload = _payload_of(mass_kg, alpha.shape[0], arm.g)
+    _check_memory(alpha_deg, arm.n, mass_kg)
+    alpha, mass = _poses_and_masses(alpha_deg, mass_kg, arm.n)
+    payload = _payload_of(mass, alpha.shape[0], arm.g)
     return _solve_payload(
         arm,
         alpha,
@@ -143,170 +150,6 @@ def solve(
         checked=True,
         strict=strict,
     )
-
-
-def solve_sequence(
-    arm: Arm,
-    alpha_deg: npt.ArrayLike,
-    mass_kg: npt.ArrayLike,
-    effects: Effect | list[Effect] | tuple[Effect, ...] | None = None,
-    backend: Backend = "rust",
-    self_weight: bool = True,
-    *,
-    nan_on_failure: bool = False,
-) -> Arrays:
-    """N load sequences: each pose loaded and unloaded through S payloads from one reference.
-
-    The reference of a sequence is its pose unloaded (self-weight only), in which the sensors
-    were zeroed; every state is relative to it, not to "this state unloaded". The friction
-    elements (``actuator_friction``, ``joint_friction``) hold what the states before let them
-    hold, and the gaps (``actuator_play``, ``joint_clearance``) are taken up along each
-    state's actual force (docs/model.md, "Load sequences and friction"). :func:`solve` is
-    the case S = 1.
-
-    Parameters
-    ----------
-    arm : the arm.
-    alpha_deg : (N, n) unloaded absolute link angles of the N sequences, degrees (a single
-        pose (n,) is N = 1).
-    mass_kg : (N, S) payload masses (kg, ≥ 0; 0 is the return to no payload) of the S states
-        after each reference, in the order they are applied; (S,) gives every sequence the
-        same payloads.
-    effects : effects added to the arm's. A user-written effect holds no history: each state
-        sees it loaded once from the sequence's reference, and such a model is solved by the
-        numpy reference whatever ``backend`` says (the compiled core takes no user
-        deformations in sequences).
-    backend : ``"rust"`` (compiled core) or ``"numpy"`` (the independent reference,
-        ``eodarm.reference.solve_sequence``).
-    self_weight : include link and actuator weights in the reference and every state.
-    nan_on_failure : give a state that cannot be solved (a singular pose, a triangle that
-        cannot close) NaN instead of raising (``backend="rust"``; a sweep's cells).
-
-    Returns
-    -------
-    dict of arrays, the keys of :func:`solve` with a state axis: ``force_n`` (N, S, n) actual
-    actuator forces (compression +, N), ``dx_mm``, ``dy_mm`` (N, S) measure-point
-    displacement from the reference (mm), ``dalpha_deg`` (N, S, n), ``dl_mm`` (N, S, n) body
-    length change as the actuator's sensor sees it (mm), and from the compiled core also
-    ``reaction_n`` (N, S, n, 2), ``dforce_n``, ``dlength_mm``, ``length_mm`` (N, S, n) and
-    ``status`` (N, S) uint8 (docs/model.md §7).
-
-    Raises
-    ------
-    ValueError
-        (an :class:`~eodarm.errors.EodarmError`) naming the sequence (and state) for a wrong
-        shape, a non-finite or negative mass, a singular pose or a triangle that cannot close.
-    """
-    check_arm(arm, "solve_sequence")
-    _check_backend(backend)
-    alpha = _poses(alpha_deg, arm.n, "alpha_deg")
-    rows = alpha.shape[0]
-    mass = _sequence_masses(mass_kg, rows)
-    check_output_memory(
-        2 * mass.size * (8 * (8 * arm.n + 2) + 1), f"solve_sequence of {mass.size:,} states"
-    )
-    effs = with_arm_effects(arm.effects, effects)
-    custom_effs = split_effects(effs)[1]
-    if custom_effs:
-        # A user-written effect holds no history: each state sees it loaded once from the
-        # sequence's reference. Its deformations are computed in Python, state by state,
-        # which the numpy reference does (the compiled core takes no extras in sequences).
-        if nan_on_failure:
-            raise InputError(
-                f"custom effect {custom_effs[0].key}: a sequence with user-written effects is "
-                "solved by the numpy reference, which has no nan_on_failure"
-            )
-        backend = "numpy"
-    if backend == "numpy":
-        if nan_on_failure:
-            raise InputError("nan_on_failure is for backend='rust'")
-        from eodarm.model import reference
-
-        # The numpy reference solves sequences too (eodarm.reference.solve_sequence).
-        res = dict(
-            reference.solve_sequence(arm, alpha, mass, effects=effs, self_weight=self_weight)
-        )
-        n_seq, n_states = mass.shape
-        flat_alpha = np.repeat(alpha, n_states, axis=0)
-        flat_payload = np.stack([np.zeros(mass.size), -mass.ravel() * arm.g], axis=-1)
-        flat = {k: v.reshape(n_seq * n_states, *v.shape[2:]) for k, v in res.items()}
-        code = status(arm, flat_alpha, flat_payload, flat, load_rise=checks_load_rise(arm, effs))
-        res["status"] = code.reshape(n_seq, n_states)  # type: ignore[assignment]
-        return res
-    from eodarm.model import native as _core
-
-    codes, places, values = effect_arrays(effs, arm.n)
-    payload = np.ascontiguousarray(mass * -arm.g)
-    seq: Arrays = _core.solve_sequence(
-        _core_arm(arm), alpha, payload, codes, places, values, self_weight, nan_on_failure
-    )
-    return seq
-
-
-def cycle_returns(
-    arm: Arm,
-    alpha_deg: npt.ArrayLike,
-    mass_kg: npt.ArrayLike,
-    effects: Effect | list[Effect] | tuple[Effect, ...] | None = None,
-    self_weight: bool = True,
-) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
-    """Where the measure point comes back to after each cell's load cycle, on the compiled
-    core: for every pose p and payload mass m_j, the sequence reference → m_j → 0 and the
-    measure point at its end relative to the reference, ``dx``, ``dy`` (P, M) in mm, NaN where
-    the cycle cannot be solved. The same numbers as the last state of
-    :func:`solve_sequence` with the states ``[m_j, 0]``, without its other outputs (what
-    ``sweep(..., cycle=True)`` needs). Built-in effects only (a user-written effect is an
-    :class:`~eodarm.errors.InputError`: :func:`solve_sequence` solves those).
-
-    Parameters
-    ----------
-    arm : the arm.
-    alpha_deg : (P, n) unloaded absolute link angles, degrees.
-    mass_kg : (M,) payload masses, kg (≥ 0).
-    effects : effects added to the arm's.
-    self_weight : include link and actuator weights.
-    """
-    check_arm(arm, "cycle_returns")
-    alpha = _poses(alpha_deg, arm.n, "alpha_deg")
-    mass = _sequence_masses(np.atleast_1d(np.asarray(mass_kg, dtype=float)), 1)[0]
-    effs = with_arm_effects(arm.effects, effects)
-    users = split_effects(effs)[1]
-    if users:
-        raise InputError(
-            f"custom effect {users[0].key}: cycle_returns takes built-in effects only "
-            "(solve_sequence solves user-written ones)"
-        )
-    from eodarm.model import native as _core
-
-    codes, places, values = effect_arrays(effs, arm.n)
-    dx, dy = _core.cycle_returns(
-        _core_arm(arm), alpha, np.ascontiguousarray(mass), codes, places, values, self_weight
-    )
-    return np.asarray(dx), np.asarray(dy)
-
-
-def _sequence_masses(mass_kg: npt.ArrayLike, rows: int) -> npt.NDArray[np.float64]:
-    """The (N, S) payload masses of N sequences, from (N, S) or (S,), or an InputError naming
-    the shape, or the sequence and state of a non-finite or negative mass."""
-    try:
-        mass = np.asarray(real_array(mass_kg, "mass_kg"), dtype=float)
-    except (TypeError, ValueError, OverflowError) as exc:
-        if isinstance(exc, InputError):
-            raise
-        raise InputError("mass_kg: cannot be read as an array of finite numbers") from None
-    if mass.ndim == 1:
-        mass = np.broadcast_to(mass, (rows, mass.shape[0]))
-    if mass.ndim != 2 or mass.shape[0] != rows or mass.shape[1] == 0:
-        raise InputError(
-            f"mass_kg: expected shape ({rows}, S) or (S,) with S >= 1, got {np.shape(mass_kg)}"
-        )
-    bad = ~np.isfinite(mass) | (mass < 0)
-    if bad.any():
-        q, s = (int(v) for v in np.argwhere(bad)[0])
-        raise InputError(
-            f"mass_kg: sequence {q}, state {s}: expected a finite mass >= 0, got {mass[q, s]}"
-        )
-    return np.ascontiguousarray(mass, dtype=np.float64)
 
 
 def _payload_of(mass_kg: npt.ArrayLike, rows: int, g: float) -> npt.NDArray[np.float64]:
@@ -336,9 +179,11 @@ def solve_payload(
     out: Mapping[str, npt.NDArray[Any]] | None = None,
     strict: bool = False,
 ) -> Arrays:
-    """Like :func:`solve`, with any payload force vector (N, 2) in N at the load point."""
+    """Like :func:`solve`, with any payload force vector (N, 2) in N at the load point; one
+    pose with (M, 2) payloads is that pose under each (M rows), one payload (2,) or (1, 2)
+    goes with every pose."""
     check_arm(arm, "solve_payload")
-    _check_memory(alpha_deg, arm.n)
+    _check_memory(alpha_deg, arm.n, payload_n)
     return _solve_payload(
         arm,
         alpha_deg,
@@ -383,9 +228,13 @@ def _solve_payload(
         payload = _poses(payload_n, 2, "payload_n")
     if payload.shape[0] == 1 and alpha.shape[0] != 1:
         payload = np.ascontiguousarray(np.broadcast_to(payload, (alpha.shape[0], 2)))
+    if alpha.shape[0] == 1 and payload.shape[0] != 1:  # one pose under M payloads
+        alpha = np.ascontiguousarray(np.broadcast_to(alpha, (payload.shape[0], arm.n)))
     if payload.shape[0] != alpha.shape[0]:
         raise InputError(
-            f"payload_n: expected {alpha.shape[0]} rows like alpha_deg, got {payload.shape[0]}"
+            f"alpha_deg of shape {np.shape(alpha_deg)} and payload_n of shape "
+            f"{np.shape(payload_n)} do not broadcast: give one pose for M payloads, N poses "
+            "for one payload, or N of each"
         )
     effs = with_arm_effects(arm.effects, effects)
     codes, places, values = effect_arrays(effs, arm.n)
@@ -469,29 +318,6 @@ def _solve_payload(
     return res
 
 
-def _refuse_unloaded_singular(arm: Arm, alpha: npt.NDArray[np.float64], res: Arrays) -> None:
-    """Raise for a pose that failed because it is singular unloaded (invalid input, whatever
-    ``strict``), naming its row; the poses that failed only under load keep their NaN.
-
-    The failed rows' statics without payload are solved again (numpy reference, few rows):
-    they fail only for a pose that is singular on its undeformed geometry."""
-    import re
-
-    failed = np.flatnonzero(np.isnan(np.asarray(res["dy_mm"])))
-    if failed.size == 0:
-        return
-    from eodarm.model import reference
-
-    try:
-        reference.statics(arm, alpha[failed], np.zeros((failed.size, 2)), self_weight=True)
-    except InputError as exc:
-        # the message names the row among the failed ones: give the caller's row
-        text = re.sub(
-            r"pose row (\d+)", lambda m: f"pose row {failed[int(m.group(1))]}", str(exc), count=1
-        )
-        raise InputError(text) from None
-
-
 def statics(
     arm: Arm,
     alpha_deg: npt.ArrayLike,
@@ -509,8 +335,8 @@ def statics(
     pin-to-pin lengths. The unloaded state carries the self-weight (none without it).
     """
     check_arm(arm, "statics")
-    alpha = _poses(alpha_deg, arm.n, "alpha_deg")
-    payload = _payload_of(mass_kg, alpha.shape[0], arm.g)
+    alpha, mass = _poses_and_masses(alpha_deg, mass_kg, arm.n)
+    payload = _payload_of(mass, alpha.shape[0], arm.g)
     _check_backend(backend)
     if backend == "rust":
         from eodarm.model import native as _core
@@ -586,13 +412,17 @@ def inverse_kinematics(
 
 
 # ---------------------------------------------------------------------------- helpers
-def _check_memory(alpha_deg: npt.ArrayLike, n: int) -> None:
+def _check_memory(alpha_deg: npt.ArrayLike, n: int, load: Any = None) -> None:
     """Refuse, before any array is converted or allocated, a solve whose output cannot fit:
     6 (N, n) and one (N, n, 2) float arrays, dx, dy and the status, and as much again for
-    the input's copies and the checks on the way."""
+    the input's copies and the checks on the way. N is the rows of the poses, or of the
+    masses or payloads ``load`` one pose is broadcast over (arrays only: the shape of a
+    list is known only by converting it)."""
     shape = np.shape(alpha_deg) if isinstance(alpha_deg, np.ndarray) else ()
-    if len(shape) == 2:
-        rows = int(shape[0])
+    rows = int(shape[0]) if len(shape) == 2 else 1 if len(shape) == 1 else 0
+    if isinstance(load, np.ndarray) and load.ndim in (1, 2) and rows <= 1:
+        rows = max(rows, int(load.shape[0]))
+    if rows:
         check_output_memory(2 * rows * (8 * (8 * n + 2) + 1), f"solve of {rows:,} poses")
 
 
@@ -669,20 +499,3 @@ def _extras(
             )
         out[key] = np.ascontiguousarray(a)
     return out
-
-
-def _per_row(values: npt.ArrayLike, rows: int, name: str) -> npt.NDArray[np.float64]:
-    try:
-        a = np.asarray(real_array(values, name), dtype=float)
-    except (TypeError, ValueError, OverflowError) as exc:
-        if isinstance(exc, InputError):
-            raise
-        raise InputError(f"{name}: cannot be read as finite numbers") from None
-    if a.ndim == 0:
-        a = np.full(rows, float(a))
-    if a.shape != (rows,):
-        raise InputError(f"{name}: expected a scalar or shape ({rows},), got {a.shape}")
-    bad = ~np.isfinite(a)
-    if bad.any():
-        raise InputError(f"pose row {int(np.flatnonzero(bad)[0])}: {name} is not finite")
-    return a

@@ -19,11 +19,20 @@ A prediction's standard deviation has two parts, added in quadrature:
 
 Neither part covers the noise of a future measurement: an interval for a measured value
 adds that measurement's own σ.
+
+Load sequences (:func:`sequence_sigma`, ``solve_sequence(..., uncertainty=True)``) have the
+same two parts per state. The core's sensitivities are for single loadings, so ∂y/∂θ of each
+state is taken by solving the sequences again with each θ moved by the core's own step
+(:func:`eodarm.model.steps.core_step`): a central difference, one-sided where θ ± h would
+cross a bound (a gap fixed at 0). A state with no memory before it (no friction, no gap)
+thus gets the σ :func:`prediction_sigma` gives. A friction's response is piecewise linear in
+its limit (docs/model.md §9): the derivative is the slope of the piece the state sits on.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -36,7 +45,14 @@ from eodarm.model.effects import CATALOGUE, Effect, Slot, theta_from_param
 #: z of a two-sided 95 % normal interval.
 Z95 = 1.959963984540054
 
-__all__ = ["PART_KEYS", "SIGMA_KEYS", "inadequacy_note", "prediction_sigma", "require_fit"]
+__all__ = [
+    "PART_KEYS",
+    "SIGMA_KEYS",
+    "inadequacy_note",
+    "prediction_sigma",
+    "require_fit",
+    "sequence_sigma",
+]
 
 #: The outputs that get a standard deviation, and its key.
 SIGMA_KEYS = {"dx_mm": "sigma_dx_mm", "dy_mm": "sigma_dy_mm", "dalpha_deg": "sigma_dalpha_deg"}
@@ -51,8 +67,9 @@ def _parameters(arm: Arm) -> tuple[list[Slot], npt.NDArray[np.float64]]:
     rec = arm.fit
     if rec is None:
         raise InputError(
-            f"arm '{arm.name}' carries no fit: uncertainty needs an arm file written by "
-            "'eodarm fit ... -o FITTED.toml' (its [fit] table holds the covariance)"
+            f"arm '{arm.name}' carries no fit: uncertainty needs the [fit] covariance of an "
+            "arm file written by 'eodarm fit ... -o FITTED.toml', or in Python fit.to_arm() "
+            "(arm.with_effects(fit.effects) carries the values without it)"
         )
     by_key = {e.key: e for e in arm.effects}
     slots, dtheta = [], []
@@ -145,19 +162,96 @@ def prediction_sigma(
     # var_k = Σ_ij J_ki C_ij J_kj for every row and channel, without forming J C Jᵀ
     var = np.einsum("rci,ij,rcj->rc", jac, cov, jac)
     sd = np.sqrt(np.clip(var, 0.0, None))  # NaN rows stay NaN
+    if not all(math.isfinite(float(x)) for x in cov.ravel()):
+        raise InputError(f"arm '{arm.name}': its [fit] covariance is not finite")
+    return _parts(arm, sd[:, : 2 + n])
+
+
+def _parts(arm: Arm, sp: npt.NDArray[np.float64]) -> dict[str, npt.NDArray[np.float64]]:
+    """The totals and both parts of ``sp`` (..., 2 + n), the parameters' σ of dx, dy and
+    dα₁…dαₙ: the model's part is the same for every solved state; an unsolved one (NaN)
+    stays NaN."""
     rec = arm.fit
     assert rec is not None  # _parameters made sure
-    channels = ["dx_mm", "dy_mm", *(f"dalpha{k + 1}_deg" for k in range(n))]
+    channels = ["dx_mm", "dy_mm", *(f"dalpha{k + 1}_deg" for k in range(arm.n))]
     model = np.array([rec.model_sigma(ch) for ch in channels])
-    # the model part is the same for every solved row; an unsolved row stays NaN
-    sp = sd[:, : 2 + n]
-    sm = np.where(np.isfinite(sp), model[None, :], np.nan)
+    sm = np.where(np.isfinite(sp), model, np.nan)
     total = np.hypot(sp, sm)
     out: dict[str, Any] = {}
     for part, arr in (("", total), ("_param", sp), ("_model", sm)):
-        out[f"sigma{part}_dx_mm"] = arr[:, 0].copy()
-        out[f"sigma{part}_dy_mm"] = arr[:, 1].copy()
-        out[f"sigma{part}_dalpha_deg"] = arr[:, 2 : 2 + n].copy()
+        out[f"sigma{part}_dx_mm"] = arr[..., 0].copy()
+        out[f"sigma{part}_dy_mm"] = arr[..., 1].copy()
+        out[f"sigma{part}_dalpha_deg"] = arr[..., 2:].copy()
+    return out
+
+
+def sequence_sigma(
+    arm: Arm,
+    effects: list[Effect],
+    run: Callable[[list[Effect]], dict[str, npt.NDArray[Any]]],
+    base: dict[str, npt.NDArray[Any]],
+) -> dict[str, npt.NDArray[np.float64]]:
+    """Standard deviations of :func:`eodarm.solve_sequence`'s ``dx_mm``, ``dy_mm`` (N, S)
+    and ``dalpha_deg`` (N, S, n), with the keys of :func:`prediction_sigma` (module notes).
+
+    Parameters
+    ----------
+    arm : the fitted arm (its ``[fit]`` covariance).
+    effects : the model (the arm's own effects merged with the caller's).
+    run : solves the same sequences under a list of effects (NaN where a state cannot be
+        closed), as :func:`eodarm.solve_sequence` did for ``base``.
+    base : the sequences solved under ``effects``.
+
+    Raises
+    ------
+    InputError
+        When the arm carries no ``[fit]`` table, or its covariance is not finite.
+    """
+    from eodarm.model.steps import core_step
+
+    slots, cov = _parameters(arm)
     if not all(math.isfinite(float(x)) for x in cov.ravel()):
         raise InputError(f"arm '{arm.name}': its [fit] covariance is not finite")
-    return out
+    y0 = _sequence_channels(base)
+    jac = np.zeros((*y0.shape, len(slots)))
+    by_key = {e.key: e for e in effects}
+    for j, s in enumerate(slots):
+        if cov[j, j] == 0:
+            continue  # a parameter known exactly moves nothing
+        t0 = theta_from_param(s.name, by_key[s.key].value) if s.key in by_key else 0.0
+        h = core_step(arm, s, t0)
+        lo, hi = s.kind.theta_bounds
+        rest = [e for e in effects if e.key != s.key]
+
+        def at(theta: float, s: Slot = s, rest: list[Effect] = rest) -> npt.NDArray[Any]:
+            return _sequence_channels(run([*rest, *_effect_at(s, theta)]))
+
+        if t0 - h >= lo and t0 + h <= hi:
+            jac[..., j] = (at(t0 + h) - at(t0 - h)) / (2 * h)
+        elif t0 + h <= hi:
+            jac[..., j] = (at(t0 + h) - y0) / h
+        else:
+            jac[..., j] = (y0 - at(t0 - h)) / h
+    var = np.einsum("...i,ij,...j->...", jac, cov, jac)
+    return _parts(arm, np.sqrt(np.clip(var, 0.0, None)))
+
+
+def _effect_at(slot: Slot, theta: float) -> list[Effect]:
+    """The effect of ``slot`` with fitting parameter ``theta`` (none where that is the
+    effect absent; an actuator body at θ = 0 is rigid, the arm file's 10²⁰ N/mm)."""
+    from eodarm.model.arm import MAX_STIFFNESS
+    from eodarm.model.effects import param_from_theta
+
+    value = param_from_theta(slot.name, theta)
+    if math.isinf(value):
+        return [slot.effect(MAX_STIFFNESS)] if slot.name == "actuator_compliance" else []
+    if value == 0 and not slot.kind.allow_zero:
+        return []
+    return [slot.effect(value)]
+
+
+def _sequence_channels(out: dict[str, npt.NDArray[Any]]) -> npt.NDArray[np.float64]:
+    """(N, S, 2 + n): dx, dy and dα₁…dαₙ of each state of a sequence solve."""
+    return np.concatenate(
+        [out["dx_mm"][..., None], out["dy_mm"][..., None], out["dalpha_deg"]], axis=-1
+    )

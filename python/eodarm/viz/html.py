@@ -75,9 +75,14 @@ def esc(text: Any) -> str:
 
 
 def num(x: float, digits: int = 4) -> str:
+    """A computed number to ``digits`` significant figures, trailing zeros kept so that a
+    column reads alike (``0.00030`` beside ``0.00033``), one formatter with the terminal
+    (:func:`eodarm.viz.format.value`); ``∞`` and ``–`` for what is not a number."""
+    from eodarm.viz.format import value
+
     if x is None or not math.isfinite(x):
         return "∞" if x is not None and x > 0 else "–"
-    return f"{x:.{digits}g}"
+    return value(x, digits=digits, zeros=True)
 
 
 def table(head: Sequence[str], rows: Sequence[Sequence[Any]], hl: Sequence[bool] = ()) -> str:

@@ -13,9 +13,12 @@ import math
 from typing import TYPE_CHECKING
 
 import numpy as np
+import numpy.typing as npt
+from matplotlib.collections import LineCollection
 
 from eodarm.analysis.sequences import hysteresis
 from eodarm.errors import EodarmError
+from eodarm.viz.format import channel_value
 from eodarm.viz.style import (
     GREY,
     PALETTE,
@@ -27,6 +30,7 @@ from eodarm.viz.style import (
     figure,
     finish,
     main_channel,
+    short_channel,
 )
 
 if TYPE_CHECKING:
@@ -37,8 +41,34 @@ if TYPE_CHECKING:
 
 __all__ = ["loops"]
 
+FloatArray = npt.NDArray[np.float64]
+
 #: Most panels drawn (the first sequences of the file); the text output has every one.
 MAX_PANELS = 12
+
+
+def _once(m: FloatArray, y: FloatArray) -> list[list[tuple[float, float]]]:
+    """The path (m, y) as segments, each drawn once: a model without memory goes back down
+    its loading branch, and a dashed line drawn twice over itself, in opposite directions,
+    has its dashes fill each other's gaps and reads as solid."""
+    seen: list[tuple[float, float, float, float]] = []
+    out = []
+    span = float(np.nanmax(np.abs(y))) if np.isfinite(y).any() else 1.0
+    tol = 1e-9 * max(span, 1e-12)
+    for a, b in itertools.pairwise(range(len(m))):
+        seg = (float(m[a]), float(y[a]), float(m[b]), float(y[b]))
+        if not all(math.isfinite(v) for v in seg):
+            continue
+        back = (seg[2], seg[3], seg[0], seg[1])
+        if any(
+            all(abs(u - v) <= tol for u, v in zip(s, t, strict=True))
+            for t in seen
+            for s in (seg, back)
+        ):
+            continue
+        seen.append(seg)
+        out.append([(seg[0], seg[1]), (seg[2], seg[3])])
+    return out
 
 
 def loops(
@@ -47,6 +77,7 @@ def loops(
     after: FitResult,
     channel: str | None = None,
     path: PathLike | None = None,
+    panel_width: float = 3.0,
 ) -> Figure:
     """The hysteresis loops of one channel (default the sag ``dy_mm``) against payload.
 
@@ -57,6 +88,7 @@ def loops(
         twice draws it once.
     channel : the channel drawn; default :func:`main_channel`.
     path : where to write a PNG; nothing is written when ``None``.
+    panel_width : inches per panel (the report draws them larger, 4.2).
 
     Returns
     -------
@@ -80,9 +112,10 @@ def loops(
     k = len(seqs)
     ncols = min(4, math.ceil(math.sqrt(k)))
     nrows = math.ceil(k / ncols)
-    fig = figure(max(3.0 * ncols, 6.5), 2.6 * nrows + 1.3)
+    fig = figure(max(panel_width * ncols, 6.5), 0.87 * panel_width * nrows + 1.3)
     axes = axes_grid(fig, k, ncols, sharex=True)
     unit = channel_unit(ch)
+    name = short_channel(ch)
     for ax, h in zip(axes, seqs, strict=True):
         j = list(h["channels"]).index(ch)  # type: ignore[call-overload]
         m = np.concatenate([[0.0], np.asarray(h["mass_kg"], dtype=float)])
@@ -91,7 +124,11 @@ def loops(
         ya = np.concatenate([[0.0], np.asarray(h["model"])[:, j]])  # type: ignore[call-overload]
         yb = np.concatenate([[0.0], np.asarray(h["before"])[:, j]])  # type: ignore[call-overload]
         if not same:
-            ax.plot(m, yb, ls=(0, (5, 3)), color=GREY, lw=1.3, gid="before", zorder=3)
+            dashed = LineCollection(
+                _once(m, yb), linestyles=[(0, (5, 3))], colors=GREY, linewidths=1.3, zorder=3
+            )
+            dashed.set_gid("before")
+            ax.add_collection(dashed)
         ax.plot(m, ya, ls="-", color=PALETTE[0], lw=2.2, alpha=0.85, gid="after", zorder=2)
         ok = np.isfinite(y)
         ax.errorbar(
@@ -115,13 +152,13 @@ def loops(
         title = str(h["config"])
         if isinstance(left, dict) and ch in left:
             lm, lmod = left[ch]
-            title += f": left {lm:.3g} {unit} (model {lmod:.3g})"
+            title += f": left {channel_value(lm, unit)} (model {channel_value(lmod, unit)})"
         ax.set_title(title, fontsize=9)
         ax.axhline(0.0, color="k", lw=0.5)
     for ax in axes[-ncols:]:
         ax.set_xlabel("payload [kg]")
     for ax in axes[::ncols]:
-        ax.set_ylabel(f"{ch} [{unit}]")
+        ax.set_ylabel(f"{name} [{unit}]")
     more = f" (first {MAX_PANELS} of {len(meas.sequences())})" if k < len(meas.sequences()) else ""
     head = f"{channel_title(ch)} against payload, per load sequence{more}\n"
     head += "measured ±1σ (black; arrows in the order applied), model "

@@ -49,6 +49,7 @@ from eodarm.errors import EodarmError
 from eodarm.model.arm import Arm
 from eodarm.model.effects import Effect
 from eodarm.model.solver import forward
+from eodarm.viz.format import value
 from eodarm.viz.style import PALETTE, PathLike, figure, finish
 from eodarm.workspace.maps import (
     arm_of,
@@ -108,12 +109,43 @@ def _points(ds: xr.Dataset, var: xr.DataArray) -> tuple[FloatArray, FloatArray, 
     return x[keep], y[keep], v[keep]
 
 
+def _frame_points(ds: xr.Dataset) -> tuple[FloatArray, FloatArray]:
+    """The unloaded load points of every reachable pose of a sweep's grid (valid or not at
+    any payload): every map of one grid is framed and pixelled by these, so that the maps of
+    one sweep share their bounds and pixel size whatever each draws."""
+    if "effector_x_mm" not in ds:
+        return np.empty(0), np.empty(0)
+    dims = list(ds["effector_x_mm"].dims)
+    x = ds["effector_x_mm"].transpose(*dims).values.reshape(-1)
+    y = ds["effector_y_mm"].transpose(*dims).values.reshape(-1)
+    keep = np.isfinite(x) & np.isfinite(y)
+    if "reachable" in ds:
+        keep &= ds["reachable"].transpose(*dims).values.reshape(-1)
+    return x[keep], y[keep]
+
+
+def _ok_poses(ds: xr.Dataset) -> int:
+    """Poses of a one-payload slice that are reachable and whose cell is ok (the model valid:
+    docs/model.md §7); for a Dataset of :func:`effect_contributions`, its model's own."""
+    ok = ds["reachable"]
+    for key in ("model_ok", "ok"):
+        if key in ds and "mass_kg" not in ds[key].dims:
+            return int((ok & ds[key]).sum())
+    return int(ok.sum())
+
+
 class _Canvas:
     """The common frame of the maps: bounds in mm, the pixel grid, the arm drawn thin.
 
     Poses are binned into square pixels of ``width`` mm over the bounds of the reachable load
-    points; each pixel takes the value of the worst pose that lands in it.
+    points; each pixel takes the value of the worst pose that lands in it. :meth:`of` frames
+    a sweep's grid (every map of one sweep: the same bounds, the same pixels).
     """
+
+    @classmethod
+    def of(cls, arm: Arm, ds: xr.Dataset) -> _Canvas:
+        """The canvas of a sweep's grid: framed by every reachable pose's load point."""
+        return cls(arm, *_frame_points(ds), _ref_pose(ds, arm.n))
 
     def __init__(self, arm: Arm, xs: FloatArray, ys: FloatArray, ref: FloatArray | None) -> None:
         self.arm = arm
@@ -237,13 +269,29 @@ class _Canvas:
             frameon=False,
         )
 
-    def note(self, ax: Axes | Figure, ds: xr.Dataset, shown: int, worst: str) -> None:
-        """Say how many poses are drawn and what a pixel shows (in an axes, or under a figure)."""
+    def note(
+        self,
+        ax: Axes | Figure,
+        ds: xr.Dataset,
+        shown: int,
+        worst: str,
+        mass: float | None = None,
+        missing: str = "",
+        ok: int | None = None,
+        what: str = "ok",
+    ) -> None:
+        """Say how many poses are ok (the same count on every map of a payload), how many
+        are drawn when fewer (``missing`` says why) and what a pixel shows (in an axes, or
+        under a figure)."""
         total = int(np.prod([ds.sizes[d] for d in ds["reachable"].dims]))
+        good = _ok_poses(ds) if ok is None else ok
+        at = f" at {mass:g} kg" if mass is not None else ""
+        drawn = f"\n{shown:,} drawn ({missing})" if shown != good else ""
         text = (
-            f"{shown:,} of {total:,} poses ok; each {self.width:.3g} mm "
-            f"pixel shows its {worst} pose"
+            f"{good:,} of {total:,} poses {what}{at}; each {self.width:.3g} mm "
+            f"pixel shows its {worst} pose{drawn}"
         )
+        text = "\n".join(textwrap.fill(line, 100) for line in text.split("\n"))
         if isinstance(ax, Figure):
             ax.supxlabel(text, fontsize=7, color="0.25")
             return
@@ -258,6 +306,25 @@ class _Canvas:
             color="0.25",
             bbox={"fc": "white", "ec": "none", "alpha": 0.8, "pad": 1.0},
         )
+
+
+def log_ticks(cb: Any, lo: float, hi: float, most: int = 5) -> None:
+    """Label a log-scale colour bar at round numbers (1, 2, 5 × 10ᵏ) between ``lo`` and
+    ``hi``, at most ``most`` of them, written as numbers (``0.05``, ``20``: not ``2×10¹``),
+    and no labelled minor ticks: on a narrow or horizontal bar those collide."""
+    from matplotlib.ticker import FixedFormatter, FixedLocator, NullFormatter, NullLocator
+
+    k0, k1 = math.floor(math.log10(lo)), math.ceil(math.log10(hi))
+    ticks = [m * 10.0**k for k in range(k0, k1 + 1) for m in (1, 2, 5) if lo <= m * 10.0**k <= hi]
+    while len(ticks) > most:
+        ticks = ticks[::2]
+    if not ticks:
+        ticks = [lo, hi]
+    axis = cb.ax.xaxis if cb.orientation == "horizontal" else cb.ax.yaxis
+    axis.set_major_locator(FixedLocator(ticks))
+    axis.set_major_formatter(FixedFormatter([value(t, digits=2) for t in ticks]))
+    axis.set_minor_locator(NullLocator())
+    axis.set_minor_formatter(NullFormatter())
 
 
 def _robust(values: FloatArray, lo_q: float, hi_q: float) -> tuple[float, float, str]:
@@ -328,7 +395,7 @@ def sag_map(
     sel, m = _select_mass(ds, mass)
     x, y, dy = _points(sel, sel["dy_mm"])
     bad = not_ok_points(sel)
-    cv = _Canvas(arm, np.r_[x, bad[0]], np.r_[y, bad[1]], _ref_pose(ds, arm.n))
+    cv = _Canvas.of(arm, ds)
     fig = figure(8.4, 7.0 * cv.aspect + 1.6)
     ax = fig.add_subplot()
     cv.shade(ax, bad)
@@ -339,6 +406,7 @@ def sag_map(
             mesh = cv.draw(ax, x, y, sag, sag, cmap="viridis_r", norm=LogNorm(sag.min(), sag.max()))
             cb = fig.colorbar(mesh, ax=ax, shrink=0.9)
             cb.set_label("sag −dy of the measure point (mm, down; log scale)")
+            log_ticks(cb, float(sag.min()), float(sag.max()))
         else:
             lo, hi, extend = _robust(dy, 0.02, 0.98)
             clipped = extend != "neither"
@@ -348,7 +416,8 @@ def sag_map(
         ax.text(
             0.99,
             0.06,
-            f"dy from {dy.min():.3g} to {dy.max():.3g} mm, median {np.median(dy):.3g} mm"
+            f"dy from {value(float(dy.min()), 'mm', 3)} to {value(float(dy.max()), 'mm', 3)}, "
+            f"median {value(float(np.median(dy)), 'mm', 3)}"
             + ("\ncolours span 2–98 % of the poses; arrows: beyond" if clipped else ""),
             transform=ax.transAxes,
             ha="right",
@@ -359,7 +428,7 @@ def sag_map(
     else:
         cv.frame(ax)
     cv.legend(ax)
-    cv.note(ax, sel, dy.size, "most sagging")
+    cv.note(ax, sel, dy.size, "most sagging", m, "the others' dy is not finite")
     fig.suptitle(_title(ds, "Sag of the measure point", m, width=7.0), fontsize=10)
     return finish(fig, path)
 
@@ -384,9 +453,7 @@ def force_maps(
     n = arm.n
     pts = [_points(sel, sel["force_n"].sel(actuator=i + 1)) for i in range(n)]
     bad = not_ok_points(sel)
-    xs = np.concatenate([*(p[0] for p in pts), bad[0]])
-    ys = np.concatenate([*(p[1] for p in pts), bad[1]])
-    cv = _Canvas(arm, xs, ys, _ref_pose(ds, arm.n))
+    cv = _Canvas.of(arm, ds)
     ncols = min(n, 3)
     nrows = math.ceil(n / ncols)
     fig = figure(5.0 * ncols + 0.6, (4.8 * cv.aspect + 1.3) * nrows + 1.0)
@@ -424,10 +491,10 @@ def force_maps(
         else:
             cv.frame(ax)
         extra = f"; limit ±{lim:g} N" if lim is not None else ""
-        rng = f"{f.min():.0f} … {f.max():.0f} N" if f.size else "no reachable pose"
+        rng = f"{value(f.min(), digits=4)} … {value(f.max(), 'N', 4)}" if f.size else "no pose ok"
         ax.set_title(f"actuator {i + 1}: F{i + 1} from {rng}{extra}", fontsize=9)
     cv.legend(axes[0])
-    cv.note(fig, sel, pts[0][2].size, "largest-|F|")
+    cv.note(fig, sel, pts[0][2].size, "largest-|F|", m, "the others' forces are not finite")
     fig.suptitle(
         _title(ds, "Loaded actuator forces (+ compression, − tension)", m, width=15.0),
         fontsize=10,
@@ -461,7 +528,7 @@ def capacity_map(
     labels = str(cap.attrs["limit_labels"]).split(", ")
     x, y, c = _points(cap, cap["capacity_kg"])
     _, _, lim = _points(cap, cap["limit"].where(cap["limit"] >= 0))
-    cv = _Canvas(arm, x, y, _ref_pose(cap, arm.n))
+    cv = _Canvas.of(arm, cap)
     fig = figure(13.6, 5.6 * cv.aspect + 2.0)
     ax1, ax2 = fig.subplots(1, 2)
     if c.size:
@@ -490,7 +557,7 @@ def capacity_map(
         cv.frame(ax1)
         cv.frame(ax2)
     cv.legend(ax1)
-    cv.note(ax1, cap, c.size, "smallest-capacity")
+    cv.note(ax1, cap, c.size, "smallest-capacity", ok=c.size, what="with a capacity")
     limits = []
     for i, a in enumerate(arm.actuators):
         parts = []
@@ -535,7 +602,7 @@ def dominant_effect_map(
     x, y, d = _points(con, dom)
     top = con["contribution_mm"].max("effect")
     _, _, size = _points(con, top.where(con["dominant"] >= 0))
-    cv = _Canvas(arm, x, y, _ref_pose(con, arm.n))
+    cv = _Canvas.of(arm, con)
     fig = figure(9.6, 7.0 * cv.aspect + 4.0)
     ax = fig.add_subplot()
     if d.size:
@@ -565,7 +632,14 @@ def dominant_effect_map(
     else:
         cv.frame(ax)
     cv.legend(ax)
-    cv.note(ax, con, d.size, "most deflected")
+    cv.note(
+        ax,
+        con,
+        d.size,
+        "most deflected",
+        mass,
+        "in the others a part of the model alone cannot be solved",
+    )
     title = _title(con, "Who makes the sag", mass, width=8.0)
     fig.suptitle(title, fontsize=10)
     return finish(fig, path)

@@ -41,11 +41,13 @@ from eodarm.analysis.crossval import cross_validate
 from eodarm.analysis.diagnose import Diagnosis
 from eodarm.analysis.fit import FitResult, FitWarning
 from eodarm.analysis.ladder import build_ladder, check_same_model, model_name, solver_keywords
+from eodarm.atomic import atomic_write
 from eodarm.data.measurements import Measurements, default_sigma
 from eodarm.errors import EodarmError
 from eodarm.model.arm import Arm
 from eodarm.viz import html as page
-from eodarm.viz.format import value
+from eodarm.viz.format import channel_value, value
+from eodarm.viz.report_cycle import loops_section
 from eodarm.viz.report_diagnosis import diagnosis_section, left_section, rounds_section
 from eodarm.viz.report_summary import (
     answer_section,
@@ -59,8 +61,10 @@ __all__ = ["build_ladder", "write_report"]
 PathLike = str | os.PathLike[str]
 
 
-def _p_value(p: float) -> page.Num | str:
-    return "< 1e-300" if p <= 0 else page.Num(p, 3)  # the same words as the sets' table
+def _p_value(p: float) -> page.Num | page.Raw:
+    if p <= 0:  # the same words as the sets' table
+        return page.Raw('<span class="num">&lt; 1e-300</span>')
+    return page.Num(p, 3)
 
 
 def _unit(channel: str) -> str:
@@ -205,7 +209,8 @@ def write_report(
     text = page.render_deferred("\n".join(parts) + "\n", figs, parallel=not forked)
     out = Path(path)
     try:
-        out.write_text(text, encoding="utf-8")
+        with atomic_write(out) as f:  # whole or not at all: a previous report stays whole
+            f.write(text)
     except OSError as exc:
         raise EodarmError(f"{out}: cannot write the report: {exc.strerror or exc}") from None
     return out
@@ -255,7 +260,7 @@ def _page(
             out += _ladder_section(steps, main, unit)
         out += _residual_section(meas, base, final, main)
         if meas.has_sequences:
-            out += _loops_section(meas, base, final, main)
+            out += loops_section(meas, base, final, main)
         last = rounds[-1] if rounds else diagnosis
         if last.verdict == "unexplained":
             what = "the model the report ends with" if final_fit is not None else "the best effort"
@@ -280,7 +285,7 @@ def _page(
         parts.append(intro_html)
     parts += answer_section(answer, meas, base, final, model_name(**kw))
     if final.slots:
-        parts += parameter_section(final, meas)
+        parts += parameter_section(final, meas, answer.lookalikes)
     parts += _share_section(arm, meas, final, self_weight, kw)
     if final.slots:
         ho = handover or {}
@@ -325,7 +330,7 @@ def _data_section(
             ["rows (states)", str(meas.n_rows)],
             ["measured values", str(meas.n_values)],
             ["configurations", str(len(meas.configs))],
-            ["payloads [kg]", ", ".join(page.num(float(m), 4) for m in masses)],
+            ["payloads [kg]", ", ".join(value(float(m)) for m in masses)],
             [
                 "channels measured",
                 ", ".join(f"{ch} ({counts[ch]})" for ch in chans) or "none",
@@ -343,7 +348,7 @@ def _data_section(
             [
                 label,
                 page.Raw(", ".join(f"{a:.2f}" for a in meas.alpha_deg[first])),
-                ", ".join(page.num(float(m), 4) for m in np.unique(meas.mass_kg[sel])),
+                ", ".join(value(float(m)) for m in np.unique(meas.mass_kg[sel])),
                 page.Num(float(sel.sum()), 4),
             ]
         )
@@ -385,7 +390,7 @@ def _baseline_section(
             [
                 f"{ch}",
                 page.Num(s, 3, f" {u}"),
-                page.Num(rb.get(ch, math.nan), 4, f" {u}"),
+                page.Num(rb.get(ch, math.nan), 3, f" {u}"),
                 page.Num(rb.get(ch, math.nan) / s, 3),
             ]
         )
@@ -420,9 +425,9 @@ def _fitted_section(
     rms_rows = [
         [
             ch,
-            page.Num(rb.get(ch, math.nan), 4, f" {_unit(ch)}"),
-            page.Num(ra.get(ch, math.nan), 4, f" {_unit(ch)}"),
-            page.Num(cv["rms"].get(ch, math.nan), 4, f" {_unit(ch)}") if cv else "–",
+            page.Num(rb.get(ch, math.nan), 3, f" {_unit(ch)}"),
+            page.Num(ra.get(ch, math.nan), 3, f" {_unit(ch)}"),
+            page.Num(cv["rms"].get(ch, math.nan), 3, f" {_unit(ch)}") if cv else "–",
         ]
         for ch in meas.measured_channels
     ]
@@ -470,8 +475,8 @@ def _ladder_section(steps: Sequence[Mapping[str, Any]], main: str, unit: str) ->
         rows.append(
             [
                 s["label"],
-                page.Num(s["rms"].get(main, math.nan), 4, f" {unit}"),
-                page.Num(cvr.get(main, math.nan), 4, f" {unit}") if cvr else "–",
+                page.Num(s["rms"].get(main, math.nan), 3, f" {unit}"),
+                page.Num(cvr.get(main, math.nan), 3, f" {unit}") if cvr else "–",
                 page.Num(s["chi2_per_dof"], 4),
             ]
         )
@@ -506,83 +511,6 @@ def _residual_section(
         "and the fitted model (blue); the band is ±1σ of the measurement.",
     )
     return ["<h2>6. Residuals against payload</h2>", page.row(table, img)]
-
-
-def _loops_section(meas: Measurements, before: FitResult, after: FitResult, main: str) -> list[str]:
-    """Load cycles: per sequence, what is left at the return to zero payload, and the loops."""
-    from eodarm.analysis.sequences import hysteresis
-    from eodarm.viz import hysteresis as loops_fig
-
-    unit = _unit(main)
-    rows = []
-    for h in hysteresis(meas, after.prediction, before.prediction):
-        left = h["left"]
-        if not isinstance(left, dict) or main not in left:
-            rows.append([h["config"], "does not return to 0 kg", "", ""])
-            continue
-        j = list(h["channels"]).index(main)  # type: ignore[call-overload]
-        lb = float(np.asarray(h["before"])[-1, j])  # type: ignore[call-overload]
-        lb = lb if abs(lb) > 1e-9 else 0.0  # a model without memory comes back (rounding)
-        lm, la = left[main]
-        rows.append(
-            [h["config"], page.Num(lm, 3, f" {unit}"), page.Num(lb, 3, f" {unit}"),
-             page.Num(la, 3, f" {unit}")]
-        )  # fmt: skip
-    table = page.table(
-        ["sequence", f"left at 0 kg: measured {main}", "model before", "model after"], rows
-    )
-    img = page.img(
-        loops_fig.loops(meas, before, after, channel=main),
-        "hysteresis loops",
-        f"{main} against payload for each load sequence: the measured states (black, ±1σ "
-        "bars) in the order they were applied (arrows), the model before (grey, dashed) and "
-        "after (blue). A model without memory has one curve for both branches; friction opens "
-        "a loop and leaves the arm short of its reference at the return.",
-    )
-    return [
-        "<h2>Load cycles: the loops</h2>",
-        page.row(table, img),
-        "<p>Every channel of every sequence on its loading and unloading branch, measured "
-        "and the fitted model, and what is left at the return to zero payload:</p>",
-        *_loop_tables(meas, after),
-    ]
-
-
-def _loop_tables(meas: Measurements, after: FitResult) -> list[str]:
-    """One folded table per sequence: step, payload, branch, each channel measured / model."""
-    from eodarm.analysis.sequences import hysteresis
-
-    out = []
-    for h in hysteresis(meas, after.prediction):
-        chans = list(h["channels"])  # type: ignore[call-overload]
-        meas_v = np.asarray(h["measured"])
-        model_v = np.asarray(h["model"])
-        head = ["step", "kg", "branch"] + [f"{ch} measured / model" for ch in chans]
-        rows = []
-        for s, (step, kg, br) in enumerate(
-            zip(h["step"], h["mass_kg"], h["branch"], strict=True)  # type: ignore[call-overload]
-        ):
-            cells: list[Any] = [str(step), page.num(kg), br]
-            cells += [
-                f"{page.num(meas_v[s, j], 4)} / {page.num(model_v[s, j], 4)}"
-                for j in range(len(chans))
-            ]
-            rows.append(cells)
-        left = h["left"]
-        note = (
-            "does not return to 0 kg"
-            if not isinstance(left, dict)
-            else "left at 0 kg: "
-            + "; ".join(
-                f"{ch} {page.num(m, 3)} (model {page.num(mo, 3)})" for ch, (m, mo) in left.items()
-            )
-        )
-        out.append(
-            f"<details><summary>sequence {page.esc(h['config'])}: {page.esc(note)}</summary>"
-            + page.table(head, rows)
-            + "</details>"
-        )
-    return out
 
 
 def _share_section(
@@ -633,7 +561,11 @@ def _share_section(
         "<h2>Who makes the sag?</h2>",
         f"<p>dy of the measure point [mm] at payload {mass:g} kg, split between the parts of "
         f"the final model ({page.esc(model_name(**kw))}); the shares add up to the model "
-        f"within {page.num(max(budget.closure, 1e-15), 1)} mm.</p>",
+        + (
+            f"within {channel_value(budget.closure, 'mm')}.</p>"
+            if budget.closure >= 1e-6
+            else "to 10⁻⁶ mm.</p>"
+        ),
         page.row(table, img),
     ]
     # the configuration the final model misses most, drawn with its sag made visible

@@ -9,50 +9,114 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from typing import Any
+from typing import Any, NamedTuple
 
 from eodarm.analysis.acceptance import Acceptance
+from eodarm.analysis.confusions import separated_by
 from eodarm.analysis.consistency import P_PASS
 from eodarm.analysis.diagnose import CONFUSION_CHI2, Candidate, Diagnosis
 from eodarm.analysis.fit import FitResult
 from eodarm.analysis.residuals import residual_pattern
 from eodarm.data.measurements import Measurements
+from eodarm.model.effects import Slot
 from eodarm.viz import html as page
+from eodarm.viz.format import parameter_name, value, value_error
 
 __all__ = [
+    "Lookalike",
     "diagnosis_section",
     "left_section",
+    "lookalikes",
     "rounds_section",
     "verdict_line",
 ]
+
+
+class Lookalike(NamedTuple):
+    """A suggested effect that the data cannot tell apart from another candidate."""
+
+    member: str  #: the suggested effect's spec
+    alternative: str  #: the look-alike's spec
+    value: str  #: the look-alike's value in the set refitted with it, ``"1002 ± 2.4 N/mm"``
+    how: str  #: what would tell them apart (``"a dl4_mm sensor"``), ``""`` when nothing found
+
+
+def lookalikes(d: Diagnosis) -> list[Lookalike]:
+    """Every suggested effect's look-alikes (``Diagnosis.alternatives``), with the value each
+    takes in the set and what would separate them (``Diagnosis.advice``)."""
+    out = []
+    for member, alts in d.alternatives.items():
+        for alt in alts:
+            g = d.alternative_fits.get((member, alt))
+            text = ""
+            if g is not None:
+                j = [t.spec for t in g.slots].index(alt)
+                text = value_error(g.estimate(j), g.stderr(j), g.slots[j].kind.unit)
+            entry = next((a for a in d.advice if a["pair"] == [member, alt]), None)
+            out.append(Lookalike(member, alt, text, separated_by(entry)))
+    return out
+
+
+def lookalike_html(item: Lookalike) -> str:
+    """One look-alike in a sentence, for the page."""
+    alt = Slot.parse(item.alternative)
+    how = f"; {page.esc(item.how)} would" if item.how else "; no channel or pose found would"
+    val = f" = {page.esc(item.value)}" if item.value else ""
+    return (
+        f"<code>{page.esc(item.member)}</code> could as well be "
+        f"<b>{page.esc(parameter_name(alt.name, alt.at))}</b> "
+        f"(<code>{page.esc(item.alternative)}</code>{val}): the data cannot tell them "
+        f"apart{how}"
+    )
 
 
 def _keys(slots: Sequence[Any]) -> str:
     return ", ".join(s.key for s in slots)
 
 
-def _param(param: str, unit: str, value: float, name: str = "") -> str:
-    if not math.isfinite(value):
+def _param(param: str, unit: str, x: float, name: str = "") -> str:
+    if not math.isfinite(x):
         # θ = 0: for an actuator body that is a rigid body, for anything else no effect.
         what = "rigid body" if name == "actuator_compliance" else "rigid: absent"
         return f"{param} = ∞ ({what})"
-    return f"{param} = {page.num(value)} {unit}"
+    return f"{param} = {page.num(x, 3)} {unit}"
 
 
 def _estimate(cand: Candidate) -> str:
     i = cand.fit.slots.index(cand.slot)
     kind = cand.slot.kind
-    return _param(kind.param, kind.unit, cand.fit.estimate(i), cand.slot.name)
+    text = _param(kind.param, kind.unit, cand.fit.estimate(i), cand.slot.name)
+    return text + " (at bound)" if cand.fit.at_bound[i] else text
+
+
+def _in_set(d: Diagnosis, cand: Candidate) -> str:
+    """A suggested candidate's estimate: its value in the suggested set, then alone."""
+    f = d.suggested_fit
+    if f is None:
+        return _estimate(cand)
+    i = [s.key for s in f.slots].index(cand.slot.key)
+    kind = cand.slot.kind
+    alone = cand.fit.estimate(cand.fit.slots.index(cand.slot))
+    bound = " (at bound)" if cand.fit.at_bound[cand.fit.slots.index(cand.slot)] else ""
+    return (
+        f"{kind.param} = {value_error(f.estimate(i), f.stderr(i), kind.unit)} in the suggested "
+        f"set (alone: {value(alone, kind.unit, 3)}{bound})"
+    )
 
 
 def verdict_line(d: Diagnosis) -> str:
     """The page's first line: the verdict and what it names."""
     if d.verdict == "missing":
         what = "suggested: <b>" + page.esc(_keys(d.suggested)) + "</b>"
+        alike = [lookalike_html(x) for x in lookalikes(d)]
+        if alike:
+            what += " (" + "; ".join(alike) + ")"
     elif d.verdict == "unexplained":
         what = "no effect of the catalogue explains these data"
         if d.best_effort:
             what += " (best effort: " + page.esc(_keys(d.best_effort)) + ")"
+    elif d.verdict == "check_data":
+        what = "the data look mistaken: check them first"
     else:
         what = "nothing to add"
     v = page.esc(d.verdict)
@@ -64,6 +128,13 @@ def _rule(acc: Acceptance) -> str:
 
 
 def _story(d: Diagnosis, main: str, unit: str) -> str:
+    if d.verdict == "check_data":  # docs/diagnosis.md, "Check the data first"
+        return (
+            "<b>Check the data first.</b> They look mistaken, not like a missing effect, and "
+            "no effect was looked for in them:</p><ul>"
+            + "".join(f"<li>{page.esc(c.message)}</li>" for c in d.data_checks)
+            + "</ul><p>"
+        )
     if d.verdict == "adequate":
         text = (
             "The baseline explains the data within their noise and no candidate improves it "
@@ -82,10 +153,11 @@ def _story(d: Diagnosis, main: str, unit: str) -> str:
             if d.p_baseline < P_PASS
             else "The baseline's χ² is within the noise, but a candidate improves it significantly."
         )
+        alike = "".join(f" But {lookalike_html(x)}." for x in lookalikes(d))
         return (
             f"{lead} The smallest set of effects that explains the data (searched over "
             f"{d.sets_searched} sets, not just the top of the ranking) is "
-            f"<b>{page.esc(_keys(d.suggested))}</b>: {page.esc(_rule(d.acceptance))}."
+            f"<b>{page.esc(_keys(d.suggested))}</b>: {page.esc(_rule(d.acceptance))}.{alike}"
         )
     text = (
         "<b>No effect of the catalogue explains these data.</b> None of the "
@@ -141,7 +213,9 @@ def _examined_table(d: Diagnosis) -> str:
             [
                 ", ".join(a.keys),
                 page.Num(a.fit.chi2_per_dof, 4),
-                "< 1e-300" if a.p_value <= 0 else page.Num(a.p_value, 2),
+                page.Raw('<span class="num">&lt; 1e-300</span>')
+                if a.p_value <= 0
+                else page.Num(a.p_value, 2),
                 "yes" if a.consistent else "no",
                 "yes" if a.away_from_bounds else "stuck: " + ", ".join(a.stuck),
                 held,
@@ -181,7 +255,7 @@ def diagnosis_section(meas: Measurements, d: Diagnosis, main: str, unit: str) ->
             [
                 page.Num(i, 3),
                 c.slot.label,
-                _estimate(c),
+                _in_set(d, c) if c.slot.key in sugg else _estimate(c),
                 page.Num(c.delta_chi2, 4),
                 page.Num(c.fit.chi2_per_dof, 4),
                 page.Num(c.fit.rms().get(main, math.nan), 3, f" {unit}"),
@@ -213,7 +287,7 @@ def diagnosis_section(meas: Measurements, d: Diagnosis, main: str, unit: str) ->
             "<h3>The sets judged, in search order</h3>",
             '<p class="note">A set is what is missing when, added to the baseline with its '
             "parameters fitted, (a) its χ² is consistent with the noise (p ≥ "
-            f"{page.esc(page.num(P_PASS, 2))}), (b) every parameter is away from its bounds, "
+            f"{page.esc(value(P_PASS))}), (b) every parameter is away from its bounds, "
             "and (c) with three or more configurations, it predicts held-out configurations "
             "(each left out of the fit in turn) no worse than the baseline, in RMS "
             "residual/σ over every measured channel. Sets are judged smallest first, better "
@@ -224,16 +298,17 @@ def diagnosis_section(meas: Measurements, d: Diagnosis, main: str, unit: str) ->
         ]
     out += [
         "<h3>Every candidate added alone, its parameter fitted (best first)</h3>",
-        '<p class="note">Highlighted: the suggested set. RMS of the main channel '
+        '<p class="note">Highlighted: the suggested set, each with its value fitted in the '
+        "set and alone. RMS of the main channel "
         f"{page.esc(main)}; "
-        "Δχ² is the improvement over the baseline. “Confused with” lists the candidates the "
-        "data cannot tell apart from this one.</p>",
+        "Δχ² is the improvement over the baseline of the candidate alone. “Confused with” "
+        "lists the candidates the data cannot tell apart from this one, each alone.</p>",
         ranking,
     ]
     if idle:
         out.append(
-            f"<p>The other {len(idle)} candidates do not help at all: each fits to no effect "
-            "(a rigid part or a zero gap, Δχ² = 0): "
+            f"<p>The other {len(idle)} candidates do not help alone: added alone, each fits to "
+            "no effect (a rigid part, a zero gap or friction, Δχ² = 0): "
             + page.esc(", ".join(c.slot.label for c in idle))
             + ".</p>"
         )
@@ -242,10 +317,10 @@ def diagnosis_section(meas: Measurements, d: Diagnosis, main: str, unit: str) ->
             [
                 page.Num(o["line"], 6),
                 o["config"],
-                page.Num(o["mass_kg"], 4),
+                value(float(o["mass_kg"])),
                 o["channel"],
-                page.Num(o["measured"], 4),
-                page.Num(o["model"], 4),
+                page.Num(o["measured"], 3),
+                page.Num(o["model"], 3),
                 page.Num(o["z"], 3),
             ]
             for o in d.outliers
@@ -257,7 +332,10 @@ def diagnosis_section(meas: Measurements, d: Diagnosis, main: str, unit: str) ->
             ),
         ]
     if d.advice:
+        from eodarm.viz.report_plan import planned_next
+
         out += ["<h3>Next measurement</h3>", "<ul>" + "".join(_advice(d)) + "</ul>"]
+        out += planned_next(d)
     return out
 
 
@@ -277,7 +355,7 @@ def _advice(d: Diagnosis) -> list[str]:
             ang = ", ".join(f"{v:.1f}" for v in pose["alpha_deg"])
             bits.append(
                 f"add the pose α = ({page.esc(ang)})° at "
-                f"{page.esc(page.num(pose['mass_kg']))} kg (χ² separation "
+                f"{page.esc(value(pose['mass_kg']))} kg (χ² separation "
                 f"{page.esc(page.num(pose['chi2_separation'], 3))} on the channels "
                 "measured now)"
             )
@@ -289,7 +367,10 @@ def _advice(d: Diagnosis) -> list[str]:
                 " (no pose separates them with the channels measured now: they act alike "
                 "in every pose)"
             )
-        items.append(f"<li>To tell <b>{page.esc(pair)}</b> apart: {todo}.</li>")
+        which = (
+            " (the suggested effect and its look-alike, in the set)" if a.get("suggested") else ""
+        )
+        items.append(f"<li>To tell <b>{page.esc(pair)}</b>{which} apart: {todo}.</li>")
     return items
 
 
@@ -330,7 +411,7 @@ def rounds_section(rounds: Sequence[Diagnosis], main: str) -> list[str]:
                 str(i + 1),
                 _keys(d.model) or "baseline",
                 page.Num(d.baseline.chi2_per_dof),
-                page.Num(d.baseline.rms().get(main, math.nan), 4),
+                page.Num(d.baseline.rms().get(main, math.nan), 3),
                 d.verdict,
                 named,
                 _round_rule(d),
@@ -369,7 +450,7 @@ def left_section(meas: Measurements, fit: FitResult, what: str) -> list[str]:
 
     pat = residual_pattern(fit)
     cells = [
-        f"{c['channel']} in configuration {c['config']} at {page.num(c['mass_kg'], 4)} kg "
+        f"{c['channel']} in configuration {c['config']} at {value(c['mass_kg'])} kg "
         f"({c['z']:+.1f}σ, line {c['line']})"
         for c in pat.largest[:3]
     ]
@@ -388,7 +469,7 @@ def left_section(meas: Measurements, fit: FitResult, what: str) -> list[str]:
                 ch,
                 page.Num(float(pat.rms_z[j]), 3),
                 page.Num(fit.rms().get(ch, math.nan), 3),
-                f"{pat.configs[i]} at {page.num(pat.payloads[p], 4)} kg",
+                f"{pat.configs[i]} at {value(float(pat.payloads[p]))} kg",
                 page.Num(float(grid[i, p]), 3),
             ]
         )

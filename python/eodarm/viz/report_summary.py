@@ -23,6 +23,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 
 from eodarm.analysis.diagnose import Diagnosis
 from eodarm.analysis.fit import FitResult, determining_channel
@@ -30,6 +31,8 @@ from eodarm.data.measurements import Measurements
 from eodarm.model.arm import Arm
 from eodarm.viz import html as page
 from eodarm.viz.format import bounded_interval, parameter_name, value, value_error
+from eodarm.viz.report_cycle import CycleReturn, cycle_return, return_line, return_section
+from eodarm.viz.report_diagnosis import Lookalike, lookalike_html, lookalikes
 from eodarm.viz.style import channel_unit, short_channel
 
 __all__ = [
@@ -62,6 +65,10 @@ class Answer:
     stopped: str
     left: list[tuple[str, str, float, float]] = field(default_factory=list)
     published: list[tuple[str, float]] = field(default_factory=list)
+    #: the final model's effects that the data cannot tell apart from another candidate
+    lookalikes: list[Lookalike] = field(default_factory=list)
+    #: load cycles: what they leave at the return to zero payload (None without any)
+    back: CycleReturn | None = None
 
 
 def sag_word(meas: Measurements, base: FitResult) -> str | None:
@@ -142,6 +149,8 @@ def make_answer(
             worst = max(per, key=lambda k: per[k])
             left.append((ch, worst, per[worst], per[worst] / _typ_sigma(meas, ch)))
     left.sort(key=lambda t: -t[3])
+    keys = {s.spec for s in final.slots}
+    alike = [x for d in rounds for x in lookalikes(d) if x.member in keys]
     return Answer(
         main=main,
         unit=channel_unit(main),
@@ -159,6 +168,8 @@ def make_answer(
         stopped=stopped,
         left=left,
         published=list(published),
+        lookalikes=alike,
+        back=cycle_return(meas, base, final, main),
     )
 
 
@@ -167,6 +178,8 @@ def _verdict_words(a: Answer) -> str:
         return "the final model explains the data within their noise"
     if a.verdict == "missing":
         return "something is still missing (the rounds ran out)"
+    if a.verdict == "check_data":
+        return "the data look mistaken (a unit, a sign, a zeroing): check them first"
     return "no effect of the catalogue explains what is left"
 
 
@@ -186,6 +199,15 @@ def answer_lines(a: Answer) -> list[str]:
             "not cross-validated: fewer than two configurations)"
         ),
     ]
+    if a.back is not None:
+        lines.append(return_line(a.back))
+    for x in a.lookalikes:
+        how = f"; {x.how} would" if x.how else "; no channel or pose found would"
+        lines.append(
+            f"look-alike: {x.member} could as well be {x.alternative}"
+            + (f" = {x.value}" if x.value else "")
+            + f": the data cannot tell them apart{how}"
+        )
     if a.published:
         lines.append("published models: " + "; ".join(f"{n} {v:.3g} {u}" for n, v in a.published))
     if a.left:
@@ -237,7 +259,7 @@ def answer_section(
             page.Num(a.final_cv, 3, f" {u}"),
             page.Num(a.final_cv / s, 2, " σ"),
         ],
-        ["χ²/dof (1 = within the noise)", page.Num(a.base_chi2, 4), page.Num(a.final_chi2, 3), ""],
+        ["χ²/dof (1 = within the noise)", page.Num(a.base_chi2, 4), page.Num(a.final_chi2, 4), ""],
     ]
     # with an arm file that carries effects, the starting model is the file's, not the baseline
     start = "arm file's model" if getattr(base.problem.arm, "effects", ()) else "baseline"
@@ -277,7 +299,11 @@ def answer_section(
         "<h2>The answer</h2>",
         f'<p class="answer">Final model: <b>{page.esc(a.model)}</b> '
         f"({a.n_params} parameter{'s' if a.n_params != 1 else ''} fitted jointly, "
-        f"{page.esc(kw_model)}).<br>"
+        f"{page.esc(kw_model)})."
+        + "".join(
+            f'<br><span class="warn">Look-alike: {lookalike_html(x)}.</span>' for x in a.lookalikes
+        )
+        + "<br>"
         f'Last round ({a.rounds}): <span class="verdict {v}">{v}</span> '
         f"{page.esc(_verdict_words(a))}"
         + (
@@ -290,6 +316,7 @@ def answer_section(
         f"{page.num(a.final_rms, 3)} {u}</b> in-sample, " + _held_words(a) + "</p>",
         table,
         pub,
+        *(return_section(a.back, meas, base, final) if a.back is not None else []),
         "<h3>What is left</h3>",
         '<p class="note">For every measured channel, the configuration where the final model '
         "misses most (RMS residual over its payloads), worst first in units of σ.</p>",
@@ -341,8 +368,11 @@ def _correlation_figure(fit: FitResult) -> Any:
     return fig
 
 
-def parameter_section(fit: FitResult, meas: Measurements) -> list[str]:
-    """The fitted parameters as a table and their correlation as a heat map."""
+def parameter_section(
+    fit: FitResult, meas: Measurements, alike: Sequence[Lookalike] = ()
+) -> list[str]:
+    """The fitted parameters as a table and their correlation as a heat map; ``alike``: the
+    look-alikes of the fitted effects, noted on their rows."""
     flagged = dict(fit.undetermined())
     rows, hl = [], []
     for i, s in enumerate(fit.slots):
@@ -364,6 +394,14 @@ def parameter_section(fit: FitResult, meas: Measurements) -> list[str]:
                 f"NOT DETERMINED ({flagged[i]}): fix it or drop it ({fixed}); to determine "
                 f"it, {determining_channel(s, meas.measured_channels)}"
             )
+        for x in alike:
+            if x.member == s.spec:
+                how = f"; {x.how} would" if x.how else ""
+                note = (note + "; " if note else "") + (
+                    f"LOOK-ALIKE: could as well be {x.alternative}"
+                    + (f" = {x.value}" if x.value else "")
+                    + f" (the data cannot tell them apart{how})"
+                )
         rows.append(
             [
                 f"#{i + 1} {parameter_name(s.name, s.at)}",
@@ -374,7 +412,7 @@ def parameter_section(fit: FitResult, meas: Measurements) -> list[str]:
                 note,
             ]
         )
-        hl.append(i in flagged)
+        hl.append(i in flagged or any(x.member == s.spec for x in alike))
     table = page.table(
         ["parameter", "identifier", "value ± standard error", "95 % interval", "rel.", "note"],
         rows,
@@ -419,6 +457,36 @@ def parameter_section(fit: FitResult, meas: Measurements) -> list[str]:
 
 
 # ---------------------------------------------------------------------------- hand-over
+def _branch_paragraph(
+    fitted: Arm, alpha: npt.NDArray[np.float64], mass: float, self_weight: bool
+) -> list[str]:
+    """With friction in the fitted model: which branch solve and compensate answer on, and
+    the hysteresis band at the pose of the commands (eodarm.model.hysteresis.band) against
+    the loading branch's 2σ, which does not cover it."""
+    from eodarm.model.hysteresis import band, has_memory
+
+    if not has_memory(fitted, None):
+        return []
+    width = float(band(fitted, alpha[None, :], mass, None, self_weight)[0])
+    sigma = ""
+    if fitted.fit is not None:
+        from eodarm.model.solver import solve
+
+        got = solve(fitted, alpha[None, :], mass, self_weight=self_weight, uncertainty=True)
+        two = 2 * float(np.hypot(got["sigma_dx_mm"][0], got["sigma_dy_mm"][0]))
+        sigma = f", against a 2σ of {value(two, 'mm', 2)} on the loading branch"
+    where = "/".join(f"{a:g}" for a in alpha)
+    return [
+        "<p>The fitted model holds friction, so its answers depend on the way the payload "
+        "came: <code>solve</code> and <code>compensate</code> answer on the <b>loading "
+        "branch</b> (the payload put on from the unloaded pose). Reached by unloading from a "
+        f"heavier payload, the same {value(mass, 'kg', 3)} at α = {page.esc(where)}° puts the "
+        f"measure point {value(width, 'mm', 3)} away (the hysteresis band){sigma}. "
+        "<code>solve --uncertainty</code> and <code>compensate</code> give the band per pose "
+        "(docs/compensation.md §4).</p>"
+    ]
+
+
 def _grid(meas: Measurements, k: int) -> str:
     a = meas.alpha_deg[:, k]
     lo, hi = math.floor(float(np.min(a)) / 5) * 5, math.ceil(float(np.max(a)) / 5) * 5
@@ -489,15 +557,17 @@ def handover_section(
     items = "".join(
         f"<li>{page.esc(what)}:<br><code>{page.esc(cmd)}</code></li>" for what, cmd in cmds
     )
+    branch = _branch_paragraph(fitted, meas.alpha_deg[row0], mass, fit.problem.self_weight)
     return [
         "<h2>Take the model with you</h2>",
         f'<p><a download="fitted.toml" href="{uri}">Download the fitted arm file '
         "(fitted.toml)</a>: the arm with the final model's effects at their fitted values, "
         "each with its standard error, and a <code>[fit]</code> table with their covariance "
-        f"(χ²/dof {page.num(final.chi2_per_dof, 3)}, {final.problem.n_values} values). Solving "
+        f"(χ²/dof {page.num(final.chi2_per_dof, 4)}, {final.problem.n_values} values). Solving "
         "it gives exactly the final model of this report, with what the data do not determine "
         f"fixed at its physical end{page.esc(bounded)}.{page.esc(honest)}</p>",
         f"<ul>{items}</ul>",
+        *branch,
         f"<details><summary>The fitted file, as embedded ({value(len(text), digits=6)} "
         f"characters)</summary><pre>{page.esc(text)}</pre></details>",
     ]

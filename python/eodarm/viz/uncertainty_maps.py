@@ -14,7 +14,6 @@ unloaded load point; where poses overlap the worst is on top), from a sweep made
 
 from __future__ import annotations
 
-import re
 import textwrap
 from collections.abc import Mapping, Sequence
 from pathlib import Path
@@ -28,7 +27,8 @@ from matplotlib.figure import Figure
 from eodarm.errors import EodarmError
 from eodarm.model.arm import Arm
 from eodarm.model.effects import Effect
-from eodarm.viz.maps import _Canvas, _points, _ref_pose, _robust, _select_mass, _title
+from eodarm.viz.format import value
+from eodarm.viz.maps import _Canvas, _points, _robust, _select_mass, _title, log_ticks
 from eodarm.viz.style import PathLike, figure, finish
 from eodarm.workspace.maps import arm_of
 from eodarm.workspace.sweep import sweep
@@ -66,10 +66,7 @@ def _panel(
         mesh = cv.draw(ax, x, y, v, v, cmap="magma_r", norm=LogNorm(v.min(), v.max()))
         cb = fig.colorbar(mesh, ax=ax, **_CBAR)
         cb.set_label(label + "; log scale", fontsize=8)
-        # less than two decades get labelled minor ticks, which collide on a horizontal bar
-        from matplotlib.ticker import NullFormatter
-
-        cb.ax.xaxis.set_minor_formatter(NullFormatter())
+        log_ticks(cb, float(v.min()), float(v.max()))  # round numbers that never collide
     else:
         lo, hi, extend = _robust(v, 0.0, 0.98)
         mesh = cv.draw(ax, x, y, v, v, cmap="magma_r", norm=Normalize(min(lo, 0.0), hi))
@@ -79,7 +76,8 @@ def _panel(
     ax.text(
         0.99,
         0.06,
-        f"from {v.min():.3g} to {v.max():.3g} {unit}, median {np.median(v):.3g} {unit}",
+        f"from {value(float(v.min()), unit, 3)} to {value(float(v.max()), unit, 3)}, median "
+        f"{value(float(np.median(v)), unit, 3)}",
         transform=ax.transAxes,
         ha="right",
         va="bottom",
@@ -104,7 +102,7 @@ def sag_uncertainty_map(
     two = 2.0 * sel["sigma_dy_mm"]
     band = _points(sel, two)
     rel = _points(sel, 100.0 * two / abs(sel["dy_mm"]).where(abs(sel["dy_mm"]) > 0))
-    cv = _Canvas(arm, band[0], band[1], _ref_pose(ds, arm.n))
+    cv = _Canvas.of(arm, ds)
     fig = figure(13.6, 5.4 * cv.aspect + 2.4)
     ax1, ax2 = fig.subplots(1, 2)
     _panel(fig, ax1, cv, band, "2σ of dy (mm)", log=True)
@@ -117,13 +115,9 @@ def sag_uncertainty_map(
     )
     ax2.set_title("relative to the sag: 2σ_dy / |dy| (%)", fontsize=10)
     cv.legend(ax1)
-    cv.note(fig, sel, band[2].size, "most uncertain")
-    src = ds.attrs.get("uncertainty", "")
+    cv.note(fig, sel, band[2].size, "most uncertain", m, "the others have no σ")
+    src = ds.attrs.get("uncertainty", "")  # it counts the parameters: the model names them
     title = _title(ds, "Uncertainty of the predicted sag", m, width=13.6)
-    # the model line names the parameters already: count them here, so the title fits
-    par = re.match(r"(.*covariance of )(.*?)(; .*)?$", str(src))
-    if par and par[2]:
-        src = f"{par[1]}its {len(par[2].split(', '))} fitted parameters{par[3] or ''}"
     src = "\n".join(textwrap.wrap(str(src), int(11 * 13.6)))  # as _title wraps the model
     fig.suptitle(title + (f"\n{src}" if src else ""), fontsize=10)
     return finish(fig, path)
@@ -140,7 +134,7 @@ def compensated_miss_map(
     sel, m = _select_mass(ds, mass)
     before = _points(sel, (sel["dx_mm"] ** 2 + sel["dy_mm"] ** 2) ** 0.5)
     after = _points(sel, sel["compensated_miss_mm"])
-    cv = _Canvas(arm, before[0], before[1], _ref_pose(ds, arm.n))
+    cv = _Canvas.of(arm, ds)
     fig = figure(13.6, 5.4 * cv.aspect + 2.4)
     ax1, ax2 = fig.subplots(1, 2)
     _panel(fig, ax1, cv, before, "|(dx, dy)| (mm)", log=True)
@@ -153,7 +147,7 @@ def compensated_miss_map(
         fontsize=10,
     )
     cv.legend(ax1)
-    cv.note(fig, sel, before[2].size, "largest-miss")
+    cv.note(fig, sel, before[2].size, "largest-miss", m)
     fig.suptitle(_title(ds, "Compensation under the fit's uncertainty", m, width=13.6), fontsize=10)
     return finish(fig, path)
 

@@ -5,7 +5,7 @@ loaded with m, unloaded again. ``return_dx_mm``, ``return_dy_mm`` are the measur
 return relative to the reference: zero for an elastic arm, what the frictions hold (and where
 the gaps sit after the payload pushed them) otherwise.
 
-Three cases, from the cheapest:
+Four cases, from the cheapest:
 
 * nothing holds anything and no gap can be left off-centre: the return is exactly zero;
 * gaps without friction (catalogue effects only): nothing remembers the payload, so the
@@ -27,11 +27,10 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from eodarm.errors import InputError
 from eodarm.model.effects import split_effects
 from eodarm.workspace.chunk import _chunk, _core_grid_sweep, _Job
 
-__all__ = ["CHUNK", "add_return"]
+__all__ = ["CHUNK", "add_return", "worst_return"]
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -172,31 +171,14 @@ def _solve_rows(
 def _solve_sequences(
     job: _Job, alpha: FloatArray, states: FloatArray
 ) -> tuple[FloatArray, FloatArray]:
-    """(dx, dy) at the last state of each sequence, NaN where it cannot be solved.
-
-    The compiled core marks those itself; a model with a user-written effect is solved by the
-    numpy reference, which raises instead: the rows are then halved until the ones that
-    cannot be solved are alone (an error of the user's function is not caught).
-    """
+    """(dx, dy) at the last state of each sequence, NaN where it cannot be solved (a state
+    that cannot be closed is NaN on either backend, :func:`eodarm.solve_sequence`'s default;
+    an error of a user's function is not caught)."""
     from eodarm.model.solver import solve_sequence
 
-    users = bool(split_effects(job.effects)[1])
-    kw: dict[str, Any] = {"self_weight": job.self_weight, "nan_on_failure": not users}
     if not alpha.shape[0]:
         return np.empty(0), np.empty(0)
-    try:
-        res = solve_sequence(job.arm, alpha, states, list(job.effects), **kw)
-    except InputError:
-        if not users:
-            raise
-        if alpha.shape[0] == 1:
-            return np.full(1, np.nan), np.full(1, np.nan)
-        h = alpha.shape[0] // 2
-        (x0, y0), (x1, y1) = (
-            _solve_sequences(job, alpha[:h], states[:h]),
-            _solve_sequences(job, alpha[h:], states[h:]),
-        )
-        return np.concatenate([x0, x1]), np.concatenate([y0, y1])
+    res = solve_sequence(job.arm, alpha, states, list(job.effects), self_weight=job.self_weight)
     return np.asarray(res["dx_mm"][:, -1]), np.asarray(res["dy_mm"][:, -1])
 
 
@@ -210,3 +192,46 @@ def _store(ds: Any, job: _Job, ok: npt.NDArray[np.bool_], out: dict[str, FloatAr
         values = np.where(ok, v if v.ndim == 2 else v[:, None], np.nan).reshape(shape)
         ds[key] = ([*dims, "mass_kg"], values, attrs)
     return ds
+
+
+def worst_return(ds: Any) -> dict[str, Any] | None:
+    """Where a ``cycle=True`` sweep's arm comes back worst, and by how much.
+
+    Returns None without ``return_dx_mm`` (or no ok cell), else ``distance_mm`` (the largest
+    |(return_dx, return_dy)| over the ok cells), its ``dx_mm``, ``dy_mm``, ``mass_kg`` (the
+    cycle's payload), ``alpha_deg`` (the pose's unloaded angles), ``x_mm``, ``y_mm`` (its
+    load point unloaded, when the sweep has them), ``median_mm`` over the ok cells, ``cells``
+    their count, and ``memory``: whether the model holds anything after a cycle (False: an
+    elastic model, whose every return is 0 by construction).
+    """
+    if "return_dx_mm" not in ds:
+        return None
+    dx = ds["return_dx_mm"]
+    dims = list(dx.dims)
+    dist = np.hypot(np.asarray(dx.values, dtype=float), ds["return_dy_mm"].transpose(*dims).values)
+    ok = np.isfinite(dist)
+    if not ok.any():
+        return None
+    flat = int(np.nanargmax(np.where(ok, dist, -1.0)))
+    at = dict(zip(dims, np.unravel_index(flat, dist.shape), strict=True))
+    pose = {d: i for d, i in at.items() if d != "mass_kg"}
+    if "alpha_deg" in ds:
+        alpha = np.asarray(ds["alpha_deg"].isel(pose).values, dtype=float)
+    else:
+        n = sum(1 for d in ds.coords if str(d).startswith("alpha"))
+        alpha = np.array([float(ds[f"alpha{k + 1}"][pose[f"alpha{k + 1}"]]) for k in range(n)])
+    out: dict[str, Any] = {
+        "distance_mm": float(dist.flat[flat]),
+        "dx_mm": float(dx.values.flat[flat]),
+        "dy_mm": float(ds["return_dy_mm"].transpose(*dims).values.flat[flat]),
+        "mass_kg": float(ds["mass_kg"][at["mass_kg"]]),
+        "alpha_deg": [float(a) for a in alpha],
+        "median_mm": float(np.median(dist[ok])),
+        "cells": int(ok.sum()),
+        "memory": bool(set(str(ds.attrs.get("effects", "")).replace("@", " ").split()) & MEMORY)
+        or bool(np.any(dist[ok] > 0)),
+    }
+    for key in ("effector_x_mm", "effector_y_mm"):
+        if key in ds:
+            out[key.replace("effector_", "")] = float(ds[key].isel(pose).values)
+    return out

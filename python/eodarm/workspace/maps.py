@@ -301,7 +301,9 @@ def effect_contributions(
         ``contribution_mm`` (grid…, effect), ``share`` (grid…, effect: the contribution over
         |sag|), ``dominant`` (grid…): index along ``effect`` of the largest contribution, −1
         where a pose is not reachable or not solved; the ``effect`` coordinate holds the
-        component labels; plus ``reachable``, ``effector_x_mm``, ``effector_y_mm``.
+        component labels; ``ok`` (reachable and solved with every set of components) and
+        ``model_ok`` (the whole model's cell ok, as in the plain sweep); plus ``reachable``,
+        ``effector_x_mm``, ``effector_y_mm``.
     """
     from eodarm.analysis.budget import (
         RIGID_N_PER_MM,
@@ -364,6 +366,11 @@ def effect_contributions(
     )
     out["dominant"] = (dims, dom.astype(np.int64), {"long_name": "index of the largest share"})
     out["ok"] = (dims, good, {"long_name": "reachable and solved with every set of components"})
+    out["model_ok"] = (
+        dims,
+        base["ok"].values & base["reachable"].values,
+        {"long_name": "reachable and the whole model's cell ok (as the plain sweep)"},
+    )
     out.attrs.update(
         base.attrs,
         payload_kg=float(mass),

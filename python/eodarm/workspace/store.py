@@ -22,16 +22,10 @@ The rules are in ``docs/sweeps.md`` ("Writes that never lose a result").
 from __future__ import annotations
 
 import contextlib
-import errno
 import hashlib
 import json
 import math
 import os
-import re
-import shutil
-import signal
-import sys
-import threading
 import warnings
 from collections.abc import Iterable, Iterator, Mapping
 from dataclasses import dataclass
@@ -41,6 +35,16 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import numpy.typing as npt
 
+from eodarm.atomic import (
+    KILL_AT_ENV,
+    _fsync_path,
+    _kill_point,
+    _remove,
+    clean_leftovers,
+    deferred_sigint,
+    replace,
+    temporary,
+)
 from eodarm.errors import ClusterError, EodarmError, SweepTooLargeError
 from eodarm.model.arm import Arm
 from eodarm.model.effects import Effect
@@ -61,10 +65,13 @@ if TYPE_CHECKING:
     import xarray as xr
 
 __all__ = [
+    "KILL_AT_ENV",
     "SweepInterrupted",
     "clean_leftovers",
+    "deferred_sigint",
     "output_kind",
     "partial_path",
+    "replace",
     "save",
     "sweep_to_netcdf",
     "sweep_to_zarr",
@@ -76,11 +83,8 @@ RECORD = "eodarm-sweep.json"
 DONE = "eodarm-done.txt"
 #: NetCDF-3 (64-bit offset, what xarray's scipy engine writes) holds no variable this large.
 NETCDF3_MAX_VAR_BYTES = 2**32 - 4
-#: Test hook: the name of a point (:func:`_kill_point`) at which the writer kills itself with
-#: SIGKILL, so that tests can kill a real process at the dangerous moments without timing.
-KILL_AT_ENV = "EODARM_KILL_AT"
-#: The temporaries this module leaves beside an output, named by their process.
-_LEFTOVER = re.compile(r"^\..+\.(?:partial|old)-(?P<pid>\d+)$")
+# The atomic writes themselves (temporaries, renames, Ctrl-C held, leftovers of killed
+# processes, the test hook KILL_AT_ENV) are eodarm.atomic's, shared with every other output.
 
 
 class SweepInterrupted(KeyboardInterrupt):
@@ -136,120 +140,6 @@ def partial_path(out: str | os.PathLike[str]) -> Path:
     return p.with_name(f".{p.name}.partial")
 
 
-@contextlib.contextmanager
-def deferred_sigint() -> Iterator[None]:
-    """Hold Ctrl-C until the block is done, then raise it (main thread only).
-
-    For the steps that must not be cut in half: a chunk's data and its record, the rename of
-    a result into place.
-    """
-    if threading.current_thread() is not threading.main_thread() or _deferring:
-        yield  # elsewhere, or within a block that already holds it
-        return
-    got: list[int] = []
-    old = signal.signal(signal.SIGINT, lambda signum, frame: got.append(signum))
-    _deferring.append(True)
-    try:
-        yield
-    finally:
-        _deferring.pop()
-        signal.signal(signal.SIGINT, old if old is not None else signal.default_int_handler)
-    if got:
-        raise KeyboardInterrupt
-
-
-_deferring: list[bool] = []  # non-empty while the main thread holds Ctrl-C
-
-
-def _remove(path: Path) -> None:
-    if path.is_dir() and not path.is_symlink():
-        shutil.rmtree(path)
-    elif path.exists() or path.is_symlink():
-        path.unlink()
-
-
-def _kill_point(name: str) -> None:
-    """Die here with SIGKILL when the environment names this point (tests only)."""
-    if os.environ.get(KILL_AT_ENV) == name:
-        os.kill(os.getpid(), signal.SIGKILL)
-
-
-def _alive(pid: int) -> bool:
-    """Whether a process ``pid`` exists (one of another user counts: it is not ours to judge)."""
-    if pid == os.getpid():
-        return True
-    try:
-        os.kill(pid, 0)
-    except (ProcessLookupError, OverflowError):
-        return False
-    except PermissionError:
-        return True
-    return True
-
-
-def clean_leftovers(folder: str | os.PathLike[str]) -> list[Path]:
-    """Remove the temporaries of dead processes in ``folder``: ``.NAME.partial-PID`` (a whole
-    NetCDF or Zarr output being written) and ``.NAME.old-PID`` (a previous result renamed
-    aside), where no process PID is running. Returns what was removed."""
-    gone: list[Path] = []
-    try:
-        entries = list(Path(folder).iterdir())
-    except OSError:
-        return gone
-    for p in entries:
-        m = _LEFTOVER.match(p.name)
-        if m and not _alive(int(m["pid"])):
-            with contextlib.suppress(OSError):
-                _remove(p)
-                gone.append(p)
-    return gone
-
-
-def _exchange(a: Path, b: Path) -> bool:
-    """Swap the paths ``a`` and ``b`` in one atomic step (Linux ``renameat2`` with
-    ``RENAME_EXCHANGE``); False where the system or the filesystem cannot."""
-    if not sys.platform.startswith("linux"):
-        return False
-    try:
-        import ctypes
-
-        fn = ctypes.CDLL(None, use_errno=True).renameat2
-    except (OSError, AttributeError):
-        return False
-    fn.argtypes = [ctypes.c_int, ctypes.c_char_p, ctypes.c_int, ctypes.c_char_p, ctypes.c_uint]
-    at_fdcwd, rename_exchange = -100, 2
-    if fn(at_fdcwd, os.fsencode(a), at_fdcwd, os.fsencode(b), rename_exchange) == 0:
-        return True
-    err = ctypes.get_errno()
-    if err in (errno.EINVAL, errno.ENOSYS, errno.ENOTSUP, errno.EXDEV):
-        return False
-    raise OSError(err, os.strerror(err), str(b))
-
-
-def replace(new: Path, out: Path) -> None:
-    """Put ``new`` (a file or a directory) at ``out``. A file over a file is one atomic
-    rename; otherwise the two are exchanged atomically and the previous result, now at
-    ``new``, is removed: a kill at any moment leaves the old result or the new one at
-    ``out``. Where the system cannot exchange, a previous ``out`` is renamed aside to
-    ``.OUT.old-PID`` first and removed once ``new`` is in place (a later write into the
-    folder removes it if the process died). Ctrl-C waits until it is done."""
-    with deferred_sigint():
-        if not (out.exists() or out.is_symlink()):
-            os.rename(new, out)
-            return
-        if not out.is_dir() and not new.is_dir():
-            os.replace(new, out)  # a file over a file: one atomic rename
-            return
-        if _exchange(new, out):
-            _kill_point("replace-exchanged")
-            _remove(new)  # the previous result
-            return
-        old = out.with_name(f".{out.name}.old-{os.getpid()}")
-        os.rename(out, old)
-        os.rename(new, out)
-        _remove(old)
-
-
 # ---------------------------------------------------------------------------- whole Datasets
 def save(ds: xr.Dataset, path: str | os.PathLike[str]) -> None:
     """Write a sweep's Dataset to ``path`` (.nc: NetCDF-3 by xarray's scipy engine, .zarr:
@@ -258,7 +148,9 @@ def save(ds: xr.Dataset, path: str | os.PathLike[str]) -> None:
     Raises
     ------
     SweepInterrupted
-        On Ctrl-C while writing: the temporary is removed, a previous ``path`` is untouched.
+        On Ctrl-C while writing: the temporary is removed, a previous ``path`` is untouched
+        (``phase`` "writing"); during the rename into place: the new result is whole at
+        ``path`` (``phase`` "done").
     EodarmError
         For another ending, or Zarr without the zarr package.
     """
@@ -268,7 +160,7 @@ def save(ds: xr.Dataset, path: str | os.PathLike[str]) -> None:
         _need_zarr(with_dask=False)
     previous = out.exists()
     clean_leftovers(out.parent)
-    tmp = out.with_name(f".{out.name}.partial-{os.getpid()}")
+    tmp = temporary(out)
     try:
         _remove(tmp)
         if kind == "zarr":
@@ -276,12 +168,20 @@ def save(ds: xr.Dataset, path: str | os.PathLike[str]) -> None:
                 ds.to_zarr(tmp, mode="w", consolidated=True)
         else:
             _netcdf3(ds).to_netcdf(tmp, engine="scipy")
+            _fsync_path(tmp)  # on disk before it replaces a previous result
         _kill_point("save-written")
-        replace(tmp, out)
     except KeyboardInterrupt:
         with deferred_sigint():
             _remove(tmp)
         raise SweepInterrupted(out, "writing", previous) from None
+    except BaseException:
+        _remove(tmp)
+        raise
+    try:
+        replace(tmp, out)
+    except KeyboardInterrupt:
+        # replace() holds Ctrl-C until the new result is in place, then raises it
+        raise SweepInterrupted(out, "done", previous) from None
     except BaseException:
         _remove(tmp)
         raise

@@ -16,11 +16,11 @@ use super::general::Rows;
 use super::{first_error, row_chunks, Sets};
 use crate::arm::Arm;
 use crate::error::{ArmError, Result};
+use crate::lanes::L;
 use crate::solve::fast::{Ctx, Kernel};
 use crate::solve::{
     BatchBuffers, BatchInput, BatchOutput, SolveOptions, KERNEL_CHUNK, KERNEL_PARALLEL_THRESHOLD,
 };
-use crate::sweep::L;
 
 /// Solves the batch with `kernels[s]` the kernel of `sets.sets[s]`.
 pub(super) fn run(

@@ -35,21 +35,18 @@ use bending::{Bending, Shifts};
 use clearance::Clearance;
 use friction::{Friction, Held};
 
-use super::batch::SequenceInput;
+use super::batch::{fill_nan, write_row, BatchBuffers, BatchInput, BatchOutput, SequenceInput};
+use super::general::{SolveOptions, Workspace};
 use super::status::pose_status;
-use super::{write_row, BatchBuffers, BatchInput, BatchOutput, SolveOptions, Workspace};
 use crate::arm::Arm;
 use crate::effects::{Effect, EffectSet};
 use crate::error::Result;
 use crate::geometry::V2;
+use crate::lanes::transpose::{transpose_into, transpose_xy_into};
+use crate::lanes::trig::{asin_small, cos_m1, wrap_once, ASIN_SERIES_MAX};
+use crate::lanes::{Lane, F4, M4, W};
 use crate::sweep::fast::{block_trig, compose, lanes_of_rows, rot, FastArm, PoseBlock, Turn, L};
-use crate::sweep::lanes::{Lane, F4, M4, W};
-use crate::sweep::trig::{asin_small, wrap_once, ASIN_SERIES_MAX};
-use crate::sweep::{transpose_into, transpose_xy_into};
 use crate::validity::{self, Checks};
-
-// `cos a − 1` lives with the angle series, below both kernels (docs/architecture.md).
-pub(crate) use crate::sweep::trig::cos_m1;
 
 /// Per-arm constants of the solve kernel for an arm of `N` links.
 #[derive(Debug, Clone)]
@@ -836,7 +833,7 @@ impl General {
         match solved {
             Ok(()) => write_row(ctx.arm, &self.ws, &self.alpha, out, r, n),
             Err(e) if ctx.opts.nan_on_failure && e.is_pose_failure() => {
-                super::fill_nan(out, r, n);
+                fill_nan(out, r, n);
             }
             Err(e) => return Err(e),
         }

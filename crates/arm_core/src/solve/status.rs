@@ -1,7 +1,7 @@
 //! The status of one pose solved by the general path (docs/model.md §7), from its unloaded
 //! frames and its row of the outputs; the block kernel computes the same checks in its lanes.
 
-use super::BatchOutput;
+use super::batch::BatchOutput;
 use crate::arm::Arm;
 use crate::effects::ExtraDeformations;
 use crate::kinematics::Frames;

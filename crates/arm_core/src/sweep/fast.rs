@@ -2,13 +2,13 @@
 //! actuator lengths (`actuator_compliance`, `mount_compliance`, `actuator_play` centred or
 //! taken up when unloaded), for
 //! [`L`] poses at once in structure-of-arrays form, vectorised: the pose stage in packs of four
-//! lanes ([`super::lanes::F4`], one AVX2 register), the cell loops as lane loops that LLVM
+//! lanes ([`crate::lanes::F4`], one AVX2 register), the cell loops as lane loops that LLVM
 //! vectorises itself.
 //!
 //! It computes what [`crate::Workspace::solve`] computes (docs/model.md §2–§5), rearranged:
 //!
 //! * **Forward kinematics** with [`sincos_deg`] (cheap trigonometry, within a few ulp; see
-//!   [`super::trig`]); every vector of link i is `R(α_i)` times a per-arm constant.
+//!   [`crate::lanes::trig`]); every vector of link i is `R(α_i)` times a per-arm constant.
 //! * **Statics** by the same tip-to-base recursion, for the self-weight case and for a unit
 //!   payload mass. Forces are linear in the payload, so for a mass m the change is
 //!   `ΔF = m·F_unit` and the loaded force `F_w + m·F_unit`.
@@ -40,17 +40,15 @@
 // Lane loops index several `[link][lane]` arrays in step; `!(x >= t)` is meant: NaN fails.
 #![allow(clippy::needless_range_loop, clippy::neg_cmp_op_on_partial_ord)]
 
-use super::lanes::{rot4, Lane, F4, M4, W};
-use super::trig::{asin_small, sincos_deg, wrap_once, ASIN_SERIES_MAX};
 use crate::arm::Arm;
 use crate::effects::{Effect, EffectSet, Unloaded, FORCE_ZERO_N};
+use crate::lanes::trig::{asin_small, sincos_deg, wrap_once, ASIN_SERIES_MAX};
+pub use crate::lanes::L;
+use crate::lanes::{rot4, Lane, F4, M4, W};
 use crate::statics::SINGULAR_TOL;
 use crate::validity::{
     self, Status, MAX_DALPHA_DEG, MAX_DEFLECTION_OF_REACH, MAX_RISE_OF_REACH, MIN_MOMENT_ARM,
 };
-
-/// Poses per block (lanes): four packs of four, or two AVX-512 vectors.
-pub const L: usize = 16;
 
 /// Per-arm constants of the kernel, for an arm of `N` links.
 #[derive(Debug, Clone)]
@@ -740,7 +738,7 @@ impl<const N: usize> FastArm<N> {
     }
 
     /// [`Self::poses`] from the sines and cosines of the angles (`[link][lane]`, as
-    /// [`crate::sweep::trig::sincos_deg`] gives them, so the results are the same bits),
+    /// [`crate::lanes::trig::sincos_deg`] gives them, so the results are the same bits),
     /// e.g. looked up in tables of a grid's axes; every lane is a pose.
     pub fn poses_trig(
         &self,

@@ -3,8 +3,8 @@
 
 use crate::arm::Arm;
 use crate::effects::{Effect, EffectSet};
+use crate::lanes::trig::{cos_m1, sincos_deg};
 use crate::sweep::fast::{PoseBlock, L};
-use crate::sweep::trig::sincos_deg;
 
 /// The chassis compliance of an arm.
 #[derive(Debug, Clone)]
@@ -62,7 +62,7 @@ impl Base {
         let mut cs = [0.0; L];
         sincos_deg(&phi_deg, sr, &mut cs);
         for k in 0..L {
-            cm[k] = super::cos_m1(sr[k], cs[k]);
+            cm[k] = cos_m1(sr[k], cs[k]);
             let [qx, qy] = self.lever;
             dx[k] = cm[k] * qx - sr[k] * qy;
             dy[k] = sr[k] * qx + cm[k] * qy;

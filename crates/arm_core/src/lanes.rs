@@ -1,3 +1,8 @@
+//! What the two block kernels (the sweep's, `sweep/fast.rs`, and `solve`'s, `solve/fast.rs`)
+//! share, below both (docs/architecture.md): a block of [`L`] poses in lanes, the lanes'
+//! trigonometry ([`trig`]) and the transposes of a block back into the caller's rows
+//! (`transpose`).
+//!
 //! Four lanes of `f64` ([`F4`]) and their masks ([`M4`]): element-wise operations written so
 //! that LLVM turns each into one vector instruction (one AVX2 `ymm` register, two SSE2 `xmm`).
 //!
@@ -8,7 +13,13 @@
 //! multiply–add: Rust never contracts), so the results are the same bits on every instruction
 //! set.
 
+pub(crate) mod transpose;
+pub mod trig;
+
 use std::ops::{Add, BitAnd, BitOr, Div, Mul, Neg, Not, Sub};
+
+/// Poses per block (lanes): four packs of four, or two AVX-512 vectors.
+pub const L: usize = 16;
 
 /// Lanes per pack.
 pub(crate) const W: usize = 4;

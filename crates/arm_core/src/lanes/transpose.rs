@@ -1,7 +1,7 @@
 //! A block's lanes back into the caller's row-major arrays: shared by the sweep and the
 //! solve kernel (`solve/fast.rs`), below both (docs/architecture.md).
 
-use super::fast::L;
+use super::L;
 
 /// Writes the first `out.len() / N` lanes of a `[link][lane]` block as rows of `N`.
 #[inline(always)]

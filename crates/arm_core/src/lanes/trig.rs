@@ -15,7 +15,7 @@
 // The kernels' coefficients as fdlibm publishes them (they round to its exact doubles).
 #![allow(clippy::excessive_precision)]
 
-pub use super::lanes::Lane;
+pub use super::Lane;
 
 /// Above this magnitude (degrees) [`sincos_deg`] hands the lane to libm.
 pub const FAST_TRIG_LIMIT_DEG: f64 = 1e5;

@@ -1,0 +1,186 @@
+"""The bounded Gauss–Newton iteration of a fit, on compliance-like θ (docs/diagnosis.md).
+
+:func:`iterate` takes a :class:`~eodarm.analysis.problem.Problem` and the effects to fit and
+returns the θ where χ² is least within the physical bounds, their covariance and the model's
+prediction there (:class:`Solution`). :func:`eodarm.analysis.fit.fit` wraps it into a
+:class:`~eodarm.analysis.fit.FitResult`; the held-out folds of
+:mod:`eodarm.analysis.crossval` call it directly, so that neither the folds nor what a
+fitted model hands over (:mod:`eodarm.analysis.handover`) import the result they serve.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from eodarm.analysis.problem import Problem
+from eodarm.errors import EodarmError
+from eodarm.model.effects import Effect, Slot, theta_from_param
+
+__all__ = ["Solution", "iterate"]
+
+FloatArray = npt.NDArray[np.float64]
+
+
+@dataclass
+class Solution:
+    """Where the iteration ended.
+
+    Attributes
+    ----------
+    slots : the fitted effect@place, in the order given.
+    theta : (P,) the fitted θ; ``theta_stderr`` (P,) their standard errors, from the
+        covariance ``(JᵀJ)⁻¹`` scaled by ``max(1, χ²/dof)`` (a θ at a bound: its half-normal
+        error, how far it could go before χ² rises by 1); ``theta_cov`` (P, P).
+    at_bound : whether each θ sits at a physical bound.
+    prediction : (N, C) the model's channels at ``theta``; ``chi2`` its χ².
+    iterations : Gauss–Newton steps taken.
+    notes : one line per parameter stuck at a bound (the fit warns them).
+    """
+
+    slots: list[Slot]
+    theta: FloatArray
+    theta_stderr: FloatArray
+    theta_cov: FloatArray
+    at_bound: list[bool]
+    prediction: FloatArray
+    chi2: float
+    iterations: int
+    notes: list[str]
+
+
+def iterate(
+    prob: Problem,
+    effects: Iterable[Effect | Slot | str],
+    start: Sequence[float] | FloatArray | None = None,
+    max_iter: int = 30,
+) -> Solution:
+    """Least-squares θ of ``effects`` on ``prob``, within their physical bounds.
+
+    ``Effect`` values give the starting point; ``Slot`` or ``"effect@place"`` start from the
+    arm file's value of the same effect@place, else from the effect being absent. ``start``
+    (θ, one per effect) overrides them; where it lies outside the model's domain it is moved
+    back towards that default start until every state closes.
+
+    Raises
+    ------
+    EodarmError
+        An effect given twice, a place the arm does not have, or a default start at which the
+        model cannot be solved.
+    """
+    given = list(effects)
+    slots = [Slot.of(e) for e in given]
+    keys = [s.key for s in slots]
+    if len(set(keys)) != len(keys):
+        raise EodarmError(f"an effect is given twice: {keys}")
+    for s in slots:
+        s.index(prob.arm.n)
+    in_file = {s.key: th for s, th in prob.fixed}
+    theta = np.array(
+        [
+            theta_from_param(e.name, e.value)
+            if isinstance(e, Effect)
+            else in_file.get(s.key, prob.start(s))  # a file's effect starts at its value
+            for s, e in zip(slots, given, strict=True)
+        ],
+        dtype=float,
+    )
+    lo = np.array([prob.bounds(s)[0] for s in slots])
+    hi = np.array([prob.bounds(s)[1] for s in slots])
+    default = np.clip(theta, lo, hi)
+    theta = default if start is None else np.clip(np.asarray(start, dtype=float), lo, hi)
+
+    def at(th: npt.NDArray[np.float64]) -> tuple[Any, Any, float]:
+        y, jac = prob.evaluate(list(zip(slots, th, strict=True)), slots)
+        r = prob.whiten(y)
+        return y, jac, float(r @ r)
+
+    # A given start (e.g. diagnose's linearised estimate) may lie outside the model's domain
+    # (a measured state that cannot be closed there): move it back towards the default start
+    # (the effects absent, or the file's values) until every state closes.
+    for lam in (0.5, 0.25, 0.125, 0.0625, 0.0):
+        try:
+            y, jac, chi2 = at(theta)
+            break
+        except EodarmError:
+            if start is None:
+                raise
+            theta = default + lam * (np.clip(np.asarray(start, dtype=float), lo, hi) - default)
+    else:
+        y, jac, chi2 = at(theta)
+    it = 0
+    for it in range(1, max_iter + 1):  # noqa: B007
+        if not slots:
+            break
+        r = prob.whiten(y)
+        a = prob.whiten_jac(jac)
+        step = _bounded_step(a, r, lo - theta, hi - theta)
+        # Backtrack if the exact model disagrees with the linear one (rare: it is ~linear).
+        lam = 1.0
+        accepted = False
+        for _ in range(8):
+            trial = np.clip(theta + lam * step, lo, hi)
+            try:
+                y2, jac2, chi2b = at(trial)
+            except EodarmError:
+                # The trial left the model's domain (a triangle that cannot close, a singular
+                # pose): too long a step, like one that raises χ²; the current θ was solvable.
+                lam *= 0.5
+                continue
+            if chi2b <= chi2 * (1 + 1e-12) + 1e-12:
+                accepted = True
+                break
+            lam *= 0.5
+        if not accepted:
+            break
+        improvement = chi2 - chi2b
+        theta, y, jac, chi2 = trial, y2, jac2, chi2b
+        if improvement <= 1e-9 * max(chi2, 1.0):
+            break
+    # Covariance of θ from the whitened Jacobian at the solution.
+    stderr = np.full(len(slots), np.nan)
+    theta_cov = np.zeros((len(slots), len(slots)))
+    at_bound = [bool(theta[i] <= lo[i] + 1e-15 or theta[i] >= hi[i]) for i in range(len(slots))]
+    notes: list[str] = []
+    if slots:
+        a = prob.whiten_jac(jac)
+        free = ~np.array(at_bound)
+        dof = max(prob.n_values - len(slots), 1)
+        scale = max(1.0, chi2 / dof)
+        if free.any():
+            # Scale the columns first: θ of different effects differ by 1e8 (mm vs 1/EI),
+            # and an unscaled pseudo-inverse would cut the small directions off.
+            af = a[:, free]
+            norms = np.linalg.norm(af, axis=0)
+            norms[norms == 0] = 1.0
+            an = af / norms
+            cov_n = np.linalg.pinv(an.T @ an) * scale
+            stderr[free] = np.sqrt(np.clip(np.diag(cov_n), 0, None)) / norms
+            theta_cov[np.ix_(free, free)] = cov_n / np.outer(norms, norms)
+        for i, s in enumerate(slots):
+            if at_bound[i]:
+                # Half-normal bound: how far θ could go before χ² rises by 1.
+                col = a[:, i]
+                stderr[i] = math.sqrt(scale) / max(float(np.linalg.norm(col)), 1e-300)
+                # (a column of zeros: the data do not see it at all, an infinite variance)
+                theta_cov[i, i] = stderr[i] ** 2 if stderr[i] < 1e150 else math.inf
+                where = "its upper bound" if theta[i] >= hi[i] else "its lower bound (absent)"
+                notes.append(f"{s.key}: parameter stuck at {where}; the data do not want it")
+    return Solution(slots, theta, stderr, theta_cov, at_bound, y, chi2, it, notes)
+
+
+def _bounded_step(
+    a: npt.NDArray[np.float64],
+    r: npt.NDArray[np.float64],
+    lo: npt.NDArray[np.float64],
+    hi: npt.NDArray[np.float64],
+) -> npt.NDArray[np.float64]:
+    """argmin ||r − a·d|| subject to lo ≤ d ≤ hi (exact; :mod:`eodarm.analysis.boxlsq`)."""
+    from eodarm.analysis.boxlsq import bounded_lstsq
+
+    return bounded_lstsq(a, r, lo, hi)
