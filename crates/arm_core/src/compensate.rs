@@ -41,7 +41,7 @@ pub mod batch;
 
 pub use batch::{compensate_batch, CompensateBuffers, CompensateOutput};
 
-use crate::arm::Arm;
+use crate::arm::{Arm, Drive};
 use crate::effects::EffectSet;
 use crate::error::{ArmError, Result};
 use crate::geometry::{wrap_pi, V2};
@@ -159,7 +159,8 @@ pub enum CompensateStatus {
     /// Converged; the commanded pose is within every stroke.
     Ok = 0,
     /// Converged, but a commanded (unloaded) pin-to-pin length is outside its actuator's
-    /// `[min_length_mm, max_length_mm]`.
+    /// `[min_length_mm, max_length_mm]`, or a rotary drive's commanded angle outside its
+    /// `[min_angle_deg, max_angle_deg]`.
     OutOfStroke = 1,
     /// An actuator's moment arm is tiny (below `min_moment_ratio`, or its line passes through
     /// its joint, or its triangle cannot close under the load) at the nominal or the
@@ -265,8 +266,9 @@ impl Compensator {
         &self.alpha
     }
 
-    /// Unloaded pin-to-pin lengths (mm) of [`Self::alpha`], valid after a pose whose status
-    /// is [`CompensateStatus::Ok`] or [`CompensateStatus::OutOfStroke`].
+    /// Unloaded pin-to-pin lengths (mm) of [`Self::alpha`] (NaN at rotary drives), valid
+    /// after a pose whose status is [`CompensateStatus::Ok`] or
+    /// [`CompensateStatus::OutOfStroke`].
     pub fn length(&self) -> &[f64] {
         &self.ws.lines.length
     }
@@ -361,7 +363,7 @@ impl Compensator {
         }
         // The commanded pose's own geometry: moment arms and stroke.
         self.ws.frames.fill(arm, &self.alpha);
-        if let Err(e) = self.ws.lines.fill(&self.ws.frames, row) {
+        if let Err(e) = self.ws.lines.fill(arm, &self.ws.frames, row) {
             return pose_failure(e, result);
         }
         if let Some(act) = self.tiny_moment_arm(arm, opts.min_moment_ratio) {
@@ -369,10 +371,15 @@ impl Compensator {
             result.actuator = act;
             return Ok(result);
         }
-        for (i, (len, a)) in self.ws.lines.length.iter().zip(&arm.actuators).enumerate() {
-            let below = a.min_length.is_some_and(|lo| *len < lo);
-            let above = a.max_length.is_some_and(|hi| *len > hi);
-            if below || above {
+        for (i, d) in arm.drives.iter().enumerate() {
+            let outside = match d {
+                Drive::Linear(a) => a.out_of_stroke(self.ws.lines.length[i]),
+                Drive::Rotary(r) => {
+                    let before = if i == 0 { 0.0 } else { self.alpha[i - 1] };
+                    r.out_of_range(r.angle_of(self.alpha[i] - before))
+                }
+            };
+            if outside {
                 result.status = CompensateStatus::OutOfStroke;
                 result.actuator = (i + 1) as u32;
                 return Ok(result);
@@ -601,9 +608,11 @@ impl Compensator {
         Ok(())
     }
 
-    /// The first actuator (1-based) whose moment arm ratio in `self.ws.lines` is below `min`.
+    /// The first actuator (1-based) whose moment arm ratio in `self.ws.lines` is below `min`
+    /// (a rotary drive has no moment arm to lose).
     fn tiny_moment_arm(&self, arm: &Arm, min: f64) -> Option<u32> {
         (0..arm.n())
+            .filter(|&i| !arm.is_rotary(i))
             .find(|&i| self.ws.lines.arm[i].abs() < min * arm.links[i].a.norm())
             .map(|i| (i + 1) as u32)
     }

@@ -193,7 +193,8 @@ mod tests {
             out.push((format!("{k}C"), p(l.c)));
             out.push((format!("{k}mass_kg"), vec![l.mass_kg]));
         }
-        for (i, a) in arm.actuators.iter().enumerate() {
+        for (i, d) in arm.drives.iter().enumerate() {
+            let Some(a) = d.linear() else { continue };
             let k = format!("actuator[{}].", i + 1);
             out.push((format!("{k}stiffness_n_per_mm"), vec![a.stiffness]));
             out.push((format!("{k}mass_kg"), vec![a.mass_kg]));

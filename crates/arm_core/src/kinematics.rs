@@ -17,9 +17,10 @@ pub struct Frames {
     pub cos: Vec<f64>,
     /// Joints O_1…O_n followed by the load point (n + 1 entries).
     pub joint: Vec<V2>,
-    /// Pin A_i of actuator i on link i.
+    /// Pin A_i of actuator i on link i (NaN where a rotary drive turns link i: no pin).
     pub a: Vec<V2>,
-    /// Base pin of actuator i: B_0 (chassis) for i = 1, else link i−1's B point.
+    /// Base pin of actuator i: B_0 (chassis) for i = 1, else link i−1's B point (NaN where
+    /// a rotary drive turns link i).
     pub b: Vec<V2>,
     /// Centre of mass of link i.
     pub c: Vec<V2>,
@@ -52,8 +53,14 @@ impl Frames {
             self.sin[i] = s;
             self.cos[i] = c;
             self.joint[i] = o;
-            self.a[i] = o + rot_sc(s, c, link.a);
-            self.b[i] = base_pin;
+            if arm.is_rotary(i) {
+                // No actuator, no pins: NaN, so that no computation can use them unawares.
+                self.a[i] = V2::repeat(f64::NAN);
+                self.b[i] = V2::repeat(f64::NAN);
+            } else {
+                self.a[i] = o + rot_sc(s, c, link.a);
+                self.b[i] = base_pin;
+            }
             self.c[i] = o + rot_sc(s, c, link.c);
             base_pin = o + rot_sc(s, c, link.b);
             o += rot_sc(s, c, link.next);
@@ -64,7 +71,7 @@ impl Frames {
         self.measure = self.joint[last] + rot_sc(self.sin[last], self.cos[last], arm.measure);
     }
 
-    /// Pin-to-pin length of actuator `i` (mm).
+    /// Pin-to-pin length of actuator `i` (mm; NaN at a rotary drive).
     #[inline]
     pub fn length(&self, i: usize) -> f64 {
         (self.a[i] - self.b[i]).norm()
@@ -101,11 +108,13 @@ impl Frames {
 /// Absolute angles (rad) of a rigid arm whose actuators have pin-to-pin lengths `length` (mm).
 ///
 /// Each triangle is closed in closed form from the base out; the branch is the one of the
-/// reference pose `alpha_ref` (rad), i.e. the nearest.
+/// reference pose `alpha_ref` (rad), i.e. the nearest. A joint turned by a rotary drive has
+/// no length: its entry must be NaN, and the joint keeps the reference pose's relative angle
+/// `q_i = α_i − α_{i−1}` (so `forward`'s lengths, NaN there, give back the angles).
 ///
 /// # Errors
 /// [`ArmError::Unreachable`] when a length cannot close its triangle;
-/// [`ArmError::OutOfRange`] for a length that is not > 0.
+/// [`ArmError::OutOfRange`] for a length that is not > 0, or not NaN at a rotary drive.
 pub fn angles_from_lengths(
     arm: &Arm,
     length: &[f64],
@@ -118,8 +127,8 @@ pub fn angles_from_lengths(
     angles_from_lengths_sided(arm, length, alpha_ref, &sides, row, out)
 }
 
-/// The side (±1, 0 when degenerate) of every actuator triangle in the pose `alpha_ref`
-/// (rad): the branch [`angles_from_lengths`] closes on.
+/// The side (±1, 0 when degenerate or at a rotary drive) of every actuator triangle in the
+/// pose `alpha_ref` (rad): the branch [`angles_from_lengths`] closes on.
 pub fn triangle_sides(arm: &Arm, alpha_ref: &[f64], sides: &mut [f64]) {
     let mut reference = Frames::new(arm.n());
     reference.fill(arm, alpha_ref);
@@ -144,25 +153,45 @@ pub fn angles_from_lengths_sided(
     let mut o = arm.o1;
     let mut base_pin = arm.b0;
     for (i, link) in arm.links.iter().enumerate() {
-        if length[i].is_nan() || length[i] <= 0.0 {
-            return Err(ArmError::OutOfRange {
-                row,
-                what: format!(
-                    "length_mm of actuator {} must be > 0, got {}",
-                    i + 1,
-                    length[i]
-                ),
-            });
-        }
-        let theta = close_triangle(base_pin - o, link.a.norm(), length[i], sides[i]).ok_or(
-            ArmError::Unreachable {
-                row,
-                actuator: i + 1,
-                length: length[i],
-            },
-        )?;
-        // The solution nearest the reference, not merely equal modulo 2π.
-        let al = alpha_ref[i] + wrap_pi(theta - angle(link.a) - alpha_ref[i]);
+        let al = if arm.is_rotary(i) {
+            if !length[i].is_nan() {
+                return Err(ArmError::OutOfRange {
+                    row,
+                    what: format!(
+                        "length_mm of joint {} must be NaN: a rotary drive turns it, which has \
+                         no length (it keeps the reference pose's angle), got {}",
+                        i + 1,
+                        length[i]
+                    ),
+                });
+            }
+            let before = if i == 0 {
+                0.0
+            } else {
+                out[i - 1] - alpha_ref[i - 1]
+            };
+            alpha_ref[i] + before
+        } else {
+            if length[i].is_nan() || length[i] <= 0.0 {
+                return Err(ArmError::OutOfRange {
+                    row,
+                    what: format!(
+                        "length_mm of actuator {} must be > 0, got {}",
+                        i + 1,
+                        length[i]
+                    ),
+                });
+            }
+            let theta = close_triangle(base_pin - o, link.a.norm(), length[i], sides[i]).ok_or(
+                ArmError::Unreachable {
+                    row,
+                    actuator: i + 1,
+                    length: length[i],
+                },
+            )?;
+            // The solution nearest the reference, not merely equal modulo 2π.
+            alpha_ref[i] + wrap_pi(theta - angle(link.a) - alpha_ref[i])
+        };
         out[i] = al;
         base_pin = o + rot(al, link.b);
         o += rot(al, link.next);
@@ -175,8 +204,8 @@ const LENGTHS_CHUNK: usize = 4096;
 
 /// [`angles_from_lengths`] of N rows, in degrees, in parallel (rayon).
 ///
-/// `length_mm` is `N × n`; `alpha_ref_deg` is `n` (one reference pose for every row) or
-/// `N × n`. With `nan_on_failure`, a row whose lengths cannot close a triangle gets NaN
+/// `length_mm` is `N × n` (NaN at the joints turned by rotary drives); `alpha_ref_deg` is
+/// `n` (one reference pose for every row) or `N × n`. With `nan_on_failure`, a row whose lengths cannot close a triangle gets NaN
 /// angles instead of an error.
 ///
 /// # Errors
@@ -231,7 +260,9 @@ pub fn angles_from_lengths_batch(
             } else {
                 &ref_rad[row * n..(row + 1) * n]
             };
-            if !l.iter().chain(r).all(|v| v.is_finite()) {
+            // NaN is a rotary drive's length (checked in the closure); ±∞ is never one.
+            let given = |(i, v): (usize, &f64)| v.is_finite() || (v.is_nan() && arm.is_rotary(i));
+            if !(l.iter().enumerate().all(given) && r.iter().all(|v| v.is_finite())) {
                 return Err(ArmError::NonFinite {
                     row,
                     what: "length_mm/alpha_ref_deg",

@@ -1,7 +1,8 @@
 //! # arm_core
 //!
-//! The physics of eodarm, in pure Rust (no Python): a planar arm of `n` links, each driven
-//! by a linear actuator, as in Ștefan et al., *Electronics* 2022, 11, 2355.
+//! The physics of eodarm, in pure Rust (no Python): a planar arm of `n` links, each turned
+//! by a linear actuator (as in Ștefan et al., *Electronics* 2022, 11, 2355) or by a rotary
+//! drive at its joint, in any mix ([`drive`]).
 //!
 //! * [`kinematics`]: frame transforms (the seed's relation 1), actuator lengths, angles from
 //!   lengths and inverse kinematics;
@@ -31,6 +32,7 @@
 
 pub mod arm;
 pub mod compensate;
+pub mod drive;
 pub mod effects;
 pub mod error;
 pub mod examples;
@@ -50,6 +52,7 @@ pub use compensate::{
     compensate_batch, CompensateBuffers, CompensateOptions, CompensateOutput, CompensateStatus,
     Compensator, JacobianKind,
 };
+pub use drive::{Drive, RotaryDrive};
 pub use effects::ExtraDeformations;
 pub use effects::{Effect, EffectSet, Mechanism};
 pub use error::{ArmError, Result};

@@ -1,9 +1,10 @@
 //! Predicted measurement channels and their sensitivities to effect parameters, for fitting.
 //!
 //! Every effect is written with a *compliance-like* parameter θ in which its deflection is
-//! (nearly) linear: `1/k` for springs (mm/N), `1/EI` for bending (1/(N·mm²)), `1/k` for the
-//! base (rad/(N·mm)), and the gap itself for clearance and play (mm). θ = 0 is "absent", except
-//! for `actuator_compliance`, whose θ replaces the actuator body's `1/k_i`.
+//! (nearly) linear: `1/k` for springs (mm/N; rad/(N·mm) for a rotary drive's gear and the
+//! base), `1/EI` for bending (1/(N·mm²)), and the gap itself for clearance and play (mm) and
+//! backlash (degrees); a friction's limit itself (N, N·mm). θ = 0 is "absent", except for
+//! `actuator_compliance` and `drive_compliance`, whose θ replaces the drive's own `1/k_i`.
 //!
 //! The sensitivity `∂y/∂θ_j` of every channel is a central difference of the exact solve,
 //! taken inside the core in one pass over the poses. The response is linear in θ up to the
@@ -23,9 +24,11 @@ pub use jacobian::{jacobian_batch, jacobian_batch_general};
 
 use crate::arm::Arm;
 use crate::effects::{
-    ActuatorCompliance, ActuatorFriction, ActuatorPlay, BaseCompliance, Effect, EffectSet,
-    JointClearance, JointFriction, LinkBending, MountCompliance, Unloaded, CODE_ACTUATOR_FRICTION,
-    CODE_CLEARANCE_TAKEN_UP, CODE_JOINT_FRICTION, CODE_PLAY_TAKEN_UP,
+    ActuatorCompliance, ActuatorFriction, ActuatorPlay, BaseCompliance, DriveBacklash,
+    DriveCompliance, DriveFriction, Effect, EffectSet, JointClearance, JointFriction, LinkBending,
+    MountCompliance, CODE_ACTUATOR_FRICTION, CODE_BACKLASH_TAKEN_UP, CODE_CLEARANCE_TAKEN_UP,
+    CODE_DRIVE_BACKLASH, CODE_DRIVE_COMPLIANCE, CODE_DRIVE_FRICTION, CODE_JOINT_FRICTION,
+    CODE_PLAY_TAKEN_UP,
 };
 use crate::error::{ArmError, Result};
 use crate::solve::{check_input, BatchInput};
@@ -35,8 +38,10 @@ use crate::solve::{check_input, BatchInput};
 pub struct Place {
     /// Catalogue code: 0 actuator_compliance, 1 mount_compliance, 2 actuator_play,
     /// 3 joint_clearance, 4 link_bending, 5 base_compliance; 6 actuator_play and
-    /// 7 joint_clearance taken up by the unloaded forces ([`Unloaded::TakenUp`]); 8
-    /// actuator_friction and 9 joint_friction (θ the limit itself, N or N·mm).
+    /// 7 joint_clearance taken up by the unloaded forces (`Unloaded::TakenUp`); 8
+    /// actuator_friction and 9 joint_friction (θ the limit itself, N or N·mm); 10
+    /// drive_compliance, 11 drive_backlash (12 taken up; θ in degrees), 13 drive_friction
+    /// (θ in N·mm).
     pub code: i64,
     /// 0-based place index (0 for the base).
     pub index: usize,
@@ -62,12 +67,12 @@ pub fn effect_from_theta(place: Place, theta: f64) -> Result<Effect> {
         2 | CODE_PLAY_TAKEN_UP => Effect::ActuatorPlay(ActuatorPlay {
             actuator: i,
             play: theta,
-            unloaded: gap_mode(place.code),
+            unloaded: Effect::unloaded_of(place.code),
         }),
         3 | CODE_CLEARANCE_TAKEN_UP => Effect::JointClearance(JointClearance {
             joint: i,
             clearance: theta,
-            unloaded: gap_mode(place.code),
+            unloaded: Effect::unloaded_of(place.code),
         }),
         4 => Effect::LinkBending(LinkBending {
             link: i,
@@ -84,6 +89,19 @@ pub fn effect_from_theta(place: Place, theta: f64) -> Result<Effect> {
             joint: i,
             torque: theta,
         }),
+        CODE_DRIVE_COMPLIANCE => Effect::DriveCompliance(DriveCompliance {
+            joint: i,
+            stiffness: inv(theta),
+        }),
+        CODE_DRIVE_BACKLASH | CODE_BACKLASH_TAKEN_UP => Effect::DriveBacklash(DriveBacklash {
+            joint: i,
+            backlash_deg: theta,
+            unloaded: Effect::unloaded_of(place.code),
+        }),
+        CODE_DRIVE_FRICTION => Effect::DriveFriction(DriveFriction {
+            joint: i,
+            torque: theta,
+        }),
         c => {
             return Err(ArmError::InvalidEffect {
                 effect: format!("code {c}"),
@@ -93,19 +111,18 @@ pub fn effect_from_theta(place: Place, theta: f64) -> Result<Effect> {
     })
 }
 
-/// The gap mode of a play or clearance code.
-fn gap_mode(code: i64) -> Unloaded {
-    if code == CODE_PLAY_TAKEN_UP || code == CODE_CLEARANCE_TAKEN_UP {
-        Unloaded::TakenUp
-    } else {
-        Unloaded::Centred
-    }
+/// `1/k` (mm/N, rad/(N·mm)) of the drive at a place, 0 beyond the arm.
+fn drive_compliance(arm: &Arm, place: Place) -> f64 {
+    arm.drives
+        .get(place.index)
+        .map_or(0.0, |d| 1.0 / d.stiffness())
 }
 
-/// The θ of a place when it is not in the model (absent; the file's `1/k` for an actuator body).
+/// The θ of a place when it is not in the model (absent; the file's `1/k` for an actuator body
+/// or a rotary drive's gear).
 pub fn neutral_theta(arm: &Arm, place: Place) -> f64 {
-    if place.code == 0 {
-        1.0 / arm.actuators[place.index].stiffness
+    if place.code == 0 || place.code == CODE_DRIVE_COMPLIANCE {
+        drive_compliance(arm, place)
     } else {
         0.0
     }
@@ -114,12 +131,14 @@ pub fn neutral_theta(arm: &Arm, place: Place) -> f64 {
 /// A typical θ of a place, used to size the difference step.
 fn typical_theta(arm: &Arm, place: Place) -> f64 {
     match place.code {
-        0 | 1 => 1.0 / arm.actuators[place.index].stiffness,
+        0 | 1 | CODE_DRIVE_COMPLIANCE => drive_compliance(arm, place),
         2 | 3 | CODE_PLAY_TAKEN_UP | CODE_CLEARANCE_TAKEN_UP => 0.1,
+        // A backlash of 0.1°: a step of 10⁻⁴°.
+        CODE_DRIVE_BACKLASH | CODE_BACKLASH_TAKEN_UP => 0.1,
         4 => 1e-10,
         // A friction's θ is its limit: a step of 0.01 N or 1 N·mm.
         CODE_ACTUATOR_FRICTION => 10.0,
-        CODE_JOINT_FRICTION => 1000.0,
+        CODE_JOINT_FRICTION | CODE_DRIVE_FRICTION => 1000.0,
         _ => 1e-8,
     }
 }
@@ -224,9 +243,7 @@ impl Sets {
         sets.push(build(None)?);
         let mut steps = Vec::with_capacity(p);
         for &q in probes {
-            let known = (0..=CODE_CLEARANCE_TAKEN_UP).contains(&q.code)
-                || q.code == CODE_ACTUATOR_FRICTION
-                || q.code == CODE_JOINT_FRICTION;
+            let known = (0..=CODE_DRIVE_FRICTION).contains(&q.code);
             if q.index >= arm.n() || !known {
                 return Err(ArmError::InvalidEffect {
                     effect: format!("code {} at index {}", q.code, q.index),

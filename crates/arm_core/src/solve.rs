@@ -172,6 +172,7 @@ fn run(
     let n = arm.n();
     let rows = check_input(arm, &input)?;
     extra.check(rows, n)?;
+    extra.check_drives(arm)?;
     out.check(rows, n)?;
     if status.len() != rows {
         return Err(ArmError::Shape {
@@ -236,6 +237,8 @@ pub(crate) fn split_output<'a>(
     let mut f = out.force_n.chunks_mut(rows * n);
     let mut r = out.reaction_n.chunks_mut(rows * n * 2);
     let mut df = out.dforce_n.chunks_mut(rows * n);
+    let mut t = out.torque_nmm.chunks_mut(rows * n);
+    let mut dt = out.dtorque_nmm.chunks_mut(rows * n);
     let mut dx = out.dx_mm.chunks_mut(rows);
     let mut dy = out.dy_mm.chunks_mut(rows);
     let mut da = out.dalpha_deg.chunks_mut(rows * n);
@@ -247,6 +250,8 @@ pub(crate) fn split_output<'a>(
         Some(force_n),
         Some(reaction_n),
         Some(dforce_n),
+        Some(torque_nmm),
+        Some(dtorque_nmm),
         Some(dx_mm),
         Some(dy_mm),
         Some(dalpha_deg),
@@ -257,6 +262,8 @@ pub(crate) fn split_output<'a>(
         f.next(),
         r.next(),
         df.next(),
+        t.next(),
+        dt.next(),
         dx.next(),
         dy.next(),
         da.next(),
@@ -268,6 +275,8 @@ pub(crate) fn split_output<'a>(
             force_n,
             reaction_n,
             dforce_n,
+            torque_nmm,
+            dtorque_nmm,
             dx_mm,
             dy_mm,
             dalpha_deg,
@@ -304,7 +313,7 @@ fn solve_chunk(
         }
         let payload = V2::new(input.payload_n[2 * p], input.payload_n[2 * p + 1]);
         match ws.solve_extra(arm, effects, &alpha, payload, opts, row, (&extra, p)) {
-            Ok(()) => write_row(&ws, &alpha, &mut out, p, n),
+            Ok(()) => write_row(arm, &ws, &alpha, &mut out, p, n),
             Err(e) if opts.nan_on_failure && e.is_pose_failure() => fill_nan(&mut out, p, n),
             Err(e) => return Err(e),
         }

@@ -10,18 +10,19 @@
 //! | code | name               | when                                                            |
 //! |------|--------------------|-----------------------------------------------------------------|
 //! | 0    | `ok`               | inside every limit                                              |
-//! | 1    | `out_of_stroke`    | an unloaded length outside `[min_length, max_length]`           |
+//! | 1    | `out_of_stroke`    | an unloaded length outside `[min_length, max_length]`, or a rotary drive's angle (unloaded or loaded) outside `[min_angle, max_angle]` |
 //! | 2    | `near_singular`    | an actuator's moment arm about its joint < [`MIN_MOMENT_ARM`]·\|A_i − O_i\| |
 //! | 3    | `branch_flip`      | a loaded actuator triangle turned over                          |
-//! | 4    | `over_force`       | a loaded \|force\| above `max_force`                            |
+//! | 4    | `over_force`       | a loaded \|force\| above `max_force`, or \|torque\| above `max_torque` |
 //! | 5    | `large_deflection` | a link turned > [`MAX_DALPHA_DEG`], the measure point moved > [`MAX_DEFLECTION_OF_REACH`]·reach, or rose > [`MAX_RISE_OF_REACH`]·reach under a downward payload; or the load point rose > [`MAX_LOAD_RISE_MM`] where [`checks_load_rise`] and no user deformation |
 //!
-//! When several apply, the first in this order is reported.
+//! When several apply, the first in this order is reported. A joint turned by a rotary drive
+//! has no triangle: it is never near singular nor flipped.
 
 // `!(x <= t)` is meant: NaN breaks the limit.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
-use crate::arm::Arm;
+use crate::arm::{Arm, Drive};
 use crate::geometry::{cross, V2};
 use crate::lanes::Lane;
 
@@ -196,14 +197,14 @@ pub fn load_dy<T: Lane>(dy_mm: T, sin_d: T, cos_m1: T, wx: T, wy: T) -> T {
     dy_mm + (sin_d * wx + cos_m1 * wy)
 }
 
-/// Whether the load point's rise is checked for these effects: not with a gap (play or
-/// clearance: the unloaded pose is then not an equilibrium of elastic parts) nor with the last
+/// Whether the load point's rise is checked for these effects: not with a gap (play,
+/// backlash or clearance: the unloaded pose is then not an equilibrium of elastic parts) nor with the last
 /// link bending (the kernels know the load point through the rigid last link).
 pub fn checks_load_rise(arm: &Arm, effects: &crate::effects::EffectSet) -> bool {
     use crate::effects::Effect;
     let last = arm.n() - 1;
     effects.effects().iter().all(|e| match e {
-        Effect::ActuatorPlay(_) | Effect::JointClearance(_) => false,
+        Effect::ActuatorPlay(_) | Effect::JointClearance(_) | Effect::DriveBacklash(_) => false,
         Effect::LinkBending(b) => b.link != last,
         // A friction only holds back part of a deformation the load makes (it dissipates;
         // it stores no energy that could lift the load point above its reference).
@@ -211,7 +212,9 @@ pub fn checks_load_rise(arm: &Arm, effects: &crate::effects::EffectSet) -> bool 
         | Effect::MountCompliance(_)
         | Effect::BaseCompliance(_)
         | Effect::ActuatorFriction(_)
-        | Effect::JointFriction(_) => true,
+        | Effect::JointFriction(_)
+        | Effect::DriveCompliance(_)
+        | Effect::DriveFriction(_) => true,
     })
 }
 
@@ -223,18 +226,37 @@ pub fn load_lever(arm: &Arm, alpha_n: f64) -> V2 {
     V2::new(c * v.x - s * v.y, s * v.x + c * v.y)
 }
 
-/// Some |force_i| above its actuator's `max_force` (actuators without one never are).
-pub fn over_force(arm: &Arm, force_n: &[f64]) -> bool {
-    arm.actuators
-        .iter()
-        .zip(force_n)
-        .any(|(act, f)| act.max_force.is_some_and(|m| f.abs() > m))
+/// Some drive's loaded load above its limit: |F_i| above an actuator's `max_force`, |T_i|
+/// above a rotary drive's `max_torque` (drives without one never are). `load` holds each
+/// drive's load in its own unit ([`crate::statics::Forces::f`]).
+pub fn over_force(arm: &Arm, load: &[f64]) -> bool {
+    arm.drives.iter().zip(load).any(|(d, f)| d.over_limit(*f))
 }
 
-/// Some unloaded length outside its actuator's `[min_length, max_length]`.
+/// Some unloaded length outside its actuator's `[min_length, max_length]` (rotary drives,
+/// whose length is NaN, never are).
 pub fn out_of_stroke(arm: &Arm, length_mm: &[f64]) -> bool {
-    arm.actuators.iter().zip(length_mm).any(|(act, &l)| {
-        act.min_length.is_some_and(|lo| l < lo) || act.max_length.is_some_and(|hi| l > hi)
+    arm.drives.iter().zip(length_mm).any(|(d, &l)| match d {
+        Drive::Linear(act) => act.out_of_stroke(l),
+        Drive::Rotary(_) => false,
+    })
+}
+
+/// Some rotary drive's angle outside its `[min_angle, max_angle]` in the pose `alpha` (rad):
+/// its relative angle `q_i = α_i − α_{i−1}` (α_0 = 0) unloaded, or loaded with the turns
+/// `dalpha` (rad) of the links when given, `q_i + Δα_i − Δα_{i−1}` (**Reading**: the rigid arm
+/// put at the loaded angles, as for `branch_flip`). [`crate::drive::RotaryDrive::angle_of`]
+/// picks the turn of the drive's angle.
+pub fn out_of_angle(arm: &Arm, alpha: &[f64], dalpha: Option<&[f64]>) -> bool {
+    let before = |v: &[f64], i: usize| if i == 0 { 0.0 } else { v[i - 1] };
+    arm.drives.iter().enumerate().any(|(i, d)| match d {
+        Drive::Linear(_) => false,
+        Drive::Rotary(r) => {
+            let q = r.angle_of(alpha[i] - before(alpha, i));
+            let dq = dalpha.map_or(f64::NAN, |t| t[i] - before(t, i));
+            // A NaN turn (none given, a pose that failed) leaves the loaded angle unknown.
+            r.out_of_range(q) || (dq.is_finite() && r.out_of_range(q + dq))
+        }
     })
 }
 

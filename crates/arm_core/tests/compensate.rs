@@ -462,8 +462,8 @@ fn a_pose_beyond_the_stroke_is_reported_not_returned() {
     fr.fill(&arm, &a0);
     // Actuator 2 held at exactly its nominal length: any compensation leaves the stroke.
     let l2 = fr.length(1);
-    arm.actuators[1].min_length = Some(l2 - 1e-9);
-    arm.actuators[1].max_length = Some(l2 + 1e-9);
+    arm.actuator_mut(1).unwrap().min_length = Some(l2 - 1e-9);
+    arm.actuator_mut(1).unwrap().max_length = Some(l2 + 1e-9);
     let p = v(0.0, -5.0 * arm.g);
     let (res, _) = run(&arm, &eff, &a0, p, &CompensateOptions::default());
     assert_eq!(res.status, CompensateStatus::OutOfStroke);

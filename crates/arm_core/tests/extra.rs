@@ -108,7 +108,7 @@ proptest! {
         let extra = run(&arm, vec![], input, ExtraDeformations { unseen_mm: Some(&unseen), ..Default::default() });
         assert_close(&extra, &mount, 1e-12, "unseen length = mount_compliance");
 
-        let k0 = arm.actuators[j].stiffness;
+        let k0 = arm.actuator(j).unwrap().stiffness;
         let seen: Vec<f64> = (0..rows * n).map(|q| if q % n == j { -df[q] * (1.0 / k - 1.0 / k0) } else { 0.0 }).collect();
         let body = run(&arm, vec![Effect::ActuatorCompliance(ActuatorCompliance { actuator: j, stiffness: k })], input, ExtraDeformations::none());
         let extra = run(&arm, vec![], input, ExtraDeformations { seen_mm: Some(&seen), ..Default::default() });
@@ -233,6 +233,7 @@ fn zero_extras_change_nothing() {
     let zeros = ExtraDeformations {
         seen_mm: Some(&z1),
         unseen_mm: Some(&z1),
+        turn_rad: None,
         joint_mm: Some(&zj),
         tilt_rad: Some(&z2[..3]),
         measure_mm: Some(&[0.0; 6]),

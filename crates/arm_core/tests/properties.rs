@@ -34,9 +34,8 @@ fn arm(s: f64, k: f64, pivot: V2) -> Arm {
             mass_kg: l.mass_kg,
         })
         .collect();
-    let acts = ex
-        .actuators
-        .iter()
+    let acts = (0..ex.n())
+        .map(|i| ex.actuator(i).unwrap())
         .map(|a| Actuator {
             stiffness: a.stiffness * k,
             mass_kg: a.mass_kg,
@@ -138,9 +137,9 @@ fn joint_press(arm: &Arm, alpha: &[f64], j: usize, p: V2, self_weight: bool) -> 
     let mut loads = vec![(fr.joint[n], p)];
     for k in j..n {
         loads.push((fr.c[k], w(arm.links[k].mass_kg)));
-        loads.push((fr.a[k], w(0.5 * arm.actuators[k].mass_kg)));
+        loads.push((fr.a[k], w(0.5 * arm.actuator(k).unwrap().mass_kg)));
         if k > j {
-            loads.push((fr.b[k], w(0.5 * arm.actuators[k].mass_kg)));
+            loads.push((fr.b[k], w(0.5 * arm.actuator(k).unwrap().mass_kg)));
         }
     }
     let o = fr.joint[j];
@@ -190,12 +189,12 @@ proptest! {
         for i in 0..n {
             let mut loads = vec![
                 (fr.c[i], w(arm.links[i].mass_kg)),
-                (fr.a[i], w(0.5 * arm.actuators[i].mass_kg)),
+                (fr.a[i], w(0.5 * arm.actuator(i).unwrap().mass_kg)),
                 (fr.a[i], f.f[i] * lines.e[i]),
                 (fr.joint[i], f.r[i]),
             ];
             if i + 1 < n {
-                loads.push((fr.b[i + 1], w(0.5 * arm.actuators[i + 1].mass_kg)));
+                loads.push((fr.b[i + 1], w(0.5 * arm.actuator(i + 1).unwrap().mass_kg)));
                 loads.push((fr.b[i + 1], -f.f[i + 1] * lines.e[i + 1]));
                 loads.push((fr.joint[i + 1], -f.r[i + 1]));
             } else {
@@ -401,7 +400,9 @@ fn invalid_arm_names_the_key() {
         base.b0,
         base.pivot,
         links,
-        base.actuators,
+        (0..base.n())
+            .map(|i| base.actuator(i).unwrap().clone())
+            .collect(),
         base.measure,
     )
     .unwrap_err();

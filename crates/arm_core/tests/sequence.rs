@@ -109,7 +109,7 @@ fn a_cycle_leaves_l_over_k_on_the_body() {
     // slips back and holds L: the body stays L/k shorter than at the reference.
     let limit = 60.0;
     let b = sequence(vec![friction(limit)], &[6.5, 0.0]);
-    let k = example_arm().actuators[1].stiffness;
+    let k = example_arm().actuator(1).unwrap().stiffness;
     assert!((b.dl_mm[3 + 1] + limit / k).abs() < 1e-12);
     assert!(b.dy_mm[1].abs() > 1e-3);
 }
@@ -121,7 +121,7 @@ fn a_monotonic_loading_is_the_deadband_of_each_state() {
     let one = single(vec![friction(60.0)], &masses);
     close(&seq.dy_mm, &one.dy_mm, 1e-9);
     let free = single(vec![], &masses);
-    let k = example_arm().actuators[1].stiffness;
+    let k = example_arm().actuator(1).unwrap().stiffness;
     for (s, _) in masses.iter().enumerate() {
         let df = free.dforce_n[3 * s + 1];
         let held = df.signum() * (df.abs() - 60.0).max(0.0);

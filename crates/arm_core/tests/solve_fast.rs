@@ -47,7 +47,7 @@ fn arm(n: usize, rng: &mut Rng, limits: bool) -> Arm {
     let mut links = Vec::new();
     let mut acts = Vec::new();
     for i in 0..n {
-        let (shape, act) = (&ex.links[i.min(2)], &ex.actuators[i.min(2)]);
+        let (shape, act) = (&ex.links[i.min(2)], ex.actuator(i.min(2)).unwrap());
         let b = if i < 2 {
             shape.b
         } else {

@@ -46,7 +46,7 @@ fn arm(n: usize, rng: &mut Rng, strokes: Option<(f64, f64)>) -> Arm {
     let mut links = Vec::new();
     let mut acts = Vec::new();
     for i in 0..n {
-        let (shape, act) = (&ex.links[i.min(2)], &ex.actuators[i.min(2)]);
+        let (shape, act) = (&ex.links[i.min(2)], ex.actuator(i.min(2)).unwrap());
         let b = if i < 2 { shape.b } else { repeated_b };
         let f = |r: &mut Rng| r.uniform(0.7, 1.3);
         links.push(Link {
@@ -270,7 +270,7 @@ fn status_of(arm: &Arm, rad: &[f64], ws: Option<&Workspace>, mass: f64) -> (Stat
         turn = turn.max(d.abs());
         border |= close(d.abs(), validity::MAX_DALPHA_DEG);
         loaded_rad[i] = rad[i] + d.to_radians();
-        if let Some(m) = arm.actuators[i].max_force {
+        if let Some(m) = arm.actuator(i).unwrap().max_force {
             border |= close(ws.loaded.f[i].abs(), m);
         }
     }
@@ -581,7 +581,8 @@ fn status_equals_the_checks_on_solve() {
         let mut alpha = poses(n, 300, &mut rng);
         // Actuator 1 without a stroke, and near singular (not singular) in a reachable pose
         // turned as a whole (the other actuators' lengths stay).
-        (arm.actuators[0].min_length, arm.actuators[0].max_length) = (None, None);
+        let first_actuator = arm.actuator_mut(0).unwrap();
+        (first_actuator.min_length, first_actuator.max_length) = (None, None);
         let none = EffectSet::new(&arm, vec![]).unwrap();
         let first = run(&arm, &none, &alpha, &[1.0], opts(true), &never).unwrap();
         let p = first.reachable.iter().position(|&r| r).unwrap();
@@ -602,7 +603,7 @@ fn status_equals_the_checks_on_solve() {
             })
             .collect();
         f1.sort_by(f64::total_cmp);
-        arm.actuators[0].max_force = Some(f1[f1.len() / 2]);
+        arm.actuator_mut(0).unwrap().max_force = Some(f1[f1.len() / 2]);
         let eff = EffectSet::new(&arm, effects).unwrap();
         let mass = [0.0, 2.0, 8.0, 60.0];
         let worst = compare(&arm, &eff, &alpha, &mass, true);

@@ -3,7 +3,7 @@
 
 use crate::errors::{value_error, PyArmError};
 use arm_core::effects::{Effect, EffectSet};
-use arm_core::{Actuator, Arm, BatchBuffers, BatchInput, Link, V2};
+use arm_core::{Actuator, Arm, BatchBuffers, BatchInput, Drive, Link, RotaryDrive, V2};
 use numpy::{
     IntoPyArray, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyReadonlyArrayDyn,
     PyUntypedArrayMethods,
@@ -72,7 +72,11 @@ pub(crate) fn opt(v: f64) -> Option<f64> {
     (!v.is_nan()).then_some(v)
 }
 
-/// An arm in the core's form, built from the arrays of `eodarm.Arm.arrays()`.
+/// An arm in the core's form, built from the arrays of `eodarm.Arm.arrays()`. Each joint's
+/// drive is a linear actuator (`kind` 0, the default) or a rotary drive (`kind` 1); a
+/// rotary drive's `stiffness` is in N·mm/rad, its limits in `max_torque` (N·mm) and
+/// `min_angle_deg`, `max_angle_deg` (degrees), NaN where absent; the pins it does not use
+/// (`A`, `B`, `b0`) are ignored.
 #[pyclass(frozen, name = "CoreArm", module = "eodarm._core")]
 pub(crate) struct CoreArm {
     pub(crate) inner: Arm,
@@ -82,7 +86,7 @@ pub(crate) struct CoreArm {
 impl CoreArm {
     /// Builds and validates the arm; optional limits are NaN when absent.
     #[new]
-    #[pyo3(signature = (g, o1, b0, pivot, next, a, b, c, link_mass, measure, stiffness, act_mass, min_length, max_length, max_force))]
+    #[pyo3(signature = (g, o1, b0, pivot, next, a, b, c, link_mass, measure, stiffness, act_mass, min_length, max_length, max_force, *, kind=None, max_torque=None, min_angle_deg=None, max_angle_deg=None))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         g: f64,
@@ -100,6 +104,10 @@ impl CoreArm {
         min_length: PyReadonlyArray1<'_, f64>,
         max_length: PyReadonlyArray1<'_, f64>,
         max_force: PyReadonlyArray1<'_, f64>,
+        kind: Option<PyReadonlyArray1<'_, f64>>,
+        max_torque: Option<PyReadonlyArray1<'_, f64>>,
+        min_angle_deg: Option<PyReadonlyArray1<'_, f64>>,
+        max_angle_deg: Option<PyReadonlyArray1<'_, f64>>,
     ) -> PyResult<Self> {
         let (next, n) = matrix(&next, "next", 2)?;
         let (a, _) = matrix(&a, "A", 2)?;
@@ -126,17 +134,47 @@ impl CoreArm {
         let lo = vector(&min_length, "min_length", n)?;
         let hi = vector(&max_length, "max_length", n)?;
         let fmax = vector(&max_force, "max_force", n)?;
-        let actuators = (0..n)
-            .map(|i| Actuator {
-                stiffness: k[i],
-                mass_kg: m[i],
-                min_length: opt(lo[i]),
-                max_length: opt(hi[i]),
-                max_force: opt(fmax[i]),
-            })
-            .collect();
+        let nan = vec![f64::NAN; n];
+        let or_nan = |a: &'_ Option<PyReadonlyArray1<'_, f64>>, name: &str| -> PyResult<Vec<f64>> {
+            match a {
+                Some(a) => Ok(vector(a, name, n)?.to_vec()),
+                None => Ok(nan.clone()),
+            }
+        };
+        let kinds = match &kind {
+            Some(a) => vector(a, "kind", n)?.to_vec(),
+            None => vec![0.0; n],
+        };
+        let tmax = or_nan(&max_torque, "max_torque")?;
+        let qlo = or_nan(&min_angle_deg, "min_angle_deg")?;
+        let qhi = or_nan(&max_angle_deg, "max_angle_deg")?;
+        let mut drives = Vec::with_capacity(n);
+        for (i, &kind) in kinds.iter().enumerate() {
+            drives.push(if kind == 0.0 {
+                Drive::Linear(Actuator {
+                    stiffness: k[i],
+                    mass_kg: m[i],
+                    min_length: opt(lo[i]),
+                    max_length: opt(hi[i]),
+                    max_force: opt(fmax[i]),
+                })
+            } else if kind == 1.0 {
+                Drive::Rotary(RotaryDrive {
+                    stiffness: k[i],
+                    mass_kg: m[i],
+                    max_torque: opt(tmax[i]),
+                    min_angle: opt(qlo[i]).map(f64::to_radians),
+                    max_angle: opt(qhi[i]).map(f64::to_radians),
+                })
+            } else {
+                return Err(value_error(format!(
+                    "kind of joint {}: expected 0 (linear) or 1 (rotary), got {kind}",
+                    i + 1
+                )));
+            });
+        }
         let v = |q: [f64; 2]| V2::new(q[0], q[1]);
-        let inner = Arm::new(g, v(o1), v(b0), v(pivot), links, actuators, v(measure))
+        let inner = Arm::with_drives(g, v(o1), v(b0), v(pivot), links, drives, v(measure))
             .map_err(PyArmError)?;
         Ok(Self { inner })
     }
@@ -145,6 +183,12 @@ impl CoreArm {
     #[getter]
     fn n(&self) -> usize {
         self.inner.n()
+    }
+
+    /// Each joint's kind of drive: `"linear"` or `"rotary"`.
+    #[getter]
+    fn kinds(&self) -> Vec<&'static str> {
+        self.inner.drives.iter().map(Drive::kind).collect()
     }
 }
 
@@ -181,8 +225,9 @@ pub(crate) fn effect_set(
 }
 
 /// The outputs of `eodarm.solve` that both models fill (`arm_core::BatchBuffers`) as a dict
-/// of float64 arrays: `force_n`, `dforce_n`, `dalpha_deg`, `dl_mm`, `dlength_mm`, `length_mm`
-/// (rows, n), `reaction_n` (rows, n, 2), `dx_mm`, `dy_mm` (rows,).
+/// of float64 arrays: `force_n`, `dforce_n`, `torque_nmm`, `dtorque_nmm`, `dalpha_deg`,
+/// `dl_mm`, `dlength_mm`, `length_mm` (rows, n), `reaction_n` (rows, n, 2), `dx_mm`, `dy_mm`
+/// (rows,).
 pub(crate) fn solve_dict<'py>(
     py: Python<'py>,
     b: BatchBuffers,
@@ -197,6 +242,8 @@ pub(crate) fn solve_dict<'py>(
         b.reaction_n.into_pyarray(py).reshape([rows, n, 2])?,
     )?;
     out.set_item("dforce_n", per_link(b.dforce_n)?)?;
+    out.set_item("torque_nmm", per_link(b.torque_nmm)?)?;
+    out.set_item("dtorque_nmm", per_link(b.dtorque_nmm)?)?;
     out.set_item("dx_mm", b.dx_mm.into_pyarray(py))?;
     out.set_item("dy_mm", b.dy_mm.into_pyarray(py))?;
     out.set_item("dalpha_deg", per_link(b.dalpha_deg)?)?;

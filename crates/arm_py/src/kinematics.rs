@@ -9,7 +9,8 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
 /// Global points of N poses: O (N, n+1, 2), A, B, C (N, n, 2), measure (N, 2), length_mm (N, n)
-/// (`arm_core::kinematics::forward_batch`, into numpy-allocated arrays).
+/// (`arm_core::kinematics::forward_batch`, into numpy-allocated arrays); A, B and length_mm
+/// are NaN at joints turned by rotary drives (no actuator, no pins).
 #[pyfunction]
 pub(crate) fn forward<'py>(
     py: Python<'py>,
@@ -58,8 +59,9 @@ pub(crate) fn forward<'py>(
 
 /// Absolute angles (N, n), degrees, of the rigid arm with these pin-to-pin lengths (see
 /// `arm_core::kinematics::angles_from_lengths_batch`): the branch of the reference pose
-/// `alpha_ref_deg`, one row for all or one per row. With `nan_on_failure`, rows that cannot
-/// close get NaN instead of an error.
+/// `alpha_ref_deg`, one row for all or one per row. A joint turned by a rotary drive has no
+/// length: its column must be NaN, and the joint keeps the reference pose's relative angle.
+/// With `nan_on_failure`, rows that cannot close get NaN instead of an error.
 #[pyfunction(name = "angles_from_lengths")]
 #[pyo3(signature = (arm, length_mm, alpha_ref_deg, nan_on_failure=false))]
 pub(crate) fn py_angles_from_lengths<'py>(

@@ -13,7 +13,8 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
 /// Solves N sequences of S states; returns a dict of float64 arrays `force_n`, `dforce_n`,
-/// `dalpha_deg`, `dl_mm`, `dlength_mm`, `length_mm` (N, S, n), `reaction_n` (N, S, n, 2),
+/// `torque_nmm`, `dtorque_nmm`, `dalpha_deg`, `dl_mm`, `dlength_mm`, `length_mm` (N, S, n),
+/// `reaction_n` (N, S, n, 2),
 /// `dx_mm`, `dy_mm` (N, S) and the uint8 `status` (N, S), every state relative to its
 /// sequence's reference. `payload_n` (N, S) is the vertical component (N, y up) of the
 /// payload force of each state, as column 1 of `solve`'s `payload_n`: `−m·g` for a mass m.

@@ -13,10 +13,12 @@ use pyo3::types::PyDict;
 
 /// The float64 outputs of `solve` and their shapes in rows N and links n (`0` = N, `1` = n,
 /// `2` = 2).
-const OUT_KEYS: [(&str, &[u8]); 9] = [
+const OUT_KEYS: [(&str, &[u8]); 11] = [
     ("force_n", &[0, 1]),
     ("reaction_n", &[0, 1, 2]),
     ("dforce_n", &[0, 1]),
+    ("torque_nmm", &[0, 1]),
+    ("dtorque_nmm", &[0, 1]),
     ("dx_mm", &[0]),
     ("dy_mm", &[0]),
     ("dalpha_deg", &[0, 1]),
@@ -81,11 +83,13 @@ fn borrow_out<'py>(
 /// The keyword-only `extra_*` arrays (float64, C-contiguous, each optional) are deformations
 /// of user-written effects added to the built-in effects' (global frame, see
 /// `arm_core::ExtraDeformations`): `extra_seen_mm` (N, n) pin-to-pin length change that the
-/// actuator's sensor sees, `extra_unseen_mm` (N, n) one it does not see, `extra_joint_mm`
-/// (N, n, 2) offset of link i's pin centre at O_i, `extra_tilt_rad` (N,) chassis tilt about
-/// the base pivot, `extra_measure_mm` (N, 2) displacement of the measure point.
+/// actuator's sensor sees, `extra_unseen_mm` (N, n) one it does not see (both zero at rotary
+/// drives), `extra_turn_rad` (N, n) turn of link i against body i−1 at a rotary drive (zero
+/// at linear actuators), `extra_joint_mm` (N, n, 2) offset of link i's pin centre at O_i,
+/// `extra_tilt_rad` (N,) chassis tilt about the base pivot, `extra_measure_mm` (N, 2)
+/// displacement of the measure point.
 #[pyfunction]
-#[pyo3(signature = (arm, alpha_deg, payload_n, codes, places, values, self_weight, nan_on_failure=false, *, extra_seen_mm=None, extra_unseen_mm=None, extra_joint_mm=None, extra_tilt_rad=None, extra_measure_mm=None, out=None))]
+#[pyo3(signature = (arm, alpha_deg, payload_n, codes, places, values, self_weight, nan_on_failure=false, *, extra_seen_mm=None, extra_unseen_mm=None, extra_joint_mm=None, extra_tilt_rad=None, extra_measure_mm=None, extra_turn_rad=None, out=None))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn solve<'py>(
     py: Python<'py>,
@@ -102,6 +106,7 @@ pub(crate) fn solve<'py>(
     extra_joint_mm: Option<PyReadonlyArrayDyn<'py, f64>>,
     extra_tilt_rad: Option<PyReadonlyArrayDyn<'py, f64>>,
     extra_measure_mm: Option<PyReadonlyArrayDyn<'py, f64>>,
+    extra_turn_rad: Option<PyReadonlyArrayDyn<'py, f64>>,
     out: Option<Bound<'py, PyDict>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let arm = &arm.inner;
@@ -112,6 +117,7 @@ pub(crate) fn solve<'py>(
     let extra = ExtraDeformations {
         seen_mm: optional(&extra_seen_mm, "extra_seen_mm", &[rows, n], "(N, n)")?,
         unseen_mm: optional(&extra_unseen_mm, "extra_unseen_mm", &[rows, n], "(N, n)")?,
+        turn_rad: optional(&extra_turn_rad, "extra_turn_rad", &[rows, n], "(N, n)")?,
         joint_mm: optional(
             &extra_joint_mm,
             "extra_joint_mm",
@@ -167,6 +173,8 @@ where
         force_n: next(),
         reaction_n: next(),
         dforce_n: next(),
+        torque_nmm: next(),
+        dtorque_nmm: next(),
         dx_mm: next(),
         dy_mm: next(),
         dalpha_deg: next(),
@@ -204,8 +212,11 @@ fn dims(code: &[u8], rows: usize, n: usize) -> Vec<usize> {
 
 /// Statics of N poses on the undeformed geometry (see `arm_core::statics_batch`): a dict of
 /// float64 arrays `force_n`, `force0_n` (N, n) loaded and unloaded actuator forces
-/// (compression +), `reaction_n`, `reaction0_n` (N, n, 2) loaded and unloaded joint reactions
-/// (force of body i−1 on link i, global), `length_mm` (N, n) unloaded pin-to-pin lengths.
+/// (compression +; NaN at rotary drives), `torque_nmm`, `torque0_nmm` (N, n) loaded and
+/// unloaded drive torques (N·mm, counter-clockwise + on link i; NaN at linear actuators),
+/// `reaction_n`, `reaction0_n` (N, n, 2) loaded and unloaded joint reactions (force of body
+/// i−1 on link i, global), `length_mm` (N, n) unloaded pin-to-pin lengths (NaN at rotary
+/// drives).
 #[pyfunction]
 #[pyo3(signature = (arm, alpha_deg, payload_n, self_weight))]
 pub(crate) fn statics<'py>(
@@ -225,6 +236,14 @@ pub(crate) fn statics<'py>(
     let out = PyDict::new(py);
     out.set_item("force_n", b.force_n.into_pyarray(py).reshape([rows, n])?)?;
     out.set_item("force0_n", b.force0_n.into_pyarray(py).reshape([rows, n])?)?;
+    out.set_item(
+        "torque_nmm",
+        b.torque_nmm.into_pyarray(py).reshape([rows, n])?,
+    )?;
+    out.set_item(
+        "torque0_nmm",
+        b.torque0_nmm.into_pyarray(py).reshape([rows, n])?,
+    )?;
     out.set_item(
         "reaction_n",
         b.reaction_n.into_pyarray(py).reshape([rows, n, 2])?,

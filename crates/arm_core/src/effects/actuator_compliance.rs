@@ -1,7 +1,7 @@
 //! `actuator_compliance@Mi`: the actuator body's own axial stiffness, replacing the arm file's.
 //! Its length change `−ΔF_i/k` is what the actuator's displacement sensor (`dlK_mm`) sees.
 
-use super::{check_param, check_place, Deformation, EffectContext, Mechanism};
+use super::{check_drive, check_param, Deformation, EffectContext, Mechanism};
 use crate::arm::Arm;
 use crate::error::Result;
 
@@ -18,8 +18,12 @@ impl Mechanism for ActuatorCompliance {
     fn label(&self) -> String {
         format!("actuator_compliance@M{}", self.actuator + 1)
     }
+    fn check_site(&self, arm: &Arm) -> Result<()> {
+        let instead = format!("drive_compliance@O{}", self.actuator + 1);
+        check_drive(&self.label(), self.actuator, arm, false, &instead)
+    }
     fn check(&self, arm: &Arm) -> Result<()> {
-        check_place(&self.label(), self.actuator, arm)?;
+        self.check_site(arm)?;
         check_param(&self.label(), "stiffness_n_per_mm", self.stiffness, false)
     }
     fn apply(&self, _ctx: &EffectContext<'_>, def: &mut Deformation) {

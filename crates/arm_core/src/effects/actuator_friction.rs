@@ -7,7 +7,7 @@
 //! The effect moves nothing through [`Mechanism::apply`]: what it holds depends on the
 //! history, so it acts through the per-sequence memory before the other effects are applied.
 
-use super::{check_param, check_place, Deformation, EffectContext, Mechanism};
+use super::{check_drive, check_param, Deformation, EffectContext, Mechanism};
 use crate::arm::Arm;
 use crate::error::Result;
 
@@ -31,8 +31,12 @@ impl Mechanism for ActuatorFriction {
     fn label(&self) -> String {
         format!("actuator_friction@M{}", self.actuator + 1)
     }
+    fn check_site(&self, arm: &Arm) -> Result<()> {
+        let instead = format!("drive_friction@O{}", self.actuator + 1);
+        check_drive(&self.label(), self.actuator, arm, false, &instead)
+    }
     fn check(&self, arm: &Arm) -> Result<()> {
-        check_place(&self.label(), self.actuator, arm)?;
+        self.check_site(arm)?;
         check_param(&self.label(), "friction_n", self.friction, true)
     }
     fn apply(&self, _ctx: &EffectContext<'_>, _def: &mut Deformation) {}

@@ -4,7 +4,7 @@
 //! taken it up ([`Unloaded`]). Either way bounded by the play (twice it, taken up) whatever
 //! the load.
 
-use super::{check_param, check_place, sign0, Deformation, EffectContext, Mechanism, Unloaded};
+use super::{check_drive, check_param, sign0, Deformation, EffectContext, Mechanism, Unloaded};
 use crate::arm::Arm;
 use crate::error::Result;
 
@@ -23,8 +23,12 @@ impl Mechanism for ActuatorPlay {
     fn label(&self) -> String {
         format!("actuator_play@M{}", self.actuator + 1)
     }
+    fn check_site(&self, arm: &Arm) -> Result<()> {
+        let instead = format!("drive_backlash@O{}", self.actuator + 1);
+        check_drive(&self.label(), self.actuator, arm, false, &instead)
+    }
     fn check(&self, arm: &Arm) -> Result<()> {
-        check_place(&self.label(), self.actuator, arm)?;
+        self.check_site(arm)?;
         check_param(&self.label(), "play_mm", self.play, true)
     }
     fn apply(&self, ctx: &EffectContext<'_>, def: &mut Deformation) {

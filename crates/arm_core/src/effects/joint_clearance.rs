@@ -29,8 +29,11 @@ impl Mechanism for JointClearance {
     fn label(&self) -> String {
         format!("joint_clearance@O{}", self.joint + 1)
     }
+    fn check_site(&self, arm: &Arm) -> Result<()> {
+        check_place(&self.label(), self.joint, arm)
+    }
     fn check(&self, arm: &Arm) -> Result<()> {
-        check_place(&self.label(), self.joint, arm)?;
+        self.check_site(arm)?;
         check_param(&self.label(), "clearance_mm", self.clearance, true)
     }
     fn apply(&self, ctx: &EffectContext<'_>, def: &mut Deformation) {

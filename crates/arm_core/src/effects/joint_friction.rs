@@ -1,7 +1,10 @@
-//! `joint_friction@Oi`: a Coulomb friction torque T (N·mm) in joint pin O_i. Only actuator i
-//! turns link i against body i−1, so the friction acts in parallel with the whole of actuator
-//! i: as a force along the actuator its limit is `T / r_i`, r_i = |(A_i − O_i) × e_i| the
-//! moment arm of actuator i about O_i in the unloaded pose. The actuator (body and mount)
+//! `joint_friction@Oi`: a Coulomb friction torque T (N·mm) in joint pin O_i. Only drive i
+//! turns link i against body i−1, so the friction acts in parallel with the whole of drive i.
+//! At a linear actuator its limit as a force along the actuator is `T / r_i`,
+//! r_i = |(A_i − O_i) × e_i| the moment arm of actuator i about O_i in the unloaded pose; at a
+//! rotary drive it is T itself (no moment arm), and the couple it holds is the part of the
+//! torque change the drive does not take (the joint reaction does not change: a couple has no
+//! resultant). The actuator (body and mount)
 //! takes S_i instead of the frictionless change ΔF_i ([`super::SequenceMemory`]); the
 //! friction couple `(ΔF_i − S_i)·h_i` (counter-clockwise +, h_i the signed moment arm) acts
 //! on link i and the opposite one on body i−1; the joint reaction R_i changes by
@@ -25,8 +28,9 @@ pub struct JointFriction {
 }
 
 impl JointFriction {
-    /// The axial force (N) of actuator i the friction holds at most, given the signed moment
-    /// arm `h` (mm) of actuator i about O_i: `T / |h|`.
+    /// The load of drive i the friction holds at most, given the moment `h` about O_i of a
+    /// unit load (`ActuatorLines::arm`): `T / |h|`, an axial force (N) for an actuator of moment
+    /// arm h (mm), the torque T itself (N·mm) for a rotary drive (h = 1).
     pub fn limit(&self, h: f64) -> f64 {
         self.torque / h.abs()
     }
@@ -36,8 +40,11 @@ impl Mechanism for JointFriction {
     fn label(&self) -> String {
         format!("joint_friction@O{}", self.joint + 1)
     }
+    fn check_site(&self, arm: &Arm) -> Result<()> {
+        check_place(&self.label(), self.joint, arm)
+    }
     fn check(&self, arm: &Arm) -> Result<()> {
-        check_place(&self.label(), self.joint, arm)?;
+        self.check_site(arm)?;
         check_param(&self.label(), "torque_nmm", self.torque, true)
     }
     fn apply(&self, _ctx: &EffectContext<'_>, _def: &mut Deformation) {}

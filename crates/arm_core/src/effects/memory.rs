@@ -1,10 +1,11 @@
 //! The per-sequence memory of the effects with history (docs/model.md, "Friction").
 //!
-//! A friction element keeps S_i, the part of actuator i's force change (from the sequence's
-//! reference) that the springs take; it starts at 0 at the reference. From one state to the
-//! next S_i stays while `|x_i − S_i| ≤ L`, else `S_i = x_i − L·sign(x_i − S_i)`, with x_i the
-//! force change the element sees. A joint friction sees the frictionless ΔF_i; an actuator
-//! friction sees what the whole actuator takes (S of the joint friction when there is one).
+//! A friction element keeps S_i, the part of drive i's load change (from the sequence's
+//! reference: an actuator's force, a rotary drive's torque) that the springs take; it starts
+//! at 0 at the reference. From one state to the next S_i stays while `|x_i − S_i| ≤ L`, else
+//! `S_i = x_i − L·sign(x_i − S_i)`, with x_i the load change the element sees. A joint
+//! friction sees the frictionless ΔF_i (ΔT_i); an actuator's or a drive's own friction sees
+//! what the whole drive takes (S of the joint friction when there is one).
 //! The solve of one state is a pure function of its inputs and this memory, so a single
 //! loading is a sequence of one state from a fresh memory (the deadband).
 //!
@@ -14,12 +15,14 @@
 use super::{Effect, EffectSet};
 use crate::statics::{ActuatorLines, Forces};
 
-/// What the friction elements of one sequence hold (N), per actuator.
+/// What the friction elements of one sequence hold, per joint, in the unit of its drive's
+/// load (N for an actuator, N·mm for a rotary drive).
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct SequenceMemory {
-    /// S of the joint friction at O_i: the force change the whole actuator i takes.
+    /// S of the joint friction at O_i: the load change the whole drive i takes.
     pub joint: Vec<f64>,
-    /// S of the actuator friction at M_i: the force change actuator i's body spring takes.
+    /// S of the actuator friction at M_i (the drive friction at O_i): the load change drive
+    /// i's own spring (the actuator's body, the gear's torsional spring) takes.
     pub body: Vec<f64>,
 }
 
@@ -51,12 +54,14 @@ impl SequenceMemory {
         self.body.fill(0.0);
     }
 
-    /// Advances the frictions of `effects` to the next state and turns its frictionless force
-    /// changes `delta` (from the reference) into what the springs and pins take: the actuator
-    /// force change `delta.f[i]` becomes S of the joint friction, the joint reaction `delta.r[i]`
-    /// changes by `−(S − ΔF)·e_i`, `couple[i]` is the friction couple on link i at O_i
-    /// (N·mm, counter-clockwise +) and `body_force[i]` the force change of actuator i's body
-    /// spring. Without friction these are ΔF, ΔR, 0 and ΔF.
+    /// Advances the frictions of `effects` to the next state and turns its frictionless load
+    /// changes `delta` (from the reference) into what the springs and pins take: the drive's
+    /// load change `delta.f[i]` becomes S of the joint friction, the joint reaction `delta.r[i]`
+    /// changes by `−(S − ΔF)·e_i` (not at all for a rotary drive: e_i = 0), `couple[i]` is the
+    /// friction couple on link i at O_i (N·mm, counter-clockwise +: `(ΔF − S)·h_i`, or
+    /// `ΔT − S`) and `body_force[i]` the load change of drive i's own spring. Without friction
+    /// these are ΔF, ΔR, 0 and ΔF. `lines` ([`ActuatorLines`]) gives every drive's unit load
+    /// as a force e_i of moment h_i (a rotary drive's as a couple: e_i = 0, h_i = 1).
     pub fn step(
         &mut self,
         effects: &EffectSet,
@@ -81,12 +86,14 @@ impl SequenceMemory {
             }
         }
         for e in effects.effects() {
-            if let Effect::ActuatorFriction(a) = e {
-                let i = a.actuator;
-                let s = slip(self.body[i], delta.f[i], a.limit());
-                self.body[i] = s;
-                body_force[i] = s;
-            }
+            let (i, limit) = match e {
+                Effect::ActuatorFriction(a) => (a.actuator, a.limit()),
+                Effect::DriveFriction(d) => (d.joint, d.limit()),
+                _ => continue,
+            };
+            let s = slip(self.body[i], delta.f[i], limit);
+            self.body[i] = s;
+            body_force[i] = s;
         }
     }
 }

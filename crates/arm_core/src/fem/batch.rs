@@ -201,6 +201,9 @@ fn solve_chunk(
             b.reaction_n[2 * j] = ws.reaction[i].x;
             b.reaction_n[2 * j + 1] = ws.reaction[i].y;
             b.dforce_n[j] = ws.dforce[i];
+            // The FE model's arms have linear actuators only: no torques.
+            b.torque_nmm[j] = f64::NAN;
+            b.dtorque_nmm[j] = f64::NAN;
             b.dalpha_deg[j] = ws.dalpha[i].to_degrees();
             b.dl_mm[j] = ws.body_dl[i];
             b.dlength_mm[j] = ws.dlength[i];

@@ -54,7 +54,7 @@ pub fn link_forces(
 ) {
     let n = arm.n();
     let link = &arm.links[i];
-    let half = |k: usize| load.w(arm, 0.5 * arm.actuators[k].mass_kg);
+    let half = |k: usize| load.w(arm, 0.5 * arm.drives[k].mass_kg());
     out[0] = PointForce {
         at: V2::zeros(),
         f: r[i],

@@ -49,11 +49,19 @@ impl FemSpec {
     ///
     /// # Errors
     /// [`ArmError::Shape`] when `sections` has neither 0 nor n entries;
-    /// [`ArmError::InvalidArm`] for a negative or NaN section value.
+    /// [`ArmError::InvalidArm`] for a negative or NaN section value;
+    /// [`ArmError::Unsupported`] for an arm with a rotary drive.
     pub fn new(arm: &Arm, effects: &EffectSet, sections: &[LinkSection]) -> Result<Self> {
         let n = arm.n();
+        if let Some(i) = (0..n).find(|&i| arm.is_rotary(i)) {
+            return Err(ArmError::Unsupported(format!(
+                "the finite-element model has no rotary drives yet (joint {} is turned by \
+                 one): solve this arm with the analytic model",
+                i + 1
+            )));
+        }
         let mut spec = Self {
-            body_stiffness: arm.actuators.iter().map(|a| a.stiffness).collect(),
+            body_stiffness: arm.drives.iter().map(|d| d.stiffness()).collect(),
             mount_stiffness: vec![f64::INFINITY; n],
             play: vec![0.0; n],
             clearance: vec![0.0; n],
@@ -86,7 +94,16 @@ impl FemSpec {
                 Effect::JointClearance(x) => spec.clearance[x.joint] = x.clearance,
                 Effect::LinkBending(x) => spec.sections[x.link].ei = Some(x.ei),
                 Effect::BaseCompliance(x) => spec.base_stiffness = Some(x.stiffness),
-                Effect::ActuatorFriction(_) | Effect::JointFriction(_) => {
+                // An effect set refuses these at a linear actuator, and the arm has no other.
+                Effect::DriveCompliance(_) | Effect::DriveBacklash(_) => {
+                    return Err(ArmError::InvalidEffect {
+                        effect: e.label(),
+                        reason: "the FE model has no rotary drives".into(),
+                    })
+                }
+                Effect::ActuatorFriction(_)
+                | Effect::JointFriction(_)
+                | Effect::DriveFriction(_) => {
                     return Err(ArmError::InvalidEffect {
                         effect: e.label(),
                         reason: "the FE model has no friction; solve it with the analytic model"

@@ -196,7 +196,7 @@ impl FemWorkspace {
                 let w = |m: f64| V2::new(0.0, -m * g);
                 for i in 0..n {
                     self.maps.c[i].load(w(arm.links[i].mass_kg), fw);
-                    let half = w(0.5 * arm.actuators[i].mass_kg);
+                    let half = w(0.5 * arm.drives[i].mass_kg());
                     self.maps.a[i].load(half, fw);
                     if i > 0 {
                         self.maps.b[i].load(half, fw);

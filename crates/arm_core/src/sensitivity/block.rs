@@ -196,15 +196,5 @@ fn channel(b: &BatchBuffers, r: usize, k: usize, n: usize) -> f64 {
 
 /// The first `m` rows of buffers of an `n`-link arm as solver outputs.
 fn head(b: &mut BatchBuffers, m: usize, n: usize) -> BatchOutput<'_> {
-    BatchOutput {
-        force_n: &mut b.force_n[..m * n],
-        reaction_n: &mut b.reaction_n[..2 * m * n],
-        dforce_n: &mut b.dforce_n[..m * n],
-        dx_mm: &mut b.dx_mm[..m],
-        dy_mm: &mut b.dy_mm[..m],
-        dalpha_deg: &mut b.dalpha_deg[..m * n],
-        dl_mm: &mut b.dl_mm[..m * n],
-        dlength_mm: &mut b.dlength_mm[..m * n],
-        length_mm: &mut b.length_mm[..m * n],
-    }
+    b.first_rows(m, n)
 }

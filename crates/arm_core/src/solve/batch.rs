@@ -3,6 +3,7 @@
 //! (`solve/status.rs`), below all of them.
 
 use super::general::Workspace;
+use crate::arm::Arm;
 use crate::error::{ArmError, Result};
 
 /// Inputs of a batch: `N` poses of an `n`-link arm, row-major.
@@ -14,7 +15,9 @@ pub struct BatchInput<'a> {
     pub payload_n: &'a [f64],
 }
 
-/// Outputs of a batch, row-major, to be filled in place.
+/// Outputs of a batch, row-major, to be filled in place. A joint's load is in the force
+/// arrays (linear actuator) or the torque arrays (rotary drive), NaN in the other; the
+/// lengths and `dl_mm` are NaN at rotary drives.
 #[derive(Debug)]
 pub struct BatchOutput<'a> {
     /// Loaded actuator forces (N), `N × n`.
@@ -23,6 +26,10 @@ pub struct BatchOutput<'a> {
     pub reaction_n: &'a mut [f64],
     /// Force changes unloaded → loaded (N), `N × n`.
     pub dforce_n: &'a mut [f64],
+    /// Loaded drive torques (N·mm, counter-clockwise + on link i), `N × n`.
+    pub torque_nmm: &'a mut [f64],
+    /// Torque changes unloaded → loaded (N·mm), `N × n`.
+    pub dtorque_nmm: &'a mut [f64],
     /// Measurement point displacement x (mm), `N`.
     pub dx_mm: &'a mut [f64],
     /// Measurement point displacement y (mm), `N`.
@@ -38,8 +45,10 @@ pub struct BatchOutput<'a> {
 }
 
 /// Owned, zeroed output buffers of a batch of `rows` poses of an `n`-link arm, lent to the
-/// solver by [`BatchBuffers::out`]; the fields are the [`BatchOutput`] slices' owners.
-#[derive(Debug, Clone, Default, PartialEq)]
+/// solver by [`BatchBuffers::out`]; the fields are the [`BatchOutput`] slices' owners. Two
+/// are equal when every value is, NaN where both are NaN (a force at a rotary drive, a torque
+/// at a linear actuator).
+#[derive(Debug, Clone, Default)]
 pub struct BatchBuffers {
     /// See [`BatchOutput::force_n`].
     pub force_n: Vec<f64>,
@@ -47,6 +56,10 @@ pub struct BatchBuffers {
     pub reaction_n: Vec<f64>,
     /// See [`BatchOutput::dforce_n`].
     pub dforce_n: Vec<f64>,
+    /// See [`BatchOutput::torque_nmm`].
+    pub torque_nmm: Vec<f64>,
+    /// See [`BatchOutput::dtorque_nmm`].
+    pub dtorque_nmm: Vec<f64>,
     /// See [`BatchOutput::dx_mm`].
     pub dx_mm: Vec<f64>,
     /// See [`BatchOutput::dy_mm`].
@@ -61,6 +74,28 @@ pub struct BatchBuffers {
     pub length_mm: Vec<f64>,
 }
 
+impl PartialEq for BatchBuffers {
+    fn eq(&self, other: &Self) -> bool {
+        let same = |a: &[f64], b: &[f64]| {
+            a.len() == b.len()
+                && a.iter()
+                    .zip(b)
+                    .all(|(x, y)| x == y || (x.is_nan() && y.is_nan()))
+        };
+        same(&self.force_n, &other.force_n)
+            && same(&self.reaction_n, &other.reaction_n)
+            && same(&self.dforce_n, &other.dforce_n)
+            && same(&self.torque_nmm, &other.torque_nmm)
+            && same(&self.dtorque_nmm, &other.dtorque_nmm)
+            && same(&self.dx_mm, &other.dx_mm)
+            && same(&self.dy_mm, &other.dy_mm)
+            && same(&self.dalpha_deg, &other.dalpha_deg)
+            && same(&self.dl_mm, &other.dl_mm)
+            && same(&self.dlength_mm, &other.dlength_mm)
+            && same(&self.length_mm, &other.length_mm)
+    }
+}
+
 impl BatchBuffers {
     /// Zeroed buffers for `rows` poses of an `n`-link arm.
     pub fn new(rows: usize, n: usize) -> Self {
@@ -69,6 +104,8 @@ impl BatchBuffers {
             force_n: per_link(),
             reaction_n: vec![0.0; rows * n * 2],
             dforce_n: per_link(),
+            torque_nmm: per_link(),
+            dtorque_nmm: per_link(),
             dx_mm: vec![0.0; rows],
             dy_mm: vec![0.0; rows],
             dalpha_deg: per_link(),
@@ -84,6 +121,8 @@ impl BatchBuffers {
             force_n: &mut self.force_n,
             reaction_n: &mut self.reaction_n,
             dforce_n: &mut self.dforce_n,
+            torque_nmm: &mut self.torque_nmm,
+            dtorque_nmm: &mut self.dtorque_nmm,
             dx_mm: &mut self.dx_mm,
             dy_mm: &mut self.dy_mm,
             dalpha_deg: &mut self.dalpha_deg,
@@ -100,6 +139,8 @@ impl BatchBuffers {
             force_n: &mut self.force_n[..rows * n],
             reaction_n: &mut self.reaction_n[..2 * rows * n],
             dforce_n: &mut self.dforce_n[..rows * n],
+            torque_nmm: &mut self.torque_nmm[..rows * n],
+            dtorque_nmm: &mut self.dtorque_nmm[..rows * n],
             dx_mm: &mut self.dx_mm[..rows],
             dy_mm: &mut self.dy_mm[..rows],
             dalpha_deg: &mut self.dalpha_deg[..rows * n],
@@ -116,6 +157,8 @@ impl BatchOutput<'_> {
             ("force_n", self.force_n.len(), rows * n),
             ("reaction_n", self.reaction_n.len(), rows * n * 2),
             ("dforce_n", self.dforce_n.len(), rows * n),
+            ("torque_nmm", self.torque_nmm.len(), rows * n),
+            ("dtorque_nmm", self.dtorque_nmm.len(), rows * n),
             ("dx_mm", self.dx_mm.len(), rows),
             ("dy_mm", self.dy_mm.len(), rows),
             ("dalpha_deg", self.dalpha_deg.len(), rows * n),
@@ -139,6 +182,7 @@ impl BatchOutput<'_> {
 /// Writes the solved pose in `ws` (unloaded angles `alpha`, rad) into output row `p`.
 #[allow(clippy::needless_range_loop)] // i indexes six parallel arrays
 pub(crate) fn write_row(
+    arm: &Arm,
     ws: &Workspace,
     alpha: &[f64],
     out: &mut BatchOutput<'_>,
@@ -147,10 +191,20 @@ pub(crate) fn write_row(
 ) {
     for i in 0..n {
         let j = p * n + i;
-        out.force_n[j] = ws.loaded.f[i];
+        // Each drive's load in its own arrays (N or N·mm), NaN in the other.
+        let nan = f64::NAN;
+        let (load, dload) = (ws.loaded.f[i], ws.delta.f[i]);
+        let (f, df, t, dt) = if arm.is_rotary(i) {
+            (nan, nan, load, dload)
+        } else {
+            (load, dload, nan, nan)
+        };
+        out.force_n[j] = f;
+        out.dforce_n[j] = df;
+        out.torque_nmm[j] = t;
+        out.dtorque_nmm[j] = dt;
         out.reaction_n[2 * j] = ws.loaded.r[i].x;
         out.reaction_n[2 * j + 1] = ws.loaded.r[i].y;
-        out.dforce_n[j] = ws.delta.f[i];
         out.dalpha_deg[j] = (ws.new_alpha[i] - alpha[i]).to_degrees();
         out.dl_mm[j] = ws.body_dl[i];
         out.dlength_mm[j] = ws.new_length[i] - ws.lines.length[i];
@@ -164,6 +218,8 @@ pub(crate) fn fill_nan(out: &mut BatchOutput<'_>, p: usize, n: usize) {
     for s in [
         &mut *out.force_n,
         &mut *out.dforce_n,
+        &mut *out.torque_nmm,
+        &mut *out.dtorque_nmm,
         &mut *out.dalpha_deg,
         &mut *out.dl_mm,
         &mut *out.dlength_mm,

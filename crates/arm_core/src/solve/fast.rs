@@ -121,6 +121,10 @@ impl<const N: usize> SolveKernel<N> {
                 | Effect::LinkBending(_)
                 | Effect::BaseCompliance(_) => {}
                 Effect::ActuatorFriction(_) | Effect::JointFriction(_) => {}
+                // Rotary drives (and so their effects) take the general path, so far.
+                Effect::DriveCompliance(_)
+                | Effect::DriveBacklash(_)
+                | Effect::DriveFriction(_) => return None,
             }
         }
         let clear = Clearance::new(effects);
@@ -134,7 +138,10 @@ impl<const N: usize> SolveKernel<N> {
             base: Base::new(arm, effects),
             fric: Friction::new(effects)?,
             reach: validity::reach(arm),
-            fmax: std::array::from_fn(|i| arm.actuators[i].max_force.unwrap_or(f64::INFINITY)),
+            fmax: std::array::from_fn(|i| {
+                let act = arm.actuator(i);
+                act.and_then(|a| a.max_force).unwrap_or(f64::INFINITY)
+            }),
         })
     }
 
@@ -458,6 +465,9 @@ fn write_block<const N: usize>(
     let span = p * N..(p + count) * N;
     transpose_into(&sb.force, &mut out.force_n[span.clone()]);
     transpose_into(&sb.dforce, &mut out.dforce_n[span.clone()]);
+    // The kernel's arms have linear actuators only: no torques.
+    out.torque_nmm[span.clone()].fill(f64::NAN);
+    out.dtorque_nmm[span.clone()].fill(f64::NAN);
     transpose_into(&sb.dalpha, &mut out.dalpha_deg[span.clone()]);
     transpose_into(&sb.dl, &mut out.dl_mm[span.clone()]);
     transpose_into(&sb.dlength, &mut out.dlength_mm[span.clone()]);
@@ -696,6 +706,8 @@ fn scatter_block<const N: usize>(
         let r = row(j);
         let at = r * N..(r + 1) * N;
         let (force, dforce) = (&mut out.force_n[at.clone()], &mut out.dforce_n[at.clone()]);
+        out.torque_nmm[at.clone()].fill(f64::NAN);
+        out.dtorque_nmm[at.clone()].fill(f64::NAN);
         let (dalpha, dl) = (&mut out.dalpha_deg[at.clone()], &mut out.dl_mm[at.clone()]);
         let (dlength, len) = (&mut out.dlength_mm[at.clone()], &mut out.length_mm[at]);
         let reaction = &mut out.reaction_n[2 * r * N..2 * (r + 1) * N];
@@ -726,6 +738,8 @@ pub(crate) fn copy_row(
     let (a, b) = (k * n..(k + 1) * n, r * n..(r + 1) * n);
     to.force_n[b.clone()].copy_from_slice(&from.force_n[a.clone()]);
     to.dforce_n[b.clone()].copy_from_slice(&from.dforce_n[a.clone()]);
+    to.torque_nmm[b.clone()].copy_from_slice(&from.torque_nmm[a.clone()]);
+    to.dtorque_nmm[b.clone()].copy_from_slice(&from.dtorque_nmm[a.clone()]);
     to.dalpha_deg[b.clone()].copy_from_slice(&from.dalpha_deg[a.clone()]);
     to.dl_mm[b.clone()].copy_from_slice(&from.dl_mm[a.clone()]);
     to.dlength_mm[b.clone()].copy_from_slice(&from.dlength_mm[a.clone()]);
@@ -817,7 +831,7 @@ impl General {
             .ws
             .solve(ctx.arm, ctx.effects, &self.alpha, pay, ctx.opts, row);
         match solved {
-            Ok(()) => write_row(&self.ws, &self.alpha, out, r, n),
+            Ok(()) => write_row(ctx.arm, &self.ws, &self.alpha, out, r, n),
             Err(e) if ctx.opts.nan_on_failure && e.is_pose_failure() => {
                 fill_nan(out, r, n);
             }

@@ -2,7 +2,7 @@
 //! trigonometry and user-written deformations (docs/architecture.md). Below the batch
 //! types, the block kernel and the batch drivers, which all use it.
 
-use crate::arm::Arm;
+use crate::arm::{Arm, Drive};
 use crate::effects::{Deformation, EffectContext, EffectSet, ExtraDeformations, SequenceMemory};
 use crate::error::Result;
 use crate::geometry::V2;
@@ -44,16 +44,20 @@ pub struct Workspace {
     pub loaded: Forces,
     /// Deformation causes.
     pub def: Deformation,
-    /// Loaded pin-to-pin lengths (mm).
+    /// Loaded pin-to-pin lengths (mm); NaN at rotary drives.
     pub new_length: Vec<f64>,
+    /// Change Δq_i of each rotary drive's relative angle (rad): the gear's yield, backlash and
+    /// user-written turns; 0 at linear actuators.
+    pub drive_turn: Vec<f64>,
     /// Loaded angles (rad).
     pub new_alpha: Vec<f64>,
-    /// Body length changes seen by the actuator sensors (mm).
+    /// Body length changes seen by the actuator sensors (mm); NaN at rotary drives (no
+    /// `dlK_mm` channel).
     pub body_dl: Vec<f64>,
     /// Displacement of the measurement point (mm).
     pub dmeasure: V2,
-    /// Force change of each actuator's body spring (N): `delta.f` unless an actuator
-    /// friction holds part of it.
+    /// Load change of each drive's own spring (N, N·mm at a rotary drive): `delta.f` unless
+    /// an actuator or drive friction holds part of it.
     pub body_force: Vec<f64>,
     /// Friction couple on link i at O_i (N·mm, counter-clockwise +).
     pub couple: Vec<f64>,
@@ -73,6 +77,7 @@ impl Workspace {
             loaded: Forces::new(n),
             def: Deformation::new(arm),
             new_length: vec![0.0; n],
+            drive_turn: vec![0.0; n],
             new_alpha: vec![0.0; n],
             body_dl: vec![0.0; n],
             dmeasure: V2::zeros(),
@@ -165,7 +170,7 @@ impl Workspace {
         row: usize,
     ) -> Result<()> {
         self.frames.fill(arm, alpha);
-        self.lines.fill(&self.frames, row)?;
+        self.lines.fill(arm, &self.frames, row)?;
         solve_forces(
             arm,
             &self.frames,
@@ -221,15 +226,29 @@ impl Workspace {
             extra.0.add_to(extra.1, &mut self.def);
         }
         for i in 0..arm.n() {
-            let body = -self.body_force[i] * self.def.body_compliance[i] + self.def.seen_length[i];
-            self.body_dl[i] = body;
-            self.new_length[i] = self.lines.length[i] + body + self.def.extra_length[i];
+            // The drive's own spring yields with what it takes: an actuator body's length (its
+            // sensor sees it), a gear's turn.
+            let spring = -self.body_force[i] * self.def.body_compliance[i];
+            match arm.drives[i] {
+                Drive::Linear(_) => {
+                    let body = spring + self.def.seen_length[i];
+                    self.body_dl[i] = body;
+                    self.new_length[i] = self.lines.length[i] + body + self.def.extra_length[i];
+                    self.drive_turn[i] = 0.0;
+                }
+                Drive::Rotary(_) => {
+                    self.body_dl[i] = f64::NAN;
+                    self.new_length[i] = f64::NAN;
+                    self.drive_turn[i] = spring + self.def.turn[i];
+                }
+            }
         }
         let m = close_pose(
             arm,
             &self.frames,
             &self.def,
             &self.new_length,
+            &self.drive_turn,
             row,
             &mut self.new_alpha,
         )?;

@@ -226,7 +226,7 @@ fn run_chunk(
                 Err(e) => Err(e.clone()),
             };
             match solved {
-                Ok(()) => write_row(&ws, &alpha, &mut out, p, n),
+                Ok(()) => write_row(arm, &ws, &alpha, &mut out, p, n),
                 Err(e) if opts.nan_on_failure && e.is_pose_failure() => fill_nan(&mut out, p, n),
                 Err(e) => return Err(e),
             }

@@ -24,17 +24,17 @@ pub(crate) fn pose_status(
     let n = arm.n();
     let span = r * n..(r + 1) * n;
     let dalpha = &out.dalpha_deg[span.clone()];
-    let near = (0..n).any(|i| validity::near_singular(fr.joint[i], fr.a[i], fr.b[i]));
+    // Triangles only where a linear actuator turns the link.
+    let linear: Vec<usize> = (0..n).filter(|&i| !arm.is_rotary(i)).collect();
+    let near = linear
+        .iter()
+        .any(|&i| validity::near_singular(fr.joint[i], fr.a[i], fr.b[i]));
     let mut flip = false;
+    let turns: Vec<f64> = dalpha.iter().map(|d| d.to_radians()).collect();
     if dalpha.iter().all(|d| d.is_finite()) {
-        let alpha: Vec<f64> = fr
-            .alpha
-            .iter()
-            .zip(dalpha)
-            .map(|(a, d)| a + d.to_radians())
-            .collect();
+        let alpha: Vec<f64> = fr.alpha.iter().zip(&turns).map(|(a, d)| a + d).collect();
         loaded.fill(arm, &alpha);
-        flip = (0..n).any(|i| {
+        flip = linear.iter().any(|&i| {
             let before = validity::triangle_side(fr.joint[i], fr.a[i], fr.b[i]);
             let after = validity::triangle_side(loaded.joint[i], loaded.a[i], loaded.b[i]);
             before * after < 0.0
@@ -46,16 +46,29 @@ pub(crate) fn pose_status(
         dalpha.iter().fold(0.0f64, |m, d| m.max(d.abs()))
     };
     let lengths: Vec<f64> = (0..n).map(|i| fr.length(i)).collect();
+    // Each drive's loaded load: a force or a torque.
+    let load: Vec<f64> = span
+        .clone()
+        .zip(0..n)
+        .map(|(j, i)| {
+            if arm.is_rotary(i) {
+                out.torque_nmm[j]
+            } else {
+                out.force_n[j]
+            }
+        })
+        .collect();
     let lift = load_rise && payload_down && {
         let w = validity::load_lever(arm, fr.alpha[n - 1]);
         let (s, c) = dalpha[n - 1].to_radians().sin_cos();
         validity::load_dy(out.dy_mm[r], s, c - 1.0, w.x, w.y) > validity::MAX_LOAD_RISE_MM
     };
     let checks = Checks {
-        out_of_stroke: validity::out_of_stroke(arm, &lengths),
+        out_of_stroke: validity::out_of_stroke(arm, &lengths)
+            || validity::out_of_angle(arm, &fr.alpha, Some(&turns)),
         near_singular: near,
         branch_flip: flip,
-        over_force: validity::over_force(arm, &out.force_n[span]),
+        over_force: validity::over_force(arm, &load),
         large_deflection: validity::large_deflection(
             max_da,
             out.dx_mm[r],
@@ -75,6 +88,7 @@ pub(crate) fn no_extra(extra: &ExtraDeformations<'_>, p: usize, n: usize) -> boo
     };
     zero(extra.seen_mm, n)
         && zero(extra.unseen_mm, n)
+        && zero(extra.turn_rad, n)
         && zero(extra.joint_mm, 2 * n)
         && zero(extra.tilt_rad, 1)
         && zero(extra.measure_mm, 2)

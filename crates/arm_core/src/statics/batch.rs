@@ -11,18 +11,25 @@ use crate::geometry::V2;
 use crate::kinematics::Frames;
 use crate::solve::{check_input, BatchInput, CHUNK, PARALLEL_THRESHOLD};
 
-/// Outputs of [`statics_batch`], row-major, filled in place.
+/// Outputs of [`statics_batch`], row-major, filled in place. Each joint's load is in the
+/// force arrays (linear actuator) or the torque arrays (rotary drive), NaN in the other.
 #[derive(Debug)]
 pub struct StaticsOutput<'a> {
-    /// Loaded actuator forces (N, compression +), `N × n`.
+    /// Loaded actuator forces (N, compression +), `N × n`; NaN at rotary drives.
     pub force_n: &'a mut [f64],
-    /// Unloaded actuator forces (self-weight only; zero without), `N × n`.
+    /// Unloaded actuator forces (self-weight only; zero without), `N × n`; NaN at rotary
+    /// drives.
     pub force0_n: &'a mut [f64],
+    /// Loaded drive torques (N·mm, counter-clockwise + on link i), `N × n`; NaN at linear
+    /// actuators.
+    pub torque_nmm: &'a mut [f64],
+    /// Unloaded drive torques (N·mm), `N × n`; NaN at linear actuators.
+    pub torque0_nmm: &'a mut [f64],
     /// Loaded joint reactions, force of body i−1 on link i (N, global), `N × n × 2`.
     pub reaction_n: &'a mut [f64],
     /// Unloaded joint reactions, `N × n × 2`.
     pub reaction0_n: &'a mut [f64],
-    /// Unloaded pin-to-pin actuator lengths (mm), `N × n`.
+    /// Unloaded pin-to-pin actuator lengths (mm), `N × n`; NaN at rotary drives.
     pub length_mm: &'a mut [f64],
 }
 
@@ -33,6 +40,10 @@ pub struct StaticsBuffers {
     pub force_n: Vec<f64>,
     /// See [`StaticsOutput::force0_n`].
     pub force0_n: Vec<f64>,
+    /// See [`StaticsOutput::torque_nmm`].
+    pub torque_nmm: Vec<f64>,
+    /// See [`StaticsOutput::torque0_nmm`].
+    pub torque0_nmm: Vec<f64>,
     /// See [`StaticsOutput::reaction_n`].
     pub reaction_n: Vec<f64>,
     /// See [`StaticsOutput::reaction0_n`].
@@ -47,6 +58,8 @@ impl StaticsBuffers {
         Self {
             force_n: vec![0.0; rows * n],
             force0_n: vec![0.0; rows * n],
+            torque_nmm: vec![0.0; rows * n],
+            torque0_nmm: vec![0.0; rows * n],
             reaction_n: vec![0.0; rows * n * 2],
             reaction0_n: vec![0.0; rows * n * 2],
             length_mm: vec![0.0; rows * n],
@@ -58,6 +71,8 @@ impl StaticsBuffers {
         StaticsOutput {
             force_n: &mut self.force_n,
             force0_n: &mut self.force0_n,
+            torque_nmm: &mut self.torque_nmm,
+            torque0_nmm: &mut self.torque0_nmm,
             reaction_n: &mut self.reaction_n,
             reaction0_n: &mut self.reaction0_n,
             length_mm: &mut self.length_mm,
@@ -70,6 +85,8 @@ impl<'a> StaticsOutput<'a> {
         let want = [
             ("force_n", self.force_n.len(), rows * n),
             ("force0_n", self.force0_n.len(), rows * n),
+            ("torque_nmm", self.torque_nmm.len(), rows * n),
+            ("torque0_nmm", self.torque0_nmm.len(), rows * n),
             ("reaction_n", self.reaction_n.len(), rows * n * 2),
             ("reaction0_n", self.reaction0_n.len(), rows * n * 2),
             ("length_mm", self.length_mm.len(), rows * n),
@@ -92,25 +109,34 @@ impl<'a> StaticsOutput<'a> {
         self.force_n
             .chunks_mut(per_link)
             .zip(self.force0_n.chunks_mut(per_link))
+            .zip(self.torque_nmm.chunks_mut(per_link))
+            .zip(self.torque0_nmm.chunks_mut(per_link))
             .zip(self.reaction_n.chunks_mut(2 * per_link))
             .zip(self.reaction0_n.chunks_mut(2 * per_link))
             .zip(self.length_mm.chunks_mut(per_link))
             .map(
-                |((((force_n, force0_n), reaction_n), reaction0_n), length_mm)| StaticsOutput {
-                    force_n,
-                    force0_n,
-                    reaction_n,
-                    reaction0_n,
+                |(
+                    (((((force_n, force0_n), torque_nmm), torque0_nmm), reaction_n), reaction0_n),
                     length_mm,
+                )| {
+                    StaticsOutput {
+                        force_n,
+                        force0_n,
+                        torque_nmm,
+                        torque0_nmm,
+                        reaction_n,
+                        reaction0_n,
+                        length_mm,
+                    }
                 },
             )
             .collect()
     }
 }
 
-/// Forces and reactions of the unloaded (self-weight, when `self_weight`) and the loaded
-/// (plus the payload) state of every pose, on the undeformed geometry, and the unloaded
-/// actuator lengths.
+/// Drive loads (forces, torques) and reactions of the unloaded (self-weight, when
+/// `self_weight`) and the loaded (plus the payload) state of every pose, on the undeformed
+/// geometry, and the unloaded actuator lengths.
 ///
 /// # Errors
 /// Shape or non-finite input; singular poses and coincident pins (the lowest failing row).
@@ -164,14 +190,24 @@ fn chunk(
         }
         let payload = V2::new(input.payload_n[2 * p], input.payload_n[2 * p + 1]);
         frames.fill(arm, &alpha);
-        lines.fill(&frames, first_row + p)?;
+        lines.fill(arm, &frames, first_row + p)?;
         solve_forces(arm, &frames, &lines, self_weight, V2::zeros(), &mut weight);
         solve_forces(arm, &frames, &lines, false, payload, &mut delta);
         loaded.set_sum(&weight, &delta);
         for i in 0..n {
             let j = p * n + i;
-            out.force_n[j] = loaded.f[i];
-            out.force0_n[j] = weight.f[i];
+            // Each drive's load in its own array (N or N·mm), NaN in the other.
+            let nan = f64::NAN;
+            let (load, load0) = (loaded.f[i], weight.f[i]);
+            let (f, f0, t, t0) = if arm.is_rotary(i) {
+                (nan, nan, load, load0)
+            } else {
+                (load, load0, nan, nan)
+            };
+            out.force_n[j] = f;
+            out.force0_n[j] = f0;
+            out.torque_nmm[j] = t;
+            out.torque0_nmm[j] = t0;
             out.reaction_n[2 * j] = loaded.r[i].x;
             out.reaction_n[2 * j + 1] = loaded.r[i].y;
             out.reaction0_n[2 * j] = weight.r[i].x;

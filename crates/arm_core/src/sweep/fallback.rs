@@ -12,7 +12,7 @@
 
 use super::cells::PoseOut;
 use super::reduce::{n_fields, Sink};
-use crate::arm::Arm;
+use crate::arm::{Arm, Drive};
 use crate::effects::EffectSet;
 use crate::kinematics::Frames;
 use crate::solve::batch::{BatchBuffers, BatchInput};
@@ -31,6 +31,8 @@ pub(crate) struct Scratch {
     lines: ActuatorLines,
     rad: Vec<f64>,
     rad_loaded: Vec<f64>,
+    /// The links' turns (rad) of the cell solved last.
+    turn: Vec<f64>,
     v: Vec<f64>,
     /// `solve`'s block kernel (arms of up to six links) and its rows.
     block: Option<Block>,
@@ -67,6 +69,7 @@ impl Scratch {
             lines: ActuatorLines::new(n),
             rad: vec![0.0; n],
             rad_loaded: vec![0.0; n],
+            turn: vec![0.0; n],
             v: vec![0.0; n_fields(n)],
             block,
         }
@@ -100,19 +103,23 @@ pub(crate) fn run(
             *r = d.to_radians();
         }
         s.frames.fill(arm, &s.rad);
-        let regular = s.lines.fill(&s.frames, pose).is_ok();
+        let regular = s.lines.fill(arm, &s.frames, pose).is_ok();
         let mut within = true;
         let mut near = !regular;
-        for (i, act) in arm.actuators.iter().enumerate() {
+        for (i, d) in arm.drives.iter().enumerate() {
             let l = s.frames.length(i);
-            within &= act.min_length.is_none_or(|lo| l >= lo);
-            within &= act.max_length.is_none_or(|hi| l <= hi);
-            let f = &s.frames;
-            near |= validity::near_singular(f.joint[i], f.a[i], f.b[i]);
+            if let Drive::Linear(act) = d {
+                within &= act.min_length.is_none_or(|lo| l >= lo);
+                within &= act.max_length.is_none_or(|hi| l <= hi);
+                let f = &s.frames;
+                near |= validity::near_singular(f.joint[i], f.a[i], f.b[i]);
+            }
             if !out.length.is_empty() {
                 out.length[p * n + i] = l;
             }
         }
+        // A rotary drive's angle, unloaded (loaded: per cell, below).
+        within &= !validity::out_of_angle(arm, &s.rad, None);
         let pose_checks = Checks {
             out_of_stroke: !within,
             near_singular: near,
@@ -286,7 +293,12 @@ fn cell_status(
     let ws = &s.ws;
     let mut max_turn = 0.0f64;
     for i in 0..n {
-        s.v[i] = ws.loaded.f[i];
+        // An actuator's force (a rotary drive's torque is not a cell field: NaN).
+        s.v[i] = if arm.is_rotary(i) {
+            f64::NAN
+        } else {
+            ws.loaded.f[i]
+        };
         let turn = (ws.new_alpha[i] - s.rad[i]).to_degrees();
         s.v[n + 2 + i] = turn;
         // A NaN turn stays NaN (it breaks the limit).
@@ -297,7 +309,8 @@ fn cell_status(
         };
         s.v[2 * n + 2 + i] = ws.body_dl[i];
         // The loaded angles as the outputs give them (unloaded + Δα), as the numpy checks do.
-        s.rad_loaded[i] = s.rad[i] + turn.to_radians();
+        s.turn[i] = turn.to_radians();
+        s.rad_loaded[i] = s.rad[i] + s.turn[i];
     }
     s.v[n] = ws.dmeasure.x;
     s.v[n + 1] = ws.dmeasure.y;
@@ -309,7 +322,10 @@ fn cell_status(
         let (sn, cs) = (s.rad_loaded[n - 1] - s.rad[n - 1]).sin_cos();
         validity::load_dy(ws.dmeasure.y, sn, cs - 1.0, w.x, w.y) > validity::MAX_LOAD_RISE_MM
     };
+    // A rotary drive's loaded angle (its unloaded one is among the pose's checks).
+    let beyond = validity::out_of_angle(arm, &s.rad, Some(&s.turn));
     validity::classify(Checks {
+        out_of_stroke: pose.out_of_stroke || beyond,
         branch_flip: flip,
         over_force: validity::over_force(arm, &ws.loaded.f),
         large_deflection: validity::large_deflection(

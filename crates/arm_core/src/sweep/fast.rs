@@ -124,9 +124,11 @@ impl<const N: usize> FastArm<N> {
     }
 
     /// The kernel's constants with the length-only effects of `effects` (the others are left
-    /// to the caller: the solve kernel adds them), or `None` when `arm.n() != N`.
+    /// to the caller: the solve kernel adds them), or `None` when `arm.n() != N` or a rotary
+    /// drive turns some link (the kernels know linear actuators only, so far: such arms take
+    /// the general path, `Workspace::solve`).
     pub(crate) fn with_lengths(arm: &Arm, effects: &EffectSet, self_weight: bool) -> Option<Self> {
-        if arm.n() != N {
+        if arm.n() != N || arm.any_rotary() {
             return None;
         }
         let z = [0.0; N];
@@ -168,7 +170,7 @@ impl<const N: usize> FastArm<N> {
         k.rise_lim = MAX_RISE_OF_REACH * reach;
         for i in 0..N {
             let link = &arm.links[i];
-            let act = &arm.actuators[i];
+            let act = arm.actuator(i)?;
             k.a[i] = p2(link.a);
             k.c[i] = p2(link.c);
             k.next[i] = p2(link.next);
