@@ -228,9 +228,9 @@ class Problem:
         kind = slot.kind
         if kind.custom:
             return float(getattr(kind, "neutral", 0.0))
-        if slot.name == "actuator_compliance":
-            return 1.0 / self.arm.linear(slot.index(self.arm.n)).stiffness_n_per_mm
-        return 0.0
+        from eodarm.model.steps import neutral_theta
+
+        return neutral_theta(self.arm, slot)
 
     def start(self, slot: Slot) -> float:
         """θ where a fit of a slot without a given value starts: the effect absent, or a

@@ -220,6 +220,6 @@ class CustomEvaluator:
 
 def _neutral(arm: Arm, slot: Slot) -> float:
     """θ of a catalogue slot that is not in the model (as ``Problem.neutral``)."""
-    if slot.name == "actuator_compliance":
-        return 1.0 / arm.linear(slot.index(arm.n)).stiffness_n_per_mm
-    return 0.0
+    from eodarm.model.steps import neutral_theta
+
+    return neutral_theta(arm, slot)

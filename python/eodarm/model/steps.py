@@ -11,26 +11,35 @@ each place, the scale of a step from θ = 0, as the compiled core's sensitivitie
 from __future__ import annotations
 
 from eodarm.model.arm import Arm
+from eodarm.model.arm_parts import stiffness_of
 from eodarm.model.effects import Slot
 
-__all__ = ["CORE_STEP", "core_step", "typical_theta"]
+__all__ = ["CORE_STEP", "core_step", "neutral_theta", "typical_theta"]
 
 #: The core's central-difference step, relative to the larger of |θ| and the typical θ.
 CORE_STEP = 1e-3
 
 
+def neutral_theta(arm: Arm, slot: Slot) -> float:
+    """θ of a catalogue effect that is not in the model (the core's ``neutral_theta``): the
+    file's own compliance 1/k for an actuator's body or a drive's gear, else 0 (absent)."""
+    if slot.name in ("actuator_compliance", "drive_compliance"):
+        return 1.0 / stiffness_of(arm.actuators[slot.index(arm.n)])
+    return 0.0
+
+
 def typical_theta(arm: Arm, slot: Slot) -> float:
     """A typical θ of a catalogue effect at its place: the actuator's own compliance 1/k
-    for a spring at an actuator, 0.1 mm for a gap, 10⁻¹⁰ /(N·mm²) for bending, 10 N and
+    for a spring at an actuator (1/k of a drive's gear), 0.1 mm for a gap (0.1° of a backlash), 10⁻¹⁰ /(N·mm²) for bending, 10 N and
     1000 N·mm for a friction limit, 10⁻⁸ rad/(N·mm) for the base."""
     name = slot.name
-    if name in ("actuator_compliance", "mount_compliance"):
-        return 1.0 / arm.linear(slot.index(arm.n)).stiffness_n_per_mm
-    if name in ("actuator_play", "joint_clearance"):
-        return 0.1
+    if name in ("actuator_compliance", "mount_compliance", "drive_compliance"):
+        return 1.0 / stiffness_of(arm.actuators[slot.index(arm.n)])
+    if name in ("actuator_play", "joint_clearance", "drive_backlash"):
+        return 0.1  # mm, or degrees of a backlash
     if name == "actuator_friction":
         return 10.0
-    if name == "joint_friction":
+    if name in ("joint_friction", "drive_friction"):
         return 1000.0
     return 1e-10 if name == "link_bending" else 1e-8
 
