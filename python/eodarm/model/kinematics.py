@@ -127,6 +127,10 @@ def _core_arm(arm: Arm) -> Any:
         lim("min_length_mm"),
         lim("max_length_mm"),
         lim("max_force_n"),
+        kind=d["kind"],
+        max_torque=d["max_torque"],
+        min_angle_deg=d["min_angle_deg"],
+        max_angle_deg=d["max_angle_deg"],
     )
 
 
