@@ -136,3 +136,30 @@ def test_theta_zero_of_a_gears_compliance_is_a_rigid_gear_not_the_files_gear() -
         rigid = eodarm.solve(arm, POSES, 10.0, model)["dalpha_deg"][:, 0]
         assert (np.abs(rigid) < 1e-9 * np.abs(files_gear)).all()
     assert math.isfinite(model[0].value)
+
+
+# ---------------------------------------------------------------------------- load cycles
+@pytest.mark.parametrize("path", [MIXED, ROTARY])
+def test_cycle_returns_of_arms_with_drives_are_where_each_cycle_ends(path: Path) -> None:
+    """``cycle_returns`` gives the last state of ``solve_sequence(..., [m, 0])`` on arms with
+    drives too (the same compiled path: 1e-12 mm), and a gear's friction that holds leaves
+    the arm off its reference after the cycle; a backlash alone, taken up in the reference
+    along the self-weight's torque, which no payload here reverses, does not."""
+    from eodarm.model.solver import cycle_returns
+
+    arm = eodarm.Arm.from_toml(path)
+    held = [
+        eodarm.Effect("drive_friction", "O1", torque_nmm=2.0e4),
+        eodarm.Effect("drive_backlash", "O1", backlash_deg=0.1),
+    ]
+    mass = np.array([0.0, 4.0, 12.0])
+    dx, dy = cycle_returns(arm, POSES, mass, held)
+    assert dx.shape == dy.shape == (2, 3)
+    for j, m in enumerate(mass):
+        seq = eodarm.solve_sequence(arm, POSES, [m, 0.0], held)
+        np.testing.assert_allclose(dx[:, j], seq["dx_mm"][:, 1], rtol=0, atol=1e-12)
+        np.testing.assert_allclose(dy[:, j], seq["dy_mm"][:, 1], rtol=0, atol=1e-12)
+    assert np.abs(dy[:, 2]).max() > 1e-3
+    gap = eodarm.Effect("drive_backlash", "O1", backlash_deg=0.1, unloaded="taken_up")
+    _, dy_free = cycle_returns(arm, POSES, mass, [gap])
+    np.testing.assert_allclose(dy_free, 0.0, atol=1e-9)
