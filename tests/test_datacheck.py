@@ -6,7 +6,8 @@ microns) in an ``_mm`` column, a channel with its sign flipped, load sequences z
 the first payload on. ``diagnose`` then says to check the data (verdict ``check_data``, one
 line per mistake with its fix), ``compare`` and ``fit`` say it too and ``fit`` never calls
 such data explained. On honest data, every effect of the catalogue hidden, nothing fires and
-no verdict changes. Grams are caught on the command line and in arm files, a file with no
+no verdict changes. Grams are caught on the command line, in campaign files (``masses_kg``)
+and in arm files, a file with no
 measured value is refused, and ``fit`` takes the very model that made ``synth``'s data.
 """
 
@@ -274,6 +275,118 @@ def test_a_payload_in_grams_on_the_command_line_gets_a_hint(
 def test_a_payload_an_arm_can_carry_gets_no_hint(capsys: pytest.CaptureFixture[str]) -> None:
     code, _, err = cli(capsys, "solve", "--arm", EXAMPLE, "--alpha", "90,10,0", "--mass", "50")
     assert code == 0 and "grams" not in err
+
+
+@pytest.fixture(scope="module")
+def rehearsal(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A rehearsal campaign of the example arm (``synth --records``), payloads in kg."""
+    folder = tmp_path_factory.mktemp("rehearsal")
+    argv = ["synth", "--arm", str(EXAMPLE), "--records", str(folder), "--configs", "2"]
+    assert main([*argv, "--seed", "4"]) == 0
+    return folder / "campaign.toml"
+
+
+def campaign_copy(src: Path, dst: Path, factor: float) -> Path:
+    """A copy of a campaign and its records whose ``masses_kg`` are multiplied by ``factor``."""
+    dst.mkdir()
+    for f in src.parent.iterdir():
+        (dst / f.name).write_bytes(f.read_bytes())
+    text = src.read_text(encoding="utf-8")
+    old = "masses_kg = [0.0, 1.5, 5.0, 6.5, 5.0, 1.5, 0.0]"
+    assert text.count(old) == 2  # synth's load cycle, in both records
+    new = "masses_kg = [" + ", ".join(f"{m * factor:g}" for m in CYCLE) + "]"
+    (dst / src.name).write_text(text.replace(old, new), encoding="utf-8")
+    return dst / src.name
+
+
+@pytest.mark.parametrize(
+    ("with_arm", "words"),
+    [
+        (True, "6500 kg is over 10 times the arm's own 10.1 kg: is it grams? (6.5 kg)"),
+        (False, "6500 kg is over 100 kg, more than an arm of this kind carries: is it grams? "
+         "(6.5 kg)"),
+    ],
+)  # fmt: skip
+def test_a_campaign_in_grams_gets_the_hint_naming_file_record_and_key(
+    rehearsal: Path,
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+    with_arm: bool,
+    words: str,
+) -> None:
+    """``masses_kg = [0, 1500, 5000, 6500, …]`` passed ``records`` without a word (issue 27
+    item 3). With ``--arm`` the arm's own mass gives the scale, as for ``--mass``; without
+    it, a plain range (over 100 kg). A note, not a refusal: the states are written."""
+    campaign = campaign_copy(rehearsal, tmp_path / "g", 1000.0)
+    out = tmp_path / "meas.csv"
+    arm = ["--arm", EXAMPLE] if with_arm else []
+    code, _, err = cli(capsys, "records", campaign, "-o", out, *arm)
+    assert code == 0 and out.exists(), err
+    text = " ".join(err.split())  # as wrapped
+    line = f"{campaign}: record 1 ('c1') masses_kg[3] {words}; 1 other record over"
+    assert line in text
+    if not with_arm:
+        assert "--arm ARM.toml checks it against the arm's own mass" in text
+    (hint,) = [n for n in text.split("eodarm: ") if "masses_kg[3]" in n]
+    assert len("eodarm: note: " + hint.strip()) < MAX_MESSAGE
+    code, _, err = cli(capsys, "records", rehearsal, *arm, "--json")  # in kg: no word
+    assert code == 0 and "masses_kg[" not in err and "grams" not in err
+
+
+@pytest.mark.parametrize("command", ["compare", "diagnose"])
+def test_a_campaign_in_grams_refused_by_the_arm_says_grams_first(
+    rehearsal: Path,
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+    command: str,
+) -> None:
+    """The example arm cannot take 5000 kg: given as the data of ``compare`` or
+    ``diagnose``, the grams campaign is refused (``check_states``) in one line whose start
+    names the campaign, the record and the key, and says what it looks like; the refusal
+    follows (a short path, as a user types it, leaves it room)."""
+    campaign_copy(rehearsal, tmp_path / "g", 1000.0)
+    monkeypatch.chdir(tmp_path)
+    campaign = Path("g", "campaign.toml")
+    code, _, err = cli(capsys, command, campaign, "--arm", EXAMPLE)
+    assert code == 2 and err.count("\n") == 1, err
+    assert err.startswith(
+        f"eodarm: error: {campaign}: record 1 ('c1') masses_kg[3] 6500 kg is over 10 times "
+        "the arm's own 10.1 kg: is it grams? (6.5 kg);"
+    )
+    assert "cannot take" in err and len(err.rstrip("\n")) < MAX_MESSAGE
+
+
+def test_a_campaign_hint_follows_the_arms_scale() -> None:
+    """The campaign's rule is ``payload_hint``'s: a heavy arm carries what a light one
+    cannot, an arm without masses gives no scale, and a payload whose thousandth is still
+    too heavy is not called grams."""
+    from eodarm.data.plausible import campaign_payload_hint
+    from eodarm.data.records import Campaign, RecordSpec
+
+    def camp(*masses: float) -> Campaign:
+        return Campaign(Path("c.toml"), (RecordSpec(Path("c1.csv"), "c1", (90.0, 10.0), masses),))
+
+    light, heavy, massless = two_link_arm(), two_link_arm(), two_link_arm()
+    d = heavy.to_dict()
+    for part in (*d["link"], *d["actuator"]):
+        part["mass_kg"] = 100.0 * part.get("mass_kg", 0.0) + 10.0
+    heavy = eodarm.Arm.from_dict(d)
+    d = massless.to_dict()
+    for part in (*d["link"], *d["actuator"]):
+        part["mass_kg"] = 0.0
+    massless = eodarm.Arm.from_dict(d)
+    limit = 10.0 * (sum(x.mass_kg for x in light.links) + sum(x.mass_kg for x in light.actuators))
+    assert 1.0 < limit < 150.0
+    assert campaign_payload_hint(camp(0.0, limit * 0.9), light) is None
+    assert "is it grams?" in (campaign_payload_hint(camp(0.0, 150.0), light) or "")
+    assert campaign_payload_hint(camp(0.0, 150.0), heavy) is None
+    assert campaign_payload_hint(camp(0.0, 150.0), massless) is None
+    assert "check its unit (kg)" in (campaign_payload_hint(camp(0.0, 5e5), light) or "")
+    assert campaign_payload_hint(camp(0.0, 90.0)) is None  # no arm: the plain 100 kg
+    assert "c.toml: record 1 ('c1') masses_kg[1] 150 kg" in (
+        campaign_payload_hint(camp(0, 150.0)) or ""
+    )
 
 
 @pytest.mark.parametrize(

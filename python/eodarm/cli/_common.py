@@ -190,11 +190,14 @@ def _read(
     from eodarm.data.reader import read_measurements
     from eodarm.data.records import is_campaign
 
+    hint: str | None = None
     if is_campaign(path):
-        meas = _read_campaign_as_measurements(path, arm, record_figures)
+        # its masses_kg in grams? said in a note, and first in a refusal of its rows
+        meas, hint = _read_campaign_as_measurements(path, arm, record_figures)
     else:
         meas = read_measurements(path, arm.n)
-    check_states(arm, meas, self_weight=self_weight)
+    with _Hinted(hint):
+        check_states(arm, meas, self_weight=self_weight)
     for line in _noise_notes(meas):
         _note(line)
     return meas
@@ -726,22 +729,30 @@ def run_records(
     plot_dir: str | None = None,
     min_duration_s: float = 2.0,
     record_figures: list[str] | None = None,
-) -> tuple[list[Any], Any]:
+    arm: Arm | None = None,
+) -> tuple[list[Any], Any, str | None]:
     """Run the records of a campaign file (docs/records.md), one in memory at a time; draw
     each into ``plot_dir`` when given (the refused one too, before the refusal is raised),
     and as HTML into ``record_figures`` when given (the report's appendix).
 
-    Returns the records' results and ``write(out)``, which writes the measurement file to a
-    path or an open text file. Nothing is written when a record is refused.
+    Returns the records' results, ``write(out)``, which writes the measurement file to a
+    path or an open text file, and the line of
+    :func:`eodarm.data.plausible.campaign_payload_hint` (``masses_kg`` in grams? held against
+    ``arm``, or a plain range without it), already said in a note, or None. Nothing is
+    written when a record is refused.
     """
     import math
 
     from eodarm.analysis.records import analyse_campaign
+    from eodarm.data.plausible import campaign_payload_hint
     from eodarm.data.records import read_campaign, write_rows
 
     if not (math.isfinite(min_duration_s) and min_duration_s > 0):
         raise EodarmError(f"--min-duration must be > 0 s, got {min_duration_s}")
     camp = read_campaign(campaign)
+    hint = campaign_payload_hint(camp, arm)
+    if hint is not None:
+        _note(hint)
     drawn: list[str] = []
     parts: set[str] = set()  # the labels' parts of the figures' names
     draw = None
@@ -776,19 +787,20 @@ def run_records(
             "a record's reference carries a payload (masses_kg[0] > 0): its rows are relative "
             "to that loaded reference"
         )
-    return results, write
+    return results, write, hint
 
 
 def _read_campaign_as_measurements(
     path: str, arm: Arm, record_figures: list[str] | None = None
-) -> Measurements:
+) -> tuple[Measurements, str | None]:
     """A campaign file given where a measurement file goes: run ``eodarm records`` on it
-    (saying so on stderr) and read the rows it would write."""
+    (saying so on stderr) and read the rows it would write; with the campaign's payload
+    hint (:func:`run_records`)."""
     import io
 
     from eodarm.data.reader import read_measurements
 
-    results, write = run_records(path, record_figures=record_figures)
+    results, write, hint = run_records(path, record_figures=record_figures, arm=arm)
     buf = io.StringIO()
     write(buf)
     buf.seek(0)
@@ -799,8 +811,9 @@ def _read_campaign_as_measurements(
         f"{len(results)} records; docs/records.md)"
     )
     CAMPAIGN_RESULTS[:] = results
-    return read_measurements(buf, arm.n)
+    return read_measurements(buf, arm.n), hint
 
 
 #: The records of the last campaign read by :func:`_read` (for the report's appendix).
 CAMPAIGN_RESULTS: list[Any] = []
+

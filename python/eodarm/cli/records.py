@@ -79,11 +79,12 @@ def run(args: argparse.Namespace) -> int:
                 f"{args.campaign}: its records give {n} angles (alpha_deg), the arm "
                 f"{args.arm} has {arm.n} links: records of another arm?"
             )
-    results, write = run_records(
+    results, write, _ = run_records(  # its payload hint (grams?) is a note
         args.campaign,
         allow_drift=args.allow_drift,
         plot_dir=args.plot,
         min_duration_s=args.min_duration,
+        arm=arm,
     )
     rows = sum(len(r.rows) for r in results)
     if args.output:

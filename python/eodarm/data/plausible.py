@@ -32,6 +32,10 @@ A state that closes but whose deflection is outside the model's validity
 :data:`GRAMS_FACTOR` times the arm's own, while ``mass_kg / 1000`` would be inside it, gets a
 warning naming the lines: grams are likely, but a heavily loaded arm is possible, so it is not
 refused.
+
+A campaign file's ``masses_kg`` (:func:`campaign_payload_hint`) get :func:`payload_hint`'s
+line, naming the campaign, the record and the key; without the arm, a plain range
+(:data:`PLAIN_PAYLOAD_KG`).
 """
 
 from __future__ import annotations
@@ -46,10 +50,19 @@ import numpy.typing as npt
 
 from eodarm.data.channels import channel_values
 from eodarm.data.measurements import MAX_LISTED, MeasurementFileError, Measurements
-from eodarm.errors import listing, show_source
+from eodarm.data.records import Campaign
+from eodarm.errors import listing, show, show_source
 from eodarm.model.arm import Arm
 
-__all__ = ["GRAMS_FACTOR", "RADIAN_CHI2_RATIO", "check_states", "own_mass_kg", "payload_hint"]
+__all__ = [
+    "GRAMS_FACTOR",
+    "PLAIN_PAYLOAD_KG",
+    "RADIAN_CHI2_RATIO",
+    "campaign_payload_hint",
+    "check_states",
+    "own_mass_kg",
+    "payload_hint",
+]
 
 #: The radian reading of angles within ±2π must explain the measured deflections this many
 #: times better (in χ²) than the degree reading for the file to be refused as radians.
@@ -59,6 +72,11 @@ RADIAN_CHI2_RATIO = 10.0
 #: fails where a thousandth of it would not is taken for grams: arms of this kind carry a
 #: fraction of their own weight (the seed's 10 kg arm, 6.5 kg), not tens of times it.
 GRAMS_FACTOR = 10.0
+
+#: Without the arm, a campaign's payload above this (kg) is named: ten times the own mass of
+#: the arms eodarm is made for (the seed's 10 kg, the example's 10.1 kg), the limit
+#: :func:`payload_hint` would set for them. A plain range: ``--arm`` gives the true scale.
+PLAIN_PAYLOAD_KG = 100.0
 
 _ROW = re.compile(r"pose row (\d+):\s*")
 
@@ -144,6 +162,52 @@ def payload_hint(mass_kg: float, arm: Arm) -> str | None:
     if mass_kg / 1000.0 <= limit:
         return f"{line}: is it grams? ({mass_kg / 1000.0:g} kg)"
     return f"{line}: check its unit (kg)"
+
+
+def campaign_payload_hint(campaign: Campaign, arm: Arm | None = None) -> str | None:
+    """One line when a campaign file's ``masses_kg`` look like grams, else None.
+
+    The heaviest payload of the campaign is held against the arm as :func:`payload_hint`
+    holds ``--mass`` (over :data:`GRAMS_FACTOR` times the arm's own mass; an arm file
+    without masses gives no hint). Without the arm only a plain range can be said: a payload
+    above :data:`PLAIN_PAYLOAD_KG` is named in the same words, and the line adds that
+    ``--arm`` checks it against the arm. The line names the campaign file, the record
+    (1-based, with its config label) and the key: ``campaign.toml: record 1 ('c1')
+    masses_kg[3] 6500 kg is over 10 times the arm's own 10.1 kg: is it grams? (6.5 kg)``,
+    and how many other records hold a payload over the limit. A warning, not a
+    refusal, as :func:`payload_hint`'s: the states an arm cannot take are refused on their
+    own (:func:`check_states`, when the campaign's rows are compared with the arm).
+    """
+    heaviest = max(  # the first of the heaviest
+        ((m, -i, -j) for i, s in enumerate(campaign.records) for j, m in enumerate(s.masses_kg)),
+        default=None,
+    )
+    if heaviest is None:
+        return None
+    mass, i, j = heaviest[0], -heaviest[1], -heaviest[2]
+    if arm is not None:
+        hint = payload_hint(mass, arm)
+        limit = GRAMS_FACTOR * own_mass_kg(arm)
+        ask = ""
+    elif mass > PLAIN_PAYLOAD_KG:
+        limit = PLAIN_PAYLOAD_KG
+        unit = "is it grams?" if mass / 1000.0 <= limit else "check its unit (kg)"
+        hint = f"{mass:g} kg is over {limit:g} kg, more than an arm of this kind carries: {unit}"
+        if mass / 1000.0 <= limit:
+            hint += f" ({mass / 1000.0:g} kg)"
+        ask = "; --arm ARM.toml checks it against the arm's own mass"
+    else:
+        return None
+    if hint is None:
+        return None
+    others = sum(1 for s in campaign.records if max(s.masses_kg) > limit) - 1
+    more = f"; {others} other record{'s' if others > 1 else ''} over {limit:.3g} kg too"
+    more = more if others > 0 else ""
+    spec = campaign.records[i]
+    return (
+        f"{show_source(campaign.path)}: record {i + 1} ('{show(spec.config)}') "
+        f"masses_kg[{j}] {hint}{more}{ask}"
+    )
 
 
 def _outside(out: dict[str, Any] | None, failed: dict[int, str], rows: int) -> int:
