@@ -816,4 +816,3 @@ def _read_campaign_as_measurements(
 
 #: The records of the last campaign read by :func:`_read` (for the report's appendix).
 CAMPAIGN_RESULTS: list[Any] = []
-
