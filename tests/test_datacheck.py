@@ -357,6 +357,47 @@ def test_a_campaign_in_grams_refused_by_the_arm_says_grams_first(
     assert "cannot take" in err and len(err.rstrip("\n")) < MAX_MESSAGE
 
 
+@pytest.mark.parametrize("command", ["compare", "diagnose", "fit"])
+def test_a_measurement_file_in_grams_on_a_stiff_arm_gets_the_hint(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], command: str
+) -> None:
+    """Actuators 100 times stiffer than the example's take 1500–6500 kg without failing to
+    close: the door's refusal ("cannot close … in grams?") does not fire, the data read
+    their noise where the model expects millimetres, and no channel check can say why. The
+    heaviest line gets ``--mass``'s hint (it passed without a word)."""
+    d = example_arm().to_dict()
+    for act in d["actuator"]:
+        act["stiffness_n_per_mm"] *= 100.0
+    arm = eodarm.Arm.from_dict(d)
+    arm_path = tmp_path / "stiff.toml"
+    arm_path.write_text(arm.to_toml(), encoding="utf-8")
+    alpha = random_configs(arm, 8, 3)
+    meas = synth(arm, alpha, [1.5, 5.0, 6.5], seed=1)
+    grams = Measurements.from_arrays(
+        meas.config,
+        meas.alpha_deg,
+        meas.mass_kg * 1000.0,
+        {ch: meas.values[:, meas.index(ch)] for ch in meas.channels},
+        {ch: meas.sigma[:, meas.index(ch)] for ch in meas.channels},
+    )
+    closes = eodarm.solve(arm, grams.alpha_deg, grams.mass_kg)
+    assert np.isfinite(np.asarray(closes["dy_mm"])).all()  # nothing for the door to refuse
+    path = tmp_path / "grams.csv"
+    grams.to_csv(path)
+    extra = ["--add", "mount_compliance@M2"] if command == "fit" else []
+    code, _, err = cli(capsys, command, path, "--arm", arm_path, *extra)
+    assert code == 0, err
+    heavy = 2 + int(np.argmax(grams.mass_kg))  # the first 6500 kg row's 1-based line
+    line = (
+        f"{path} line {heavy}: mass_kg 6500 kg is over 10 times the arm's own 10.1 kg: is it "
+        "grams? (6.5 kg); 23 other lines over 101 kg too"
+    )
+    assert line in " ".join(err.split())
+    meas.to_csv(tmp_path / "kg.csv")  # the same data in kilograms: no word
+    code, _, err = cli(capsys, command, tmp_path / "kg.csv", "--arm", arm_path, *extra)
+    assert code == 0 and "grams" not in err
+
+
 def test_a_campaign_hint_follows_the_arms_scale() -> None:
     """The campaign's rule is ``payload_hint``'s: a heavy arm carries what a light one
     cannot, an arm without masses gives no scale, and a payload whose thousandth is still

@@ -31,7 +31,10 @@ A state that closes but whose deflection is outside the model's validity
 (:mod:`eodarm.model.validity`: ``large_deflection``, ``branch_flip``) under a mass more than
 :data:`GRAMS_FACTOR` times the arm's own, while ``mass_kg / 1000`` would be inside it, gets a
 warning naming the lines: grams are likely, but a heavily loaded arm is possible, so it is not
-refused.
+refused. Where every state closes inside the validity (a stiff arm) and the heaviest mass is
+still over :data:`GRAMS_FACTOR` times the arm's own, its line gets :func:`payload_hint`'s
+warning, as ``--mass`` does: ``meas.csv line 4: mass_kg 6500 kg is over 10 times the arm's
+own 10.1 kg: is it grams? (6.5 kg); 23 other lines over 101 kg too``.
 
 A campaign file's ``masses_kg`` (:func:`campaign_payload_hint`) get :func:`payload_hint`'s
 line, naming the campaign, the record and the key; without the arm, a plain range
@@ -281,10 +284,10 @@ def check_states(arm: Arm, meas: Measurements, self_weight: bool = True) -> None
     -----
     UserWarning
         Angles within ±2π that might be radians; masses whose states leave the model's
-        validity where ``mass_kg / 1000`` would not (grams?).
+        validity where ``mass_kg / 1000`` would not (grams?); else a heaviest mass over
+        :data:`GRAMS_FACTOR` times the arm's own (:func:`payload_hint`).
     """
     from eodarm.model.solver import forward, stroke_violations
-    from eodarm.model.validity import STATUS
 
     if meas.n != arm.n or meas.n_rows == 0:
         return
@@ -338,23 +341,48 @@ def check_states(arm: Arm, meas: Measurements, self_weight: bool = True) -> None
                 [f"line {int(lines[r])}: {bad[r]}" for r in order],
             )
         )
-    if out is None or "status" not in out:
+    if out is not None and "status" in out and _validity_grams(arm, meas, out, self_weight):
         return
+    heavy = int(np.argmax(mass))
+    hint = payload_hint(float(mass[heavy]), arm)
+    if hint is not None:  # every state closes, and the masses are still too heavy
+        limit = GRAMS_FACTOR * own_mass_kg(arm)
+        over = int((mass > limit).sum()) - 1
+        more = f"; {over} other line{'s' if over > 1 else ''} over {limit:.3g} kg too"
+        more = more if over > 0 else ""
+        warnings.warn(
+            f"{show_source(meas.source)} line {int(lines[heavy])}: mass_kg {hint}{more}",
+            UserWarning,
+            stacklevel=2,
+        )
+
+
+def _validity_grams(arm: Arm, meas: Measurements, out: dict[str, Any], self_weight: bool) -> bool:
+    """Warn when states leave the model's validity under ``mass_kg`` where a thousandth of it
+    would not (are the masses in grams?); return whether it warned."""
+    from eodarm.model.validity import STATUS
+
+    alpha = np.asarray(meas.alpha_deg, dtype=float)
+    mass = np.asarray(meas.mass_kg, dtype=float)
     code = np.asarray(out["status"], dtype=np.int64)
     loaded_bad = np.isin(code, [STATUS.index(s) for s in ("branch_flip", "large_deflection")])
     suspects = np.flatnonzero(loaded_bad & (mass > GRAMS_FACTOR * own_mass_kg(arm)))
-    if suspects.size:
-        light, light_failed = _solve(arm, alpha[suspects], mass[suspects] / 1000, self_weight)
-        if light is not None and not light_failed:
-            ok = np.asarray(light["status"]) == 0
-            grams = suspects[ok]
-            if grams.size:
-                warnings.warn(
-                    f"{show_source(meas.source)}: under mass_kg the deflection leaves the "
-                    "model's validity on line(s) "
-                    f"{', '.join(str(int(lines[r])) for r in grams[:3])}"
-                    f"{' …' if grams.size > 3 else ''}"
-                    f" (e.g. {mass[grams[0]]:g} kg); are the masses in grams?",
-                    UserWarning,
-                    stacklevel=2,
-                )
+    if not suspects.size:
+        return False
+    light, light_failed = _solve(arm, alpha[suspects], mass[suspects] / 1000, self_weight)
+    if light is None or light_failed:
+        return False
+    grams = suspects[np.asarray(light["status"]) == 0]
+    if not grams.size:
+        return False
+    lines = np.asarray(meas.line)
+    warnings.warn(
+        f"{show_source(meas.source)}: under mass_kg the deflection leaves the "
+        "model's validity on line(s) "
+        f"{', '.join(str(int(lines[r])) for r in grams[:3])}"
+        f"{' …' if grams.size > 3 else ''}"
+        f" (e.g. {mass[grams[0]]:g} kg); are the masses in grams?",
+        UserWarning,
+        stacklevel=3,
+    )
+    return True
