@@ -516,14 +516,21 @@ _INPUT_ARGS = (
     ("effects", "the --effects file"),
     ("fixed", "the --fixed file"),
 )
+#: The inputs that may be a campaign file, whose records are then inputs too.
+_CAMPAIGN_INPUTS = ("the measurement file", "the campaign file", "the --fixed file")
 
 
 def _inputs(args: argparse.Namespace) -> list[tuple[str, str]]:
     """``(path, what)`` of every file the command reads: its measurement or campaign file,
-    ``--arm``, ``--poses``, ``--effects`` and, for a campaign, the records it lists."""
+    ``--arm``, ``--poses``, ``--effects``, ``--fixed`` and, for a campaign (given as the
+    data or as ``--fixed``), the records it lists; and the bundled data sets' files, which a
+    command reads when no ``--arm`` or no data are given (the package's own data are never
+    an output)."""
     import warnings
 
+    from eodarm.data import datasets
     from eodarm.data.records import is_campaign, read_campaign
+    from eodarm.errors import show_source
 
     out: list[tuple[str, str]] = []
     for attr, what in _INPUT_ARGS:
@@ -531,14 +538,24 @@ def _inputs(args: argparse.Namespace) -> list[tuple[str, str]]:
         for path in given if isinstance(given, list) else [given] if given else []:
             out.append((str(path), what))
     for path, what in list(out):
-        if what in ("the measurement file", "the campaign file") and is_campaign(path):
+        if what in _CAMPAIGN_INPUTS and is_campaign(path):
             try:
                 with warnings.catch_warnings():  # its notes are the reading's to give
                     warnings.simplefilter("ignore")
                     camp = read_campaign(path)
             except EodarmError:
                 continue  # refused with its own line when it is read
-            out += [(str(r.file), f"a record of the campaign {path}") for r in camp.records]
+            out += [
+                (str(r.file), f"a record of the campaign {show_source(path, 80)}")
+                for r in camp.records
+            ]
+    for name in datasets.names():
+        root = datasets.bundled_arm_path(name).parent
+        out += [
+            (str(f), f"the bundled {name} data set's {f.name}")
+            for f in sorted(root.iterdir())
+            if f.is_file()
+        ]
     return out
 
 
@@ -565,14 +582,31 @@ def _claim(
     EodarmError
         One line naming the path, and the input it is or the way out.
     """
-    named = f"{flag} {path}" if flag else str(path)
-    for given, what in _inputs(args):
+    from eodarm.errors import MESSAGE_ROOM, show, show_source
+
+    named = f"{flag} {show_source(path, 80)}" if flag else show_source(path, 80)
+    inputs = _inputs(args)
+    for given, what in inputs:
         if _same_file(path, given):
-            same = "" if str(given) == str(path) else f" ({given})"
+            same = "" if str(given) == str(path) else f" ({show_source(given, 80)})"
             raise EodarmError(
-                f"{named}: is {what}{same}, an input of this run; choose another name "
-                "(--force never replaces an input)"
+                show(
+                    f"{named}: is {what}{same}, an input of this run; choose another name "
+                    "(--force never replaces an input)",
+                    MESSAGE_ROOM,
+                )
             )
+    if Path(path).is_dir():  # a folder replaced whole (a .zarr sweep): no input inside it
+        inside = os.path.realpath(path) + os.sep
+        for given, what in inputs:
+            if os.path.realpath(given).startswith(inside):
+                raise EodarmError(
+                    show(
+                        f"{named}: holds {what} ({show_source(given, 80)}), an input of this "
+                        "run; choose another name (--force never replaces an input)",
+                        MESSAGE_ROOM,
+                    )
+                )
     if force is None:
         force = bool(getattr(args, "force", False))
     if force or not (Path(path).exists() or Path(path).is_symlink()):
@@ -584,8 +618,10 @@ def _claim_folder(args: argparse.Namespace, folder: str | Path, flag: str) -> No
     """An output folder: refused when it is a file, and when it holds any file unless
     ``--force`` (they may be the user's edited copies); the files written into it are then
     each checked by :func:`_claim` once their names are known."""
+    from eodarm.errors import show_source
+
     d = Path(folder)
-    named = f"{flag} {folder}" if flag else str(folder)
+    named = f"{flag} {show_source(folder, 80)}" if flag else show_source(folder, 80)
     if d.exists() and not d.is_dir():
         raise EodarmError(f"{named}: exists and is not a folder")
     if getattr(args, "force", False) or not d.exists() or not any(d.iterdir()):
