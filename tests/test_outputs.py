@@ -418,3 +418,17 @@ def test_a_refused_output_with_a_long_name_is_one_short_line(
     code, _, err = cli(capsys, "synth", "--arm", out, "-o", out, "--force")
     line = one_line(code, err)
     assert len(line) < MAX_MESSAGE and "is the --arm file" in line
+
+
+def test_the_report_diagnose_proposes_is_never_refused(
+    work: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The seed data are unexplained by the catalogue: ``diagnose`` proposes the report's
+    rounds. Its default output ``eodarm-report.html`` existing, the proposed command was
+    refused (``exists; give --force``); it now names a free file."""
+    (work / "eodarm-report.html").write_text(PREVIOUS)
+    code, _, err = cli(capsys, "diagnose", "meas.csv", "--arm", "arm.toml")
+    assert code == 0, err
+    said = " ".join(err.replace("\\\n", "").split())
+    assert "next: eodarm report meas.csv --arm arm.toml" in said
+    assert "-o eodarm-report-2.html" in said

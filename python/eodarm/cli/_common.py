@@ -26,6 +26,8 @@ if TYPE_CHECKING:
 #: The bundled data set whose arm every command uses when ``--arm`` is absent
 #: (docs/walkthrough.md, "Which arm").
 DEFAULT_DATASET = "seed2022"
+#: ``report``'s output when no ``-o`` is given.
+DEFAULT_REPORT = "eodarm-report.html"
 
 
 def _load_arm(path: str | None, measurements: str | None = None) -> Arm:

@@ -8,6 +8,7 @@ from pathlib import Path
 from typing import Any
 
 from eodarm.cli._common import (
+    DEFAULT_REPORT,
     _claim,
     _effects_args,
     _force_arg,
@@ -220,9 +221,9 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     r.add_argument(
         "-o",
         "--output",
-        default="eodarm-report.html",
+        default=DEFAULT_REPORT,
         metavar="FILE.html",
-        help="where to write the report (default: eodarm-report.html)",
+        help=f"where to write the report (default: {DEFAULT_REPORT})",
     )
     _force_arg(r, "an existing -o report")
     r.add_argument("--rounds", type=int, default=3, help="at most this many rounds (default 3)")
