@@ -432,3 +432,35 @@ def test_the_report_diagnose_proposes_is_never_refused(
     said = " ".join(err.replace("\\\n", "").split())
     assert "next: eodarm report meas.csv --arm arm.toml" in said
     assert "-o eodarm-report-2.html" in said
+
+
+@pytest.mark.parametrize("c", COMMANDS, ids=IDS)
+def test_a_folder_is_never_replaced_by_a_file_even_with_force(
+    c: Command, work: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``-o data --force`` for ``-o data/meas.csv``: the output was renamed over the folder,
+    which was deleted with everything in it (a folder named as the output would be here)."""
+    folder = work / out_name(c)
+    (folder / "sub").mkdir(parents=True)
+    (folder / "notes.txt").write_text(PREVIOUS)
+    code, _, err = cli(capsys, *c.argv(folder.name), "--force")
+    line = one_line(code, err)
+    assert f"{c.flag} {folder.name}: is a folder; give the name of a file" in line
+    assert (folder / "notes.txt").read_text() == PREVIOUS and (folder / "sub").is_dir()
+
+
+def test_a_zarr_sweep_replaces_a_previous_result_not_a_users_folder(
+    work: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    sweep = ["sweep", "--arm", "arm.toml", "--alpha1", "80:90:2", "--alpha2", "10"]
+    sweep += ["--alpha3", "0", "--mass", "5", "-o", "out.zarr", "--force"]
+    (work / "out.zarr").mkdir()
+    (work / "out.zarr" / "notes.txt").write_text(PREVIOUS)
+    code, _, err = cli(capsys, *sweep)
+    assert "-o out.zarr: is a folder that holds files but no Zarr result" in one_line(code, err)
+    assert (work / "out.zarr" / "notes.txt").read_text() == PREVIOUS
+    (work / "out.zarr" / "notes.txt").unlink()  # an empty folder, then a previous result
+    for _ in range(2):
+        code, _, err = cli(capsys, *sweep)
+        assert code == 0, err
+        assert (work / "out.zarr" / "zarr.json").is_file()

@@ -571,13 +571,21 @@ def _same_file(a: str | Path, b: str | Path) -> bool:
 
 
 def _claim(
-    args: argparse.Namespace, path: str | Path, flag: str, force: bool | None = None
+    args: argparse.Namespace,
+    path: str | Path,
+    flag: str,
+    force: bool | None = None,
+    folder: bool = False,
 ) -> None:
     """The rule of every output (docs/terminal.md, "Nothing overwritten without asking"),
     checked before any work: ``path`` is never one of the run's inputs, even with
     ``--force``, and an existing ``path`` is replaced only with ``--force``. (The write
     itself goes through :mod:`eodarm.atomic`: whole or not at all.) ``force`` overrides
     ``args.force`` (a resumed sweep: the overwrite was asked for when it started).
+
+    A file output is never put where a folder is (``-o data`` for ``-o data/meas.csv``
+    would have deleted the folder with everything in it); a ``folder`` output (a Zarr
+    sweep) replaces an existing folder only when it is empty or a previous Zarr result.
 
     Raises
     ------
@@ -609,11 +617,33 @@ def _claim(
                         MESSAGE_ROOM,
                     )
                 )
+    _not_a_users_folder(Path(path), named, folder)
     if force is None:
         force = bool(getattr(args, "force", False))
     if force or not (Path(path).exists() or Path(path).is_symlink()):
         return
     raise EodarmError(f"{named}: exists; give --force to overwrite it, or choose another name")
+
+
+#: The files at the top of a Zarr store (format 3, format 2): a previous sweep's result.
+_ZARR_MARKS = ("zarr.json", ".zgroup", ".zattrs")
+
+
+def _not_a_users_folder(path: Path, named: str, folder: bool) -> None:
+    """Refuse, even with ``--force``, an output that would replace a folder that is not a
+    previous result (:func:`_claim`)."""
+    if not path.is_dir():
+        return
+    if not folder:
+        raise EodarmError(
+            f"{named}: is a folder; give the name of a file (in it, say) — --force never "
+            "replaces a folder"
+        )
+    if any(path.iterdir()) and not any((path / m).is_file() for m in _ZARR_MARKS):
+        raise EodarmError(
+            f"{named}: is a folder that holds files but no Zarr result (no zarr.json); "
+            "--force replaces only a previous result: choose another name"
+        )
 
 
 def _claim_folder(args: argparse.Namespace, folder: str | Path, flag: str) -> None:

@@ -297,7 +297,7 @@ def run(args: argparse.Namespace) -> int:
         raise EodarmError("--resume continues an interrupted Zarr sweep: give -o OUT.zarr")
     if out:  # a resumed overwrite was asked for when it started
         resumed = args.resume and store.partial_path(out).exists()
-        _claim(args, out, "-o", force=True if resumed else None)
+        _claim(args, out, "-o", force=True if resumed else None, folder=kind == "zarr")
     scheduler: Any = None
     client = None
     if args.scheduler:
