@@ -344,14 +344,14 @@ def check_states(arm: Arm, meas: Measurements, self_weight: bool = True) -> None
     if out is not None and "status" in out and _validity_grams(arm, meas, out, self_weight):
         return
     heavy = int(np.argmax(mass))
-    hint = payload_hint(float(mass[heavy]), arm)
-    if hint is not None:  # every state closes, and the masses are still too heavy
+    too_heavy = payload_hint(float(mass[heavy]), arm)
+    if too_heavy is not None:  # every state closes, and the masses are still too heavy
         limit = GRAMS_FACTOR * own_mass_kg(arm)
         over = int((mass > limit).sum()) - 1
         more = f"; {over} other line{'s' if over > 1 else ''} over {limit:.3g} kg too"
         more = more if over > 0 else ""
         warnings.warn(
-            f"{show_source(meas.source)} line {int(lines[heavy])}: mass_kg {hint}{more}",
+            f"{show_source(meas.source)} line {int(lines[heavy])}: mass_kg {too_heavy}{more}",
             UserWarning,
             stacklevel=2,
         )
