@@ -79,6 +79,17 @@ def scaled(channel: str, factor: float) -> Callable[[Measurements], np.ndarray]:
     return fn
 
 
+def in_grams(meas: Measurements) -> Measurements:
+    """The same measurements with every ``mass_kg`` written in grams."""
+    return Measurements.from_arrays(
+        meas.config,
+        meas.alpha_deg,
+        meas.mass_kg * 1000.0,
+        {ch: meas.values[:, meas.index(ch)] for ch in meas.channels},
+        {ch: meas.sigma[:, meas.index(ch)] for ch in meas.channels},
+    )
+
+
 def zeroed(meas: Measurements) -> np.ndarray:
     """Every sequence read relative to its first loaded state (sensors zeroed there)."""
     v = meas.values.copy()
@@ -373,13 +384,7 @@ def test_a_measurement_file_in_grams_on_a_stiff_arm_gets_the_hint(
     arm_path.write_text(arm.to_toml(), encoding="utf-8")
     alpha = random_configs(arm, 8, 3)
     meas = synth(arm, alpha, [1.5, 5.0, 6.5], seed=1)
-    grams = Measurements.from_arrays(
-        meas.config,
-        meas.alpha_deg,
-        meas.mass_kg * 1000.0,
-        {ch: meas.values[:, meas.index(ch)] for ch in meas.channels},
-        {ch: meas.sigma[:, meas.index(ch)] for ch in meas.channels},
-    )
+    grams = in_grams(meas)
     closes = eodarm.solve(arm, grams.alpha_deg, grams.mass_kg)
     assert np.isfinite(np.asarray(closes["dy_mm"])).all()  # nothing for the door to refuse
     path = tmp_path / "grams.csv"
@@ -514,13 +519,7 @@ def test_payloads_in_grams_are_named_not_every_channel_in_metres() -> None:
     arm = eodarm.Arm.from_dict(d)
     alpha = random_configs(arm, 8, 3)
     meas = synth(arm, alpha, [1.5, 5.0, 6.5], channels="all", noise=1e-3, seed=1)
-    grams = Measurements.from_arrays(
-        meas.config,
-        meas.alpha_deg,
-        meas.mass_kg * 1000.0,
-        {ch: meas.values[:, meas.index(ch)] for ch in meas.channels},
-        {ch: meas.sigma[:, meas.index(ch)] for ch in meas.channels},
-    )
+    grams = in_grams(meas)
     (check,) = check_data(arm, grams)
     assert check.channel == "mass_kg" and check.problem == "scale"
     assert "mass_kg looks like grams" in check.message and "divide mass_kg by 1000" in check.message
