@@ -299,7 +299,7 @@ def rehearsal(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 def campaign_copy(src: Path, dst: Path, factor: float) -> Path:
     """A copy of a campaign and its records whose ``masses_kg`` are multiplied by ``factor``."""
-    dst.mkdir()
+    dst.mkdir(parents=True)
     for f in src.parent.iterdir():
         (dst / f.name).write_bytes(f.read_bytes())
     text = src.read_text(encoding="utf-8")
@@ -321,6 +321,7 @@ def campaign_copy(src: Path, dst: Path, factor: float) -> Path:
 def test_a_campaign_in_grams_gets_the_hint_naming_file_record_and_key(
     rehearsal: Path,
     tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
     capsys: pytest.CaptureFixture[str],
     with_arm: bool,
     words: str,
@@ -328,8 +329,9 @@ def test_a_campaign_in_grams_gets_the_hint_naming_file_record_and_key(
     """``masses_kg = [0, 1500, 5000, 6500, …]`` passed ``records`` without a word (issue 27
     item 3). With ``--arm`` the arm's own mass gives the scale, as for ``--mass``; without
     it, a plain range (over 100 kg). A note, not a refusal: the states are written."""
-    campaign = campaign_copy(rehearsal, tmp_path / "g", 1000.0)
-    out = tmp_path / "meas.csv"
+    campaign_copy(rehearsal, tmp_path / "g", 1000.0)
+    monkeypatch.chdir(tmp_path)
+    campaign, out = Path("g", "campaign.toml"), Path("meas.csv")
     arm = ["--arm", EXAMPLE] if with_arm else []
     code, _, err = cli(capsys, "records", campaign, "-o", out, *arm)
     assert code == 0 and out.exists(), err
@@ -342,6 +344,11 @@ def test_a_campaign_in_grams_gets_the_hint_naming_file_record_and_key(
     assert len("eodarm: note: " + hint.strip()) < MAX_MESSAGE
     code, _, err = cli(capsys, "records", rehearsal, *arm, "--json")  # in kg: no word
     assert code == 0 and "masses_kg[" not in err and "grams" not in err
+    deep = Path("x" * 150, "y" * 150)  # a long name is cut: the line stays short
+    campaign_copy(rehearsal, deep, 1000.0)
+    code, _, err = cli(capsys, "records", deep / "campaign.toml", *arm, "--json")
+    (hint,) = [n for n in " ".join(err.split()).split("eodarm: ") if "masses_kg[3]" in n]
+    assert len("eodarm: note: " + hint.strip()) < MAX_MESSAGE and "is it grams?" in hint
 
 
 @pytest.mark.parametrize("command", ["compare", "diagnose"])

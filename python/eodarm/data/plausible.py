@@ -54,7 +54,7 @@ import numpy.typing as npt
 from eodarm.data.channels import channel_values
 from eodarm.data.measurements import MAX_LISTED, MeasurementFileError, Measurements
 from eodarm.data.records import Campaign
-from eodarm.errors import listing, show, show_source
+from eodarm.errors import MESSAGE_ROOM, listing, show, show_source
 from eodarm.model.arm import Arm
 
 __all__ = [
@@ -207,9 +207,10 @@ def campaign_payload_hint(campaign: Campaign, arm: Arm | None = None) -> str | N
     more = f"; {others} other record{'s' if others > 1 else ''} over {limit:.3g} kg too"
     more = more if others > 0 else ""
     spec = campaign.records[i]
-    return (
-        f"{show_source(campaign.path)}: record {i + 1} ('{show(spec.config)}') "
-        f"masses_kg[{j}] {hint}{more}{ask}"
+    return show(
+        f"{show_source(campaign.path, 80)}: record {i + 1} ('{show(spec.config)}') "
+        f"masses_kg[{j}] {hint}{more}{ask}",
+        MESSAGE_ROOM,
     )
 
 
