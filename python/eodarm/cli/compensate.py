@@ -24,10 +24,8 @@ from eodarm.analysis.compensate import compensate
 from eodarm.cli._common import (
     ARM_HELP,
     _arm_argv,
-    _claim,
     _effects_args,
     _floats,
-    _force_arg,
     _load_arm,
     _model_words,
     _next,
@@ -39,6 +37,7 @@ from eodarm.cli._common import (
     _valued_effect,
 )
 from eodarm.cli._help import HELP
+from eodarm.cli._outputs import _claim, _force_arg
 from eodarm.errors import EodarmError
 from eodarm.model.arm import Arm
 from eodarm.model.effects import Effect, with_arm_effects

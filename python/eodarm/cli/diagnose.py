@@ -21,7 +21,6 @@ from eodarm.cli._common import (
     _channel,
     _describe_data,
     _fmt,
-    _free_name,
     _load_arm,
     _model,
     _model_keys,
@@ -38,6 +37,7 @@ from eodarm.cli._common import (
     _stages,
     data_command,
 )
+from eodarm.cli._outputs import _free_name
 
 
 def run(args: argparse.Namespace) -> int:

@@ -7,8 +7,9 @@ import json
 import sys
 from typing import Any
 
-from eodarm.cli._common import _claim, _force_arg, _next, _note, run_records
+from eodarm.cli._common import _next, _note, run_records
 from eodarm.cli._help import HELP
+from eodarm.cli._outputs import _claim, _force_arg
 from eodarm.errors import EodarmError
 from eodarm.model.arm import Arm
 

@@ -9,9 +9,7 @@ from typing import Any
 
 from eodarm.cli._common import (
     DEFAULT_REPORT,
-    _claim,
     _effects_args,
-    _force_arg,
     _load_arm,
     _model,
     _model_args,
@@ -20,6 +18,7 @@ from eodarm.cli._common import (
     _read,
 )
 from eodarm.cli._help import HELP
+from eodarm.cli._outputs import _claim, _force_arg
 from eodarm.model.effects import Effect
 
 

@@ -12,9 +12,7 @@ import numpy.typing as npt
 
 from eodarm.cli._common import (
     ARM_HELP,
-    _claim,
     _effects_args,
-    _force_arg,
     _load_arm,
     _note,
     _one_line,
@@ -23,6 +21,7 @@ from eodarm.cli._common import (
     _valued_effect,
 )
 from eodarm.cli._help import HELP, NEGATIVE_VALUE
+from eodarm.cli._outputs import _claim, _force_arg
 from eodarm.errors import EodarmError
 from eodarm.workspace import store
 from eodarm.workspace.sweep import CHUNK_SIZE, REDUCE_OPS, sweep
