@@ -92,11 +92,11 @@ pub(crate) fn sincos_small<const L: usize>(x: &[f64; L], sin: &mut [f64; L], cos
     let mut far = false;
     for k in 0..L {
         (sin[k], cos[k]) = kernel(x[k]);
-        far |= !(x[k].abs() <= quarter);
+        far |= x[k].abs() > quarter; // NaN stays NaN either way
     }
     if far {
         for k in 0..L {
-            if !(x[k].abs() <= quarter) {
+            if x[k].abs() > quarter {
                 (sin[k], cos[k]) = x[k].sin_cos();
             }
         }

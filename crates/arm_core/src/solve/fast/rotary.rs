@@ -7,6 +7,7 @@
 //! of the input as the general path reads them) and loaded (per lane, `q_i + Δα_i − Δα_{i−1}`).
 
 use crate::arm::Arm;
+use crate::drive::rotary::ANGLE_TOL_RAD;
 use crate::drive::RotaryDrive;
 use crate::lanes::trig::{cos_m1, sincos_small};
 use crate::sweep::fast::{lanes_of_rows, FastArm, PoseBlock, L};
@@ -103,7 +104,8 @@ impl<const N: usize> Ranges<N> {
     }
 
     /// Some drive's loaded angle `q_i + Δα_i − Δα_{i−1}` outside its range, for lane `k`
-    /// with the links' turns `dalpha` (deg, `[link][lane]`).
+    /// with the links' turns `dalpha` (deg, `[link][lane]`), as
+    /// [`crate::validity::out_of_angle`] checks it.
     pub(crate) fn loaded_out(&self, q: &[[f64; L]; N], dalpha: &[[f64; L]; N], k: usize) -> bool {
         self.drives.iter().enumerate().any(|(i, d)| {
             d.as_ref().is_some_and(|d| {
@@ -113,7 +115,8 @@ impl<const N: usize> Ranges<N> {
                     dalpha[i - 1][k].to_radians()
                 };
                 let dq = dalpha[i][k].to_radians() - before;
-                dq.is_finite() && d.out_of_range(q[i][k] + dq)
+                // as validity::out_of_angle: a turn within the tolerance is none
+                dq.is_finite() && dq.abs() > ANGLE_TOL_RAD && d.out_of_range(q[i][k] + dq)
             })
         })
     }
