@@ -448,12 +448,17 @@ impl<const N: usize> SolveKernel<N> {
         let deg = 180.0f64 / std::f64::consts::PI;
         let mut da = ld(phi);
         let mut max_da = F4::ZERO;
+        let (mut before, mut beyond) = (F4::ZERO, M4::FALSE);
         for i in 0..N {
             // The loaded angle nearest the unloaded one.
             da = wrap_once(da + dth[i]);
             let d = da * deg;
             d.store(&mut sb.dalpha[i], at);
             max_da = Lane::max(max_da, d.abs());
+            if self.ranges.at(i) {
+                beyond = beyond | self.ranges.loaded_out(i, ld(&sb.q[i]), d, before);
+            }
+            before = d;
         }
         let down = Lane::lt(ld(&pay[1]), 0.0);
         let mut large = validity::large_deflection_sq(max_da, dx, dy, down, self.reach);
@@ -464,9 +469,8 @@ impl<const N: usize> SolveKernel<N> {
         }
         for j in 0..W {
             let k = at + j;
-            let beyond = self.ranges.any && self.ranges.loaded_out(&sb.q, &sb.dalpha, k);
             sb.status[k] = validity::code_of(Checks {
-                out_of_stroke: pb.out_of_stroke[k] || beyond,
+                out_of_stroke: pb.out_of_stroke[k] || beyond.get(j),
                 near_singular: pb.near_singular[k],
                 branch_flip: flip.get(j),
                 over_force: over.get(j),

@@ -10,6 +10,7 @@ use crate::arm::Arm;
 use crate::drive::rotary::ANGLE_TOL_RAD;
 use crate::drive::RotaryDrive;
 use crate::lanes::trig::{cos_m1, sincos_small};
+use crate::lanes::{Lane, F4, M4};
 use crate::sweep::fast::{lanes_of_rows, FastArm, PoseBlock, L};
 use crate::validity::Status;
 
@@ -103,21 +104,26 @@ impl<const N: usize> Ranges<N> {
         }
     }
 
-    /// Some drive's loaded angle `q_i + Δα_i − Δα_{i−1}` outside its range, for lane `k`
-    /// with the links' turns `dalpha` (deg, `[link][lane]`), as
-    /// [`crate::validity::out_of_angle`] checks it.
-    pub(crate) fn loaded_out(&self, q: &[[f64; L]; N], dalpha: &[[f64; L]; N], k: usize) -> bool {
-        self.drives.iter().enumerate().any(|(i, d)| {
-            d.as_ref().is_some_and(|d| {
-                let before = if i == 0 {
-                    0.0
-                } else {
-                    dalpha[i - 1][k].to_radians()
-                };
-                let dq = dalpha[i][k].to_radians() - before;
-                // as validity::out_of_angle: a turn within the tolerance is none
-                dq.is_finite() && dq.abs() > ANGLE_TOL_RAD && d.out_of_range(q[i][k] + dq)
-            })
-        })
+    /// Drive `i` has a range.
+    pub(crate) fn at(&self, i: usize) -> bool {
+        self.drives[i].is_some()
+    }
+
+    /// Lanes whose drive `i` (with a range) is out of it loaded, as
+    /// [`crate::validity::out_of_angle`] checks it: its unloaded angle `q` (rad) plus the
+    /// turn `Δα_i − Δα_{i−1}` of the links (`d`, `before`: deg, as the outputs give them,
+    /// zero before link 1), a turn within [`ANGLE_TOL_RAD`] being none.
+    #[inline(always)]
+    pub(crate) fn loaded_out(&self, i: usize, q: F4, d: F4, before: F4) -> M4 {
+        let Some(r) = &self.drives[i] else {
+            return M4::FALSE;
+        };
+        let rad = std::f64::consts::PI / 180.0; // f64::to_radians's factor
+        let dq = d * rad - before * rad;
+        let a = q + dq;
+        let lo = r.min_angle.map_or(f64::NEG_INFINITY, |lo| lo - ANGLE_TOL_RAD);
+        let hi = r.max_angle.map_or(f64::INFINITY, |hi| hi + ANGLE_TOL_RAD);
+        let turned = Lane::gt(dq.abs(), ANGLE_TOL_RAD) & Lane::lt(dq.abs(), f64::INFINITY);
+        turned & (Lane::lt(a, lo) | Lane::gt(a, hi))
     }
 }
