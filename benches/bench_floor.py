@@ -122,6 +122,48 @@ def cpu_name() -> str:
     return platform.processor() or "unknown CPU"
 
 
+Row = tuple[str, str, str, int, float, float]
+
+
+def timed(kind: str, what: str, unit: str, count: int, call: Callable[[], Any]) -> Row:
+    """One figure: ``call`` beside its floor (the floor's arrays are the call's own)."""
+    floor = floor_of(call())
+    tc, tf = best_pair(call, floor)
+    print(
+        f"{kind:7s} {what:38s} {count / tc / 1e6:7.2f} M {unit}/s  floor "
+        f"{count / tf / 1e6:7.2f} M/s  ratio {tc / tf:5.2f}",
+        flush=True,
+    )
+    return (kind, what, unit, count, tc, tf)
+
+
+def bench_arm(
+    kind: str, n_poses: int, n_seq: int, rng: np.random.Generator, outputs: tuple[bool, bool]
+) -> list[Row]:
+    """Every figure of one arm."""
+    arm = eodarm.Arm.from_toml(ARMS[kind])
+    alpha = poses(kind, n_poses, rng)
+    mass = rng.uniform(0.0, 7.0, n_poses)
+    rows = [
+        timed(kind, "solve, baseline", "poses", n_poses, lambda: eodarm.solve(arm, alpha, mass))
+    ]
+    if outputs[0]:
+        two = lambda: eodarm.solve(arm, alpha, mass, outputs=TWO)  # noqa: E731
+        rows.append(timed(kind, "solve, baseline, outputs=dx,dy", "poses", n_poses, two))
+    seq_alpha = poses(kind, n_seq, rng)
+    seq_mass = np.broadcast_to(MASSES, (n_seq, MASSES.size))
+    states = n_seq * MASSES.size
+    eff = SEQUENCE_EFFECTS[kind]
+    plain = lambda: eodarm.solve_sequence(arm, seq_alpha, seq_mass)  # noqa: E731
+    rows.append(timed(kind, "solve_sequence, no effect", "states", states, plain))
+    full = lambda: eodarm.solve_sequence(arm, seq_alpha, seq_mass, eff)  # noqa: E731
+    rows.append(timed(kind, "solve_sequence, 2 frictions+gap+mount", "states", states, full))
+    if outputs[1]:
+        part = lambda: eodarm.solve_sequence(arm, seq_alpha, seq_mass, eff, outputs=TWO)  # noqa: E731
+        rows.append(timed(kind, "solve_sequence, effects, outputs=dx,dy", "states", states, part))
+    return rows
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--scale", type=float, default=1.0, help="fraction of each workload")
@@ -134,63 +176,17 @@ def main() -> None:
     has_seq_outputs = "outputs" in inspect.signature(eodarm.solve_sequence).parameters
     before = load()
     rows: list[tuple[str, str, str, int, float, float]] = []
-
-    def run(arm_kind: str, what: str, unit: str, count: int, call: Callable[[], Any]) -> None:
-        floor = floor_of(call())  # the call's own outputs give the floor's arrays
-        tc, tf = best_pair(call, floor)
-        rows.append((arm_kind, what, unit, count, tc, tf))
-        print(
-            f"{arm_kind:7s} {what:38s} {count / tc / 1e6:7.2f} M {unit}/s  floor "
-            f"{count / tf / 1e6:7.2f} M/s  ratio {tc / tf:5.2f}",
-            flush=True,
-        )
-
-    for kind, path in ARMS.items():
-        arm = eodarm.Arm.from_toml(path)
-        alpha = poses(kind, n_poses, rng)
-        mass = rng.uniform(0.0, 7.0, n_poses)
-        run(kind, "solve, baseline", "poses", n_poses, lambda: eodarm.solve(arm, alpha, mass))
-        if has_outputs:
-            run(
-                kind,
-                "solve, baseline, outputs=dx,dy",
-                "poses",
-                n_poses,
-                lambda: eodarm.solve(arm, alpha, mass, outputs=TWO),
-            )
-        seq_alpha = poses(kind, n_seq, rng)
-        seq_mass = np.broadcast_to(MASSES, (n_seq, MASSES.size))
-        states = n_seq * MASSES.size
-        eff = SEQUENCE_EFFECTS[kind]
-        run(
-            kind,
-            "solve_sequence, no effect",
-            "states",
-            states,
-            lambda: eodarm.solve_sequence(arm, seq_alpha, seq_mass),
-        )
-        run(
-            kind,
-            "solve_sequence, 2 frictions+gap+mount",
-            "states",
-            states,
-            lambda: eodarm.solve_sequence(arm, seq_alpha, seq_mass, eff),
-        )
-        if has_seq_outputs:
-            run(
-                kind,
-                "solve_sequence, effects, outputs=dx,dy",
-                "states",
-                states,
-                lambda: eodarm.solve_sequence(arm, seq_alpha, seq_mass, eff, outputs=TWO),
-            )
+    for kind in ARMS:
+        rows += bench_arm(kind, n_poses, n_seq, rng, (has_outputs, has_seq_outputs))
     after = load()
+    scale = f" --scale {args.scale}" if args.scale != 1 else ""
     threads = os.environ.get("RAYON_NUM_THREADS", f"unset ({os.cpu_count()} CPUs)")
     head = [
         f"- run: {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, "
-        f"`python3 benches/bench_floor.py{' --scale ' + str(args.scale) if args.scale != 1 else ''}`",
+        f"`python3 benches/bench_floor.py{scale}`",
         f"- machine: {platform.machine()}, {os.cpu_count()} CPUs, {cpu_name()}",
-        f"- python {platform.python_version()}, numpy {np.__version__}, RAYON_NUM_THREADS {threads}",
+        f"- python {platform.python_version()}, numpy {np.__version__}, "
+        f"RAYON_NUM_THREADS {threads}",
         f"- load average (1 min) before / after: {before:.2f} / {after:.2f}",
         f"- best of {REPEATS} calls; floor = numpy allocating and writing the call's output "
         "arrays (`np.empty(shape, dtype).fill(1)`), best of 5, alternated with the call",
@@ -205,9 +201,9 @@ def main() -> None:
             f"| {kind} | {what} | {count:,} {unit} | {count / tc / 1e6:.2f} | "
             f"{count / tf / 1e6:.2f} | {tc / tf:.2f} |"
         )
-    print("\n".join(head + [""] + table))
+    print("\n".join([*head, "", *table]))
     if args.markdown:
-        args.markdown.write_text("\n".join(head + [""] + table) + "\n")
+        args.markdown.write_text("\n".join([*head, "", *table]) + "\n")
 
 
 if __name__ == "__main__":
