@@ -141,8 +141,7 @@ def theta_step(arm: Arm, slot: Slot, theta: float) -> float:
     """
     reach = sum(math.hypot(*lk.next) for lk in arm.links)
     k = max(
-        stiffness_of(a) / (reach**2 if isinstance(a, RotaryDrive) else 1.0)
-        for a in arm.actuators
+        stiffness_of(a) / (reach**2 if isinstance(a, RotaryDrive) else 1.0) for a in arm.actuators
     )
     i = slot.index(arm.n)
     if slot.name in ("actuator_compliance", "mount_compliance", "drive_compliance"):
