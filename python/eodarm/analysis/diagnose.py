@@ -465,7 +465,8 @@ def _diagnose_pass(
             arm.n, taken_up=analytic and self_weight, custom=analytic, kinds=arm.kinds
         )
         if not analytic:  # frictions are modelled by the analytic model only
-            every = [s for s in every if s.name not in ("actuator_friction", "joint_friction")]
+            frictions = ("actuator_friction", "joint_friction", "drive_friction")
+            every = [s for s in every if s.name not in frictions]
         cands = [s for s in every if s.key not in taken]
     else:
         cands = [Slot.of(s) for s in candidates if Slot.of(s).key not in taken]
