@@ -301,12 +301,21 @@ def friction_advice(a: Slot, b: Slot, has_sequences: bool) -> str | None:
     unloading branch lies on the other side of the frictionless curve and the arm does not
     come back at zero payload. Two frictions on one actuator differ by their limit: an
     actuator friction's is a force, a joint friction's a torque T/r_i, so it changes with
-    the moment arm r_i of actuator i about O_i from pose to pose.
+    the moment arm r_i of actuator i about O_i from pose to pose. At a rotary drive the joint
+    friction (in parallel with the whole drive) and the gear's friction (in parallel with its
+    spring) hold the same torque: only a backlash in the gear tells them apart, as it follows
+    the torque through the gear (docs/model.md §10).
     """
-    frictions = ("actuator_friction", "joint_friction")
+    frictions = ("actuator_friction", "joint_friction", "drive_friction")
     if a.name not in frictions and b.name not in frictions:
         return None
     if a.name in frictions and b.name in frictions:
+        if {a.name, b.name} == {"joint_friction", "drive_friction"} and a.at == b.at:
+            return (
+                f"nothing but a backlash in drive {a.at[1:]}: the joint friction and the "
+                "gear's friction hold the same torque, and only the backlash, which follows "
+                "the torque through the gear, sees where it is held"
+            )
         if a.name != b.name and a.at[1:] == b.at[1:]:
             i = a.at[1:]
             return (

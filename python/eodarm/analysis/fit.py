@@ -453,10 +453,12 @@ def determining_channel(slot: Slot, measured: Sequence[str]) -> str:
         "link_bending": f"dalpha{i}_deg",
         "base_compliance": "dalpha1_deg",
         "actuator_friction": f"dl{i}_mm",  # the body's sensor sees what the body spring takes
+        "drive_compliance": f"dalpha{i}_deg",  # the gear turns link i against body i-1
+        "drive_backlash": f"dalpha{i}_deg",
     }.get(slot.name)
     if own is not None and own not in measured:
         return f"measure {own}"
-    if slot.name in ("actuator_friction", "joint_friction"):
+    if slot.name in ("actuator_friction", "joint_friction", "drive_friction"):
         return (
             "load and unload (a load cycle with a step column): the unloading branch and the "
             "return to zero payload show a friction (docs/diagnosis.md, load sequences)"

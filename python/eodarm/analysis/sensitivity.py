@@ -145,7 +145,7 @@ class CustomEvaluator:
         for s, t in builtin:
             value = param_from_theta(s.name, float(t))
             if math.isinf(value):
-                if s.name != "actuator_compliance":
+                if s.name not in ("actuator_compliance", "drive_compliance"):
                     continue  # θ = 0 of a spring: the effect is absent
                 value = _RIGID
             codes.append(s.code)

@@ -59,14 +59,17 @@ FloatArray = npt.NDArray[np.float64]
 Model = Sequence[tuple[Slot, float]]
 
 #: The effects with memory: friction elements (docs/model.md, load sequences).
-FRICTIONS = ("actuator_friction", "joint_friction")
+FRICTIONS = ("actuator_friction", "joint_friction", "drive_friction")
 #: The secant step of a friction's limit, relative to max(L, typical L) (module notes).
 FRICTION_STEP = 0.05
 #: A typical limit, the scale of a step from L = 0: 1 N of actuator friction, and
-#: 100 N·mm of joint friction (1 N on a 100 mm moment arm).
-_TYPICAL = {"actuator_friction": 1.0, "joint_friction": 100.0}
-#: A stiffness standing for a rigid actuator body (θ = 0 of ``actuator_compliance``).
+#: 100 N·mm of joint or gear friction (1 N on a 100 mm moment arm).
+_TYPICAL = {"actuator_friction": 1.0, "joint_friction": 100.0, "drive_friction": 100.0}
+#: A stiffness standing for a rigid actuator body or gear (θ = 0 of ``actuator_compliance``,
+#: ``drive_compliance``).
 _RIGID = 1e300
+#: The springs that replace the arm file's own (θ = 0: rigid, not absent).
+RIGID_AT_ZERO = ("actuator_compliance", "drive_compliance")
 
 
 def has_friction(slots: Sequence[Slot]) -> bool:
@@ -110,12 +113,12 @@ def layout(
 
 def effects_of(model: Model) -> list[Effect]:
     """The effects of a model given by θ values (θ = 0 of a spring: absent; of the actuator's
-    own body: rigid)."""
+    own body or a drive's own gear: rigid)."""
     out = []
     for s, t in model:
         value = param_from_theta(s.name, float(t))
         if math.isinf(value):
-            if s.name != "actuator_compliance":
+            if s.name not in RIGID_AT_ZERO:
                 continue
             value = _RIGID
         if value == 0.0 and s.name in FRICTIONS:

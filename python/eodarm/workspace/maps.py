@@ -323,7 +323,7 @@ def effect_contributions(
     n = len(comps)
     kw = {**as_sweep_kwargs(grid), **sweep_kw}
     common = {"mass_kg": [float(mass)], "self_weight": self_weight, **kw}
-    rigid = rigid_bodies(arm.n, RIGID_N_PER_MM["analytic"])
+    rigid = rigid_bodies(arm, RIGID_N_PER_MM["analytic"])
     values: dict[tuple[int, ...], FloatArray] = {}
     base: xr.Dataset | None = None
     ok: Any = None
