@@ -544,6 +544,10 @@ def _summary(ds: xr.Dataset) -> None:
             fi = f.sel(actuator=i)
             if bool(np.isfinite(fi).any()):
                 print(f"|F{i}| up to {value(float(fi.max()), 'N')}")
+            elif "torque_nmm" in ds:  # a rotary drive
+                ti = abs(ds["torque_nmm"].where(ds["reachable"])).sel(actuator=i)
+                if bool(np.isfinite(ti).any()):
+                    print(f"|T{i}| up to {value(float(ti.max()), 'N·mm')}")
     from eodarm.workspace.uncertainty import summary_lines
 
     for line in summary_lines(ds):
