@@ -273,7 +273,7 @@ def synth(
     if not (math.isfinite(noise) and noise > 0):
         raise EodarmError(f"synth: noise must be finite and > 0, got {noise!r}")
     rep = integer(repeats, "synth: repeats", 1, 10**6)
-    chosen = expand_channels(channels, n)
+    chosen = expand_channels(channels, n, arm.kinds)
     every = channel_names(n)
     sig = _sigmas(sigma or {}, every, noise)
 
