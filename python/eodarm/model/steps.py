@@ -30,8 +30,9 @@ def neutral_theta(arm: Arm, slot: Slot) -> float:
 
 def typical_theta(arm: Arm, slot: Slot) -> float:
     """A typical θ of a catalogue effect at its place: the actuator's own compliance 1/k
-    for a spring at an actuator (1/k of a drive's gear), 0.1 mm for a gap (0.1° of a backlash), 10⁻¹⁰ /(N·mm²) for bending, 10 N and
-    1000 N·mm for a friction limit, 10⁻⁸ rad/(N·mm) for the base."""
+    for a spring at an actuator (1/k of a drive's gear), 0.1 mm for a gap (0.1° of a
+    backlash), 10⁻¹⁰ /(N·mm²) for bending, 10 N and 1000 N·mm for a friction limit,
+    10⁻⁸ rad/(N·mm) for the base."""
     name = slot.name
     if name in ("actuator_compliance", "mount_compliance", "drive_compliance"):
         return 1.0 / stiffness_of(arm.actuators[slot.index(arm.n)])
