@@ -282,7 +282,9 @@ def run(args: argparse.Namespace) -> int:
             f"{mass[i]:g}",
             "/".join(f"{a:g}" for a in alpha[i]),
             "/".join(f"{a:.4f}" for a in out["alpha_deg"][i]) if ok else "—",
-            "/".join(f"{x:.2f}" for x in out["length_mm"][i]) if ok else "—",
+            "/".join("—" if math.isnan(x) else f"{x:.2f}" for x in out["length_mm"][i])
+            if ok
+            else "—",
             "—" if math.isnan(miss[i]) else f"{miss[i]:.3f}",
             "—" if math.isnan(out["residual_mm"][i]) else f"{out['residual_mm'][i]:.0e}",
         ]
