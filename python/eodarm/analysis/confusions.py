@@ -77,7 +77,8 @@ def confusions(
 
     A's contribution (whitened, the model's own columns ``am`` projected out) must itself be
     significant (χ² above ``detectable``), and B's best imitation must leave less than
-    χ²₁(95 %) of it and less than a tenth of it unexplained.
+    χ²₁(95 %) of it and less than a tenth of it unexplained; B's exact refit (its ranking
+    fit) may not differ from A's by more than that either.
     """
     if am.shape[1]:
         q, _ = np.linalg.qr(am)
@@ -109,7 +110,10 @@ def confusions(
             coef = max(cv / cc, lo_i)
             # |v − coef·col|², never below 0 by rounding
             left = max(vv - 2.0 * coef * cv + coef * coef * cc, 0.0)
-            if left < CONFUSION_CHI2 and left < 0.1 * vv:
+            # ... and the exact refits agree: a response far from linear (a friction that moves
+            # a backlash's side) can separate what the linearised columns do not
+            apart = abs(other.fit.chi2 - cand.fit.chi2) > max(CONFUSION_CHI2, 0.1 * vv)
+            if left < CONFUSION_CHI2 and left < 0.1 * vv and not apart:
                 out.append(other.slot.spec)
         cand.confused_with = out
 

@@ -553,7 +553,13 @@ def _diagnose_pass(
         for size in range(1, min(max_set, k) + 1):
             sets = _combinations(cands, size)
             searched += len(sets) if size > 1 else 0
-            d, chis = solve_sets(sets) if size > 1 else (d1, chi1)
+            if size > 1:
+                d, chis = solve_sets(sets)
+            else:
+                # every single is already refitted exactly (the ranking): judge the best of
+                # those first, not of the linearised χ², which misjudges an effect whose
+                # response is far from linear (a friction that moves a backlash's side)
+                d, chis = d1, np.array([cache[st].chi2 for st in singles])
             order = np.argsort(chis)[:refine_per_size]
             fits = _by_chi2([refine(sets[i], d[i]) for i in order], m)
             tried += fits

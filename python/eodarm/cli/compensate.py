@@ -37,6 +37,7 @@ from eodarm.cli._common import (
     _say,
     _stages,
     _valued_effect,
+    check_kinds_of,
 )
 from eodarm.cli._help import HELP
 from eodarm.errors import EodarmError
@@ -204,6 +205,7 @@ def run(args: argparse.Namespace) -> int:
     if args.output:
         _claim(args, args.output, "-o")
     arm = _load_arm(args.arm)
+    check_kinds_of(arm, args.add, "--add")
     effects = [_valued_effect(s) for s in args.add or []]
     alpha, mass, config = _nominal_poses(args, arm)
     self_weight = not args.no_self_weight

@@ -28,6 +28,7 @@ from eodarm.cli._common import (
     _say,
     _stages,
     _valued_effect,
+    check_kinds_of,
 )
 from eodarm.cli._help import HELP
 from eodarm.errors import EodarmError
@@ -94,6 +95,7 @@ def _sd(x: float) -> str:
 
 def run(args: argparse.Namespace) -> int:
     arm = _load_arm(args.arm)
+    check_kinds_of(arm, args.add, "--add")
     alphas = [_floats(a, "--alpha") for a in (args.alpha or [])]
     if not alphas:
         alphas = [[90.0] + [10.0] * (arm.n - 2) + [0.0]] if arm.n >= 2 else [[60.0]]

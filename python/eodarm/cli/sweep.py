@@ -21,6 +21,7 @@ from eodarm.cli._common import (
     _payload_hint,
     _say,
     _valued_effect,
+    check_kinds_of,
 )
 from eodarm.cli._help import HELP, NEGATIVE_VALUE
 from eodarm.errors import EodarmError
@@ -282,6 +283,7 @@ def run(args: argparse.Namespace) -> int:
         a sweep too large for memory or disk, a lost Dask cluster.
     """
     arm = _load_arm(args.arm)
+    check_kinds_of(arm, args.add, "--add")
     grid = _cli_grid(args, arm.n)
     mass = parse_range(args.mass, "--mass")
     _payload_hint(arm, mass)  # --mass 5000: is it grams? (a note)

@@ -26,6 +26,7 @@ from eodarm.cli._common import (
     _payload_hint,
     _stages,
     _valued_effect,
+    check_kinds_of,
 )
 from eodarm.cli._help import HELP
 from eodarm.errors import EodarmError
@@ -131,6 +132,7 @@ def run(args: argparse.Namespace) -> int:
     elif args.output:
         _claim(args, args.output, "-o")
     arm = _load_arm(args.arm)
+    check_kinds_of(arm, args.hidden, "--hidden")
     if args.records:
         return _records(args, arm)
     n = arm.n
