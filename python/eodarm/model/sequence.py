@@ -25,7 +25,7 @@ from eodarm.model.kinematics import (
     _poses,
     _refuse_unloaded_singular,
 )
-from eodarm.model.resources import check_output_memory
+from eodarm.model.resources import check_output_memory, solve_output_bytes
 from eodarm.model.validity import checks_load_rise, status
 
 __all__ = ["cycle_returns", "solve_sequence"]
@@ -118,7 +118,7 @@ def solve_sequence(
         alpha = np.ascontiguousarray(np.broadcast_to(alpha, (rows, arm.n)))
     mass = _sequence_masses(mass_kg, rows)
     check_output_memory(
-        2 * mass.size * (8 * (8 * arm.n + 2) + 1), f"solve_sequence of {mass.size:,} states"
+        solve_output_bytes(mass.size, arm.n), f"solve_sequence of {mass.size:,} states"
     )
     effs = with_arm_effects(arm.effects, effects)
     if uncertainty:
@@ -281,7 +281,7 @@ def _check_sequence_memory(alpha_deg: npt.ArrayLike, mass_kg: npt.ArrayLike, n: 
         return
     rows = max(m[0] if len(m) == 2 else 1, a[0] if a is not None and len(a) == 2 else 1)
     states = int(rows) * int(m[-1])
-    check_output_memory(2 * states * (8 * (8 * n + 2) + 1), f"solve_sequence of {states:,} states")
+    check_output_memory(solve_output_bytes(states, n), f"solve_sequence of {states:,} states")
 
 
 def _sequence_masses(mass_kg: npt.ArrayLike, rows: int) -> npt.NDArray[np.float64]:
