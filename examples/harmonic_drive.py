@@ -1,4 +1,4 @@
-"""A harmonic drive's soft band, as a user-written effect at a rotary joint (docs/custom-effects.md).
+"""A harmonic drive's soft band, a user-written effect at a rotary joint (docs/custom-effects.md).
 
 A strain-wave (harmonic) gear is not one torsional spring: below a knee torque T1 its
 flexspline is soft (stiffness K1), above it stiffer (K2, the stiffness a datasheet gives at

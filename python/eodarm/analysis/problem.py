@@ -17,11 +17,12 @@ import numpy as np
 import numpy.typing as npt
 
 from eodarm.data.measurements import Measurements
+from eodarm.data.plausible import check_drive_channels
 from eodarm.errors import EodarmError
 from eodarm.model.arm import Arm
 from eodarm.model.effects import Slot, param_from_theta, theta_from_param
 
-__all__ = ["Z95", "FitWarning", "Problem", "check_drive_channels"]
+__all__ = ["Z95", "FitWarning", "Problem"]
 
 #: z of a two-sided 95 % normal interval.
 Z95 = 1.959963984540054
@@ -255,24 +256,6 @@ class Problem:
 
 class FitWarning(UserWarning):
     """A fitted parameter sits at a physical bound."""
-
-
-def check_drive_channels(arm: Arm, meas: Measurements) -> None:
-    """Refuse a measured ``dlK_mm`` of a joint turned by a rotary drive: a drive has no
-    length, so the column is a mistake (a wrong arm file, a shifted column), not a channel to
-    ignore (docs/formats.md §3). A column left empty carries nothing and passes."""
-    for i, kind in enumerate(arm.kinds):
-        name = f"dl{i + 1}_mm"
-        if kind != "rotary" or name not in meas.channels:
-            continue
-        col = meas.values[:, meas.channels.index(name)]
-        rows = np.flatnonzero(np.isfinite(col))
-        if rows.size:
-            raise EodarmError(
-                f"{meas.source}: column {name} (line {int(meas.line[rows[0]])}): joint "
-                f"{i + 1} of arm '{arm.name}' is turned by a rotary drive, which has no "
-                f"length to measure (its turn is in dalpha{i + 1}_deg)"
-            )
 
 
 def _rms(
