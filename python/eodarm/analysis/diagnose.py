@@ -524,7 +524,7 @@ def _diagnose_pass(
         return cache[st]
 
     singles: list[tuple[int, ...]] = [(c,) for c in range(k)]
-    d1, chi1 = solve_sets(singles)
+    d1, _ = solve_sets(singles)
     ranking = []
     for c in range(k):
         res = refine((c,), d1[c])

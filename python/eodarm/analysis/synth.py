@@ -140,9 +140,7 @@ def random_configs(
         lmin = np.minimum(lmin, length.min(axis=0))
         lmax = np.maximum(lmax, length.max(axis=0))
         ok_moment = (moment_arm_ratio(arm, alpha) >= min_moment_ratio).all(axis=1)
-        ok_stroke = (stroke_violations(arm, length) == 0).all(axis=1) & _in_drive_range(
-            arm, alpha
-        )
+        ok_stroke = (stroke_violations(arm, length) == 0).all(axis=1) & _in_drive_range(arm, alpha)
         ok_ahead = geo["O"][:, n, 0] > arm.O1[0]
         rejected["moment"] += int((~ok_moment).sum())
         rejected["stroke"] += int((~ok_stroke).sum())

@@ -31,9 +31,10 @@ unloading branch, the far side of the band. M may be more than the arm can carry
 may not close): what the elements hold at m comes from the forces on the undeformed geometry,
 and only the state at m is used.
 
-Gaps (``actuator_play``, ``joint_clearance``, ``drive_backlash``) keep no memory of their own: at every state
-they are taken up along that state's force (docs/model.md §9), so they widen the band only
-where a friction changes an actual force's sign. A model without friction has a band of 0.
+Gaps (``actuator_play``, ``joint_clearance``, ``drive_backlash``) keep no memory of their own:
+at every state they are taken up along that state's force (docs/model.md §9), so they widen
+the band only where a friction changes an actual force's sign. A model without friction has
+a band of 0.
 """
 
 from __future__ import annotations
