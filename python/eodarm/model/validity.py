@@ -44,6 +44,7 @@ import numpy.typing as npt
 from eodarm.model.arm import Arm
 
 __all__ = [
+    "ANGLE_TOL_DEG",
     "MAX_DALPHA_DEG",
     "MAX_DEFLECTION_OF_REACH",
     "MAX_LOAD_RISE_MM",
@@ -76,6 +77,10 @@ MAX_DALPHA_DEG = 10.0
 MAX_DEFLECTION_OF_REACH = 0.05
 #: Largest rise of the measure point under a downward payload, as a fraction of that length.
 MAX_RISE_OF_REACH = 1e-3
+#: How far (degrees) a drive's angle may pass its limit and still be within its range (the
+#: core's ``drive::rotary::ANGLE_TOL_RAD``): a pose put on its limit lands within ~1e-13° of
+#: it by rounding, on either side, and both backends give it the same status.
+ANGLE_TOL_DEG = 1e-9
 #: Largest rise (mm) of the load point under a downward payload where no gap effect and no
 #: user-written deformation act (the core's ``validity::MAX_LOAD_RISE_MM``): a fraction of
 #: any sensor's noise.
@@ -150,8 +155,8 @@ def status(
 
     dalpha = np.asarray(out["dalpha_deg"], dtype=float)
     q0, q1 = drive_angles(alpha_deg, np.where(np.isfinite(dalpha), dalpha, 0.0))
-    lo = np.where(np.isnan(arr["min_angle_deg"]), -np.inf, arr["min_angle_deg"])
-    hi = np.where(np.isnan(arr["max_angle_deg"]), np.inf, arr["max_angle_deg"])
+    lo = np.where(np.isnan(arr["min_angle_deg"]), -np.inf, arr["min_angle_deg"] - ANGLE_TOL_DEG)
+    hi = np.where(np.isnan(arr["max_angle_deg"]), np.inf, arr["max_angle_deg"] + ANGLE_TOL_DEG)
     off_range = ((q0 < lo) | (q0 > hi) | (q1 < lo) | (q1 > hi)) & rot
     mark(stroke_violations(arm, geo["length_mm"]).any(axis=1) | off_range.any(axis=1), 1)
     o, a, b = geo["O"][:, :n], geo["A"], geo["B"]
