@@ -11,6 +11,11 @@ actuator_play          play_mm                     0 ≤ θ ≤ 5 mm
 joint_clearance        clearance_mm                0 ≤ θ ≤ 5 mm
 link_bending           1/ei_n_mm2                  θ ≥ 0 (θ = 0: rigid link)
 base_compliance        1/stiffness_nmm_per_rad     θ ≥ 0 (θ = 0: rigid base)
+drive_compliance       1/stiffness_nmm_per_rad     θ ≥ 0 (θ = 0: rigid gear)
+drive_backlash         backlash_deg                0 ≤ θ ≤ 5°
+actuator_friction      friction_n                  θ ≥ 0 (θ = 0: absent)
+joint_friction         torque_nmm                  θ ≥ 0 (θ = 0: absent)
+drive_friction         torque_nmm                  θ ≥ 0 (θ = 0: absent)
 =====================  ==========================  =====================================
 
 The compiled core returns the model's channels and their sensitivities ∂y/∂θ for any set of
