@@ -16,7 +16,8 @@ an extra turn of link i against body i−1 (``joint_turn_rad``, counter-clockwis
 loaded and unloaded torques of ``EffectState.torque_nmm`` / ``torque0_nmm``. The effect's one
 parameter is c, the soft band's extra compliance, absent at c = 0 (a diagnosis measures each
 candidate from where it is absent); K1 = 1/(c + 1/K2). T1 is the datasheet's knee torque,
-fixed here (:data:`KNEE_NMM`). No catalogue effect does this: ``drive_compliance`` is linear
+fixed here (:data:`KNEE_NMM`). At a joint turned by a linear actuator (a mixed arm) it adds
+nothing. No catalogue effect does this: ``drive_compliance`` is linear
 in ΔT, ``drive_backlash`` a constant turn.
 
 From the command line::
@@ -55,6 +56,8 @@ KNEE_NMM = 15_000.0
 )
 def harmonic_soft_band(state: eodarm.EffectState, i: int, c_rad_per_nmm: float) -> dict:
     """The soft band of the harmonic drive at joint i+1: an extra turn where |T| < T1."""
+    if state.arm.kinds[i] != "rotary":
+        return {}  # a joint turned by a linear actuator has no gear: nothing to add
 
     def g(t: np.ndarray) -> np.ndarray:
         return np.sign(t) * np.minimum(np.abs(t), KNEE_NMM) * c_rad_per_nmm

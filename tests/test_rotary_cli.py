@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import json
 import shutil
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
@@ -439,6 +440,17 @@ def test_a_length_column_of_a_drive_is_refused_naming_it(
     _refused(capsys, argv, "meas.csv", "dl1_mm", "rotary drive")
 
 
+@pytest.fixture
+def forget_user_effects() -> Iterator[None]:
+    """The example's effect is forgotten after the test (the registry is the process's: a
+    later test must not find it among its candidates)."""
+    from eodarm.model import custom
+
+    yield
+    custom.unregister("harmonic_soft_band")
+
+
+@pytest.mark.usefixtures("forget_user_effects")
 def test_the_harmonic_drive_example_is_fitted_as_a_user_effect(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
