@@ -6,7 +6,8 @@ microns) in an ``_mm`` column, a channel with its sign flipped, load sequences z
 the first payload on. ``diagnose`` then says to check the data (verdict ``check_data``, one
 line per mistake with its fix), ``compare`` and ``fit`` say it too and ``fit`` never calls
 such data explained. On honest data, every effect of the catalogue hidden, nothing fires and
-no verdict changes. Grams are caught on the command line and in arm files, a file with no
+no verdict changes. Grams are caught on the command line, in campaign files (``masses_kg``)
+and in arm files, a file with no
 measured value is refused, and ``fit`` takes the very model that made ``synth``'s data.
 """
 
@@ -76,6 +77,17 @@ def scaled(channel: str, factor: float) -> Callable[[Measurements], np.ndarray]:
         return v
 
     return fn
+
+
+def in_grams(meas: Measurements) -> Measurements:
+    """The same measurements with every ``mass_kg`` written in grams."""
+    return Measurements.from_arrays(
+        meas.config,
+        meas.alpha_deg,
+        meas.mass_kg * 1000.0,
+        {ch: meas.values[:, meas.index(ch)] for ch in meas.channels},
+        {ch: meas.sigma[:, meas.index(ch)] for ch in meas.channels},
+    )
 
 
 def zeroed(meas: Measurements) -> np.ndarray:
@@ -276,6 +288,160 @@ def test_a_payload_an_arm_can_carry_gets_no_hint(capsys: pytest.CaptureFixture[s
     assert code == 0 and "grams" not in err
 
 
+@pytest.fixture(scope="module")
+def rehearsal(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A rehearsal campaign of the example arm (``synth --records``), payloads in kg."""
+    folder = tmp_path_factory.mktemp("rehearsal")
+    argv = ["synth", "--arm", str(EXAMPLE), "--records", str(folder), "--configs", "2"]
+    assert main([*argv, "--seed", "4"]) == 0
+    return folder / "campaign.toml"
+
+
+def campaign_copy(src: Path, dst: Path, factor: float) -> Path:
+    """A copy of a campaign and its records whose ``masses_kg`` are multiplied by ``factor``."""
+    dst.mkdir(parents=True)
+    for f in src.parent.iterdir():
+        (dst / f.name).write_bytes(f.read_bytes())
+    text = src.read_text(encoding="utf-8")
+    old = "masses_kg = [0.0, 1.5, 5.0, 6.5, 5.0, 1.5, 0.0]"
+    assert text.count(old) == 2  # synth's load cycle, in both records
+    new = "masses_kg = [" + ", ".join(f"{m * factor:g}" for m in CYCLE) + "]"
+    (dst / src.name).write_text(text.replace(old, new), encoding="utf-8")
+    return dst / src.name
+
+
+@pytest.mark.parametrize(
+    ("with_arm", "words"),
+    [
+        (True, "6500 kg is over 10 times the arm's own 10.1 kg: is it grams? (6.5 kg)"),
+        (False, "6500 kg is over 100 kg, more than an arm of this kind carries: is it grams? "
+         "(6.5 kg)"),
+    ],
+)  # fmt: skip
+def test_a_campaign_in_grams_gets_the_hint_naming_file_record_and_key(
+    rehearsal: Path,
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+    with_arm: bool,
+    words: str,
+) -> None:
+    """``masses_kg = [0, 1500, 5000, 6500, …]`` passed ``records`` without a word (issue 27
+    item 3). With ``--arm`` the arm's own mass gives the scale, as for ``--mass``; without
+    it, a plain range (over 100 kg). A note, not a refusal: the states are written."""
+    campaign_copy(rehearsal, tmp_path / "g", 1000.0)
+    monkeypatch.chdir(tmp_path)
+    campaign, out = Path("g", "campaign.toml"), Path("meas.csv")
+    arm = ["--arm", EXAMPLE] if with_arm else []
+    code, _, err = cli(capsys, "records", campaign, "-o", out, *arm)
+    assert code == 0 and out.exists(), err
+    text = " ".join(err.split())  # as wrapped
+    line = f"{campaign}: record 1 ('c1') masses_kg[3] {words}; 1 other record over"
+    assert line in text
+    if not with_arm:
+        assert "--arm ARM.toml checks it against the arm's own mass" in text
+    (hint,) = [n for n in text.split("eodarm: ") if "masses_kg[3]" in n]
+    assert len("eodarm: note: " + hint.strip()) < MAX_MESSAGE
+    code, _, err = cli(capsys, "records", rehearsal, *arm, "--json")  # in kg: no word
+    assert code == 0 and "masses_kg[" not in err and "grams" not in err
+    deep = Path("x" * 150, "y" * 150)  # a long name is cut: the line stays short
+    campaign_copy(rehearsal, deep, 1000.0)
+    code, _, err = cli(capsys, "records", deep / "campaign.toml", *arm, "--json")
+    (hint,) = [n for n in " ".join(err.split()).split("eodarm: ") if "masses_kg[3]" in n]
+    assert len("eodarm: note: " + hint.strip()) < MAX_MESSAGE and "is it grams?" in hint
+
+
+@pytest.mark.parametrize("command", ["compare", "diagnose"])
+def test_a_campaign_in_grams_refused_by_the_arm_says_grams_first(
+    rehearsal: Path,
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+    command: str,
+) -> None:
+    """The example arm cannot take 5000 kg: given as the data of ``compare`` or
+    ``diagnose``, the grams campaign is refused (``check_states``) in one line whose start
+    names the campaign, the record and the key, and says what it looks like; the refusal
+    follows (a short path, as a user types it, leaves it room)."""
+    campaign_copy(rehearsal, tmp_path / "g", 1000.0)
+    monkeypatch.chdir(tmp_path)
+    campaign = Path("g", "campaign.toml")
+    code, _, err = cli(capsys, command, campaign, "--arm", EXAMPLE)
+    assert code == 2 and err.count("\n") == 1, err
+    assert err.startswith(
+        f"eodarm: error: {campaign}: record 1 ('c1') masses_kg[3] 6500 kg is over 10 times "
+        "the arm's own 10.1 kg: is it grams? (6.5 kg);"
+    )
+    assert "cannot take" in err and len(err.rstrip("\n")) < MAX_MESSAGE
+
+
+@pytest.mark.parametrize("command", ["compare", "diagnose", "fit"])
+def test_a_measurement_file_in_grams_on_a_stiff_arm_gets_the_hint(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], command: str
+) -> None:
+    """Actuators 100 times stiffer than the example's take 1500–6500 kg without failing to
+    close: the door's refusal ("cannot close … in grams?") does not fire, the data read
+    their noise where the model expects millimetres, and no channel check can say why. The
+    heaviest line gets ``--mass``'s hint (it passed without a word)."""
+    d = example_arm().to_dict()
+    for act in d["actuator"]:
+        act["stiffness_n_per_mm"] *= 100.0
+    arm = eodarm.Arm.from_dict(d)
+    arm_path = tmp_path / "stiff.toml"
+    arm_path.write_text(arm.to_toml(), encoding="utf-8")
+    alpha = random_configs(arm, 8, 3)
+    meas = synth(arm, alpha, [1.5, 5.0, 6.5], seed=1)
+    grams = in_grams(meas)
+    closes = eodarm.solve(arm, grams.alpha_deg, grams.mass_kg)
+    assert np.isfinite(np.asarray(closes["dy_mm"])).all()  # nothing for the door to refuse
+    path = tmp_path / "grams.csv"
+    grams.to_csv(path)
+    extra = ["--add", "mount_compliance@M2"] if command == "fit" else []
+    code, _, err = cli(capsys, command, path, "--arm", arm_path, *extra)
+    assert code == 0, err
+    heavy = 2 + int(np.argmax(grams.mass_kg))  # the first 6500 kg row's 1-based line
+    line = (
+        f"{path} line {heavy}: mass_kg 6500 kg is over 10 times the arm's own 10.1 kg: is it "
+        "grams? (6.5 kg); 23 other lines over 101 kg too"
+    )
+    assert line in " ".join(err.split())
+    meas.to_csv(tmp_path / "kg.csv")  # the same data in kilograms: no word
+    code, _, err = cli(capsys, command, tmp_path / "kg.csv", "--arm", arm_path, *extra)
+    assert code == 0 and "grams" not in err
+
+
+def test_a_campaign_hint_follows_the_arms_scale() -> None:
+    """The campaign's rule is ``payload_hint``'s: a heavy arm carries what a light one
+    cannot, an arm without masses gives no scale, and a payload whose thousandth is still
+    too heavy is not called grams."""
+    from eodarm.data.plausible import campaign_payload_hint
+    from eodarm.data.records import Campaign, RecordSpec
+
+    def camp(*masses: float) -> Campaign:
+        return Campaign(Path("c.toml"), (RecordSpec(Path("c1.csv"), "c1", (90.0, 10.0), masses),))
+
+    light, heavy, massless = two_link_arm(), two_link_arm(), two_link_arm()
+    d = heavy.to_dict()
+    for part in (*d["link"], *d["actuator"]):
+        part["mass_kg"] = 100.0 * part.get("mass_kg", 0.0) + 10.0
+    heavy = eodarm.Arm.from_dict(d)
+    d = massless.to_dict()
+    for part in (*d["link"], *d["actuator"]):
+        part["mass_kg"] = 0.0
+    massless = eodarm.Arm.from_dict(d)
+    limit = 10.0 * (sum(x.mass_kg for x in light.links) + sum(x.mass_kg for x in light.actuators))
+    assert 1.0 < limit < 150.0
+    assert campaign_payload_hint(camp(0.0, limit * 0.9), light) is None
+    assert "is it grams?" in (campaign_payload_hint(camp(0.0, 150.0), light) or "")
+    assert campaign_payload_hint(camp(0.0, 150.0), heavy) is None
+    assert campaign_payload_hint(camp(0.0, 150.0), massless) is None
+    assert "check its unit (kg)" in (campaign_payload_hint(camp(0.0, 5e5), light) or "")
+    assert campaign_payload_hint(camp(0.0, 90.0)) is None  # no arm: the plain 100 kg
+    assert "c.toml: record 1 ('c1') masses_kg[1] 150 kg" in (
+        campaign_payload_hint(camp(0, 150.0)) or ""
+    )
+
+
 @pytest.mark.parametrize(
     ("edit", "words"),
     [
@@ -360,13 +526,7 @@ def test_payloads_in_grams_are_named_not_every_channel_in_metres() -> None:
     arm = eodarm.Arm.from_dict(d)
     alpha = random_configs(arm, 8, 3)
     meas = synth(arm, alpha, [1.5, 5.0, 6.5], channels="all", noise=1e-3, seed=1)
-    grams = Measurements.from_arrays(
-        meas.config,
-        meas.alpha_deg,
-        meas.mass_kg * 1000.0,
-        {ch: meas.values[:, meas.index(ch)] for ch in meas.channels},
-        {ch: meas.sigma[:, meas.index(ch)] for ch in meas.channels},
-    )
+    grams = in_grams(meas)
     (check,) = check_data(arm, grams)
     assert check.channel == "mass_kg" and check.problem == "scale"
     assert "mass_kg looks like grams" in check.message and "divide mass_kg by 1000" in check.message

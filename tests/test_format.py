@@ -85,3 +85,25 @@ def test_counts_and_lists_read_as_words() -> None:
     assert listing([1.5, 5.0, 6.5, 0.0], "kg") == "1.5, 5, 6.5 and 0 kg"
     assert listing([6.5], "kg") == "6.5 kg"
     assert listing([1.5, 5.0], "kg") == "1.5 and 5 kg"
+
+
+def test_compensate_reads_what_it_leaves_as_zero_not_as_rounding(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    """``compensate``'s ``left mm`` (the model's remaining miss, ~1e-11 mm) read "2e−11"
+    beside "4.408": the one formatter makes it 0."""
+    from pathlib import Path
+
+    from eodarm.cli import main
+
+    arm = Path(__file__).resolve().parents[1] / "examples" / "example_arm.toml"
+    capsys.readouterr()
+    code = main(["compensate", "--arm", str(arm), "--alpha", "90,10,0", "--mass", "5"])
+    out = capsys.readouterr().out
+    assert code == 0
+    lines = out.splitlines()
+    [head] = [i for i, line in enumerate(lines) if line.startswith("pose ")]
+    assert lines[head].split()[-5:] == ["miss", "mm", "left", "mm", "status"]
+    *_, miss, left, status = lines[head + 1].split()
+    assert (left, status) == ("0", "ok")
+    assert float(miss) > 1.0 and "e" not in miss

@@ -163,3 +163,39 @@ def test_sweep_cycle_names_where_the_arm_comes_back_worst(
     assert main(argv) == 0
     said = " ".join(capsys.readouterr().out.split())
     assert "return to 0 kg: the arm comes back exactly in every ok cell" in said
+
+
+def test_a_maps_notes_stay_inside_it_clear_of_its_ticks_and_of_each_other(
+    fitted: eodarm.Arm,
+) -> None:
+    """The note under a map ("75,113 of 119,187 poses ok …; each 11.8 mm pixel shows …")
+    ran in one line across the y tick labels (the capacity map's narrow left panel, the sag
+    map of a wide grid); the range above it was placed at a fixed height, over it once it
+    took two lines. Each now stays inside its map, and the range stands on top of it."""
+    wide = {  # the grid of docs/sweeps.md's example maps, coarser
+        "alpha1": np.linspace(20.0, 160.0, 15),
+        "alpha2": np.linspace(-60.0, 90.0, 11),
+        "alpha3": np.linspace(-60.0, 60.0, 7),
+    }
+    swept = eodarm.sweep(fitted, alpha_deg=wide, mass_kg=[6.5], cycle=True)
+    figs = {
+        "sag": draw.sag_map(swept, 6.5),
+        "return": return_map(swept, 6.5),
+        "capacity": draw.capacity_map(fitted, {"alpha_deg": wide}),
+    }
+    for name, fig in figs.items():
+        fig.canvas.draw()
+        renderer = fig.canvas.get_renderer()  # type: ignore[attr-defined]
+        ax = fig.axes[0]
+        frame = ax.get_window_extent(renderer)
+        texts = [t for t in ax.texts if t.get_text()]
+        [note] = [t for t in texts if NOTE.search(t.get_text().replace("\n", " "))]
+        box = note.get_window_extent(renderer)
+        assert frame.x0 <= box.x0 and box.x1 <= frame.x1, name  # inside the map
+        assert frame.y0 <= box.y0 and box.y1 <= frame.y1, name
+        ticks = [t.get_window_extent(renderer) for t in ax.get_yticklabels() if t.get_text()]
+        assert all(tick.x1 < box.x0 for tick in ticks), name
+        above = [t for t in texts if t is not note and " from " in t.get_text()]
+        for t in above:  # the range over the note: above it, never on it
+            assert t.get_window_extent(renderer).y0 >= box.y1, name
+        assert name == "capacity" or above, name  # the sag and return maps say their range

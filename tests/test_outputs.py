@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import errno
 import os
+import shutil
 import stat
 import subprocess
 import sys
@@ -29,6 +30,7 @@ import pytest
 from eodarm import atomic
 from eodarm.cli import main
 from eodarm.data.datasets import bundled_arm_path
+from eodarm.errors import MAX_MESSAGE
 from test_door import cli, one_line
 
 SEED_ARM = bundled_arm_path("seed2022")
@@ -131,6 +133,15 @@ COMMANDS = [
         ],
         "-o",
         ("meas.csv", "arm.toml"),
+    ),
+    Command(  # a campaign as --fixed: its records are inputs too
+        "plan (campaign)",
+        lambda out: [
+            *"plan --arm arm.toml --configs 1 --pool 40 --fixed rec/campaign.toml -o".split(),
+            out,
+        ],
+        "-o",
+        ("rec/campaign.toml", "rec/c1.csv"),
     ),
 ]
 IDS = [c.name for c in COMMANDS]
@@ -342,3 +353,114 @@ def test_sweep_never_writes_over_its_arm_through_a_symlink(
     code, _, err = cli(capsys, *sweep, "--alpha3", "0", "--mass", "5", "-o", "s.nc", "--force")
     assert "is the --arm file (arm.toml), an input of this run" in one_line(code, err)
     assert (work / "arm.toml").read_bytes() == before
+
+
+def test_a_folder_result_replaced_whole_never_holds_an_input(
+    work: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``sweep -o out.zarr --force`` replaces the folder whole: an arm file kept in it was
+    deleted with it (``--arm out.zarr/arm.toml``)."""
+    (work / "out.zarr").mkdir()
+    arm = work / "out.zarr" / "arm.toml"
+    arm.write_bytes((work / "arm.toml").read_bytes())
+    sweep = ["sweep", "--arm", "out.zarr/arm.toml", "--alpha1", "80:90:2", "--alpha2", "10"]
+    code, _, err = cli(capsys, *sweep, "--alpha3", "0", "--mass", "5", "-o", "out.zarr", "--force")
+    line = one_line(code, err)
+    assert "-o out.zarr: holds the --arm file (out.zarr/arm.toml), an input of this run" in line
+    assert arm.read_bytes() == (work / "arm.toml").read_bytes()
+
+
+@pytest.fixture
+def bundled(work: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
+    """A copy of the bundled seed2022 data set that the package reads instead of its own
+    (a test that fails must not write over the repository's data)."""
+    from eodarm.data import datasets
+
+    root = work / "site-packages" / "eodarm" / "data" / "seed2022"
+    shutil.copytree(SEED_ARM.parent, root)
+    monkeypatch.setattr(datasets, "_root", lambda name: root)
+    return root
+
+
+@pytest.mark.parametrize(
+    ("argv", "name"),
+    [
+        (["synth", "--alpha", "90,10,0", "--masses", "5"], "arm.toml"),
+        (["compensate", "--alpha", "90,10,0", "--mass", "5"], "arm.toml"),
+        (["report", "--rounds", "1"], "measurements.csv"),
+        (["report", "--rounds", "1"], "arm.toml"),
+    ],
+)
+def test_the_bundled_data_a_command_reads_by_default_are_never_an_output(
+    bundled: Path, capsys: pytest.CaptureFixture[str], argv: list[str], name: str
+) -> None:
+    """Without ``--arm`` (or without data) a command reads the bundled data set: ``synth -o
+    …/seed2022/arm.toml --force`` replaced the package's arm with a measurement file, and
+    ``report -o …/seed2022/measurements.csv --force`` its data with HTML."""
+    before = {p.name: p.read_bytes() for p in bundled.iterdir()}
+    code, _, err = cli(capsys, *argv, "-o", bundled / name, "--force")
+    line = one_line(code, err)
+    assert f"is the bundled seed2022 data set's {name}, an input of this run" in line
+    assert {p.name: p.read_bytes() for p in bundled.iterdir()} == before
+
+
+def test_a_refused_output_with_a_long_name_is_one_short_line(
+    work: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A 400-character path gave a 487-character line: the names are cut in the middle."""
+    deep = work / ("x" * 200) / ("y" * 200)
+    deep.mkdir(parents=True)
+    (deep / "out.csv").write_text(PREVIOUS)
+    out = deep.relative_to(work) / "out.csv"
+    code, _, err = cli(capsys, "synth", "--arm", "arm.toml", "-o", out)
+    line = one_line(code, err)
+    assert len(line) < MAX_MESSAGE and "exists; give --force" in line and "/out.csv" in line
+    code, _, err = cli(capsys, "synth", "--arm", out, "-o", out, "--force")
+    line = one_line(code, err)
+    assert len(line) < MAX_MESSAGE and "is the --arm file" in line
+
+
+def test_the_report_diagnose_proposes_is_never_refused(
+    work: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The seed data are unexplained by the catalogue: ``diagnose`` proposes the report's
+    rounds. Its default output ``eodarm-report.html`` existing, the proposed command was
+    refused (``exists; give --force``); it now names a free file."""
+    (work / "eodarm-report.html").write_text(PREVIOUS)
+    code, _, err = cli(capsys, "diagnose", "meas.csv", "--arm", "arm.toml")
+    assert code == 0, err
+    said = " ".join(err.replace("\\\n", "").split())
+    assert "next: eodarm report meas.csv --arm arm.toml" in said
+    assert "-o eodarm-report-2.html" in said
+
+
+@pytest.mark.parametrize("c", COMMANDS, ids=IDS)
+def test_a_folder_is_never_replaced_by_a_file_even_with_force(
+    c: Command, work: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``-o data --force`` for ``-o data/meas.csv``: the output was renamed over the folder,
+    which was deleted with everything in it (a folder named as the output would be here)."""
+    folder = work / out_name(c)
+    (folder / "sub").mkdir(parents=True)
+    (folder / "notes.txt").write_text(PREVIOUS)
+    code, _, err = cli(capsys, *c.argv(folder.name), "--force")
+    line = one_line(code, err)
+    assert f"{c.flag} {folder.name}: is a folder; give the name of a file" in line
+    assert (folder / "notes.txt").read_text() == PREVIOUS and (folder / "sub").is_dir()
+
+
+def test_a_zarr_sweep_replaces_a_previous_result_not_a_users_folder(
+    work: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    sweep = ["sweep", "--arm", "arm.toml", "--alpha1", "80:90:2", "--alpha2", "10"]
+    sweep += ["--alpha3", "0", "--mass", "5", "-o", "out.zarr", "--force"]
+    (work / "out.zarr").mkdir()
+    (work / "out.zarr" / "notes.txt").write_text(PREVIOUS)
+    code, _, err = cli(capsys, *sweep)
+    assert "-o out.zarr: is a folder that holds files but no Zarr result" in one_line(code, err)
+    assert (work / "out.zarr" / "notes.txt").read_text() == PREVIOUS
+    (work / "out.zarr" / "notes.txt").unlink()  # an empty folder, then a previous result
+    for _ in range(2):
+        code, _, err = cli(capsys, *sweep)
+        assert code == 0, err
+        assert (work / "out.zarr" / "zarr.json").is_file()

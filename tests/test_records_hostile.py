@@ -194,6 +194,35 @@ def test_a_leading_unnamed_field_is_refused_not_taken_for_an_index(
     assert "leading unnamed field" in err
 
 
+@pytest.mark.parametrize(
+    ("header", "why"),
+    [
+        (lambda h: "," + h, "column 1 has no name (an index column, as pandas writes one?"),
+        (lambda h: h + ",", "column 10 has no name (a trailing comma?)"),
+        (lambda h: h.replace(",", ",,", 1), "column 2 has no name (two commas in a row?)"),
+    ],
+)
+def test_a_column_without_a_name_says_what_it_looks_like(
+    base: Path,
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+    header: Callable[[str], str],
+    why: str,
+) -> None:
+    """A record written by pandas with its index (``df.to_csv(path)``): the header starts
+    with an empty name and every line with the row number. It was called "a trailing
+    comma?"."""
+    c = spoil(base, tmp_path)
+    edit_lines(
+        tmp_path / "c1.csv",
+        lambda L: (
+            [header(L[0])] + [f"{i},{line}" if line else line for i, line in enumerate(L[1:])]
+        ),
+    )
+    err = refused(c, capsys)
+    assert f"c1.csv line 1: {why}" in err
+
+
 def test_a_stray_field_names_its_lines(
     base: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:

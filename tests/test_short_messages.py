@@ -94,6 +94,15 @@ def test_a_name_with_a_nul_byte_is_named(reader: str) -> None:
     assert msg.startswith("da\\x00ta.csv: ") and "NUL byte" in msg
 
 
+def test_an_unknown_data_set_is_named_printable_and_short() -> None:
+    """The data set's name was echoed raw: a NUL, an escape, 10 kB in the message."""
+    import eodarm.datasets
+
+    msg = refusal(lambda: eodarm.datasets.load("x\0\x1b[31m" + "y" * 10_000))
+    assert msg.startswith("unknown data set 'x\\x00\\x1b[31my") and msg.isprintable()
+    assert len(msg) < MAX_MESSAGE and "bundled: seed2022" in msg
+
+
 def test_a_long_file_name_is_shortened_in_the_middle() -> None:
     name = "/data/" + "campaign-" * 40 + "/meas.csv"
     shown = show_source(name)

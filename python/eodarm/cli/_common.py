@@ -5,7 +5,6 @@ measurements, number formatting, tables and figures.
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 from collections.abc import Callable, Sequence
 from pathlib import Path
@@ -26,6 +25,8 @@ if TYPE_CHECKING:
 #: The bundled data set whose arm every command uses when ``--arm`` is absent
 #: (docs/walkthrough.md, "Which arm").
 DEFAULT_DATASET = "seed2022"
+#: ``report``'s output when no ``-o`` is given.
+DEFAULT_REPORT = "eodarm-report.html"
 
 
 def _load_arm(path: str | None, measurements: str | None = None) -> Arm:
@@ -206,11 +207,14 @@ def _read(
     from eodarm.data.reader import read_measurements
     from eodarm.data.records import is_campaign
 
+    hint: str | None = None
     if is_campaign(path):
-        meas = _read_campaign_as_measurements(path, arm, record_figures)
+        # its masses_kg in grams? said in a note, and first in a refusal of its rows
+        meas, hint = _read_campaign_as_measurements(path, arm, record_figures)
     else:
         meas = read_measurements(path, arm.n)
-    check_states(arm, meas, self_weight=self_weight)
+    with _Hinted(hint):
+        check_states(arm, meas, self_weight=self_weight)
     for line in _noise_notes(meas):
         _note(line)
     return meas
@@ -482,18 +486,6 @@ def _carried(args: argparse.Namespace, command: str, given: Sequence[str] = ()) 
     return out
 
 
-def _free_name(name: str) -> str:
-    """``name``, or ``stem-2.ext``, ``stem-3.ext`` … (in the same folder) the first that does
-    not exist: an output the ``next:`` line proposes is never one that would be refused
-    (``--force``)."""
-    p = Path(name)
-    k = 2
-    while p.exists() or p.is_symlink():
-        p = p.with_name(f"{Path(name).stem}-{k}{Path(name).suffix}")
-        k += 1
-    return str(p)
-
-
 def file_part(label: str, taken: set[str] | None = None) -> str:
     """A label (a configuration's, say) as part of a file name: every character but
     letters, digits, ``.``, ``-`` and ``_`` becomes ``_`` (a ``/`` would name a folder, a
@@ -509,104 +501,6 @@ def file_part(label: str, taken: set[str] | None = None) -> str:
     if taken is not None:
         taken.add(name)
     return name
-
-
-def _force_arg(p: argparse.ArgumentParser, what: str) -> None:
-    """``--force``: overwrite ``what`` (refused without it; docs/terminal.md, "Nothing
-    overwritten without asking"). A command's own inputs are never overwritten."""
-    p.add_argument(
-        "--force", action="store_true", help=f"overwrite {what} (never one of the inputs)"
-    )
-
-
-# ----------------------------------------------------------------------------- outputs
-#: The options whose files a command reads, and how a refusal names them.
-_INPUT_ARGS = (
-    ("measurements", "the measurement file"),
-    ("campaign", "the campaign file"),
-    ("arm", "the --arm file"),
-    ("poses", "the --poses file"),
-    ("effects", "the --effects file"),
-    ("fixed", "the --fixed file"),
-)
-
-
-def _inputs(args: argparse.Namespace) -> list[tuple[str, str]]:
-    """``(path, what)`` of every file the command reads: its measurement or campaign file,
-    ``--arm``, ``--poses``, ``--effects`` and, for a campaign, the records it lists."""
-    import warnings
-
-    from eodarm.data.records import is_campaign, read_campaign
-
-    out: list[tuple[str, str]] = []
-    for attr, what in _INPUT_ARGS:
-        given = getattr(args, attr, None)
-        for path in given if isinstance(given, list) else [given] if given else []:
-            out.append((str(path), what))
-    for path, what in list(out):
-        if what in ("the measurement file", "the campaign file") and is_campaign(path):
-            try:
-                with warnings.catch_warnings():  # its notes are the reading's to give
-                    warnings.simplefilter("ignore")
-                    camp = read_campaign(path)
-            except EodarmError:
-                continue  # refused with its own line when it is read
-            out += [(str(r.file), f"a record of the campaign {path}") for r in camp.records]
-    return out
-
-
-def _same_file(a: str | Path, b: str | Path) -> bool:
-    """Whether two spellings name one file: a symlink, a hard link, ``./x``, relative and
-    absolute (``os.path.samefile``; by their resolved paths where one does not exist)."""
-    try:
-        return os.path.samefile(a, b)
-    except OSError:
-        return os.path.realpath(a) == os.path.realpath(b)
-
-
-def _claim(
-    args: argparse.Namespace, path: str | Path, flag: str, force: bool | None = None
-) -> None:
-    """The rule of every output (docs/terminal.md, "Nothing overwritten without asking"),
-    checked before any work: ``path`` is never one of the run's inputs, even with
-    ``--force``, and an existing ``path`` is replaced only with ``--force``. (The write
-    itself goes through :mod:`eodarm.atomic`: whole or not at all.) ``force`` overrides
-    ``args.force`` (a resumed sweep: the overwrite was asked for when it started).
-
-    Raises
-    ------
-    EodarmError
-        One line naming the path, and the input it is or the way out.
-    """
-    named = f"{flag} {path}" if flag else str(path)
-    for given, what in _inputs(args):
-        if _same_file(path, given):
-            same = "" if str(given) == str(path) else f" ({given})"
-            raise EodarmError(
-                f"{named}: is {what}{same}, an input of this run; choose another name "
-                "(--force never replaces an input)"
-            )
-    if force is None:
-        force = bool(getattr(args, "force", False))
-    if force or not (Path(path).exists() or Path(path).is_symlink()):
-        return
-    raise EodarmError(f"{named}: exists; give --force to overwrite it, or choose another name")
-
-
-def _claim_folder(args: argparse.Namespace, folder: str | Path, flag: str) -> None:
-    """An output folder: refused when it is a file, and when it holds any file unless
-    ``--force`` (they may be the user's edited copies); the files written into it are then
-    each checked by :func:`_claim` once their names are known."""
-    d = Path(folder)
-    named = f"{flag} {folder}" if flag else str(folder)
-    if d.exists() and not d.is_dir():
-        raise EodarmError(f"{named}: exists and is not a folder")
-    if getattr(args, "force", False) or not d.exists() or not any(d.iterdir()):
-        return
-    raise EodarmError(
-        f"{named}: the folder is not empty; give --force to overwrite the files written "
-        "into it, or choose an empty folder"
-    )
 
 
 def _arm_argv(args: argparse.Namespace, always: bool = False) -> list[str]:
@@ -742,22 +636,30 @@ def run_records(
     plot_dir: str | None = None,
     min_duration_s: float = 2.0,
     record_figures: list[str] | None = None,
-) -> tuple[list[Any], Any]:
+    arm: Arm | None = None,
+) -> tuple[list[Any], Any, str | None]:
     """Run the records of a campaign file (docs/records.md), one in memory at a time; draw
     each into ``plot_dir`` when given (the refused one too, before the refusal is raised),
     and as HTML into ``record_figures`` when given (the report's appendix).
 
-    Returns the records' results and ``write(out)``, which writes the measurement file to a
-    path or an open text file. Nothing is written when a record is refused.
+    Returns the records' results, ``write(out)``, which writes the measurement file to a
+    path or an open text file, and the line of
+    :func:`eodarm.data.plausible.campaign_payload_hint` (``masses_kg`` in grams? held against
+    ``arm``, or a plain range without it), already said in a note, or None. Nothing is
+    written when a record is refused.
     """
     import math
 
     from eodarm.analysis.records import analyse_campaign
+    from eodarm.data.plausible import campaign_payload_hint
     from eodarm.data.records import read_campaign, write_rows
 
     if not (math.isfinite(min_duration_s) and min_duration_s > 0):
         raise EodarmError(f"--min-duration must be > 0 s, got {min_duration_s}")
     camp = read_campaign(campaign)
+    hint = campaign_payload_hint(camp, arm)
+    if hint is not None:
+        _note(hint)
     drawn: list[str] = []
     parts: set[str] = set()  # the labels' parts of the figures' names
     draw = None
@@ -792,19 +694,20 @@ def run_records(
             "a record's reference carries a payload (masses_kg[0] > 0): its rows are relative "
             "to that loaded reference"
         )
-    return results, write
+    return results, write, hint
 
 
 def _read_campaign_as_measurements(
     path: str, arm: Arm, record_figures: list[str] | None = None
-) -> Measurements:
+) -> tuple[Measurements, str | None]:
     """A campaign file given where a measurement file goes: run ``eodarm records`` on it
-    (saying so on stderr) and read the rows it would write."""
+    (saying so on stderr) and read the rows it would write; with the campaign's payload
+    hint (:func:`run_records`)."""
     import io
 
     from eodarm.data.reader import read_measurements
 
-    results, write = run_records(path, record_figures=record_figures)
+    results, write, hint = run_records(path, record_figures=record_figures, arm=arm)
     buf = io.StringIO()
     write(buf)
     buf.seek(0)
@@ -815,7 +718,7 @@ def _read_campaign_as_measurements(
         f"{len(results)} records; docs/records.md)"
     )
     CAMPAIGN_RESULTS[:] = results
-    return read_measurements(buf, arm.n)
+    return read_measurements(buf, arm.n), hint
 
 
 #: The records of the last campaign read by :func:`_read` (for the report's appendix).

@@ -17,10 +17,8 @@ from eodarm.cli._common import (
     _arm_argv,
     _channel,
     _check_data,
-    _claim,
     _describe_data,
     _fmt,
-    _force_arg,
     _load_arm,
     _model,
     _model_keys,
@@ -38,6 +36,7 @@ from eodarm.cli._common import (
     check_kinds_of,
     data_command,
 )
+from eodarm.cli._outputs import _claim, _force_arg
 
 
 def _by(result: FitResult, key: str) -> dict[str, dict[str, float]]:

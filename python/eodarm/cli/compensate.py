@@ -24,10 +24,8 @@ from eodarm.analysis.compensate import compensate
 from eodarm.cli._common import (
     ARM_HELP,
     _arm_argv,
-    _claim,
     _effects_args,
     _floats,
-    _force_arg,
     _load_arm,
     _model_words,
     _next,
@@ -40,6 +38,7 @@ from eodarm.cli._common import (
     check_kinds_of,
 )
 from eodarm.cli._help import HELP
+from eodarm.cli._outputs import _claim, _force_arg
 from eodarm.errors import EodarmError
 from eodarm.model.arm import Arm
 from eodarm.model.effects import Effect, with_arm_effects
@@ -276,6 +275,13 @@ def run(args: argparse.Namespace) -> int:
     if memory:
         head += ["band mm"]
     head += ["status"]
+    from eodarm.text import channel_value
+
+    def mm(x: float, digits: int = 3) -> str:
+        """A length of the table (its unit in the header), by the one formatter: a practical
+        zero reads 0 or < 1e-6, never 2e−11 (docs/terminal.md)."""
+        return channel_value(float(x), "mm", digits).removesuffix(" mm")
+
     rows = []
     for i in range(alpha.shape[0]):
         ok = out["status"][i] == "ok"
@@ -287,13 +293,13 @@ def run(args: argparse.Namespace) -> int:
             "/".join("—" if math.isnan(x) else f"{x:.2f}" for x in out["length_mm"][i])
             if ok
             else "—",
-            "—" if math.isnan(miss[i]) else f"{miss[i]:.3f}",
-            "—" if math.isnan(out["residual_mm"][i]) else f"{out['residual_mm'][i]:.0e}",
+            mm(miss[i], 4),
+            mm(out["residual_mm"][i], 2),
         ]
         if predicted is not None:
-            row.append("—" if math.isnan(predicted[i]) else f"{predicted[i]:.2g}")
+            row.append(mm(predicted[i], 2))
         if memory:
-            row.append("—" if math.isnan(hysteresis[i]) else f"{hysteresis[i]:.3g}")
+            row.append(mm(hysteresis[i]))
         rows.append([*row, str(out["status"][i])])
     _print_table(head, [[c.replace("-", "−") for c in r] for r in rows])
     _say(

@@ -5,8 +5,9 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from eodarm.cli._common import _claim_folder, _force_arg, _note, _say
+from eodarm.cli._common import _note, _say
 from eodarm.cli._help import HELP
+from eodarm.cli._outputs import _claim_folder, _force_arg
 from eodarm.errors import EodarmError
 
 

@@ -15,12 +15,12 @@ from eodarm.model.effects import Effect
 if TYPE_CHECKING:
     from eodarm.data.measurements import Measurements
 from eodarm.cli._common import (
+    DEFAULT_REPORT,
     WIDTH,
     _arm_argv,
     _channel,
     _describe_data,
     _fmt,
-    _free_name,
     _load_arm,
     _model,
     _model_keys,
@@ -38,6 +38,7 @@ from eodarm.cli._common import (
     check_kinds_of,
     data_command,
 )
+from eodarm.cli._outputs import _free_name
 
 
 def run(args: argparse.Namespace) -> int:
@@ -109,7 +110,8 @@ def _say_next(args: argparse.Namespace, d: Any) -> None:
     elif d.verdict == "missing":
         _next("fit", *data, *adds, "--cv", "config", args=args)
     elif d.verdict == "unexplained":
-        _next("report", *data, *[a for s in d.model for a in ("--add", s.spec)], args=args)
+        report = ["-o", _free_name(DEFAULT_REPORT)]  # its default may exist: never refused
+        _next("report", *data, *[a for s in d.model for a in ("--add", s.spec)], *report, args=args)
     else:
         _next("sweep", *_arm_argv(args), "-o", _free_name("sweep.nc"), "--plot", "maps", args=args)
 

@@ -9,10 +9,7 @@ from typing import Any
 from eodarm.cli._common import (
     _arm_argv,
     _check_data,
-    _claim,
     _describe_data,
-    _force_arg,
-    _free_name,
     _load_arm,
     _model,
     _model_kw,
@@ -29,6 +26,7 @@ from eodarm.cli._common import (
     data_command,
 )
 from eodarm.cli._help import HELP
+from eodarm.cli._outputs import _claim, _force_arg, _free_name
 from eodarm.errors import EodarmError
 
 

@@ -11,11 +11,8 @@ from eodarm.analysis.plan.planner import DEFAULT_POOL
 from eodarm.cli._common import (
     ARM_HELP,
     _arm_argv,
-    _claim,
     _effects_args,
     _floats,
-    _force_arg,
-    _free_name,
     _load_arm,
     _next,
     _note,
@@ -25,6 +22,7 @@ from eodarm.cli._common import (
     _stages,
 )
 from eodarm.cli._help import HELP
+from eodarm.cli._outputs import _claim, _force_arg, _free_name
 from eodarm.errors import EodarmError
 
 if TYPE_CHECKING:

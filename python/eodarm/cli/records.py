@@ -7,8 +7,9 @@ import json
 import sys
 from typing import Any
 
-from eodarm.cli._common import _claim, _force_arg, _next, _note, run_records
+from eodarm.cli._common import _next, _note, run_records
 from eodarm.cli._help import HELP
+from eodarm.cli._outputs import _claim, _force_arg
 from eodarm.errors import EodarmError
 from eodarm.model.arm import Arm
 
@@ -79,11 +80,12 @@ def run(args: argparse.Namespace) -> int:
                 f"{args.campaign}: its records give {n} angles (alpha_deg), the arm "
                 f"{args.arm} has {arm.n} links: records of another arm?"
             )
-    results, write = run_records(
+    results, write, _ = run_records(  # its payload hint (grams?) is a note
         args.campaign,
         allow_drift=args.allow_drift,
         plot_dir=args.plot,
         min_duration_s=args.min_duration,
+        arm=arm,
     )
     rows = sum(len(r.rows) for r in results)
     if args.output:

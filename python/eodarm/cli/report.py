@@ -8,9 +8,8 @@ from pathlib import Path
 from typing import Any
 
 from eodarm.cli._common import (
-    _claim,
+    DEFAULT_REPORT,
     _effects_args,
-    _force_arg,
     _load_arm,
     _model,
     _model_args,
@@ -20,6 +19,7 @@ from eodarm.cli._common import (
     check_kinds_of,
 )
 from eodarm.cli._help import HELP
+from eodarm.cli._outputs import _claim, _force_arg
 from eodarm.model.effects import Effect
 
 
@@ -222,9 +222,9 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     r.add_argument(
         "-o",
         "--output",
-        default="eodarm-report.html",
+        default=DEFAULT_REPORT,
         metavar="FILE.html",
-        help="where to write the report (default: eodarm-report.html)",
+        help=f"where to write the report (default: {DEFAULT_REPORT})",
     )
     _force_arg(r, "an existing -o report")
     r.add_argument("--rounds", type=int, default=3, help="at most this many rounds (default 3)")

@@ -12,9 +12,7 @@ import numpy.typing as npt
 
 from eodarm.cli._common import (
     ARM_HELP,
-    _claim,
     _effects_args,
-    _force_arg,
     _load_arm,
     _note,
     _one_line,
@@ -24,6 +22,7 @@ from eodarm.cli._common import (
     check_kinds_of,
 )
 from eodarm.cli._help import HELP, NEGATIVE_VALUE
+from eodarm.cli._outputs import _claim, _force_arg
 from eodarm.errors import EodarmError
 from eodarm.workspace import store
 from eodarm.workspace.sweep import CHUNK_SIZE, REDUCE_OPS, sweep
@@ -299,7 +298,7 @@ def run(args: argparse.Namespace) -> int:
         raise EodarmError("--resume continues an interrupted Zarr sweep: give -o OUT.zarr")
     if out:  # a resumed overwrite was asked for when it started
         resumed = args.resume and store.partial_path(out).exists()
-        _claim(args, out, "-o", force=True if resumed else None)
+        _claim(args, out, "-o", force=True if resumed else None, folder=kind == "zarr")
     scheduler: Any = None
     client = None
     if args.scheduler:

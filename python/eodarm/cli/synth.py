@@ -15,11 +15,7 @@ from eodarm.analysis.synth import random_configs, synth
 from eodarm.cli._common import (
     ARM_HELP,
     _arm_argv,
-    _claim,
-    _claim_folder,
     _effects_args,
-    _force_arg,
-    _free_name,
     _load_arm,
     _next,
     _note,
@@ -29,6 +25,7 @@ from eodarm.cli._common import (
     check_kinds_of,
 )
 from eodarm.cli._help import HELP
+from eodarm.cli._outputs import _claim, _claim_folder, _force_arg, _free_name
 from eodarm.errors import EodarmError
 from eodarm.model.arm import Arm
 from eodarm.model.effects import Effect

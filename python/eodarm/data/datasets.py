@@ -22,7 +22,7 @@ import numpy.typing as npt
 from eodarm.atomic import atomic_files
 from eodarm.data.measurements import Measurements
 from eodarm.data.reader import read_measurements
-from eodarm.errors import EodarmError
+from eodarm.errors import EodarmError, show
 from eodarm.model.arm import Arm
 
 __all__ = [
@@ -64,7 +64,7 @@ def names() -> list[str]:
 
 def _root(name: str) -> Path:
     if name not in _DESCRIPTIONS:
-        raise EodarmError(f"unknown data set '{name}'; bundled: {', '.join(_DESCRIPTIONS)}")
+        raise EodarmError(f"unknown data set '{show(name)}'; bundled: {', '.join(_DESCRIPTIONS)}")
     return Path(str(resources.files("eodarm").joinpath("data", name)))
 
 

@@ -31,7 +31,14 @@ A state that closes but whose deflection is outside the model's validity
 (:mod:`eodarm.model.validity`: ``large_deflection``, ``branch_flip``) under a mass more than
 :data:`GRAMS_FACTOR` times the arm's own, while ``mass_kg / 1000`` would be inside it, gets a
 warning naming the lines: grams are likely, but a heavily loaded arm is possible, so it is not
-refused.
+refused. Where every state closes inside the validity (a stiff arm) and the heaviest mass is
+still over :data:`GRAMS_FACTOR` times the arm's own, its line gets :func:`payload_hint`'s
+warning, as ``--mass`` does: ``meas.csv line 4: mass_kg 6500 kg is over 10 times the arm's
+own 10.1 kg: is it grams? (6.5 kg); 23 other lines over 101 kg too``.
+
+A campaign file's ``masses_kg`` (:func:`campaign_payload_hint`) get :func:`payload_hint`'s
+line, naming the campaign, the record and the key; without the arm, a plain range
+(:data:`PLAIN_PAYLOAD_KG`).
 """
 
 from __future__ import annotations
@@ -46,12 +53,15 @@ import numpy.typing as npt
 
 from eodarm.data.channels import channel_values
 from eodarm.data.measurements import MAX_LISTED, MeasurementFileError, Measurements
-from eodarm.errors import listing, show_source
+from eodarm.data.records import Campaign
+from eodarm.errors import MESSAGE_ROOM, listing, show, show_source
 from eodarm.model.arm import Arm
 
 __all__ = [
     "GRAMS_FACTOR",
+    "PLAIN_PAYLOAD_KG",
     "RADIAN_CHI2_RATIO",
+    "campaign_payload_hint",
     "check_drive_channels",
     "check_states",
     "own_mass_kg",
@@ -66,6 +76,11 @@ RADIAN_CHI2_RATIO = 10.0
 #: fails where a thousandth of it would not is taken for grams: arms of this kind carry a
 #: fraction of their own weight (the seed's 10 kg arm, 6.5 kg), not tens of times it.
 GRAMS_FACTOR = 10.0
+
+#: Without the arm, a campaign's payload above this (kg) is named: ten times the own mass of
+#: the arms eodarm is made for (the seed's 10 kg, the example's 10.1 kg), the limit
+#: :func:`payload_hint` would set for them. A plain range: ``--arm`` gives the true scale.
+PLAIN_PAYLOAD_KG = 100.0
 
 _ROW = re.compile(r"pose row (\d+):\s*")
 
@@ -151,6 +166,53 @@ def payload_hint(mass_kg: float, arm: Arm) -> str | None:
     if mass_kg / 1000.0 <= limit:
         return f"{line}: is it grams? ({mass_kg / 1000.0:g} kg)"
     return f"{line}: check its unit (kg)"
+
+
+def campaign_payload_hint(campaign: Campaign, arm: Arm | None = None) -> str | None:
+    """One line when a campaign file's ``masses_kg`` look like grams, else None.
+
+    The heaviest payload of the campaign is held against the arm as :func:`payload_hint`
+    holds ``--mass`` (over :data:`GRAMS_FACTOR` times the arm's own mass; an arm file
+    without masses gives no hint). Without the arm only a plain range can be said: a payload
+    above :data:`PLAIN_PAYLOAD_KG` is named in the same words, and the line adds that
+    ``--arm`` checks it against the arm. The line names the campaign file, the record
+    (1-based, with its config label) and the key: ``campaign.toml: record 1 ('c1')
+    masses_kg[3] 6500 kg is over 10 times the arm's own 10.1 kg: is it grams? (6.5 kg)``,
+    and how many other records hold a payload over the limit. A warning, not a
+    refusal, as :func:`payload_hint`'s: the states an arm cannot take are refused on their
+    own (:func:`check_states`, when the campaign's rows are compared with the arm).
+    """
+    heaviest = max(  # the first of the heaviest
+        ((m, -i, -j) for i, s in enumerate(campaign.records) for j, m in enumerate(s.masses_kg)),
+        default=None,
+    )
+    if heaviest is None:
+        return None
+    mass, i, j = heaviest[0], -heaviest[1], -heaviest[2]
+    if arm is not None:
+        hint = payload_hint(mass, arm)
+        limit = GRAMS_FACTOR * own_mass_kg(arm)
+        ask = ""
+    elif mass > PLAIN_PAYLOAD_KG:
+        limit = PLAIN_PAYLOAD_KG
+        unit = "is it grams?" if mass / 1000.0 <= limit else "check its unit (kg)"
+        hint = f"{mass:g} kg is over {limit:g} kg, more than an arm of this kind carries: {unit}"
+        if mass / 1000.0 <= limit:
+            hint += f" ({mass / 1000.0:g} kg)"
+        ask = "; --arm ARM.toml checks it against the arm's own mass"
+    else:
+        return None
+    if hint is None:
+        return None
+    others = sum(1 for s in campaign.records if max(s.masses_kg) > limit) - 1
+    more = f"; {others} other record{'s' if others > 1 else ''} over {limit:.3g} kg too"
+    more = more if others > 0 else ""
+    spec = campaign.records[i]
+    return show(
+        f"{show_source(campaign.path, 80)}: record {i + 1} ('{show(spec.config)}') "
+        f"masses_kg[{j}] {hint}{more}{ask}",
+        MESSAGE_ROOM,
+    )
 
 
 def _outside(out: dict[str, Any] | None, failed: dict[int, str], rows: int) -> int:
@@ -243,10 +305,10 @@ def check_states(arm: Arm, meas: Measurements, self_weight: bool = True) -> None
     -----
     UserWarning
         Angles within ±2π that might be radians; masses whose states leave the model's
-        validity where ``mass_kg / 1000`` would not (grams?).
+        validity where ``mass_kg / 1000`` would not (grams?); else a heaviest mass over
+        :data:`GRAMS_FACTOR` times the arm's own (:func:`payload_hint`).
     """
     from eodarm.model.solver import forward, stroke_violations
-    from eodarm.model.validity import STATUS
 
     if meas.n != arm.n or meas.n_rows == 0:
         return
@@ -301,23 +363,48 @@ def check_states(arm: Arm, meas: Measurements, self_weight: bool = True) -> None
                 [f"line {int(lines[r])}: {bad[r]}" for r in order],
             )
         )
-    if out is None or "status" not in out:
+    if out is not None and "status" in out and _validity_grams(arm, meas, out, self_weight):
         return
+    heavy = int(np.argmax(mass))
+    too_heavy = payload_hint(float(mass[heavy]), arm)
+    if too_heavy is not None:  # every state closes, and the masses are still too heavy
+        limit = GRAMS_FACTOR * own_mass_kg(arm)
+        over = int((mass > limit).sum()) - 1
+        more = f"; {over} other line{'s' if over > 1 else ''} over {limit:.3g} kg too"
+        more = more if over > 0 else ""
+        warnings.warn(
+            f"{show_source(meas.source)} line {int(lines[heavy])}: mass_kg {too_heavy}{more}",
+            UserWarning,
+            stacklevel=2,
+        )
+
+
+def _validity_grams(arm: Arm, meas: Measurements, out: dict[str, Any], self_weight: bool) -> bool:
+    """Warn when states leave the model's validity under ``mass_kg`` where a thousandth of it
+    would not (are the masses in grams?); return whether it warned."""
+    from eodarm.model.validity import STATUS
+
+    alpha = np.asarray(meas.alpha_deg, dtype=float)
+    mass = np.asarray(meas.mass_kg, dtype=float)
     code = np.asarray(out["status"], dtype=np.int64)
     loaded_bad = np.isin(code, [STATUS.index(s) for s in ("branch_flip", "large_deflection")])
     suspects = np.flatnonzero(loaded_bad & (mass > GRAMS_FACTOR * own_mass_kg(arm)))
-    if suspects.size:
-        light, light_failed = _solve(arm, alpha[suspects], mass[suspects] / 1000, self_weight)
-        if light is not None and not light_failed:
-            ok = np.asarray(light["status"]) == 0
-            grams = suspects[ok]
-            if grams.size:
-                warnings.warn(
-                    f"{show_source(meas.source)}: under mass_kg the deflection leaves the "
-                    "model's validity on line(s) "
-                    f"{', '.join(str(int(lines[r])) for r in grams[:3])}"
-                    f"{' …' if grams.size > 3 else ''}"
-                    f" (e.g. {mass[grams[0]]:g} kg); are the masses in grams?",
-                    UserWarning,
-                    stacklevel=2,
-                )
+    if not suspects.size:
+        return False
+    light, light_failed = _solve(arm, alpha[suspects], mass[suspects] / 1000, self_weight)
+    if light is None or light_failed:
+        return False
+    grams = suspects[np.asarray(light["status"]) == 0]
+    if not grams.size:
+        return False
+    lines = np.asarray(meas.line)
+    warnings.warn(
+        f"{show_source(meas.source)}: under mass_kg the deflection leaves the "
+        "model's validity on line(s) "
+        f"{', '.join(str(int(lines[r])) for r in grams[:3])}"
+        f"{' …' if grams.size > 3 else ''}"
+        f" (e.g. {mass[grams[0]]:g} kg); are the masses in grams?",
+        UserWarning,
+        stacklevel=3,
+    )
+    return True

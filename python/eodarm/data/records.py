@@ -380,7 +380,14 @@ def read_record(path: str | Path, n: int) -> Record:
 def _check_header(name: str, header: list[str], n: int) -> list[str]:
     for k, h in enumerate(header, start=1):
         if not h:
-            raise RecordError(f"{name} line 1: column {k} has no name (a trailing comma?)")
+            why = (
+                "an index column, as pandas writes one? drop it (index=False) or name it"
+                if k == 1
+                else "a trailing comma?"
+                if k == len(header)
+                else "two commas in a row?"
+            )
+            raise RecordError(f"{name} line 1: column {k} has no name ({why})")
     if len(set(header)) != len(header):
         dup = next(h for h in header if header.count(h) > 1)
         raise RecordError(f"{name} line 1: column '{show(dup)}' appears twice")

@@ -23,6 +23,7 @@ from eodarm.model.kinematics import (
     Backend,
     _check_backend,
     _core_arm,
+    _lengths,
     _per_row,
     _poses,
     _poses_and_masses,
@@ -387,10 +388,13 @@ def angles_from_lengths(
     """Absolute angles (N, n), degrees, of the rigid arm with the given actuator lengths.
 
     Each actuator triangle is closed in closed form; of its two solutions the one on the side
-    of the reference pose ``alpha_ref_deg`` ((n,) or (N, n)) is taken.
+    of the reference pose ``alpha_ref_deg`` ((n,) or (N, n)) is taken. A joint turned by a
+    rotary drive has no length: its column is NaN (as :func:`forward` gives it), and the
+    joint keeps the reference pose's relative angle q_i = α_i − α_{i−1}; a number there is
+    an :class:`~eodarm.errors.InputError` naming the row and joint.
     """
     check_arm(arm, "angles_from_lengths")
-    length = _poses(length_mm, arm.n, "length_mm")
+    length = _lengths(arm, length_mm)
     ref = _poses(alpha_ref_deg, arm.n, "alpha_ref_deg")
     _check_backend(backend)
     if backend == "rust":

@@ -53,6 +53,7 @@ def return_map(
     ax = fig.add_subplot()
     cv.shade(ax, bad)
     back = v.size and float(v.max()) < RESOLUTION["µm"]
+    summary: str | None = None  # the range of the return errors, over the note
     if back:
         # a model without memory: every cell comes back; an all-zero map would look empty
         cv.draw(ax, x, y, v, v, cmap=ListedColormap(["#d9ead3"]), norm=Normalize(0.0, 1.0))
@@ -74,22 +75,23 @@ def return_map(
         mesh = cv.draw(ax, x, y, v, v, cmap="magma_r", norm=Normalize(0.0, hi))
         cb = fig.colorbar(mesh, ax=ax, shrink=0.9)
         cb.set_label("measure point off the reference after the cycle (µm)")
-        ax.text(
-            0.99,
-            0.06,
+        summary = (
             f"return error from {channel_value(float(v.min()), 'µm')} to "
             f"{channel_value(float(v.max()), 'µm')}, median "
-            f"{channel_value(float(np.median(v)), 'µm')}",
-            transform=ax.transAxes,
-            ha="right",
-            va="bottom",
-            fontsize=8,
-            bbox={"fc": "white", "ec": "none", "alpha": 0.8, "pad": 1.0},
+            f"{channel_value(float(np.median(v)), 'µm')}"
         )
     else:
         cv.frame(ax)
     cv.legend(ax)
-    cv.note(ax, sel, v.size, "largest return error", m, "the others' cycle cannot be solved")
+    cv.note(
+        ax,
+        sel,
+        v.size,
+        "largest return error",
+        m,
+        "the others' cycle cannot be solved",
+        above=summary,
+    )
     title = f"Where the arm does not come back: 0 → {m:g} kg → 0"
     fig.suptitle(_title(ds, title, m, width=7.0), fontsize=10)
     return finish(fig, path)

@@ -75,6 +75,9 @@ FloatArray = npt.NDArray[np.float64]
 
 #: Colour of the pixels whose poses are not ok (outside the model's validity).
 NOT_OK_GREY = "0.80"
+#: A note in a map's corner is wrapped to this many characters: at fontsize 7 it stays
+#: within the narrowest map (the capacity map's left panel), off the y tick labels.
+NOTE_CHARS = 64
 
 
 def _select_mass(ds: xr.Dataset, mass: float | None) -> tuple[xr.Dataset, float]:
@@ -285,10 +288,13 @@ class _Canvas:
         missing: str = "",
         ok: int | None = None,
         what: str = "ok",
+        above: str | None = None,
     ) -> None:
         """Say how many poses are ok (the same count on every map of a payload), how many
         are drawn when fewer (``missing`` says why) and what a pixel shows (in an axes, or
-        under a figure)."""
+        under a figure). In an axes the lines are wrapped to :data:`NOTE_CHARS` (within the
+        narrowest map's width, clear of the tick labels), and ``above`` (the map's range, at
+        fontsize 8) stands on top of them, however many lines they take."""
         total = int(np.prod([ds.sizes[d] for d in ds["reachable"].dims]))
         good = _ok_poses(ds) if ok is None else ok
         at = f" at {mass:g} kg" if mass is not None else ""
@@ -297,11 +303,13 @@ class _Canvas:
             f"{good:,} of {total:,} poses {what}{at}; each {self.width:.3g} mm "
             f"pixel shows its {worst} pose{drawn}"
         )
-        text = "\n".join(textwrap.fill(line, 100) for line in text.split("\n"))
         if isinstance(ax, Figure):
+            text = "\n".join(textwrap.fill(line, 100) for line in text.split("\n"))
             ax.supxlabel(text, fontsize=7, color="0.25")
             return
-        ax.text(
+        text = "\n".join(textwrap.fill(line, NOTE_CHARS) for line in text.split("\n"))
+        box = {"fc": "white", "ec": "none", "alpha": 0.8, "pad": 1.0}
+        note = ax.text(
             0.99,
             0.01,
             text,
@@ -310,8 +318,20 @@ class _Canvas:
             va="bottom",
             fontsize=7,
             color="0.25",
-            bbox={"fc": "white", "ec": "none", "alpha": 0.8, "pad": 1.0},
+            bbox=box,
         )
+        if above:
+            ax.annotate(
+                above,
+                xy=(1.0, 1.0),
+                xycoords=note,
+                xytext=(0, 3),
+                textcoords="offset points",
+                ha="right",
+                va="bottom",
+                fontsize=8,
+                bbox=box,
+            )
 
 
 def log_ticks(cb: Any, lo: float, hi: float, most: int = 5) -> None:
@@ -419,22 +439,16 @@ def sag_map(
             mesh = cv.draw(ax, x, y, dy, -dy, cmap="viridis", norm=Normalize(lo, hi))
             cb = fig.colorbar(mesh, ax=ax, shrink=0.9, extend=extend)
             cb.set_label("dy of the measure point (mm, negative = down)")
-        ax.text(
-            0.99,
-            0.06,
+        summary = (
             f"dy from {value(float(dy.min()), 'mm', 3)} to {value(float(dy.max()), 'mm', 3)}, "
             f"median {value(float(np.median(dy)), 'mm', 3)}"
-            + ("\ncolours span 2–98 % of the poses; arrows: beyond" if clipped else ""),
-            transform=ax.transAxes,
-            ha="right",
-            va="bottom",
-            fontsize=8,
-            bbox={"fc": "white", "ec": "none", "alpha": 0.8, "pad": 1.0},
+            + ("\ncolours span 2–98 % of the poses; arrows: beyond" if clipped else "")
         )
     else:
         cv.frame(ax)
+        summary = None
     cv.legend(ax)
-    cv.note(ax, sel, dy.size, "most sagging", m, "the others' dy is not finite")
+    cv.note(ax, sel, dy.size, "most sagging", m, "the others' dy is not finite", above=summary)
     fig.suptitle(_title(ds, "Sag of the measure point", m, width=7.0), fontsize=10)
     return finish(fig, path)
 

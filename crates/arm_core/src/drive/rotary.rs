@@ -9,12 +9,13 @@ use std::f64::consts::PI;
 use crate::error::{ArmError, Result};
 use crate::geometry::wrap_pi;
 
-/// How far (rad) a drive's angle may pass its limit and still be within its range: 10⁻⁹°.
-/// An angle computed on its limit (a pose put there, no load) lands within ~10⁻¹³° of it by
-/// rounding, on either side; the numpy reference (`eodarm.model.validity.ANGLE_TOL_DEG`)
-/// allows the same, so that both give such a pose the same status. Far below any angle a
-/// drive or an encoder resolves.
-pub const ANGLE_TOL_RAD: f64 = 1e-9 * PI / 180.0;
+/// How far (rad) a drive's angle may pass its limit and still be within its range: 10⁻⁹°
+/// (`1e-9_f64.to_radians()`, written so that the numpy reference's `np.radians(1e-9)` is
+/// the same number). A loaded angle computed on its limit lands within rounding of it, on
+/// either side; the numpy reference (`eodarm.model.validity.out_of_angle`) checks with the
+/// same numbers in the same order, so that both give such a pose the same status. Far below
+/// any angle a drive or an encoder resolves.
+pub const ANGLE_TOL_RAD: f64 = 1e-9 * (PI / 180.0);
 
 /// One rotary drive at joint O_i.
 #[derive(Debug, Clone, PartialEq)]
