@@ -117,6 +117,19 @@ def test_a_drive_outside_its_angle_range_is_out_of_stroke_unloaded_or_loaded() -
     assert status_of(arm, [[10.0, -165.0, -165.0]], 1.0) == ["out_of_stroke"]
 
 
+@pytest.mark.parametrize("backend", ["rust", "numpy"])
+def test_a_drive_on_its_limit_is_in_range_and_just_past_it_is_out(backend: str) -> None:
+    """A range closed to one angle, q2 ∈ [14°, 14°], with q2 = 100.45° − 86.45° (14° to
+    rounding, ~1e-14° either side): inside, unloaded and with no load to turn it, on both
+    backends (ANGLE_TOL_DEG = 1e-9°); 1e-6° past the limit, out."""
+    arm = with_drive(ROTARY, 1, min_angle_deg=14.0, max_angle_deg=14.0)
+    on = [[86.44997272, 100.44997272, 100.44997272]]
+    past = [[86.44997272, 100.44997372, 100.44997372]]
+    out = eodarm.solve(arm, on + past, 0.0, backend=backend, self_weight=False)
+    assert not np.asarray(out["dalpha_deg"]).any()  # no load: nothing turns
+    assert [STATUS[c] for c in out["status"]] == ["ok", "out_of_stroke"]
+
+
 def test_a_drive_has_no_moment_arm_to_be_near_singular() -> None:
     """The mixed example's drive at any angle is fine; its linear joints are judged as
     before (actuator 2's line brought through O2 is near singular; strokes unlimited)."""

@@ -46,9 +46,22 @@ class CoreArm:
         min_length: npt.NDArray[np.float64],
         max_length: npt.NDArray[np.float64],
         max_force: npt.NDArray[np.float64],
-    ) -> CoreArm: ...
+        *,
+        kind: npt.NDArray[np.float64] | None = None,
+        max_torque: npt.NDArray[np.float64] | None = None,
+        min_angle_deg: npt.NDArray[np.float64] | None = None,
+        max_angle_deg: npt.NDArray[np.float64] | None = None,
+    ) -> CoreArm:
+        """Each joint's ``kind``: 0 linear actuator (the default), 1 rotary drive, whose
+        ``stiffness`` is in N·mm/rad and limits ``max_torque`` (N·mm), ``min_angle_deg``,
+        ``max_angle_deg`` (NaN where absent); the pins a drive does not use are ignored."""
+        ...
     @property
     def n(self) -> int: ...
+    @property
+    def kinds(self) -> list[str]:
+        """Each joint's ``"linear"`` or ``"rotary"``."""
+        ...
 
 def solve(
     arm: CoreArm,
@@ -65,9 +78,17 @@ def solve(
     extra_joint_mm: npt.NDArray[np.float64] | None = None,
     extra_tilt_rad: npt.NDArray[np.float64] | None = None,
     extra_measure_mm: npt.NDArray[np.float64] | None = None,
+    extra_turn_rad: npt.NDArray[np.float64] | None = None,
     # a dict of arrays; typed Any so that callers may pass the extras as **kwargs
     out: Any = None,
-) -> dict[str, npt.NDArray[Any]]: ...
+) -> dict[str, npt.NDArray[Any]]:
+    """``force_n``, ``dforce_n``, ``torque_nmm``, ``dtorque_nmm``, ``dalpha_deg``, ``dl_mm``,
+    ``dlength_mm``, ``length_mm`` (N, n), ``reaction_n`` (N, n, 2), ``dx_mm``, ``dy_mm`` (N,),
+    ``status`` (N,) uint8; NaN at the joints of the other kind (forces and lengths at a drive,
+    torques at a linear actuator). ``extra_turn_rad`` (N, n): turn of link i against body
+    i−1 at a rotary drive (zero at linear actuators)."""
+    ...
+
 def solve_sequence(
     arm: CoreArm,
     alpha_deg: npt.NDArray[np.float64],
@@ -103,7 +124,12 @@ def statics(
     alpha_deg: npt.NDArray[np.float64],
     payload_n: npt.NDArray[np.float64],
     self_weight: bool,
-) -> dict[str, npt.NDArray[np.float64]]: ...
+) -> dict[str, npt.NDArray[np.float64]]:
+    """``force_n``, ``force0_n``, ``torque_nmm``, ``torque0_nmm``, ``length_mm`` (N, n),
+    ``reaction_n``, ``reaction0_n`` (N, n, 2): both states on the undeformed geometry; NaN at
+    the joints of the other kind."""
+    ...
+
 def sweep(
     arm: CoreArm,
     alpha_deg: npt.NDArray[np.float64] | None,
@@ -136,9 +162,11 @@ def fem_solve(
     moment_samples: int = 101,
     nan_on_failure: bool = False,
 ) -> dict[str, Any]: ...
-def forward(
-    arm: CoreArm, alpha_deg: npt.NDArray[np.float64]
-) -> dict[str, npt.NDArray[np.float64]]: ...
+def forward(arm: CoreArm, alpha_deg: npt.NDArray[np.float64]) -> dict[str, npt.NDArray[np.float64]]:
+    """``O`` (N, n+1, 2), ``A``, ``B``, ``C`` (N, n, 2), ``measure`` (N, 2), ``length_mm``
+    (N, n); ``A``, ``B`` and ``length_mm`` NaN at a rotary drive's joint."""
+    ...
+
 def angles_from_lengths(
     arm: CoreArm,
     length_mm: npt.NDArray[np.float64],

@@ -23,6 +23,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 use crate::arm::{Arm, Drive};
+use crate::drive::rotary::ANGLE_TOL_RAD;
 use crate::geometry::{cross, V2};
 use crate::lanes::Lane;
 
@@ -245,8 +246,8 @@ pub fn out_of_stroke(arm: &Arm, length_mm: &[f64]) -> bool {
 /// Some rotary drive's angle outside its `[min_angle, max_angle]` in the pose `alpha` (rad):
 /// its relative angle `q_i = α_i − α_{i−1}` (α_0 = 0) unloaded, or loaded with the turns
 /// `dalpha` (rad) of the links when given, `q_i + Δα_i − Δα_{i−1}` (**Reading**: the rigid arm
-/// put at the loaded angles, as for `branch_flip`). [`crate::drive::RotaryDrive::angle_of`]
-/// picks the turn of the drive's angle.
+/// put at the loaded angles, as for `branch_flip`), when that turn exceeds [`ANGLE_TOL_RAD`].
+/// [`crate::drive::RotaryDrive::angle_of`] picks the turn of the drive's angle.
 pub fn out_of_angle(arm: &Arm, alpha: &[f64], dalpha: Option<&[f64]>) -> bool {
     let before = |v: &[f64], i: usize| if i == 0 { 0.0 } else { v[i - 1] };
     arm.drives.iter().enumerate().any(|(i, d)| match d {
@@ -254,8 +255,11 @@ pub fn out_of_angle(arm: &Arm, alpha: &[f64], dalpha: Option<&[f64]>) -> bool {
         Drive::Rotary(r) => {
             let q = r.angle_of(alpha[i] - before(alpha, i));
             let dq = dalpha.map_or(f64::NAN, |t| t[i] - before(t, i));
-            // A NaN turn (none given, a pose that failed) leaves the loaded angle unknown.
-            r.out_of_range(q) || (dq.is_finite() && r.out_of_range(q + dq))
+            // A NaN turn (none given, a pose that failed) leaves the loaded angle unknown; a
+            // turn within the tolerance is none (the sign of a turn of 1e-60 rad under a
+            // payload of 1e-55 N is rounding's, and must not move a pose on its limit out).
+            r.out_of_range(q)
+                || (dq.is_finite() && dq.abs() > ANGLE_TOL_RAD && r.out_of_range(q + dq))
         }
     })
 }

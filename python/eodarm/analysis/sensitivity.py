@@ -41,6 +41,7 @@ import numpy as np
 import numpy.typing as npt
 
 from eodarm.model import custom
+from eodarm.model.catalogue import OWN_SPRINGS
 from eodarm.model.effects import Slot, param_from_theta
 from eodarm.model.steps import typical_theta
 
@@ -56,7 +57,7 @@ Model = Sequence[tuple[Slot, float]]
 FD_STEP = 1e-4
 #: Deformations kept per evaluator (values of user effects asked again).
 _CACHE_SIZE = 256
-#: A stiffness standing for a rigid actuator body (θ = 0 of ``actuator_compliance``).
+#: A stiffness standing for a rigid actuator body or gear (θ = 0 of an ``OWN_SPRINGS`` effect).
 _RIGID = 1e300
 
 
@@ -145,7 +146,7 @@ class CustomEvaluator:
         for s, t in builtin:
             value = param_from_theta(s.name, float(t))
             if math.isinf(value):
-                if s.name != "actuator_compliance":
+                if s.name not in OWN_SPRINGS:
                     continue  # θ = 0 of a spring: the effect is absent
                 value = _RIGID
             codes.append(s.code)

@@ -39,6 +39,7 @@ import numpy.typing as npt
 
 from eodarm.analysis import sensitivity
 from eodarm.errors import EodarmError
+from eodarm.model.catalogue import OWN_SPRINGS
 from eodarm.model.effects import Effect, Slot, param_from_theta
 
 if TYPE_CHECKING:
@@ -65,7 +66,7 @@ FRICTION_STEP = 0.05
 #: A typical limit, the scale of a step from L = 0: 1 N of actuator friction, and
 #: 100 N·mm of joint friction (1 N on a 100 mm moment arm).
 _TYPICAL = {"actuator_friction": 1.0, "joint_friction": 100.0}
-#: A stiffness standing for a rigid actuator body (θ = 0 of ``actuator_compliance``).
+#: A stiffness standing for a rigid actuator body or gear (θ = 0 of an ``OWN_SPRINGS`` effect).
 _RIGID = 1e300
 
 
@@ -110,12 +111,12 @@ def layout(
 
 def effects_of(model: Model) -> list[Effect]:
     """The effects of a model given by θ values (θ = 0 of a spring: absent; of the actuator's
-    own body: rigid)."""
+    own body or the drive's own gear: rigid)."""
     out = []
     for s, t in model:
         value = param_from_theta(s.name, float(t))
         if math.isinf(value):
-            if s.name != "actuator_compliance":
+            if s.name not in OWN_SPRINGS:
                 continue
             value = _RIGID
         if value == 0.0 and s.name in FRICTIONS:

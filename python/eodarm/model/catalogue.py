@@ -19,6 +19,7 @@ __all__ = [
     "APPLIES_THERE",
     "CATALOGUE",
     "ENTRY_POINT_GROUP",
+    "OWN_SPRINGS",
     "THETA_MAX",
     "CustomKind",
     "EffectKind",
@@ -112,6 +113,11 @@ APPLIES_THERE = {
     "drive_backlash": "actuator_play",
     "drive_friction": "actuator_friction",
 }
+
+#: The effects that replace a drive's own spring (the arm file's stiffness of an actuator's
+#: body or a rotary drive's gear): at θ = 0 the body or gear is rigid, whereas θ = 0 of any
+#: other spring is the effect absent.
+OWN_SPRINGS = frozenset({"actuator_compliance", "drive_compliance"})
 
 #: Upper bound of the fitted θ of the gaps (mm; degrees for a drive's backlash).
 THETA_MAX = {"actuator_play": 5.0, "joint_clearance": 5.0, "drive_backlash": 5.0}

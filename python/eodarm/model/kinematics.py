@@ -51,20 +51,39 @@ def stroke_violations(arm: Arm, length_mm: npt.ArrayLike) -> npt.NDArray[np.int8
     ``max_length_mm``, 0 within the stroke (or no limit set, or a rotary drive: its length,
     NaN, is not checked)."""
     check_arm(arm, "stroke_violations")
-    rot = np.array(arm.kinds) == "rotary"
-    given: npt.ArrayLike = length_mm
-    if rot.any():
-        try:
-            raw = np.asarray(real_array(length_mm, "length_mm"), dtype=float)
-        except (TypeError, ValueError, OverflowError):
-            raw = np.zeros(0)  # _poses names what is wrong
-        if raw.ndim >= 1 and raw.shape[-1] == arm.n:
-            given = np.where(rot, 0.0, raw)  # a drive has no length: its NaN is no bad value
-    length = _poses(given, arm.n, "length_mm")
+    length = _lengths(arm, length_mm, strict=False)
     acts = [a if isinstance(a, Actuator) else Actuator(1.0, 0.0) for a in arm.actuators]
     lo = np.array([a.min_length_mm if a.min_length_mm is not None else -np.inf for a in acts])
     hi = np.array([a.max_length_mm if a.max_length_mm is not None else np.inf for a in acts])
     return (np.where(length < lo, -1, 0) + np.where(length > hi, 1, 0)).astype(np.int8)
+
+
+def _lengths(arm: Arm, values: npt.ArrayLike, strict: bool = True) -> npt.NDArray[np.float64]:
+    """Pin-to-pin lengths (N, n) as :func:`_poses` checks them, NaN at the joints turned by
+    rotary drives (a drive has no length: its NaN is no bad value). ``strict``: a number
+    given at a drive is an InputError naming the row and joint (else it is ignored)."""
+    rot = np.array(arm.kinds) == "rotary"
+    if not rot.any():
+        return _poses(values, arm.n, "length_mm")
+    raw = _floats(values, "length_mm", "an array of finite numbers")
+    if raw.ndim == 1 and raw.shape[0] == arm.n:
+        raw = raw[None, :]
+    if raw.ndim == 2 and raw.shape[1] == arm.n and strict:
+        given = ~np.isnan(raw[:, rot])
+        if given.any():
+            row, k = (int(v) for v in np.argwhere(given)[0])
+            i = int(np.flatnonzero(rot)[k])
+            raise InputError(
+                f"pose row {row}: length_mm of joint {i + 1} must be NaN: a rotary drive "
+                f"turns it, which has no length (it keeps the reference pose's angle), "
+                f"got {raw[row, i]:g}"
+            )
+    # the drives' columns checked as zeros, then NaN again
+    if raw.ndim == 2 and raw.shape[1] == arm.n:
+        raw = np.where(rot, 0.0, raw)
+    length = _poses(raw, arm.n, "length_mm")
+    length[:, rot] = np.nan
+    return length
 
 
 def _check_backend(backend: str) -> None:

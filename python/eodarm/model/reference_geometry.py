@@ -194,14 +194,16 @@ def angles_from_lengths(arm: Arm, length_mm: ArrayLike, alpha_ref_deg: ArrayLike
     """Link angles of the rigid arm from its actuators' pin-to-pin lengths (model §6).
 
     Each triangle (O_i, B_{i−1}, A_i) is closed link by link from the base, choosing the
-    branch of the reference pose; each angle is returned within 180° of the reference.
+    branch of the reference pose; each angle is returned within 180° of the reference. A
+    joint turned by a rotary drive has no length (its column is NaN): it keeps the reference
+    pose's relative angle, α_i = α_i,ref + (α_{i−1} − α_{i−1,ref}) (docs/model.md §10).
 
     Parameters
     ----------
     arm : Arm
         The arm.
     length_mm : array_like, shape (N, n)
-        Pin-to-pin actuator lengths |A_i − B_{i−1}|, mm (> 0).
+        Pin-to-pin actuator lengths |A_i − B_{i−1}|, mm (> 0); NaN at a rotary drive.
     alpha_ref_deg : array_like, shape (N, n) or (n,)
         Reference pose(s), degrees, that fix the branch of every triangle.
 
@@ -213,19 +215,26 @@ def angles_from_lengths(arm: Arm, length_mm: ArrayLike, alpha_ref_deg: ArrayLike
     Raises
     ------
     InputError
-        Wrong shape, non-finite or non-positive lengths, or a triangle that cannot close (row
-        and actuator named).
+        Wrong shape, non-finite or non-positive lengths at a linear actuator, a number at a
+        rotary drive, or a triangle that cannot close (row and joint named).
     """
     n = arm.n
-    if "rotary" in arm.kinds:
-        raise InputError(
-            f"angles_from_lengths: joint {arm.kinds.index('rotary') + 1} is turned by a rotary "
-            "drive, which has no length: give the angles of such an arm directly"
-        )
     arr = arm.arrays()
-    ell = _as_poses(length_mm, n, "length_mm")
+    rot = arr["kind"] == 1.0
+    ell = _as_float(length_mm, "length_mm")
+    if ell.ndim != 2 or ell.shape[1] != n:
+        raise InputError(f"length_mm must have shape (N, {n}), got {ell.shape}")
     n_rows = ell.shape[0]
-    nonpos = ell <= 0.0
+    given = ~np.isnan(ell[:, rot])
+    if given.any():
+        row, k = _first_row(given)
+        i = int(np.flatnonzero(rot)[k])
+        raise InputError(
+            f"pose row {row}: length_mm of joint {i + 1} must be NaN: a rotary drive turns "
+            f"it, which has no length (it keeps the reference pose's angle), got {ell[row, i]}"
+        )
+    _check_finite(ell[:, ~rot], "length_mm")
+    nonpos = (ell <= 0.0) & ~rot
     if nonpos.any():
         row, i = _first_row(nonpos)
         raise InputError(f"pose row {row}: length_mm of actuator {i + 1} must be > 0")
@@ -244,15 +253,20 @@ def angles_from_lengths(arm: Arm, length_mm: ArrayLike, alpha_ref_deg: ArrayLike
     o = np.broadcast_to(arr["O1"], (n_rows, 2))
     b = np.broadcast_to(arr["B0"], (n_rows, 2))
     for i in range(n):
-        rho = np.full(n_rows, np.hypot(*arr["A"][i]))
-        a_new, ok = _circle_intersection(o, rho, b, ell[:, i], side[:, i])
-        if not ok.all():
-            row = _first_row(~ok)[0]
-            raise InputError(
-                f"pose row {row}: actuator {i + 1} cannot close its triangle with the given length"
-            )
-        turn = _angle(a_new - o) - _angle(arr["A"][i]) - ref_rad[:, i]
-        alpha[:, i] = ref_rad[:, i] + _wrap(turn)
+        if rot[i]:
+            before = alpha[:, i - 1] - ref_rad[:, i - 1] if i else 0.0
+            alpha[:, i] = ref_rad[:, i] + before
+        else:
+            rho = np.full(n_rows, np.hypot(*arr["A"][i]))
+            a_new, ok = _circle_intersection(o, rho, b, ell[:, i], side[:, i])
+            if not ok.all():
+                row = _first_row(~ok)[0]
+                raise InputError(
+                    f"pose row {row}: actuator {i + 1} cannot close its triangle with the "
+                    "given length"
+                )
+            turn = _angle(a_new - o) - _angle(arr["A"][i]) - ref_rad[:, i]
+            alpha[:, i] = ref_rad[:, i] + _wrap(turn)
         if i + 1 < n:
             b = o + _rotate(alpha[:, i], arr["B"][i])
             o = o + _rotate(alpha[:, i], arr["next"][i])

@@ -83,6 +83,13 @@ def available_memory() -> int | None:
     return avail
 
 
+def solve_output_bytes(rows: int, n: int) -> int:
+    """Bytes that ``rows`` solved states of an n-link arm take, as much again counted for the
+    inputs' copies and the checks on the way: 8 (rows, n) float64 outputs (forces, torques,
+    their changes, angles, lengths), the (rows, n, 2) reactions, dx, dy and the status."""
+    return 2 * rows * (8 * (10 * n + 2) + 1)
+
+
 def check_output_memory(nbytes: int, what: str) -> None:
     """Refuse an output of ``nbytes`` that cannot fit in the memory available now.
 

@@ -25,7 +25,7 @@ from eodarm.model.kinematics import (
     _poses,
     _refuse_unloaded_singular,
 )
-from eodarm.model.resources import check_output_memory
+from eodarm.model.resources import check_output_memory, solve_output_bytes
 from eodarm.model.validity import checks_load_rise, status
 
 __all__ = ["cycle_returns", "solve_sequence"]
@@ -49,7 +49,9 @@ def solve_sequence(
     were zeroed; every state is relative to it, not to "this state unloaded". The friction
     elements (``actuator_friction``, ``joint_friction``) hold what the states before let them
     hold, and the gaps (``actuator_play``, ``joint_clearance``) are taken up along each
-    state's actual force (docs/model.md, "Load sequences and friction"). :func:`solve` is
+    state's actual force (docs/model.md, "Load sequences and friction"); at a rotary drive
+    ``drive_friction`` and ``joint_friction`` hold torques and ``drive_backlash`` is taken up
+    along the drive's actual torque (docs/model.md §10). :func:`solve` is
     the case S = 1.
 
     Parameters
@@ -85,11 +87,13 @@ def solve_sequence(
     Returns
     -------
     dict of arrays, the keys of :func:`solve` with a state axis: ``force_n`` (N, S, n) actual
-    actuator forces (compression +, N), ``dx_mm``, ``dy_mm`` (N, S) measure-point
+    actuator forces (compression +, N), ``torque_nmm`` (N, S, n) actual drive torques (on
+    link i about O_i, counter-clockwise +, N·mm), ``dx_mm``, ``dy_mm`` (N, S) measure-point
     displacement from the reference (mm), ``dalpha_deg`` (N, S, n), ``dl_mm`` (N, S, n) body
     length change as the actuator's sensor sees it (mm), ``status`` (N, S) uint8 (docs/model.md
-    §7), and from the compiled core also ``reaction_n`` (N, S, n, 2), ``dforce_n``,
-    ``dlength_mm``, ``length_mm`` (N, S, n).
+    §7), ``reaction_n`` (N, S, n, 2), ``dforce_n``, ``dtorque_nmm``, ``dlength_mm``,
+    ``length_mm`` (N, S, n). The forces and lengths are NaN at a joint turned by a rotary
+    drive, the torques at one turned by a linear actuator (docs/model.md §10).
 
     Raises
     ------
@@ -118,7 +122,7 @@ def solve_sequence(
         alpha = np.ascontiguousarray(np.broadcast_to(alpha, (rows, arm.n)))
     mass = _sequence_masses(mass_kg, rows)
     check_output_memory(
-        2 * mass.size * (8 * (8 * arm.n + 2) + 1), f"solve_sequence of {mass.size:,} states"
+        solve_output_bytes(mass.size, arm.n), f"solve_sequence of {mass.size:,} states"
     )
     effs = with_arm_effects(arm.effects, effects)
     if uncertainty:
@@ -281,7 +285,7 @@ def _check_sequence_memory(alpha_deg: npt.ArrayLike, mass_kg: npt.ArrayLike, n: 
         return
     rows = max(m[0] if len(m) == 2 else 1, a[0] if a is not None and len(a) == 2 else 1)
     states = int(rows) * int(m[-1])
-    check_output_memory(2 * states * (8 * (8 * n + 2) + 1), f"solve_sequence of {states:,} states")
+    check_output_memory(solve_output_bytes(states, n), f"solve_sequence of {states:,} states")
 
 
 def _sequence_masses(mass_kg: npt.ArrayLike, rows: int) -> npt.NDArray[np.float64]:

@@ -23,6 +23,7 @@ from eodarm.model.kinematics import (
     Backend,
     _check_backend,
     _core_arm,
+    _lengths,
     _per_row,
     _poses,
     _poses_and_masses,
@@ -30,7 +31,7 @@ from eodarm.model.kinematics import (
     forward,
     stroke_violations,
 )
-from eodarm.model.resources import check_output_memory
+from eodarm.model.resources import check_output_memory, solve_output_bytes
 from eodarm.model.sequence import cycle_returns, solve_sequence
 from eodarm.model.validity import checks_load_rise, quiet_rows, status
 
@@ -86,7 +87,11 @@ def solve(
         actuator's sensor sees, ``extra_unseen_mm`` (N, n) one it does not see,
         ``extra_joint_mm`` (N, n, 2) offset of link i's pin centre at O_i, ``extra_tilt_rad``
         (N,) chassis tilt about the base pivot, ``extra_measure_mm`` (N, 2) displacement of
-        the measure point. Analytic model only (so are user-written effects).
+        the measure point, ``extra_turn_rad`` (N, n) turn of link i against body i−1 at a
+        rotary drive (counter-clockwise +). The lengths are for linear actuators, the turn
+        for drives: a nonzero value at a joint of the other kind is an
+        :class:`~eodarm.errors.InputError` naming the row and joint. Analytic model only (so
+        are user-written effects).
     uncertainty : also return ``sigma_dx_mm``, ``sigma_dy_mm`` (N,) and ``sigma_dalpha_deg``
         (N, n), the total standard deviations of those outputs (mm, deg), and their two parts
         ``sigma_param_*`` (the arm's fitted parameters' covariance, by linear propagation
@@ -111,11 +116,16 @@ def solve(
     -------
     dict of arrays: ``force_n`` (N, n) loaded actuator forces (compression +, N);
     ``reaction_n`` (N, n, 2) loaded joint reactions (force of body i−1 on link i, N);
-    ``dforce_n`` (N, n) force change; ``dx_mm``, ``dy_mm`` (N,) measure-point displacement;
-    ``dalpha_deg`` (N, n) change of absolute link angles; ``dl_mm`` (N, n) actuator body length
+    ``dforce_n`` (N, n) force change; ``torque_nmm``, ``dtorque_nmm`` (N, n) loaded drive
+    torque on link i about O_i (counter-clockwise +, N·mm) and its change; ``dx_mm``,
+    ``dy_mm`` (N,) measure-point displacement; ``dalpha_deg`` (N, n) change of absolute link
+    angles (of a drive's link: its flange frame); ``dl_mm`` (N, n) actuator body length
     change as its sensor sees it; ``dlength_mm`` (N, n) pin-to-pin change; ``length_mm`` (N, n)
-    unloaded pin-to-pin length; ``status`` (N,) uint8, where the small-deflection model can be
-    trusted (0 ok; :data:`eodarm.model.validity.STATUS` names the others). With
+    unloaded pin-to-pin length. At a joint turned by a rotary drive ``force_n``,
+    ``dforce_n``, ``dl_mm``, ``dlength_mm`` and ``length_mm`` are NaN; at a joint turned by a
+    linear actuator ``torque_nmm`` and ``dtorque_nmm`` are (docs/model.md §10). ``status``
+    (N,) uint8, where the small-deflection model can be trusted (0 ok;
+    :data:`eodarm.model.validity.STATUS` names the others). With
     ``model="fem"`` also ``pin_force_n`` (N, 2n, 2), the loaded forces on the links at their
     joints O_i then at their actuator pins A_i;
     ``moment_nmm``, ``dmoment_nmm`` (N, n, K) loaded bending moment along each link and its
@@ -292,6 +302,7 @@ def _solve_payload(
             extra_joint_mm=extras.get("extra_joint_mm"),
             extra_tilt_rad=extras.get("extra_tilt_rad"),
             extra_measure_mm=extras.get("extra_measure_mm"),
+            extra_turn_rad=extras.get("extra_turn_rad"),
             out=out,
         )
     else:
@@ -322,6 +333,18 @@ def _solve_payload(
     return res
 
 
+#: The keys :func:`statics` returns, on either backend.
+STATICS_KEYS = (
+    "force_n",
+    "force0_n",
+    "torque_nmm",
+    "torque0_nmm",
+    "reaction_n",
+    "reaction0_n",
+    "length_mm",
+)
+
+
 def statics(
     arm: Arm,
     alpha_deg: npt.ArrayLike,
@@ -329,14 +352,18 @@ def statics(
     backend: Backend = "rust",
     self_weight: bool = True,
 ) -> Arrays:
-    """Forces of both states of N poses on the undeformed geometry (docs/model.md §1).
+    """Forces and torques of both states of N poses on the undeformed geometry
+    (docs/model.md §1, §10): what a user-written effect reads (:class:`eodarm.EffectState`).
 
     Returns
     -------
     dict of arrays: ``force_n``, ``force0_n`` (N, n) loaded and unloaded actuator forces
-    (compression +, N); ``reaction_n``, ``reaction0_n`` (N, n, 2) loaded and unloaded joint
-    reactions (force of body i−1 on link i, global, N); ``length_mm`` (N, n) unloaded
-    pin-to-pin lengths. The unloaded state carries the self-weight (none without it).
+    (compression +, N; NaN at a joint turned by a rotary drive); ``torque_nmm``,
+    ``torque0_nmm`` (N, n) loaded and unloaded drive torques (on link i about O_i,
+    counter-clockwise +, N·mm; NaN at a joint turned by a linear actuator);
+    ``reaction_n``, ``reaction0_n`` (N, n, 2) loaded and unloaded joint reactions (force of
+    body i−1 on link i, global, N); ``length_mm`` (N, n) unloaded pin-to-pin lengths (NaN at
+    a drive). The unloaded state carries the self-weight (none without it).
     """
     check_arm(arm, "statics")
     alpha, mass = _poses_and_masses(alpha_deg, mass_kg, arm.n)
@@ -349,7 +376,7 @@ def statics(
     from eodarm.model import reference
 
     st = reference.statics(arm, alpha, payload, self_weight=self_weight)
-    return {k: st[k] for k in ("force_n", "force0_n", "reaction_n", "reaction0_n", "length_mm")}
+    return {k: st[k] for k in STATICS_KEYS}
 
 
 def angles_from_lengths(
@@ -361,10 +388,13 @@ def angles_from_lengths(
     """Absolute angles (N, n), degrees, of the rigid arm with the given actuator lengths.
 
     Each actuator triangle is closed in closed form; of its two solutions the one on the side
-    of the reference pose ``alpha_ref_deg`` ((n,) or (N, n)) is taken.
+    of the reference pose ``alpha_ref_deg`` ((n,) or (N, n)) is taken. A joint turned by a
+    rotary drive has no length: its column is NaN (as :func:`forward` gives it), and the
+    joint keeps the reference pose's relative angle q_i = α_i − α_{i−1}; a number there is
+    an :class:`~eodarm.errors.InputError` naming the row and joint.
     """
     check_arm(arm, "angles_from_lengths")
-    length = _poses(length_mm, arm.n, "length_mm")
+    length = _lengths(arm, length_mm)
     ref = _poses(alpha_ref_deg, arm.n, "alpha_ref_deg")
     _check_backend(backend)
     if backend == "rust":
@@ -418,8 +448,7 @@ def inverse_kinematics(
 # ---------------------------------------------------------------------------- helpers
 def _check_memory(alpha_deg: npt.ArrayLike, n: int, load: Any = None) -> None:
     """Refuse, before any array is converted or allocated, a solve whose output cannot fit:
-    6 (N, n) and one (N, n, 2) float arrays, dx, dy and the status, and as much again for
-    the input's copies and the checks on the way. N is the rows of the poses, or of the
+    :func:`~eodarm.model.resources.solve_output_bytes`. N is the rows of the poses, or of the
     masses or payloads ``load`` one pose is broadcast over (arrays only: the shape of a
     list is known only by converting it)."""
     shape = np.shape(alpha_deg) if isinstance(alpha_deg, np.ndarray) else ()
@@ -427,7 +456,7 @@ def _check_memory(alpha_deg: npt.ArrayLike, n: int, load: Any = None) -> None:
     if isinstance(load, np.ndarray) and load.ndim in (1, 2) and rows <= 1:
         rows = max(rows, int(load.shape[0]))
     if rows:
-        check_output_memory(2 * rows * (8 * (8 * n + 2) + 1), f"solve of {rows:,} poses")
+        check_output_memory(solve_output_bytes(rows, n), f"solve of {rows:,} poses")
 
 
 #: The outputs of the analytic solve: dtype and shape in rows N and links n.
@@ -435,6 +464,8 @@ _OUT_SHAPES: dict[str, tuple[type, tuple[str, ...]]] = {
     "force_n": (np.float64, ("N", "n")),
     "reaction_n": (np.float64, ("N", "n", "2")),
     "dforce_n": (np.float64, ("N", "n")),
+    "torque_nmm": (np.float64, ("N", "n")),
+    "dtorque_nmm": (np.float64, ("N", "n")),
     "dx_mm": (np.float64, ("N",)),
     "dy_mm": (np.float64, ("N",)),
     "dalpha_deg": (np.float64, ("N", "n")),

@@ -238,13 +238,15 @@ def sequence_sigma(
 
 def _effect_at(slot: Slot, theta: float) -> list[Effect]:
     """The effect of ``slot`` with fitting parameter ``theta`` (none where that is the
-    effect absent; an actuator body at θ = 0 is rigid, the arm file's 10²⁰ N/mm)."""
+    effect absent; an actuator body or a drive's gear at θ = 0 is rigid, the arm file's
+    10²⁰ N/mm or N·mm/rad)."""
     from eodarm.model.arm import MAX_STIFFNESS
+    from eodarm.model.catalogue import OWN_SPRINGS
     from eodarm.model.effects import param_from_theta
 
     value = param_from_theta(slot.name, theta)
     if math.isinf(value):
-        return [slot.effect(MAX_STIFFNESS)] if slot.name == "actuator_compliance" else []
+        return [slot.effect(MAX_STIFFNESS)] if slot.name in OWN_SPRINGS else []
     if value == 0 and not slot.kind.allow_zero:
         return []
     return [slot.effect(value)]

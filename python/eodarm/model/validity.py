@@ -44,6 +44,7 @@ import numpy.typing as npt
 from eodarm.model.arm import Arm
 
 __all__ = [
+    "ANGLE_TOL_DEG",
     "MAX_DALPHA_DEG",
     "MAX_DEFLECTION_OF_REACH",
     "MAX_LOAD_RISE_MM",
@@ -53,6 +54,7 @@ __all__ = [
     "arm_reach",
     "checks_load_rise",
     "drive_angles",
+    "out_of_angle",
     "quiet_rows",
     "status",
     "status_counts",
@@ -76,6 +78,10 @@ MAX_DALPHA_DEG = 10.0
 MAX_DEFLECTION_OF_REACH = 0.05
 #: Largest rise of the measure point under a downward payload, as a fraction of that length.
 MAX_RISE_OF_REACH = 1e-3
+#: How far (degrees) a drive's angle may pass its limit and still be within its range (the
+#: core's ``drive::rotary::ANGLE_TOL_RAD``): a loaded angle computed on its limit lands
+#: within rounding of it, on either side, and both backends give it the same status.
+ANGLE_TOL_DEG = 1e-9
 #: Largest rise (mm) of the load point under a downward payload where no gap effect and no
 #: user-written deformation act (the core's ``validity::MAX_LOAD_RISE_MM``): a fraction of
 #: any sensor's noise.
@@ -149,11 +155,8 @@ def status(
         code[(code == 0) & bad] = c
 
     dalpha = np.asarray(out["dalpha_deg"], dtype=float)
-    q0, q1 = drive_angles(alpha_deg, np.where(np.isfinite(dalpha), dalpha, 0.0))
-    lo = np.where(np.isnan(arr["min_angle_deg"]), -np.inf, arr["min_angle_deg"])
-    hi = np.where(np.isnan(arr["max_angle_deg"]), np.inf, arr["max_angle_deg"])
-    off_range = ((q0 < lo) | (q0 > hi) | (q1 < lo) | (q1 > hi)) & rot
-    mark(stroke_violations(arm, geo["length_mm"]).any(axis=1) | off_range.any(axis=1), 1)
+    off_range = out_of_angle(arm, alpha_deg, dalpha)
+    mark(stroke_violations(arm, geo["length_mm"]).any(axis=1) | off_range, 1)
     o, a, b = geo["O"][:, :n], geo["A"], geo["B"]
     line = a - b
     arm_len = np.linalg.norm(a - o, axis=2)
@@ -190,6 +193,55 @@ def status(
     lift = np.asarray(load_rise) & down & (load_dy > MAX_LOAD_RISE_MM)
     mark(big | rise | lift, 5)
     return code
+
+
+def out_of_angle(
+    arm: Arm, alpha_deg: npt.NDArray[np.float64], dalpha_deg: npt.NDArray[np.float64]
+) -> npt.NDArray[np.bool_]:
+    """(N,) whether some drive's angle lies outside its ``[min_angle_deg, max_angle_deg]``
+    by more than :data:`ANGLE_TOL_DEG`, unloaded (q_i = α_i − α_{i−1}, α_0 = 0) or loaded
+    (q_i + Δα_i − Δα_{i−1}; checked where that turn exceeds the tolerance, not where it is
+    NaN: a pose that failed).
+
+    The unloaded angle is the turn of q_i nearest the middle of the range (within ±180° of
+    it, ``[lo, lo + 360°)`` with only a lower limit, ``(hi − 360°, hi]`` with only an upper
+    one): q_i in [−180°, 180°) for a range within ±180°, which docs/model.md §10 asks for.
+    Computed in radians with the compiled core's numbers and operations, in its order
+    (``validity::out_of_angle``): a pose on a limit gets the same status from both."""
+    arr = arm.arrays()
+    rot = arr["kind"] == 1.0
+    bad = np.zeros(alpha_deg.shape[0], dtype=bool)
+    if not rot.any():
+        return bad
+    a, t = np.radians(alpha_deg), np.radians(dalpha_deg)
+    prev_a = np.concatenate([np.zeros((a.shape[0], 1)), a[:, :-1]], axis=1)
+    prev_t = np.concatenate([np.zeros((t.shape[0], 1)), t[:, :-1]], axis=1)
+    tol = np.radians(ANGLE_TOL_DEG)
+    for i in np.flatnonzero(rot):
+        lo_deg, hi_deg = arr["min_angle_deg"][i], arr["max_angle_deg"][i]
+        if np.isnan(lo_deg) and np.isnan(hi_deg):
+            continue
+        lo = -math.inf if np.isnan(lo_deg) else float(np.radians(lo_deg))
+        hi = math.inf if np.isnan(hi_deg) else float(np.radians(hi_deg))
+        if math.isinf(hi):
+            mid = lo + math.pi
+        elif math.isinf(lo):
+            mid = hi - math.pi
+        else:
+            mid = 0.5 * (lo + hi)
+        q = mid + _wrap_pi((a[:, i] - prev_a[:, i]) - mid)
+        dq = t[:, i] - prev_t[:, i]
+        lo, hi = lo - tol, hi + tol
+        # a turn within the tolerance is none: its sign is rounding's (a payload of 1e-55 N)
+        loaded = np.where(np.abs(dq) > tol, q + dq, q)
+        bad |= (q < lo) | (q > hi) | (loaded < lo) | (loaded > hi)
+    return bad
+
+
+def _wrap_pi(x: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
+    """x in [−π, π) (the core's ``geometry::wrap_pi``: x itself when already there)."""
+    inside = (x >= -math.pi) & (x < math.pi)
+    return np.where(inside, x, np.mod(x + math.pi, 2.0 * math.pi) - math.pi)
 
 
 def drive_angles(

@@ -9,6 +9,14 @@ use std::f64::consts::PI;
 use crate::error::{ArmError, Result};
 use crate::geometry::wrap_pi;
 
+/// How far (rad) a drive's angle may pass its limit and still be within its range: 10⁻⁹°
+/// (`1e-9_f64.to_radians()`, written so that the numpy reference's `np.radians(1e-9)` is
+/// the same number). A loaded angle computed on its limit lands within rounding of it, on
+/// either side; the numpy reference (`eodarm.model.validity.out_of_angle`) checks with the
+/// same numbers in the same order, so that both give such a pose the same status. Far below
+/// any angle a drive or an encoder resolves.
+pub const ANGLE_TOL_RAD: f64 = 1e-9 * (PI / 180.0);
+
 /// One rotary drive at joint O_i.
 #[derive(Debug, Clone, PartialEq)]
 pub struct RotaryDrive {
@@ -76,9 +84,11 @@ impl RotaryDrive {
     }
 
     /// A drive angle (rad, from [`Self::angle_of`], plus any deflection) outside
-    /// `[min_angle, max_angle]`.
+    /// `[min_angle, max_angle]` by more than [`ANGLE_TOL_RAD`] (an angle on its limit, as
+    /// rounding leaves it, is inside).
     pub fn out_of_range(&self, angle: f64) -> bool {
-        self.min_angle.is_some_and(|lo| angle < lo) || self.max_angle.is_some_and(|hi| angle > hi)
+        self.min_angle.is_some_and(|lo| angle < lo - ANGLE_TOL_RAD)
+            || self.max_angle.is_some_and(|hi| angle > hi + ANGLE_TOL_RAD)
     }
 
     /// A loaded |torque| (N·mm) above `max_torque`.
