@@ -141,7 +141,10 @@ def test_random_mixed_arms_agree_with_the_analytic_model_at_small_load(case, dat
     # statics.
     for key in ("force_n", "torque_nmm"):
         scale = np.nanmax(np.abs(an[key]), initial=0.0)
-        np.testing.assert_allclose(fe[key], an[key], rtol=1e-6, atol=1e-5 * scale + 1e-12)
+        # + 1e-9 (N, N·mm): a load that is zero in the statics comes back from the springs as
+        # round-off of the penalty stiffnesses (hypothesis found 3.8e-12 N·mm where every load
+        # is zero); 1e-9 is a thousandth of the core's own "no torque" threshold (1e-6 N·mm).
+        np.testing.assert_allclose(fe[key], an[key], rtol=1e-6, atol=1e-5 * scale + 1e-9)
     if np.abs(np.column_stack([an["dx_mm"], an["dy_mm"]])).max() > 1e-7:
         rel = _rel(fe, an)
         if rel >= 1e-4:
