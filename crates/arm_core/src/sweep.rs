@@ -267,7 +267,8 @@ struct Plan<'a> {
     simd: pulp::Arch,
 }
 
-/// The computation behind the cells.
+/// The computation behind the cells (one per sweep: the variants' sizes do not matter).
+#[allow(clippy::large_enum_variant)]
 enum Kernel {
     F1(FastArm<1>),
     F2(FastArm<2>),

@@ -363,9 +363,12 @@ proptest! {
         prop_assert!(st.iter().all(|&s| s != Status::LargeDeflection.code()));
     }
 
-    /// Every entry point routes a mixed arm to the general path: `solve_batch_status` gives
-    /// `solve_batch_general`'s numbers and statuses, bit for bit; a sequence of one state is
-    /// that solve; a load cycle's return is the sequence's last state.
+    /// Every entry point gives a mixed arm the general path's numbers: `solve_batch_status`
+    /// (the block kernel, or the general path where a joint friction sits beside a bent
+    /// link) gives `solve_batch_general`'s numbers to rounding (1e-8 in each output's unit,
+    /// torques in N·m; tests/kernel_mixed.rs has the kernel's own tolerances) and its
+    /// statuses; a sequence of one state is that solve; a load cycle's return is the
+    /// sequence's last state, bit for bit.
     #[test]
     fn every_entry_point_gives_the_general_paths_numbers(seed in any::<u64>(), n in 1usize..=7, bits in any::<u8>()) {
         let mut rng = Rng(seed | 1);
@@ -386,14 +389,16 @@ proptest! {
         let mut g = BatchBuffers::new(20, n);
         let mut gs = vec![0u8; 20];
         solve_batch_general(&arm, &set, input(&alpha, &payload), ExtraDeformations::none(), opts(true), g.out(), &mut gs).unwrap();
-        prop_assert!(b == g);
+        let (w, field) = worst(&b, &g, 1e-8);
+        prop_assert!(w <= 1.0, "{} off by {} of 1e-8", field, w);
         prop_assert_eq!(&st, &gs);
         // A sequence of one state each.
         let mut q = BatchBuffers::new(20, n);
         let mut qs = vec![0u8; 20];
         let seq = SequenceInput { alpha_deg: &alpha, payload_n: &payload, states: 1 };
         solve_sequence(&arm, &set, seq, opts(true), q.out(), &mut qs).unwrap();
-        prop_assert!(q == b);
+        let (w, field) = worst(&q, &b, 1e-8);
+        prop_assert!(w <= 1.0, "sequence: {} off by {} of 1e-8", field, w);
         prop_assert_eq!(&qs, &st);
         // The cycle m → 0 of 3 masses per pose against the sequences' last states.
         let masses = [0.0, 2.5, 7.0];

@@ -84,6 +84,25 @@ pub fn sincos_deg<const L: usize>(x: &[f64; L], sin: &mut [f64; L], cos: &mut [f
     }
 }
 
+/// Lane-wise sine and cosine of `x` (**radians**): fdlibm's kernels (within 1 ulp) where
+/// |x| ≤ π/4, libm beyond. For the small turns of a rotary drive's gear.
+#[inline(always)]
+pub(crate) fn sincos_small<const L: usize>(x: &[f64; L], sin: &mut [f64; L], cos: &mut [f64; L]) {
+    let quarter = std::f64::consts::FRAC_PI_4;
+    let mut far = false;
+    for k in 0..L {
+        (sin[k], cos[k]) = kernel(x[k]);
+        far |= x[k].abs() > quarter; // NaN stays NaN either way
+    }
+    if far {
+        for k in 0..L {
+            if x[k].abs() > quarter {
+                (sin[k], cos[k]) = x[k].sin_cos();
+            }
+        }
+    }
+}
+
 // Taylor coefficients of asin: c_k = (2k)! / (4^k (k!)² (2k+1)).
 const A1: f64 = 1.0 / 6.0;
 const A2: f64 = 3.0 / 40.0;

@@ -29,16 +29,18 @@ mod base;
 mod bending;
 mod clearance;
 mod friction;
+mod rotary;
 
 use base::Base;
 use bending::{Bending, Shifts};
 use clearance::Clearance;
 use friction::{Friction, Held};
+use rotary::{Ranges, Turns};
 
 use super::batch::{fill_nan, write_row, BatchBuffers, BatchInput, BatchOutput, SequenceInput};
 use super::general::{SolveOptions, Workspace};
 use super::status::pose_status;
-use crate::arm::Arm;
+use crate::arm::{Arm, Drive};
 use crate::effects::{Effect, EffectSet};
 use crate::error::Result;
 use crate::geometry::V2;
@@ -56,9 +58,11 @@ pub(crate) struct SolveKernel<const N: usize> {
     bend: Bending<N>,
     base: Base,
     fric: Friction<N>,
+    /// The rotary drives with an angle range.
+    ranges: Ranges<N>,
     /// The arm's reach Σ|next_i| (validity).
     reach: f64,
-    /// Force limits (N), +∞ where none.
+    /// Load limits (N, N·mm at a rotary drive), +∞ where none.
     fmax: [f64; N],
     /// Per link i: D_i = B_{i−1} − O_i changes (joint i's clearance, body i−1 bends); link
     /// i's pin a_i moves in its frame (link i bends). Where neither, link i closes as without
@@ -84,8 +88,11 @@ pub(crate) struct SolveBlock<const N: usize> {
     fail: [bool; L],
     /// Status codes (docs/model.md §7).
     status: [u8; L],
-    /// Further body length a body friction leaves (mm; zero without one).
+    /// Further body length a body friction leaves (mm; zero without one), a further turn
+    /// at a rotary drive (rad).
     seen: [[f64; L]; N],
+    /// Unloaded angles of the rotary drives with a range (rad).
+    q: [[f64; L]; N],
 }
 
 impl<const N: usize> SolveBlock<N> {
@@ -103,6 +110,7 @@ impl<const N: usize> SolveBlock<N> {
             fail: [false; L],
             status: [0; L],
             seen: z,
+            q: z,
         }
     }
 }
@@ -121,14 +129,18 @@ impl<const N: usize> SolveKernel<N> {
                 | Effect::LinkBending(_)
                 | Effect::BaseCompliance(_) => {}
                 Effect::ActuatorFriction(_) | Effect::JointFriction(_) => {}
-                // Rotary drives (and so their effects) take the general path, so far.
                 Effect::DriveCompliance(_)
                 | Effect::DriveBacklash(_)
-                | Effect::DriveFriction(_) => return None,
+                | Effect::DriveFriction(_) => {}
             }
         }
         let clear = Clearance::new(effects);
         let bend = Bending::new(arm, effects);
+        // A link bent under a drive's housing turns it and carries its couple, which the
+        // bending influences do not: such sets take the general path.
+        if (1..N).any(|i| arm.is_rotary(i) && bend.bends(i - 1)) {
+            return None;
+        }
         Some(Self {
             fa: FastArm::with_lengths(arm, effects, self_weight)?,
             d_moves: std::array::from_fn(|i| clear.at(i) || (i > 0 && bend.bends(i - 1))),
@@ -136,11 +148,12 @@ impl<const N: usize> SolveKernel<N> {
             clear,
             bend,
             base: Base::new(arm, effects),
-            fric: Friction::new(effects)?,
+            fric: Friction::new(arm, effects)?,
+            ranges: Ranges::new(arm),
             reach: validity::reach(arm),
-            fmax: std::array::from_fn(|i| {
-                let act = arm.actuator(i);
-                act.and_then(|a| a.max_force).unwrap_or(f64::INFINITY)
+            fmax: std::array::from_fn(|i| match &arm.drives[i] {
+                Drive::Linear(a) => a.max_force.unwrap_or(f64::INFINITY),
+                Drive::Rotary(d) => d.max_torque.unwrap_or(f64::INFINITY),
             }),
         })
     }
@@ -184,6 +197,10 @@ impl<const N: usize> SolveKernel<N> {
                 let trig = block_trig::<N>(self.alpha_deg, self.count);
                 let k = self.k;
                 k.fa.poses_sc_impl(&trig.0, &trig.1, &pay, self.pb);
+                if k.ranges.any {
+                    k.ranges
+                        .unloaded(self.alpha_deg, self.count, self.pb, &mut self.sb.q);
+                }
                 if k.fric.any {
                     // `solve` is a sequence of one state: a fresh memory.
                     let mut fresh = Held::new();
@@ -191,7 +208,16 @@ impl<const N: usize> SolveKernel<N> {
                     k.fric.step(self.pb, held, &k.fa.body_c, &mut self.sb.seen);
                 }
                 k.close_any(&trig, &pay, self.pb, self.sb);
-                write_block(self.pb, self.sb, self.out, self.status, self.p, self.count);
+                let rotary = k.fa.any_rotary.then_some(&k.fa.rotary);
+                write_block(
+                    self.pb,
+                    self.sb,
+                    rotary,
+                    self.out,
+                    self.status,
+                    self.p,
+                    self.count,
+                );
             }
         }
         simd.dispatch(Op {
@@ -262,17 +288,23 @@ impl<const N: usize> SolveKernel<N> {
             u: &u,
             sh: &sh,
         };
+        let turns = self
+            .fa
+            .any_rotary
+            .then(|| Turns::of::<PLAY, UP>(&self.fa, pb, &sb.seen));
         for at in (0..L).step_by(W) {
-            self.close_pack::<PLAY, UP, GEOM>(at, &geo, &tilt, pay, pb, sb);
+            self.close_pack::<PLAY, UP, GEOM>(at, &geo, turns.as_ref(), &tilt, pay, pb, sb);
         }
     }
 
     /// [`Self::close`] for lanes `at..at + 4`.
     #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
     fn close_pack<const PLAY: bool, const UP: bool, const GEOM: bool>(
         &self,
         at: usize,
         geo: &Geo<'_, N>,
+        turns: Option<&Turns<N>>,
         tilt: &[[f64; L]; 5],
         pay: &[[f64; L]; 2],
         pb: &PoseBlock<N>,
@@ -295,72 +327,81 @@ impl<const N: usize> SolveKernel<N> {
         let mut turn = [[F4::ZERO; N]; 2];
         let mut dth = [F4::ZERO; N];
         for i in 0..N {
-            let hr = fa.half_inv_rd[i];
-            let (bc, rho, dl0) = (fa.body_c[i], fa.rho[i], fa.dlen[i]);
-            let [ax, ay] = fa.a[i];
             let du = ld(&pb.fu[i]);
             let fw = ld(&pb.fw[i]);
             let f = fw + du;
-            let seen = ld(&sb.seen[i]);
-            let dlen = fa.dlen::<PLAY, UP, F4>(i, du, f, fw) + seen;
-            let l = ld(&pb.len[i]);
-            let (c, s, side) = (ld(&pb.c[i]), ld(&pb.s[i]), ld(&pb.side[i]));
-            // The links that no geometric effect touches close as without them.
-            let (dm, am) = (GEOM && self.d_moves[i], GEOM && self.a_moves[i]);
-            let (mut dn, mut dn2, mut rd) = (F4::splat(dl0), F4::splat(dl0 * dl0), None);
-            if dm {
-                // D′ = R(Δα_{i−1})·(D + δ): δ from body i−1's bending and joint i's offset.
-                let (ux, uy) = (ld(&u[0][i]), ld(&u[1][i]));
-                let cc = 1.0 + cm;
-                let mut ddx = -(cc * ux + sr * uy);
-                let mut ddy = sr * ux - cc * uy;
-                if i > 0 {
-                    let lx = ld(&sh.b[0][i - 1]) - ld(&sh.next[0][i - 1]);
-                    let ly = ld(&sh.b[1][i - 1]) - ld(&sh.next[1][i - 1]);
-                    let (gx, gy) = rot(ld(&sn[i - 1]), ld(&cs[i - 1]), [lx, ly]);
-                    ddx = ddx + gx;
-                    ddy = ddy + gy;
-                }
-                let (vx, vy) = (ld(&pb.d[0][i]), ld(&pb.d[1][i]));
-                let (nx, ny) = (vx + ddx, vy + ddy);
-                dn2 = nx * nx + ny * ny;
-                dn = dn2.sqrt();
-                let inv = 1.0 / (dl0 * dn);
-                let rds = (vx * ddy - vy * ddx) * inv;
-                rd = Some((rds, cos_m1(rds, (dl0 * dl0 + vx * ddx + vy * ddy) * inv)));
-            }
-            let (mut rp, mut rp2, mut ra) = (F4::splat(rho), F4::splat(rho * rho), None);
-            if am {
-                // a′ = a + Δa, in link i's frame.
-                let (sx, sy) = (ld(&sh.a[0][i]), ld(&sh.a[1][i]));
-                let (px, py) = (ax + sx, ay + sy);
-                rp2 = px * px + py * py;
-                rp = rp2.sqrt();
-                let inva = 1.0 / (rho * rp);
-                let ras = (ax * sy - ay * sx) * inva;
-                ra = Some((ras, cos_m1(ras, (rho * rho + ax * sx + ay * sy) * inva)));
-            }
-            let dc = if dm || am {
-                let lp = l + dlen;
-                (rp2 + dn2 - lp * lp) / (2.0 * rp * dn) - c
+            // Link i bends (under a drive: the flange's frame; its A has no role).
+            let am = GEOM && self.a_moves[i];
+            // A drive's link turns by its gear's Δq_i (rad); an actuator's closes its triangle.
+            let (ts, tc, tri) = if let Some(t) = turns.filter(|_| fa.rotary[i]) {
+                (ld(&t.sin[i]), ld(&t.cos_m1[i]), None)
             } else {
-                -dlen * (2.0 * l + dlen) * hr
+                let hr = fa.half_inv_rd[i];
+                let (rho, dl0) = (fa.rho[i], fa.dlen[i]);
+                let [ax, ay] = fa.a[i];
+                let seen = ld(&sb.seen[i]);
+                let dlen = fa.dlen::<PLAY, UP, F4>(i, du, f, fw) + seen;
+                let l = ld(&pb.len[i]);
+                let (c, s, side) = (ld(&pb.c[i]), ld(&pb.s[i]), ld(&pb.side[i]));
+                // The links that no geometric effect touches close as without them.
+                let dm = GEOM && self.d_moves[i];
+                let (mut dn, mut dn2, mut rd) = (F4::splat(dl0), F4::splat(dl0 * dl0), None);
+                if dm {
+                    // D′ = R(Δα_{i−1})·(D + δ): δ from body i−1's bending and joint i's offset.
+                    let (ux, uy) = (ld(&u[0][i]), ld(&u[1][i]));
+                    let cc = 1.0 + cm;
+                    let mut ddx = -(cc * ux + sr * uy);
+                    let mut ddy = sr * ux - cc * uy;
+                    if i > 0 {
+                        let lx = ld(&sh.b[0][i - 1]) - ld(&sh.next[0][i - 1]);
+                        let ly = ld(&sh.b[1][i - 1]) - ld(&sh.next[1][i - 1]);
+                        let (gx, gy) = rot(ld(&sn[i - 1]), ld(&cs[i - 1]), [lx, ly]);
+                        ddx = ddx + gx;
+                        ddy = ddy + gy;
+                    }
+                    let (vx, vy) = (ld(&pb.d[0][i]), ld(&pb.d[1][i]));
+                    let (nx, ny) = (vx + ddx, vy + ddy);
+                    dn2 = nx * nx + ny * ny;
+                    dn = dn2.sqrt();
+                    let inv = 1.0 / (dl0 * dn);
+                    let rds = (vx * ddy - vy * ddx) * inv;
+                    rd = Some((rds, cos_m1(rds, (dl0 * dl0 + vx * ddx + vy * ddy) * inv)));
+                }
+                let (mut rp, mut rp2, mut ra) = (F4::splat(rho), F4::splat(rho * rho), None);
+                if am {
+                    // a′ = a + Δa, in link i's frame.
+                    let (sx, sy) = (ld(&sh.a[0][i]), ld(&sh.a[1][i]));
+                    let (px, py) = (ax + sx, ay + sy);
+                    rp2 = px * px + py * py;
+                    rp = rp2.sqrt();
+                    let inva = 1.0 / (rho * rp);
+                    let ras = (ax * sy - ay * sx) * inva;
+                    ra = Some((ras, cos_m1(ras, (rho * rho + ax * sx + ay * sy) * inva)));
+                }
+                let dc = if dm || am {
+                    let lp = l + dlen;
+                    (rp2 + dn2 - lp * lp) / (2.0 * rp * dn) - c
+                } else {
+                    -dlen * (2.0 * l + dlen) * hr
+                };
+                let tr = Turn::of(c, s, dc);
+                fail = fail | !tr.closes;
+                let (mut ts, mut tc) = (side * tr.sin, tr.cos_m1);
+                if let Some((s, c)) = rd {
+                    (ts, tc) = compose(s, c, ts, tc);
+                }
+                if let Some((s, c)) = ra {
+                    (ts, tc) = compose(ts, tc, -s, c);
+                }
+                (ts, tc, Some((side * s, c, dlen, seen)))
             };
-            let tr = Turn::of(c, s, dc);
-            fail = fail | !tr.closes;
-            let (mut ts, mut tc) = (side * tr.sin, tr.cos_m1);
-            if let Some((s, c)) = rd {
-                (ts, tc) = compose(s, c, ts, tc);
-            }
-            if let Some((s, c)) = ra {
-                (ts, tc) = compose(ts, tc, -s, c);
-            }
             let (ns, nc) = compose(sr, cm, ts, tc);
-            // The rigid loaded triangle (docs/model.md §7) turned by the relative turn of
-            // link i against body i−1 (against the fixed chassis for link 1).
-            let (rs, rc) = if i == 0 { (ns, nc) } else { (ts, tc) };
-            let sg = side * s;
-            flip = flip | Lane::lt(sg * (sg * (1.0 + rc) + c * rs), 0.0);
+            if let Some((sg, c, ..)) = tri {
+                // The rigid loaded triangle (docs/model.md §7) turned by the relative turn of
+                // link i against body i−1 (against the fixed chassis for link 1).
+                let (rs, rc) = if i == 0 { (ns, nc) } else { (ts, tc) };
+                flip = flip | Lane::lt(sg * (sg * (1.0 + rc) + c * rs), 0.0);
+            }
             sr = ns;
             cm = nc;
             let (gx, gy) = (ld(&pb.gx[i]), ld(&pb.gy[i]));
@@ -382,17 +423,24 @@ impl<const N: usize> SolveKernel<N> {
                 dx = dx + ld(&u[0][i + 1]);
                 dy = dy + ld(&u[1][i + 1]);
             }
-            far = far | !(Lane::le(ts.abs(), ASIN_SERIES_MAX) & Lane::gt(1.0 + tc, 0.0));
-            turn[0][i] = ts;
-            turn[1][i] = tc;
-            dth[i] = asin_small(ts);
+            if let Some((_, _, dlen, seen)) = tri {
+                far = far | !(Lane::le(ts.abs(), ASIN_SERIES_MAX) & Lane::gt(1.0 + tc, 0.0));
+                turn[0][i] = ts;
+                turn[1][i] = tc;
+                dth[i] = asin_small(ts);
+                (-du * fa.body_c[i] + seen).store(&mut sb.dl[i], at);
+                dlen.store(&mut sb.dlength[i], at);
+            } else if let Some(t) = turns {
+                // A drive's turn is its angle; it has no body length nor pins' distance.
+                dth[i] = ld(&t.q[i]);
+                F4::splat(f64::NAN).store(&mut sb.dl[i], at);
+                F4::splat(f64::NAN).store(&mut sb.dlength[i], at);
+            }
             over = over | Lane::gt(f.abs(), self.fmax[i]);
             f.store(&mut sb.force[i], at);
             du.store(&mut sb.dforce[i], at);
             (ld(&pb.rw[0][i]) + ld(&pb.ru[0][i])).store(&mut sb.reaction[0][i], at);
             (ld(&pb.rw[1][i]) + ld(&pb.ru[1][i])).store(&mut sb.reaction[1][i], at);
-            (-du * bc + seen).store(&mut sb.dl[i], at);
-            dlen.store(&mut sb.dlength[i], at);
         }
         if far.any() {
             large_turns(&turn, far, &mut dth);
@@ -400,12 +448,17 @@ impl<const N: usize> SolveKernel<N> {
         let deg = 180.0f64 / std::f64::consts::PI;
         let mut da = ld(phi);
         let mut max_da = F4::ZERO;
+        let (mut before, mut beyond) = (F4::ZERO, M4::FALSE);
         for i in 0..N {
             // The loaded angle nearest the unloaded one.
             da = wrap_once(da + dth[i]);
             let d = da * deg;
             d.store(&mut sb.dalpha[i], at);
             max_da = Lane::max(max_da, d.abs());
+            if self.ranges.at(i) {
+                beyond = beyond | self.ranges.loaded_out(i, ld(&sb.q[i]), d, before);
+            }
+            before = d;
         }
         let down = Lane::lt(ld(&pay[1]), 0.0);
         let mut large = validity::large_deflection_sq(max_da, dx, dy, down, self.reach);
@@ -417,7 +470,7 @@ impl<const N: usize> SolveKernel<N> {
         for j in 0..W {
             let k = at + j;
             sb.status[k] = validity::code_of(Checks {
-                out_of_stroke: pb.out_of_stroke[k],
+                out_of_stroke: pb.out_of_stroke[k] || beyond.get(j),
                 near_singular: pb.near_singular[k],
                 branch_flip: flip.get(j),
                 over_force: over.get(j),
@@ -457,6 +510,7 @@ fn large_turns<const N: usize>(turn: &[[F4; N]; 2], far: M4, dth: &mut [F4; N]) 
 fn write_block<const N: usize>(
     pb: &PoseBlock<N>,
     sb: &SolveBlock<N>,
+    rotary: Option<&[bool; N]>,
     out: &mut BatchOutput<'_>,
     status: &mut [u8],
     p: usize,
@@ -465,9 +519,27 @@ fn write_block<const N: usize>(
     let span = p * N..(p + count) * N;
     transpose_into(&sb.force, &mut out.force_n[span.clone()]);
     transpose_into(&sb.dforce, &mut out.dforce_n[span.clone()]);
-    // The kernel's arms have linear actuators only: no torques.
-    out.torque_nmm[span.clone()].fill(f64::NAN);
-    out.dtorque_nmm[span.clone()].fill(f64::NAN);
+    match rotary {
+        // Linear actuators only: no torques.
+        None => {
+            out.torque_nmm[span.clone()].fill(f64::NAN);
+            out.dtorque_nmm[span.clone()].fill(f64::NAN);
+        }
+        // Each drive's load in its own arrays, NaN in the other.
+        Some(rotary) => {
+            transpose_into(&sb.force, &mut out.torque_nmm[span.clone()]);
+            transpose_into(&sb.dforce, &mut out.dtorque_nmm[span.clone()]);
+            for j in span.clone() {
+                let (load, other) = if rotary[j % N] {
+                    (&mut out.force_n, &mut out.dforce_n)
+                } else {
+                    (&mut out.torque_nmm, &mut out.dtorque_nmm)
+                };
+                load[j] = f64::NAN;
+                other[j] = f64::NAN;
+            }
+        }
+    }
     transpose_into(&sb.dalpha, &mut out.dalpha_deg[span.clone()]);
     transpose_into(&sb.dl, &mut out.dl_mm[span.clone()]);
     transpose_into(&sb.dlength, &mut out.dlength_mm[span.clone()]);
@@ -621,6 +693,9 @@ impl<const N: usize> SolveKernel<N> {
                 let (one, zero) = ([1.0; L], [0.0; L]);
                 k.fa.poses_sc_impl(&trig.0, &trig.1, &[one, zero], &mut sc.pbx);
                 k.fa.poses_sc_impl(&trig.0, &trig.1, &[zero, one], &mut sc.pby);
+                if k.ranges.any {
+                    k.ranges.unloaded(alpha, count, &mut sc.pbx, &mut sc.sb.q);
+                }
                 // Only the payload case changes from state to state.
                 sc.pb.clone_from(&sc.pbx);
                 let mut held = Held::<N>::new();
@@ -657,12 +732,13 @@ impl<const N: usize> SolveKernel<N> {
                     for j in 0..count {
                         bad[j] |= sc.sb.fail[j];
                     }
+                    let rotary = &k.fa.rotary;
                     if !self.last_only {
                         let row = |j: usize| (q0 + j) * states + st;
-                        scatter_block(&sc.pb, &sc.sb, self.out, self.status, count, row);
+                        scatter_block(&sc.pb, &sc.sb, rotary, self.out, self.status, count, row);
                     } else if st + 1 == states {
                         let row = |j: usize| q0 + j;
-                        scatter_block(&sc.pb, &sc.sb, self.out, self.status, count, row);
+                        scatter_block(&sc.pb, &sc.sb, rotary, self.out, self.status, count, row);
                     }
                 }
                 bad
@@ -697,6 +773,7 @@ struct SeqScratch<const N: usize> {
 fn scatter_block<const N: usize>(
     pb: &PoseBlock<N>,
     sb: &SolveBlock<N>,
+    rotary: &[bool; N],
     out: &mut BatchOutput<'_>,
     status: &mut [u8],
     count: usize,
@@ -706,14 +783,21 @@ fn scatter_block<const N: usize>(
         let r = row(j);
         let at = r * N..(r + 1) * N;
         let (force, dforce) = (&mut out.force_n[at.clone()], &mut out.dforce_n[at.clone()]);
-        out.torque_nmm[at.clone()].fill(f64::NAN);
-        out.dtorque_nmm[at.clone()].fill(f64::NAN);
+        let (torque, dtorque) = (
+            &mut out.torque_nmm[at.clone()],
+            &mut out.dtorque_nmm[at.clone()],
+        );
         let (dalpha, dl) = (&mut out.dalpha_deg[at.clone()], &mut out.dl_mm[at.clone()]);
         let (dlength, len) = (&mut out.dlength_mm[at.clone()], &mut out.length_mm[at]);
         let reaction = &mut out.reaction_n[2 * r * N..2 * (r + 1) * N];
         for i in 0..N {
-            force[i] = sb.force[i][j];
-            dforce[i] = sb.dforce[i][j];
+            // Each drive's load in its own arrays, NaN in the other.
+            let (f, df, nan) = (sb.force[i][j], sb.dforce[i][j], f64::NAN);
+            if rotary[i] {
+                (force[i], dforce[i], torque[i], dtorque[i]) = (nan, nan, f, df);
+            } else {
+                (force[i], dforce[i], torque[i], dtorque[i]) = (f, df, nan, nan);
+            }
             dalpha[i] = sb.dalpha[i][j];
             dl[i] = sb.dl[i][j];
             dlength[i] = sb.dlength[i][j];

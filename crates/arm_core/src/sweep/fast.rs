@@ -41,8 +41,11 @@
 #![allow(clippy::needless_range_loop, clippy::neg_cmp_op_on_partial_ord)]
 
 use crate::arm::Arm;
-use crate::effects::{Effect, EffectSet, Unloaded, FORCE_ZERO_N};
-use crate::lanes::trig::{asin_small, sincos_deg, wrap_once, ASIN_SERIES_MAX};
+use crate::arm::Drive;
+use crate::effects::{Effect, EffectSet, Unloaded, FORCE_ZERO_N, TORQUE_ZERO_NMM};
+use crate::lanes::trig::{
+    asin_small, cos_m1, sincos_deg, sincos_small, wrap_once, ASIN_SERIES_MAX,
+};
 pub use crate::lanes::L;
 use crate::lanes::{rot4, Lane, F4, M4, W};
 use crate::statics::SINGULAR_TOL;
@@ -75,7 +78,16 @@ pub struct FastArm<const N: usize> {
     /// Link weights and half actuator weights (N), zero without self-weight.
     w_link: [f64; N],
     w_half: [f64; N],
+    /// A rotary drive's weight (N) at O_i on body i−1 (zero at linear joints and joint 1).
+    w_drive: [f64; N],
     g: f64,
+    /// Joint i is turned by a rotary drive: no triangle, its load a torque (N·mm), its own
+    /// spring a gear (`body_c` in rad per N·mm, `play` a backlash in rad).
+    pub(crate) rotary: [bool; N],
+    /// Some joint is turned by a rotary drive.
+    pub(crate) any_rotary: bool,
+    /// Below this load a gap has no side: [`FORCE_ZERO_N`], [`TORQUE_ZERO_NMM`] at a drive.
+    zero: [f64; N],
     /// Body compliance (mm/N), series mount compliance (mm/N), play (mm).
     pub(crate) body_c: [f64; N],
     mount_c: [f64; N],
@@ -107,7 +119,10 @@ fn p2(v: crate::V2) -> [f64; 2] {
 }
 
 impl<const N: usize> FastArm<N> {
-    /// The kernel's constants, or `None` when an effect is not length-only or `arm.n() != N`.
+    /// The kernel's constants, or `None` when an effect is not one of a drive's own spring
+    /// and gap (length-only at an actuator, a turn only at a rotary drive), `arm.n() != N`,
+    /// or a rotary drive has an angle range (its loaded angle is checked per cell by the
+    /// per-cell path, from the degrees of the grid).
     pub fn new(arm: &Arm, effects: &EffectSet, self_weight: bool) -> Option<Self> {
         let length_only = effects.effects().iter().all(|e| {
             matches!(
@@ -115,20 +130,26 @@ impl<const N: usize> FastArm<N> {
                 Effect::ActuatorCompliance(_)
                     | Effect::MountCompliance(_)
                     | Effect::ActuatorPlay(_)
+                    | Effect::DriveCompliance(_)
+                    | Effect::DriveBacklash(_)
             )
         });
-        if !length_only {
+        let ranged = arm.drives.iter().any(|d| {
+            d.rotary()
+                .is_some_and(|r| r.min_angle.is_some() || r.max_angle.is_some())
+        });
+        if !length_only || ranged {
             return None;
         }
         Self::with_lengths(arm, effects, self_weight)
     }
 
-    /// The kernel's constants with the length-only effects of `effects` (the others are left
-    /// to the caller: the solve kernel adds them), or `None` when `arm.n() != N` or a rotary
-    /// drive turns some link (the kernels know linear actuators only, so far: such arms take
-    /// the general path, `Workspace::solve`).
+    /// The kernel's constants with the effects of `effects` on the drives' own springs and
+    /// gaps (the others are left to the caller: the solve kernel adds them), or `None` when
+    /// `arm.n() != N`. A rotary drive's joint has no triangle: its `len` is NaN, its `e` zero
+    /// and its unit load's moment 1 (docs/model.md §10).
     pub(crate) fn with_lengths(arm: &Arm, effects: &EffectSet, self_weight: bool) -> Option<Self> {
-        if arm.n() != N || arm.any_rotary() {
+        if arm.n() != N {
             return None;
         }
         let z = [0.0; N];
@@ -149,7 +170,11 @@ impl<const N: usize> FastArm<N> {
             half_inv_rd: z,
             w_link: z,
             w_half: z,
+            w_drive: z,
             g: arm.g,
+            rotary: std::array::from_fn(|i| arm.is_rotary(i)),
+            any_rotary: arm.any_rotary(),
+            zero: [FORCE_ZERO_N; N],
             body_c: z,
             mount_c: z,
             len_c: z,
@@ -170,11 +195,31 @@ impl<const N: usize> FastArm<N> {
         k.rise_lim = MAX_RISE_OF_REACH * reach;
         for i in 0..N {
             let link = &arm.links[i];
-            let act = arm.actuator(i)?;
-            k.a[i] = p2(link.a);
             k.c[i] = p2(link.c);
             k.next[i] = p2(link.next);
-            k.b[i] = p2(link.b);
+            if let Drive::Rotary(d) = &arm.drives[i] {
+                // No triangle: unit distances keep the unused constants finite.
+                (k.rho[i], k.dlen[i], k.inv_rd[i], k.half_inv_rd[i]) = (1.0, 1.0, 1.0, 0.5);
+                if self_weight {
+                    k.w_link[i] = link.mass_kg * arm.g;
+                    if i > 0 {
+                        k.w_drive[i] = d.mass_kg * arm.g;
+                    }
+                }
+                k.body_c[i] = 1.0 / d.stiffness;
+                (k.lo[i], k.hi[i]) = (f64::NEG_INFINITY, f64::INFINITY);
+                k.fmax[i] = d.max_torque.unwrap_or(f64::INFINITY);
+                k.zero[i] = TORQUE_ZERO_NMM;
+                if i + 1 < N && !arm.is_rotary(i + 1) {
+                    k.b[i] = p2(link.b);
+                }
+                continue;
+            }
+            let act = arm.actuator(i)?;
+            k.a[i] = p2(link.a);
+            if i + 1 < N && !arm.is_rotary(i + 1) {
+                k.b[i] = p2(link.b);
+            }
             let rho = link.a.norm();
             let dn = if i == 0 {
                 (arm.b0 - arm.o1).norm()
@@ -205,6 +250,14 @@ impl<const N: usize> FastArm<N> {
                     k.play[x.actuator] += x.play;
                     if x.unloaded == Unloaded::TakenUp {
                         k.play_up[x.actuator] += x.play;
+                    }
+                }
+                Effect::DriveCompliance(x) => k.body_c[x.joint] = 1.0 / x.stiffness,
+                Effect::DriveBacklash(x) => {
+                    let b = x.backlash_deg.to_radians();
+                    k.play[x.joint] += b;
+                    if x.unloaded == Unloaded::TakenUp {
+                        k.play_up[x.joint] += b;
                     }
                 }
                 _ => {}
@@ -414,11 +467,11 @@ pub(crate) fn compose<T: Lane>(sa: T, ca: T, sb: T, cb: T) -> (T, T) {
     (sa + sb + (sa * cb + ca * sb), ca + cb + (ca * cb - sa * sb))
 }
 
-/// `sign(f)`, 0 below [`FORCE_ZERO_N`] (the scalar core's `sign0`), branch-free.
+/// `sign(f)`, 0 below `z` (the scalar core's `sign_above`), branch-free.
 #[inline(always)]
-pub(crate) fn sign0<T: Lane>(f: T) -> T {
+pub(crate) fn sign_above<T: Lane>(f: T, z: f64) -> T {
     let (one, zero) = (T::splat(1.0), T::splat(0.0));
-    T::select(f.ge(FORCE_ZERO_N), one, zero) - T::select(f.le(-FORCE_ZERO_N), one, zero)
+    T::select(f.ge(z), one, zero) - T::select(f.le(-z), one, zero)
 }
 
 /// `R(s, c)·v`.
@@ -495,6 +548,35 @@ impl<const N: usize> FastArm<N> {
             rcx[i] = c * this.c[i][0] - s * this.c[i][1];
         }
         for i in 0..N {
+            if this.rotary[i] {
+                // A drive's torque is a couple: no line (e = 0), unit moment, no length.
+                inv_h[i] = F4::splat(1.0);
+                let nan = F4::splat(f64::NAN);
+                for c in 0..2 {
+                    F4::ZERO.store(&mut pb.e[c][i], at);
+                    F4::ZERO.store(&mut pb.d[c][i], at);
+                }
+                nan.store(&mut pb.len[i], at);
+                F4::ZERO.store(&mut pb.c[i], at);
+                F4::ZERO.store(&mut pb.s[i], at);
+                F4::splat(1.0).store(&mut pb.side[i], at);
+            }
+            let (gx, gy) = if i + 1 < N {
+                (rnx[i], rny[i])
+            } else {
+                rot4(ld(&sn[i]), ld(&cs[i]), this.measure)
+            };
+            gx.store(&mut pb.gx[i], at);
+            gy.store(&mut pb.gy[i], at);
+            if i + 1 == N {
+                (rnx[i] - gx).store(&mut pb.lx, at);
+                (rny[i] - gy).store(&mut pb.ly, at);
+            }
+            px = px + rnx[i];
+            py = py + rny[i];
+            if this.rotary[i] {
+                continue;
+            }
             // D_i = B_{i−1} − O_i: fixed on the chassis, else R(α_{i−1})·(b − next)_{i−1}.
             let (dx, dy) = if i > 0 {
                 (rbx[i - 1] - rnx[i - 1], rby[i - 1] - rny[i - 1])
@@ -526,25 +608,12 @@ impl<const N: usize> FastArm<N> {
             ((dx * ax + dy * ay) * this.inv_rd[i]).store(&mut pb.c[i], at);
             sg.abs().store(&mut pb.s[i], at);
             sg.sign_one().store(&mut pb.side[i], at);
-            // Lever of the measure point's displacement, and the load point.
-            let (gx, gy) = if i + 1 < N {
-                (rnx[i], rny[i])
-            } else {
-                rot4(ld(&sn[i]), ld(&cs[i]), this.measure)
-            };
-            gx.store(&mut pb.gx[i], at);
-            gy.store(&mut pb.gy[i], at);
-            if i + 1 == N {
-                (rnx[i] - gx).store(&mut pb.lx, at);
-                (rny[i] - gy).store(&mut pb.ly, at);
-            }
-            px = px + rnx[i];
-            py = py + rny[i];
         }
-        // Statics, link by link from the tip: actuator i+1's force −F·e at B_i and the distal
-        // reaction −R at O_{i+1}, for the self-weight case (w) and the payload (u). Beyond the
-        // tip: no actuator, and a "reaction" −P so that −R_{n+1} is the payload P at the load
-        // point.
+        // Statics, link by link from the tip: actuator i+1's force −F·e at B_i (a drive i+1's
+        // weight at O_{i+1} and its couple −T instead) and the distal reaction −R at O_{i+1},
+        // for the self-weight case (w) and the payload (u). Beyond the tip: no actuator, and a
+        // "reaction" −P so that −R_{n+1} is the payload P at the load point. A drive i's
+        // torque is `T_i = −t`: its e_i is zero and its moment `inv_h` one.
         let (mut e0n, mut e1n) = (F4::ZERO, F4::ZERO);
         let (mut fw1, mut rwx1, mut rwy1) = (F4::ZERO, F4::ZERO, F4::ZERO);
         let mut fu1 = F4::ZERO;
@@ -562,13 +631,20 @@ impl<const N: usize> FastArm<N> {
             };
             let (fx, fy) = (-fw1 * e0n, -fw1 * e1n);
             let qx = fx - rwx1;
-            let qy = fy - rwy1 - (wl + wa + wb);
-            let t =
+            let mut qy = fy - rwy1 - (wl + wa + wb);
+            let mut t =
                 -wl * rcx[i] - wa * ax - wb * bx + (bx * fy - by * fx) - (nx * rwy1 - ny * rwx1);
             let (gx, gy) = (-fu1 * e0n, -fu1 * e1n);
             let qux = gx - rux1;
             let quy = gy - ruy1;
-            let tu = (bx * gy - by * gx) - (nx * ruy1 - ny * rux1);
+            let mut tu = (bx * gy - by * gx) - (nx * ruy1 - ny * rux1);
+            if i + 1 < N && this.rotary[i + 1] {
+                // Drive i+1's housing: its weight at O_{i+1} and the couple −T_{i+1}.
+                let wo = this.w_drive[i + 1];
+                qy = qy - wo;
+                t = t - wo * nx - fw1;
+                tu = tu - fu1;
+            }
             let f = -t * inv_h[i];
             let fu = -tu * inv_h[i];
             fw1 = f;
@@ -616,7 +692,9 @@ impl<const N: usize> FastArm<N> {
     }
 
     /// The pin-to-pin length change of actuator `i` under the force change `du` (loaded
-    /// force `f`, unloaded `fw`): compliance and play (`UP`: some play is taken up).
+    /// force `f`, unloaded `fw`): compliance and play (`UP`: some play is taken up). At a
+    /// rotary drive the same for its gear: the turn Δq_i (rad) under the torque change `du`
+    /// (N·mm), the gear's compliance and backlash.
     #[inline(always)]
     pub(crate) fn dlen<const PLAY: bool, const UP: bool, T: Lane>(
         &self,
@@ -626,10 +704,11 @@ impl<const N: usize> FastArm<N> {
         fw: T,
     ) -> T {
         let elastic = -du * self.len_c[i];
+        let z = self.zero[i];
         if UP {
-            elastic - sign0(f) * self.play[i] + sign0(fw) * self.play_up[i]
+            elastic - sign_above(f, z) * self.play[i] + sign_above(fw, z) * self.play_up[i]
         } else if PLAY {
-            elastic - sign0(f) * self.play[i]
+            elastic - sign_above(f, z) * self.play[i]
         } else {
             elastic
         }
@@ -654,6 +733,31 @@ impl<const N: usize> FastArm<N> {
         let mut far = false;
         for i in 0..N {
             let (bc, hr, fmax) = (self.body_c[i], self.half_inv_rd[i], self.fmax[i]);
+            if self.rotary[i] {
+                // Link i turns against body i−1 by its gear's Δq_i: no triangle. A drive's
+                // torque and its (absent) body length are not cell fields: NaN.
+                let (mut q, mut f) = ([0.0; L], [0.0; L]);
+                for k in 0..L {
+                    let du = m * pb.fu[i][k];
+                    let fw = pb.fw[i][k];
+                    f[k] = fw + du;
+                    q[k] = self.dlen::<PLAY, UP, f64>(i, du, f[k], fw);
+                }
+                let (mut qs, mut qc) = ([0.0; L], [0.0; L]);
+                sincos_small(&q, &mut qs, &mut qc);
+                for k in 0..L {
+                    let (ns, nc) = compose(sr[k], cm[k], qs[k], cos_m1(qs[k], qc[k]));
+                    sr[k] = ns;
+                    cm[k] = nc;
+                    dx[k] += nc * pb.gx[i][k] - ns * pb.gy[i][k];
+                    dy[k] += ns * pb.gx[i][k] + nc * pb.gy[i][k];
+                    dth[i][k] = q[k];
+                    over[k] |= f[k].abs() > fmax;
+                    cb.force[i][k] = f64::NAN;
+                    cb.dl[i][k] = f64::NAN;
+                }
+                continue;
+            }
             for k in 0..L {
                 let du = m * pb.fu[i][k];
                 let fw = pb.fw[i][k];
@@ -786,6 +890,9 @@ impl<const N: usize> FastArm<N> {
     #[cold]
     fn fix_large_turns(&self, pb: &PoseBlock<N>, m: f64, dth: &mut [[f64; L]; N]) {
         for i in 0..N {
+            if self.rotary[i] {
+                continue; // a drive's turn is its own angle
+            }
             for k in 0..L {
                 let du = m * pb.fu[i][k];
                 let fw = pb.fw[i][k];

@@ -6,6 +6,7 @@
 //! that the body's sensor sees. A joint friction's couple bends the links beside it, which
 //! the kernel's bending influences do not carry: such sets take the general path.
 
+use crate::arm::Arm;
 use crate::effects::{Effect, EffectSet};
 use crate::sweep::fast::{PoseBlock, L};
 
@@ -16,6 +17,9 @@ pub(crate) struct Friction<const N: usize> {
     pub(crate) any: bool,
     joint: [Option<f64>; N],
     body: [Option<f64>; N],
+    /// Joint i is turned by a rotary drive: its unit load is a couple (limit L itself, no
+    /// reaction change).
+    rotary: [bool; N],
 }
 
 /// What each lane's friction elements hold (N), `[actuator][lane]`.
@@ -37,17 +41,19 @@ impl<const N: usize> Held<N> {
 
 impl<const N: usize> Friction<N> {
     /// The frictions of `effects`, or `None` when a joint friction sits beside a bent link.
-    pub(crate) fn new(effects: &EffectSet) -> Option<Self> {
+    pub(crate) fn new(arm: &Arm, effects: &EffectSet) -> Option<Self> {
         let mut f = Self {
             any: false,
             joint: [None; N],
             body: [None; N],
+            rotary: std::array::from_fn(|i| arm.is_rotary(i)),
         };
         let mut bent = [false; N];
         for e in effects.effects() {
             match e {
                 Effect::JointFriction(j) => f.joint[j.joint] = Some(j.torque),
                 Effect::ActuatorFriction(a) => f.body[a.actuator] = Some(a.friction),
+                Effect::DriveFriction(d) => f.body[d.joint] = Some(d.torque),
                 Effect::LinkBending(b) => bent[b.link] = true,
                 _ => {}
             }
@@ -74,7 +80,15 @@ impl<const N: usize> Friction<N> {
         seen: &mut [[f64; L]; N],
     ) {
         for i in 0..N {
-            if let Some(t) = self.joint[i] {
+            if let (Some(t), true) = (self.joint[i], self.rotary[i]) {
+                // At a drive: a couple in parallel with it, its limit L itself.
+                for k in 0..L {
+                    let df = pb.fu[i][k];
+                    let s = crate::effects::slip(held.joint[i][k], df, t);
+                    held.joint[i][k] = s;
+                    pb.fu[i][k] = s;
+                }
+            } else if let Some(t) = self.joint[i] {
                 for k in 0..L {
                     let (ex, ey) = (pb.e[0][i][k], pb.e[1][i][k]);
                     // h = (A − O) × e = (B − O) × e, as A − B is along e.

@@ -1,0 +1,210 @@
+"""Throughput of ``eodarm.solve`` and ``eodarm.solve_sequence`` against the machine's floor.
+
+The floor of a call is the time numpy takes to allocate and write the arrays the call returns
+(``np.empty(shape, dtype).fill(1)`` for each of them, the same keys, shapes and dtypes), in
+the same process: a call cannot return its outputs faster than it can write them. Each figure
+is printed beside its floor and the ratio call time / floor time (1 would be a core that costs
+nothing). Every figure is the best of 5 calls, the call and its floor timed alternately.
+
+Workloads, on the linear example arm (``examples/example_arm.toml``), the rotary arm
+(``examples/rotary_arm.toml``) and the mixed arm (``examples/mixed_arm.toml``):
+
+* ``solve``: 10⁶ poses (uniform in each arm's working range), payload 0–7 kg, self-weight on,
+  no effect (``baseline``);
+* ``solve_sequence``: 10⁵ sequences × 8 states (0 → 1.5 → 5 → 6.5 → 5 → 1.5 → 0 → 3 kg), with
+  no effect and with two frictions, a clearance and a mount (at a drive: its gear's
+  compliance), see ``SEQUENCE_EFFECTS``;
+* the same with ``outputs=("dx_mm", "dy_mm")`` where the installed package has ``outputs=``;
+  its floor is that of the two arrays.
+
+Run from the repository root (``docs/benchmarks.md`` has the results)::
+
+    python3 benches/bench_floor.py                # 1e6 poses, 1e5 × 8 states, ~1 min
+    python3 benches/bench_floor.py --scale 0.1    # a tenth of each workload
+    python3 benches/bench_floor.py --markdown floor.md
+"""
+
+from __future__ import annotations
+
+import argparse
+import inspect
+import os
+import platform
+import time
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+import eodarm
+
+ROOT = Path(__file__).resolve().parent.parent
+ARMS = {
+    "linear": ROOT / "examples" / "example_arm.toml",
+    "rotary": ROOT / "examples" / "rotary_arm.toml",
+    "mixed": ROOT / "examples" / "mixed_arm.toml",
+}
+#: Each arm's working range: per joint (low, high) of the relative angle q_i (deg); the
+#: linear arm's are absolute angles (bench_solve.py's), as its file's poses are given.
+RANGES = {
+    "linear": [(60.0, 110.0), (0.0, 30.0), (-10.0, 10.0)],
+    "rotary": [(0.0, 60.0), (-60.0, 0.0), (-40.0, 20.0)],
+    "mixed": [(10.0, 80.0), (-110.0, -40.0), (-90.0, -20.0)],
+}
+MASSES = np.array([0.0, 1.5, 5.0, 6.5, 5.0, 1.5, 0.0, 3.0])
+SEQUENCE_EFFECTS = {
+    "linear": [
+        eodarm.Effect("actuator_friction", "M1", friction_n=40.0),
+        eodarm.Effect("joint_friction", "O3", torque_nmm=4000.0),
+        eodarm.Effect("joint_clearance", "O3", clearance_mm=0.15),
+        eodarm.Effect("mount_compliance", "M2", stiffness_n_per_mm=4000.0),
+    ],
+    "rotary": [
+        eodarm.Effect("drive_friction", "O2", torque_nmm=2000.0),
+        eodarm.Effect("joint_friction", "O3", torque_nmm=1000.0),
+        eodarm.Effect("joint_clearance", "O3", clearance_mm=0.15),
+        eodarm.Effect("drive_compliance", "O2", stiffness_nmm_per_rad=1.0e7),
+    ],
+    "mixed": [
+        eodarm.Effect("drive_friction", "O1", torque_nmm=4000.0),
+        eodarm.Effect("joint_friction", "O3", torque_nmm=4000.0),
+        eodarm.Effect("joint_clearance", "O3", clearance_mm=0.15),
+        eodarm.Effect("mount_compliance", "M2", stiffness_n_per_mm=4000.0),
+    ],
+}
+REPEATS = 5
+TWO = ("dx_mm", "dy_mm")
+
+
+def poses(kind: str, count: int, rng: np.random.Generator) -> np.ndarray:
+    """``count`` poses (deg) uniform in the arm's working range."""
+    lo, hi = np.array(RANGES[kind]).T
+    q = rng.uniform(lo, hi, size=(count, len(lo)))
+    return q if kind == "linear" else np.cumsum(q, axis=1)
+
+
+def floor_of(result: dict[str, Any]) -> Callable[[], None]:
+    """Allocating and writing arrays of the keys, shapes and dtypes of ``result``."""
+    specs = [(np.shape(v), np.asarray(v).dtype) for v in result.values()]
+
+    def write() -> None:
+        for shape, dtype in specs:
+            np.empty(shape, dtype).fill(1)
+
+    return write
+
+
+def best_pair(call: Callable[[], Any], floor: Callable[[], None]) -> tuple[float, float]:
+    """Best of ``REPEATS`` times of ``call`` and of ``floor``, timed alternately."""
+    tc, tf = [], []
+    for _ in range(REPEATS):
+        t0 = time.perf_counter()
+        call()
+        tc.append(time.perf_counter() - t0)
+        t0 = time.perf_counter()
+        floor()
+        tf.append(time.perf_counter() - t0)
+    return min(tc), min(tf)
+
+
+def load() -> float:
+    return os.getloadavg()[0]
+
+
+def cpu_name() -> str:
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or "unknown CPU"
+
+
+Row = tuple[str, str, str, int, float, float]
+
+
+def timed(kind: str, what: str, unit: str, count: int, call: Callable[[], Any]) -> Row:
+    """One figure: ``call`` beside its floor (the floor's arrays are the call's own)."""
+    floor = floor_of(call())
+    tc, tf = best_pair(call, floor)
+    print(
+        f"{kind:7s} {what:38s} {count / tc / 1e6:7.2f} M {unit}/s  floor "
+        f"{count / tf / 1e6:7.2f} M/s  ratio {tc / tf:5.2f}",
+        flush=True,
+    )
+    return (kind, what, unit, count, tc, tf)
+
+
+def bench_arm(
+    kind: str, n_poses: int, n_seq: int, rng: np.random.Generator, outputs: tuple[bool, bool]
+) -> list[Row]:
+    """Every figure of one arm."""
+    arm = eodarm.Arm.from_toml(ARMS[kind])
+    alpha = poses(kind, n_poses, rng)
+    mass = rng.uniform(0.0, 7.0, n_poses)
+    rows = [
+        timed(kind, "solve, baseline", "poses", n_poses, lambda: eodarm.solve(arm, alpha, mass))
+    ]
+    if outputs[0]:
+        two = lambda: eodarm.solve(arm, alpha, mass, outputs=TWO)  # noqa: E731
+        rows.append(timed(kind, "solve, baseline, outputs=dx,dy", "poses", n_poses, two))
+    seq_alpha = poses(kind, n_seq, rng)
+    seq_mass = np.broadcast_to(MASSES, (n_seq, MASSES.size))
+    states = n_seq * MASSES.size
+    eff = SEQUENCE_EFFECTS[kind]
+    plain = lambda: eodarm.solve_sequence(arm, seq_alpha, seq_mass)  # noqa: E731
+    rows.append(timed(kind, "solve_sequence, no effect", "states", states, plain))
+    full = lambda: eodarm.solve_sequence(arm, seq_alpha, seq_mass, eff)  # noqa: E731
+    rows.append(timed(kind, "solve_sequence, 2 frictions+gap+mount", "states", states, full))
+    if outputs[1]:
+        part = lambda: eodarm.solve_sequence(arm, seq_alpha, seq_mass, eff, outputs=TWO)  # noqa: E731
+        rows.append(timed(kind, "solve_sequence, effects, outputs=dx,dy", "states", states, part))
+    return rows
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--scale", type=float, default=1.0, help="fraction of each workload")
+    ap.add_argument("--markdown", type=Path, help="also write the table here")
+    args = ap.parse_args()
+    rng = np.random.default_rng(31)
+    n_poses = max(16, int(1_000_000 * args.scale))
+    n_seq = max(16, int(100_000 * args.scale))
+    has_outputs = "outputs" in inspect.signature(eodarm.solve).parameters
+    has_seq_outputs = "outputs" in inspect.signature(eodarm.solve_sequence).parameters
+    before = load()
+    rows: list[tuple[str, str, str, int, float, float]] = []
+    for kind in ARMS:
+        rows += bench_arm(kind, n_poses, n_seq, rng, (has_outputs, has_seq_outputs))
+    after = load()
+    scale = f" --scale {args.scale}" if args.scale != 1 else ""
+    threads = os.environ.get("RAYON_NUM_THREADS", f"unset ({os.cpu_count()} CPUs)")
+    head = [
+        f"- run: {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, "
+        f"`python3 benches/bench_floor.py{scale}`",
+        f"- machine: {platform.machine()}, {os.cpu_count()} CPUs, {cpu_name()}",
+        f"- python {platform.python_version()}, numpy {np.__version__}, "
+        f"RAYON_NUM_THREADS {threads}",
+        f"- load average (1 min) before / after: {before:.2f} / {after:.2f}",
+        f"- best of {REPEATS} calls; floor = numpy allocating and writing the call's output "
+        "arrays (`np.empty(shape, dtype).fill(1)`), best of 5, alternated with the call",
+        f"- `outputs=`: {'timed' if has_outputs else 'not in this build'}",
+    ]
+    table = [
+        "| arm | call | items | rate (M/s) | floor (M/s) | call / floor |",
+        "|---|---|---:|---:|---:|---:|",
+    ]
+    for kind, what, unit, count, tc, tf in rows:
+        table.append(
+            f"| {kind} | {what} | {count:,} {unit} | {count / tc / 1e6:.2f} | "
+            f"{count / tf / 1e6:.2f} | {tc / tf:.2f} |"
+        )
+    print("\n".join([*head, "", *table]))
+    if args.markdown:
+        args.markdown.write_text("\n".join([*head, "", *table]) + "\n")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,129 @@
+//! Rotary drives in the block kernel (docs/model.md §10): a link turned by a drive has no
+//! triangle to close; it takes body i−1's loaded turn plus its gear's
+//! `Δq_i = −S_i/k_i − b·sign T_i (+ b·sign T0_i taken up)` (the sweep kernel's
+//! [`FastArm::dlen`] at a drive, with a drive friction's further turn). The turns of a block
+//! are known before its closure, so their sines and cosines are taken once, lane by lane
+//! ([`sincos_small`]). The drive's angle range is checked unloaded (per pose, from the degrees
+//! of the input as the general path reads them) and loaded (per lane, `q_i + Δα_i − Δα_{i−1}`).
+
+use crate::arm::Arm;
+use crate::drive::rotary::ANGLE_TOL_RAD;
+use crate::drive::RotaryDrive;
+use crate::lanes::trig::{cos_m1, sincos_small};
+use crate::lanes::{Lane, F4, M4};
+use crate::sweep::fast::{lanes_of_rows, FastArm, PoseBlock, L};
+use crate::validity::Status;
+
+/// The rotary drives of an arm with an angle range.
+#[derive(Debug, Clone)]
+pub(crate) struct Ranges<const N: usize> {
+    drives: [Option<RotaryDrive>; N],
+    /// Some drive has a range.
+    pub(crate) any: bool,
+}
+
+/// The turns of a block's drives: Δq_i (rad) and its rotation (sin, cos − 1), `[joint][lane]`
+/// (zero at linear joints).
+#[derive(Debug, Clone)]
+pub(crate) struct Turns<const N: usize> {
+    pub(crate) q: [[f64; L]; N],
+    pub(crate) sin: [[f64; L]; N],
+    pub(crate) cos_m1: [[f64; L]; N],
+}
+
+impl<const N: usize> Turns<N> {
+    /// The turns of joints `fa.rotary` under the loads of `pb` (after the frictions: `seen`
+    /// is a drive friction's further turn, rad).
+    #[inline(always)]
+    pub(crate) fn of<const PLAY: bool, const UP: bool>(
+        fa: &FastArm<N>,
+        pb: &PoseBlock<N>,
+        seen: &[[f64; L]; N],
+    ) -> Self {
+        let z = [[0.0; L]; N];
+        let mut t = Self {
+            q: z,
+            sin: z,
+            cos_m1: z,
+        };
+        let mut c = [0.0; L];
+        for i in 0..N {
+            if !fa.rotary[i] {
+                continue;
+            }
+            for k in 0..L {
+                let (du, fw) = (pb.fu[i][k], pb.fw[i][k]);
+                t.q[i][k] = fa.dlen::<PLAY, UP, f64>(i, du, fw + du, fw) + seen[i][k];
+            }
+            sincos_small(&t.q[i], &mut t.sin[i], &mut c);
+            for k in 0..L {
+                t.cos_m1[i][k] = cos_m1(t.sin[i][k], c[k]);
+            }
+        }
+        t
+    }
+}
+
+impl<const N: usize> Ranges<N> {
+    pub(crate) fn new(arm: &Arm) -> Self {
+        let drives: [Option<RotaryDrive>; N] = std::array::from_fn(|i| {
+            arm.drives[i]
+                .rotary()
+                .filter(|r| r.min_angle.is_some() || r.max_angle.is_some())
+                .cloned()
+        });
+        let any = drives.iter().any(Option::is_some);
+        Self { drives, any }
+    }
+
+    /// The unloaded drive angles `q` (rad, [`RotaryDrive::angle_of`]) of a block's `count`
+    /// rows of angles (deg); a pose with one outside its range is out of stroke in `pb`.
+    pub(crate) fn unloaded(
+        &self,
+        alpha_deg: &[f64],
+        count: usize,
+        pb: &mut PoseBlock<N>,
+        q: &mut [[f64; L]; N],
+    ) {
+        let x = lanes_of_rows::<N>(alpha_deg, count);
+        for (i, d) in self.drives.iter().enumerate() {
+            let Some(d) = d else { continue };
+            for k in 0..L {
+                let before = if i == 0 {
+                    0.0
+                } else {
+                    x[i - 1][k].to_radians()
+                };
+                q[i][k] = d.angle_of(x[i][k].to_radians() - before);
+                if d.out_of_range(q[i][k]) {
+                    pb.out_of_stroke[k] = true;
+                    pb.reachable[k] = false;
+                    pb.code[k] = Status::OutOfStroke.code();
+                }
+            }
+        }
+    }
+
+    /// Drive `i` has a range.
+    pub(crate) fn at(&self, i: usize) -> bool {
+        self.drives[i].is_some()
+    }
+
+    /// Lanes whose drive `i` (with a range) is out of it loaded, as
+    /// [`crate::validity::out_of_angle`] checks it: its unloaded angle `q` (rad) plus the
+    /// turn `Δα_i − Δα_{i−1}` of the links (`d`, `before`: deg, as the outputs give them,
+    /// zero before link 1), a turn within [`ANGLE_TOL_RAD`] being none.
+    #[inline(always)]
+    pub(crate) fn loaded_out(&self, i: usize, q: F4, d: F4, before: F4) -> M4 {
+        let Some(r) = &self.drives[i] else {
+            return M4::FALSE;
+        };
+        let rad = std::f64::consts::PI / 180.0; // f64::to_radians's factor
+        let dq = d * rad - before * rad;
+        let a = q + dq;
+        let lo = r.min_angle.map_or(f64::NEG_INFINITY, |lo| lo - ANGLE_TOL_RAD);
+        let hi = r.max_angle.map_or(f64::INFINITY, |hi| hi + ANGLE_TOL_RAD);
+        let turned = Lane::gt(dq.abs(), ANGLE_TOL_RAD) & Lane::lt(dq.abs(), f64::INFINITY);
+        turned & (Lane::lt(a, lo) | Lane::gt(a, hi))
+    }
+}
