@@ -121,7 +121,9 @@ impl<const N: usize> Ranges<N> {
         let rad = std::f64::consts::PI / 180.0; // f64::to_radians's factor
         let dq = d * rad - before * rad;
         let a = q + dq;
-        let lo = r.min_angle.map_or(f64::NEG_INFINITY, |lo| lo - ANGLE_TOL_RAD);
+        let lo = r
+            .min_angle
+            .map_or(f64::NEG_INFINITY, |lo| lo - ANGLE_TOL_RAD);
         let hi = r.max_angle.map_or(f64::INFINITY, |hi| hi + ANGLE_TOL_RAD);
         let turned = Lane::gt(dq.abs(), ANGLE_TOL_RAD) & Lane::lt(dq.abs(), f64::INFINITY);
         turned & (Lane::lt(a, lo) | Lane::gt(a, hi))
