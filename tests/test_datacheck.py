@@ -269,18 +269,21 @@ def test_the_seed_data_and_their_verdicts_are_not_touched() -> None:
         ["compensate", "--alpha", "90,10,0", "--mass", "5000"],
         ["synth", "--masses", "1500,5000", "--configs", "2"],
         ["sweep", "--mass", "5000", "--alpha1", "80:100:3", "--alpha2", "10", "--alpha3", "0"],
+        ["plan", "--configs", "2", "--pool", "40", "--sequence", "0,1500,5000,0"],
     ],
 )
 def test_a_payload_in_grams_on_the_command_line_gets_a_hint(
     capsys: pytest.CaptureFixture[str], argv: list[str]
 ) -> None:
     """``--mass 5000`` gave "row 0 … near_singular" (compensate) or a silent answer: the
-    payload is over ten times the arm's own 10.1 kg and a thousandth of it is not."""
+    payload is over ten times the arm's own 10.1 kg and a thousandth of it is not. ``plan
+    --sequence 0,1500,5000,0`` said only that no configuration keeps its states valid."""
     code, _, err = cli(capsys, *argv, "--arm", EXAMPLE)
     hint = "5000 kg is over 10 times the arm's own 10.1 kg: is it grams? (5 kg)"
     assert hint in " ".join(err.split())
     if code == 2:  # refused: the hint comes first in the one line
-        assert err.count("\n") == 1 and err.startswith("eodarm: error: --mass")
+        flag = next(a for a in argv if a in ("--mass", "--masses", "--sequence"))
+        assert err.count("\n") == 1 and err.startswith(f"eodarm: error: {flag}")
 
 
 def test_a_payload_an_arm_can_carry_gets_no_hint(capsys: pytest.CaptureFixture[str]) -> None:

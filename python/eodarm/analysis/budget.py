@@ -8,9 +8,10 @@ not answer it: a fitted body far stiffer than the baseline's spring then shows a
 off in turn from the full model answers it only for a linear model, and the parts then miss
 the total by their interactions.
 
-:func:`sag_budget` starts from the **rigid arm** (every actuator body rigid, no effect: it
-does not sag) and splits the model's sag between its *components*: each actuator's body (its
-spring, the arm file's stiffness or the fitted ``actuator_compliance``) and every other
+:func:`sag_budget` starts from the **rigid arm** (every actuator body and every drive's gear
+rigid, no effect: it does not sag) and splits the model's sag between its *components*: each
+actuator's body (its spring, the arm file's stiffness or the fitted ``actuator_compliance``),
+each rotary drive's gear (``drive_compliance`` likewise) and every other
 effect of the model. The split is the **Shapley value**: a component's share is its added sag
 averaged over every order in which the components can be switched on,
 
@@ -44,6 +45,7 @@ from eodarm.model.solver import solve
 
 __all__ = [
     "MAX_COMPONENTS",
+    "RIGID_LEVER_MM",
     "RIGID_N_PER_MM",
     "SagBudget",
     "bare_arm",
@@ -61,6 +63,8 @@ MAX_COMPONENTS = 10
 #: under 1 kN, a sag the rigid arm keeps and the budget shows as its starting point); where
 #: they do not settle, 100 and then 10 000 times softer.
 RIGID_N_PER_MM = {"analytic": 1e15, "fem": 1e9}
+#: The moment arm (mm) that turns a rigid body's stiffness into a rigid gear's (N·mm/rad).
+RIGID_LEVER_MM = 1000.0
 
 
 @dataclass
@@ -125,7 +129,9 @@ def _grouped(
     groups: dict[str, tuple[str, list[str], list[Effect]]] = {}
     for _label, keys, effs in comps:
         kind = keys[0].split("@")[0]
-        name = "actuator bodies" if kind == "actuator_compliance" else f"{kind} (all places)"
+        name = {"actuator_compliance": "actuator bodies", "drive_compliance": "drive gears"}.get(
+            kind, f"{kind} (all places)"
+        )
         g = groups.setdefault(kind, (name, [], []))
         g[1].extend(keys)
         g[2].extend(effs)
@@ -153,7 +159,7 @@ def sag_budget(
     kw: dict[str, Any] = {"self_weight": self_weight, "model": model, "fem_options": fem_options}
 
     def values(rigid: float) -> dict[tuple[int, ...], npt.NDArray[np.float64]]:
-        bodies = rigid_bodies(arm.n, rigid)
+        bodies = rigid_bodies(arm, rigid)
         v = {}
         for size in range(n + 1):
             for members in itertools.combinations(range(n), size):
@@ -184,14 +190,23 @@ def sag_budget(
     )
 
 
-def rigid_bodies(n_links: int, stiffness_n_per_mm: float) -> dict[str, Effect]:
-    """Every actuator body at ``stiffness_n_per_mm`` (the rigid arm's), by effect key."""
-    return {
-        f"actuator_compliance@M{i}": Effect(
-            "actuator_compliance", f"M{i}", stiffness_n_per_mm=stiffness_n_per_mm
-        )
-        for i in range(1, n_links + 1)
-    }
+def rigid_bodies(arm: Arm, stiffness_n_per_mm: float) -> dict[str, Effect]:
+    """Every actuator body at ``stiffness_n_per_mm`` (the rigid arm's), by effect key; every
+    rotary drive's gear at ``stiffness_n_per_mm`` × :data:`RIGID_LEVER_MM`² N·mm/rad, as
+    rigid as a body of that stiffness acting at a 1 m moment arm."""
+    out = {}
+    for i, kind in enumerate(arm.kinds, start=1):
+        if kind == "rotary":
+            out[f"drive_compliance@O{i}"] = Effect(
+                "drive_compliance",
+                f"O{i}",
+                stiffness_nmm_per_rad=stiffness_n_per_mm * RIGID_LEVER_MM**2,
+            )
+        else:
+            out[f"actuator_compliance@M{i}"] = Effect(
+                "actuator_compliance", f"M{i}", stiffness_n_per_mm=stiffness_n_per_mm
+            )
+    return out
 
 
 def shapley_shares(

@@ -77,7 +77,8 @@ def confusions(
 
     A's contribution (whitened, the model's own columns ``am`` projected out) must itself be
     significant (χ² above ``detectable``), and B's best imitation must leave less than
-    χ²₁(95 %) of it and less than a tenth of it unexplained.
+    χ²₁(95 %) of it and less than a tenth of it unexplained; B's exact refit (its ranking
+    fit) may not differ from A's by more than that either.
     """
     if am.shape[1]:
         q, _ = np.linalg.qr(am)
@@ -109,7 +110,10 @@ def confusions(
             coef = max(cv / cc, lo_i)
             # |v − coef·col|², never below 0 by rounding
             left = max(vv - 2.0 * coef * cv + coef * coef * cc, 0.0)
-            if left < CONFUSION_CHI2 and left < 0.1 * vv:
+            # ... and the exact refits agree: a response far from linear (a friction that moves
+            # a backlash's side) can separate what the linearised columns do not
+            apart = abs(other.fit.chi2 - cand.fit.chi2) > max(CONFUSION_CHI2, 0.1 * vv)
+            if left < CONFUSION_CHI2 and left < 0.1 * vv and not apart:
                 out.append(other.slot.spec)
         cand.confused_with = out
 
@@ -301,12 +305,21 @@ def friction_advice(a: Slot, b: Slot, has_sequences: bool) -> str | None:
     unloading branch lies on the other side of the frictionless curve and the arm does not
     come back at zero payload. Two frictions on one actuator differ by their limit: an
     actuator friction's is a force, a joint friction's a torque T/r_i, so it changes with
-    the moment arm r_i of actuator i about O_i from pose to pose.
+    the moment arm r_i of actuator i about O_i from pose to pose. At a rotary drive the joint
+    friction (in parallel with the whole drive) and the gear's friction (in parallel with its
+    spring) hold the same torque: only a backlash in the gear tells them apart, as it follows
+    the torque through the gear (docs/model.md §10).
     """
-    frictions = ("actuator_friction", "joint_friction")
+    frictions = ("actuator_friction", "joint_friction", "drive_friction")
     if a.name not in frictions and b.name not in frictions:
         return None
     if a.name in frictions and b.name in frictions:
+        if {a.name, b.name} == {"joint_friction", "drive_friction"} and a.at == b.at:
+            return (
+                f"nothing but a backlash in drive {a.at[1:]}: the joint friction and the "
+                "gear's friction hold the same torque, and only the backlash, which follows "
+                "the torque through the gear, sees where it is held"
+            )
         if a.name != b.name and a.at[1:] == b.at[1:]:
             i = a.at[1:]
             return (

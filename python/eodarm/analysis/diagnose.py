@@ -42,6 +42,7 @@ from eodarm.analysis.consistency import P_PASS, effective_nu, fit_p_value, lr_th
 from eodarm.analysis.datacheck import DataCheck, check_data
 from eodarm.analysis.fit import FitResult, FitWarning, Problem, fit
 from eodarm.analysis.outliers import outlier_table, peel_outliers
+from eodarm.analysis.sequences import FRICTIONS
 from eodarm.data.measurements import Measurements
 from eodarm.errors import EodarmError
 from eodarm.model.arm import Arm
@@ -63,9 +64,11 @@ TIE_ORDER = (
     "mount_compliance",
     "joint_clearance",
     "actuator_play",
+    "drive_backlash",
     "link_bending",
     "base_compliance",
     "actuator_compliance",
+    "drive_compliance",
 )
 #: The verdicts of docs/formats.md §7: ``check_data`` when the data look mistaken
 #: (:mod:`eodarm.analysis.datacheck`), before any effect is looked for.
@@ -465,7 +468,7 @@ def _diagnose_pass(
             arm.n, taken_up=analytic and self_weight, custom=analytic, kinds=arm.kinds
         )
         if not analytic:  # frictions are modelled by the analytic model only
-            every = [s for s in every if s.name not in ("actuator_friction", "joint_friction")]
+            every = [s for s in every if s.name not in FRICTIONS]
         cands = [s for s in every if s.key not in taken]
     else:
         cands = [Slot.of(s) for s in candidates if Slot.of(s).key not in taken]
@@ -521,7 +524,7 @@ def _diagnose_pass(
         return cache[st]
 
     singles: list[tuple[int, ...]] = [(c,) for c in range(k)]
-    d1, chi1 = solve_sets(singles)
+    d1, _ = solve_sets(singles)
     ranking = []
     for c in range(k):
         res = refine((c,), d1[c])
@@ -550,7 +553,13 @@ def _diagnose_pass(
         for size in range(1, min(max_set, k) + 1):
             sets = _combinations(cands, size)
             searched += len(sets) if size > 1 else 0
-            d, chis = solve_sets(sets) if size > 1 else (d1, chi1)
+            if size > 1:
+                d, chis = solve_sets(sets)
+            else:
+                # every single is already refitted exactly (the ranking): judge the best of
+                # those first, not of the linearised χ², which misjudges an effect whose
+                # response is far from linear (a friction that moves a backlash's side)
+                d, chis = d1, np.array([cache[st].chi2 for st in singles])
             order = np.argsort(chis)[:refine_per_size]
             fits = _by_chi2([refine(sets[i], d[i]) for i in order], m)
             tried += fits

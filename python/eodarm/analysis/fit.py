@@ -11,6 +11,11 @@ actuator_play          play_mm                     0 ≤ θ ≤ 5 mm
 joint_clearance        clearance_mm                0 ≤ θ ≤ 5 mm
 link_bending           1/ei_n_mm2                  θ ≥ 0 (θ = 0: rigid link)
 base_compliance        1/stiffness_nmm_per_rad     θ ≥ 0 (θ = 0: rigid base)
+drive_compliance       1/stiffness_nmm_per_rad     θ ≥ 0 (θ = 0: rigid gear)
+drive_backlash         backlash_deg                0 ≤ θ ≤ 5°
+actuator_friction      friction_n                  θ ≥ 0 (θ = 0: absent)
+joint_friction         torque_nmm                  θ ≥ 0 (θ = 0: absent)
+drive_friction         torque_nmm                  θ ≥ 0 (θ = 0: absent)
 =====================  ==========================  =====================================
 
 The compiled core returns the model's channels and their sensitivities ∂y/∂θ for any set of
@@ -453,10 +458,12 @@ def determining_channel(slot: Slot, measured: Sequence[str]) -> str:
         "link_bending": f"dalpha{i}_deg",
         "base_compliance": "dalpha1_deg",
         "actuator_friction": f"dl{i}_mm",  # the body's sensor sees what the body spring takes
+        "drive_compliance": f"dalpha{i}_deg",  # the gear turns link i against body i-1
+        "drive_backlash": f"dalpha{i}_deg",
     }.get(slot.name)
     if own is not None and own not in measured:
         return f"measure {own}"
-    if slot.name in ("actuator_friction", "joint_friction"):
+    if slot.name in ("actuator_friction", "joint_friction", "drive_friction"):
         return (
             "load and unload (a load cycle with a step column): the unloading branch and the "
             "return to zero payload show a friction (docs/diagnosis.md, load sequences)"

@@ -17,6 +17,7 @@ import numpy as np
 import numpy.typing as npt
 
 from eodarm.data.measurements import Measurements
+from eodarm.data.plausible import check_drive_channels
 from eodarm.errors import EodarmError
 from eodarm.model.arm import Arm
 from eodarm.model.effects import Slot, param_from_theta, theta_from_param
@@ -62,6 +63,7 @@ class Problem:
                 f"{meas.source}: the measurements are for a {meas.n}-link arm, "
                 f"the arm '{arm.name}' has {arm.n} links"
             )
+        check_drive_channels(arm, meas)
         self.arm = arm
         self.meas = meas
         self.self_weight = self_weight

@@ -60,12 +60,12 @@ FloatArray = npt.NDArray[np.float64]
 Model = Sequence[tuple[Slot, float]]
 
 #: The effects with memory: friction elements (docs/model.md, load sequences).
-FRICTIONS = ("actuator_friction", "joint_friction")
+FRICTIONS = ("actuator_friction", "joint_friction", "drive_friction")
 #: The secant step of a friction's limit, relative to max(L, typical L) (module notes).
 FRICTION_STEP = 0.05
 #: A typical limit, the scale of a step from L = 0: 1 N of actuator friction, and
-#: 100 N·mm of joint friction (1 N on a 100 mm moment arm).
-_TYPICAL = {"actuator_friction": 1.0, "joint_friction": 100.0}
+#: 100 N·mm of joint or gear friction (1 N on a 100 mm moment arm).
+_TYPICAL = {"actuator_friction": 1.0, "joint_friction": 100.0, "drive_friction": 100.0}
 #: A stiffness standing for a rigid actuator body or gear (θ = 0 of an ``OWN_SPRINGS`` effect).
 _RIGID = 1e300
 

@@ -52,6 +52,7 @@ def moment_arm_ratio(arm: Arm, alpha_deg: npt.ArrayLike) -> npt.NDArray[np.float
     ``h_i = (A_i − O_i) × unit(A_i − B_{i−1})`` is actuator i's moment arm about its joint;
     the ratio is the sine of the angle at A_i between the link pin's radius and the actuator
     line. Near 0 the actuator passes through its joint and the pose is (nearly) singular.
+    A rotary drive turns its link directly and is never singular: its column is 1.
     """
     geo = forward(arm, alpha_deg)
     o = geo["O"][:, : arm.n]
@@ -59,7 +60,8 @@ def moment_arm_ratio(arm: Arm, alpha_deg: npt.ArrayLike) -> npt.NDArray[np.float
     e = geo["A"] - geo["B"]
     e = e / np.linalg.norm(e, axis=-1, keepdims=True)
     h = r[..., 0] * e[..., 1] - r[..., 1] * e[..., 0]
-    return np.abs(h) / np.linalg.norm(r, axis=-1)
+    rotary = np.array(arm.kinds) == "rotary"
+    return np.where(rotary, 1.0, np.abs(h) / np.linalg.norm(r, axis=-1))
 
 
 def random_configs(
@@ -79,7 +81,8 @@ def random_configs(
     * every actuator's moment arm about its joint is at least ``min_moment_ratio`` (20 %) of
       the distance |A_i − O_i| from the joint to its pin (:func:`moment_arm_ratio`): the
       actuator is far from passing through the joint, so forces stay moderate;
-    * every pin-to-pin length lies within the arm's stroke limits, where set;
+    * every pin-to-pin length lies within the arm's stroke limits, where set, and every
+      rotary drive's angle q_i = α_i − α_{i−1} within its ``min_angle_deg``/``max_angle_deg``;
     * the load point is ahead of the first joint (x > O1.x).
 
     Parameters
@@ -137,7 +140,7 @@ def random_configs(
         lmin = np.minimum(lmin, length.min(axis=0))
         lmax = np.maximum(lmax, length.max(axis=0))
         ok_moment = (moment_arm_ratio(arm, alpha) >= min_moment_ratio).all(axis=1)
-        ok_stroke = (stroke_violations(arm, length) == 0).all(axis=1)
+        ok_stroke = (stroke_violations(arm, length) == 0).all(axis=1) & _in_drive_range(arm, alpha)
         ok_ahead = geo["O"][:, n, 0] > arm.O1[0]
         rejected["moment"] += int((~ok_moment).sum())
         rejected["stroke"] += int((~ok_stroke).sum())
@@ -148,7 +151,7 @@ def random_configs(
     if count < k and not (partial and count > 0):
         why = [
             f"moment arm < {min_moment_ratio:g}·|A−O| in {rejected['moment']}",
-            f"outside the stroke in {rejected['stroke']}",
+            f"outside the stroke or a drive's range in {rejected['stroke']}",
             f"load point behind O1 in {rejected['behind']}",
         ]
         strokes = []
@@ -169,6 +172,17 @@ def random_configs(
             + ("; " + "; ".join(strokes) if strokes else "")
         )
     return np.ascontiguousarray(np.concatenate(found)[:k])
+
+
+def _in_drive_range(arm: Arm, alpha: npt.NDArray[np.float64]) -> npt.NDArray[np.bool_]:
+    """(N,) whether every rotary drive's unloaded angle q_i lies within its range."""
+    from eodarm.model.validity import drive_angles
+
+    d = arm.arrays()
+    q, _ = drive_angles(alpha, np.zeros_like(alpha))
+    lo = np.where(np.isnan(d["min_angle_deg"]), -np.inf, d["min_angle_deg"])
+    hi = np.where(np.isnan(d["max_angle_deg"]), np.inf, d["max_angle_deg"])
+    return np.asarray(((q >= lo) & (q <= hi)).all(axis=1))
 
 
 # ---------------------------------------------------------------------------- data
@@ -257,7 +271,7 @@ def synth(
     if not (math.isfinite(noise) and noise > 0):
         raise EodarmError(f"synth: noise must be finite and > 0, got {noise!r}")
     rep = integer(repeats, "synth: repeats", 1, 10**6)
-    chosen = expand_channels(channels, n)
+    chosen = expand_channels(channels, n, arm.kinds)
     every = channel_names(n)
     sig = _sigmas(sigma or {}, every, noise)
 

@@ -150,7 +150,7 @@ def synth_records(
         if not 0 <= k < len(seq):
             raise EodarmError(f"--drift: state {k} is not in the sequence (0…{len(seq) - 1})")
     every = channel_names(arm.n)
-    chosen = expand_channels(channels, arm.n)
+    chosen = expand_channels(channels, arm.n, arm.kinds)
     sel = [every.index(c) for c in chosen]
     sig_all = _sigmas(sigma or {}, every, noise)
     truth_all = state_values(arm, alpha, seq, as_effects(hidden), self_weight)

@@ -64,6 +64,22 @@ def _load_arm(path: str | None, measurements: str | None = None) -> Arm:
 ARM_HELP = f"arm file (default: the bundled {DEFAULT_DATASET} arm)"
 
 
+def check_kinds_of(arm: Arm, specs: Sequence[str] | None, flag: str = "--add") -> None:
+    """Refuse, before anything is solved, an ``EFFECT@PLACE[=VALUE]`` of ``specs`` at a joint
+    of the wrong kind (an actuator's effect at a rotary drive, a drive's at a linear
+    actuator), in one line naming the flag, the effect and what applies there."""
+    from eodarm.model.effects import Slot, kind_mismatch
+
+    for spec in specs or []:
+        try:
+            slot = Slot.parse(spec.partition("=")[0].strip())
+            why = kind_mismatch(slot.example, arm.kinds)
+        except EodarmError:
+            continue  # the effect's own parser names what is wrong with it
+        if why is not None:
+            raise EodarmError(f"{flag} {spec}: {why}")
+
+
 def _valued_effect(spec: str, flag: str = "--add") -> Effect:
     """``effect@place=value`` → Effect (a catalogue effect or a registered user-written one)."""
     head, sep, value = spec.partition("=")

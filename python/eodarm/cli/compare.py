@@ -33,6 +33,7 @@ from eodarm.cli._common import (
     _rms_line,
     _say,
     _stages,
+    check_kinds_of,
     data_command,
 )
 from eodarm.cli._outputs import _claim, _force_arg
@@ -79,6 +80,7 @@ def run(args: argparse.Namespace) -> int:
     if args.residuals:
         _claim(args, args.residuals, "--residuals")
     arm = _load_arm(args.arm, args.measurements)
+    check_kinds_of(arm, args.add, "--add")
     sw = not args.no_self_weight
     model = _model(args.add, allow_values=True)
     fixed = [m for m in model if isinstance(m, Effect)]

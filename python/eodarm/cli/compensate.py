@@ -35,6 +35,7 @@ from eodarm.cli._common import (
     _say,
     _stages,
     _valued_effect,
+    check_kinds_of,
 )
 from eodarm.cli._help import HELP
 from eodarm.cli._outputs import _claim, _force_arg
@@ -203,6 +204,7 @@ def run(args: argparse.Namespace) -> int:
     if args.output:
         _claim(args, args.output, "-o")
     arm = _load_arm(args.arm)
+    check_kinds_of(arm, args.add, "--add")
     effects = [_valued_effect(s) for s in args.add or []]
     alpha, mass, config = _nominal_poses(args, arm)
     self_weight = not args.no_self_weight
@@ -288,7 +290,9 @@ def run(args: argparse.Namespace) -> int:
             f"{mass[i]:g}",
             "/".join(f"{a:g}" for a in alpha[i]),
             "/".join(f"{a:.4f}" for a in out["alpha_deg"][i]) if ok else "—",
-            "/".join(f"{x:.2f}" for x in out["length_mm"][i]) if ok else "—",
+            "/".join("—" if math.isnan(x) else f"{x:.2f}" for x in out["length_mm"][i])
+            if ok
+            else "—",
             mm(miss[i], 4),
             mm(out["residual_mm"][i], 2),
         ]

@@ -35,6 +35,7 @@ from eodarm.cli._common import (
     _rms_line,
     _say,
     _stages,
+    check_kinds_of,
     data_command,
 )
 from eodarm.cli._outputs import _free_name
@@ -44,6 +45,7 @@ def run(args: argparse.Namespace) -> int:
     from eodarm.analysis.diagnose import diagnose
 
     arm = _load_arm(args.arm, args.measurements)
+    check_kinds_of(arm, args.add, "--add")
     meas = _read(args.measurements, arm, not args.no_self_weight)
     sw = not args.no_self_weight
     model = [m for m in _model(args.add, allow_values=False) if not isinstance(m, Effect)]

@@ -22,6 +22,7 @@ from eodarm.cli._common import (
     _rms_line,
     _say,
     _stages,
+    check_kinds_of,
     data_command,
 )
 from eodarm.cli._help import HELP
@@ -39,6 +40,7 @@ def run(args: argparse.Namespace) -> int:
     if args.output:
         _claim(args, args.output, "-o")
     arm = _load_arm(args.arm, args.measurements)
+    check_kinds_of(arm, args.add, "--add")
     sw = not args.no_self_weight
     model = _model(args.add, allow_values=True)
     if not model:

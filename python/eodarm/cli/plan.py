@@ -16,6 +16,7 @@ from eodarm.cli._common import (
     _load_arm,
     _next,
     _note,
+    _payload_hint,
     _print_table,
     _read,
     _say,
@@ -122,11 +123,16 @@ def run(args: argparse.Namespace) -> int:
         else (_floats(args.sequence, "--sequence") if args.sequence else list(DEFAULT_CYCLE))
     )
     sw = not args.no_self_weight
+    # --sequence 0,1500,5000: is it grams? (a note, and first in a refusal of the plan)
+    hinted = _payload_hint(arm, masses, "--sequence" if sequence else "--masses")
     fixed = _read(args.fixed, arm, sw) if args.fixed else None
     cands = parse_candidates(args.candidates, arm) if args.candidates else None
-    with _stages(
-        ["pool", "sizes", "signatures", "choosing", "refits", "inseparable", "writing"], "plan"
-    ) as step:
+    with (
+        hinted,
+        _stages(
+            ["pool", "sizes", "signatures", "choosing", "refits", "inseparable", "writing"], "plan"
+        ) as step,
+    ):
         result = plan(
             arm,
             args.configs,

@@ -16,6 +16,7 @@ from eodarm.cli._common import (
     _model_kw,
     _note,
     _read,
+    check_kinds_of,
 )
 from eodarm.cli._help import HELP
 from eodarm.cli._outputs import _claim, _force_arg
@@ -106,6 +107,7 @@ def _run(args: argparse.Namespace, step: Any) -> int:
         _note("no measurements given: reporting on the bundled data set seed2022")
     else:
         arm = _load_arm(args.arm, args.measurements)
+        check_kinds_of(arm, args.add, "--add")
         meas = _read(args.measurements, arm, not args.no_self_weight, record_figures=records)
         title = args.title
         intro = None

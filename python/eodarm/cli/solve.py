@@ -28,6 +28,7 @@ from eodarm.cli._common import (
     _say,
     _stages,
     _valued_effect,
+    check_kinds_of,
 )
 from eodarm.cli._help import HELP
 from eodarm.errors import EodarmError
@@ -38,6 +39,8 @@ _SOLVE_KEYS = (
     "force_n",
     "reaction_n",
     "dforce_n",
+    "torque_nmm",
+    "dtorque_nmm",
     "dx_mm",
     "dy_mm",
     "dalpha_deg",
@@ -92,6 +95,7 @@ def _sd(x: float) -> str:
 
 def run(args: argparse.Namespace) -> int:
     arm = _load_arm(args.arm)
+    check_kinds_of(arm, args.add, "--add")
     alphas = [_floats(a, "--alpha") for a in (args.alpha or [])]
     if not alphas:
         alphas = [[90.0] + [10.0] * (arm.n - 2) + [0.0]] if arm.n >= 2 else [[60.0]]
@@ -118,7 +122,7 @@ def run(args: argparse.Namespace) -> int:
         _fem_plots(args.plot, arm, out, alpha, mass, args.model)
     if args.model == "fem":
         # The plotting extras (shape, moments) stay in the Python API; print the channels.
-        out = {k: out[k] for k in (*_SOLVE_KEYS, "pin_force_n")}
+        out = {k: out[k] for k in (*_SOLVE_KEYS, "pin_force_n") if k in out}
     from eodarm.model.validity import STATUS, status_counts
 
     failed = int(np.isnan(np.asarray(out["dy_mm"], dtype=float)).sum())
@@ -171,7 +175,12 @@ def run(args: argparse.Namespace) -> int:
         + ("" if not args.no_self_weight else ", self-weight off")
         + (f", finite-element model ({dofs} DOF)" if dofs else "")
     )
-    head = ["α deg", "kg", "dx mm", "dy mm", "force N", "dα deg", "dl mm"]
+    rotary = [k == "rotary" for k in arm.kinds]
+    # a drive's torque in N·m beside the actuators' forces in N; no length at a drive
+    force_head = "force N" if not any(rotary) else "torque N·m" if all(rotary) else "F N | T N·m"
+    head = ["α deg", "kg", "dx mm", "dy mm", force_head, "dα deg"]
+    if not all(rotary):
+        head.append("dl mm")
     if args.uncertainty:
         head += ["σ dx mm", "σ dy mm"]
     if memory:
@@ -184,10 +193,15 @@ def run(args: argparse.Namespace) -> int:
             f"{mass[i]:g}",
             f"{out['dx_mm'][i]:.4f}",
             f"{out['dy_mm'][i]:.4f}",
-            "/".join(f"{f:.0f}" for f in out["force_n"][i]),
+            "/".join(_force_cell(out, i, k, rotary[k]) for k in range(n)),
             "/".join(f"{d:.3f}" for d in out["dalpha_deg"][i]),
-            "/".join(f"{d:.3f}" for d in out["dl_mm"][i]),
         ]
+        if not all(rotary):
+            cells.append(
+                "/".join(
+                    "—" if r else f"{d:.3f}" for d, r in zip(out["dl_mm"][i], rotary, strict=True)
+                )
+            )
         if args.uncertainty:
             cells += [_sd(out["sigma_dx_mm"][i]), _sd(out["sigma_dy_mm"][i])]
         if memory:
@@ -196,8 +210,10 @@ def run(args: argparse.Namespace) -> int:
         rows.append([c.replace("-", "−") for c in cells])
     _print_table(head, rows)
     _say(
-        "a/b/c: links or actuators 1…n; dα: loaded − unloaded angle; dl: actuator length "
-        "change (--json: every output, full precision)"
+        "a/b/c: links or actuators 1…n; dα: loaded − unloaded angle"
+        + ("; dl: actuator length change" if not all(rotary) else "")
+        + ("; T: drive torque on its link, counter-clockwise +" if any(rotary) else "")
+        + " (--json: every output, full precision)"
         + (
             "; on the loading branch (the payload put on from the unloaded pose): band is how "
             "far the point lands from it when the payload is reached by unloading from a "
@@ -265,3 +281,10 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     s.set_defaults(func=run)
 
     return s
+
+
+def _force_cell(out: Any, row: int, joint: int, rotary: bool) -> str:
+    """An actuator's loaded force (N), or a drive's loaded torque (N·m), of one pose."""
+    if rotary:
+        return f"{out['torque_nmm'][row][joint] / 1000.0:.1f}"
+    return f"{out['force_n'][row][joint]:.0f}"

@@ -19,6 +19,7 @@ from eodarm.cli._common import (
     _payload_hint,
     _say,
     _valued_effect,
+    check_kinds_of,
 )
 from eodarm.cli._help import HELP, NEGATIVE_VALUE
 from eodarm.cli._outputs import _claim, _force_arg
@@ -281,6 +282,7 @@ def run(args: argparse.Namespace) -> int:
         a sweep too large for memory or disk, a lost Dask cluster.
     """
     arm = _load_arm(args.arm)
+    check_kinds_of(arm, args.add, "--add")
     grid = _cli_grid(args, arm.n)
     mass = parse_range(args.mass, "--mass")
     _payload_hint(arm, mass)  # --mass 5000: is it grams? (a note)
@@ -543,6 +545,10 @@ def _summary(ds: xr.Dataset) -> None:
             fi = f.sel(actuator=i)
             if bool(np.isfinite(fi).any()):
                 print(f"|F{i}| up to {value(float(fi.max()), 'N')}")
+            elif "torque_nmm" in ds:  # a rotary drive
+                ti = abs(ds["torque_nmm"].where(ds["reachable"])).sel(actuator=i)
+                if bool(np.isfinite(ti).any()):
+                    print(f"|T{i}| up to {value(float(ti.max()), 'N·mm')}")
     from eodarm.workspace.uncertainty import summary_lines
 
     for line in summary_lines(ds):

@@ -22,6 +22,7 @@ from eodarm.cli._common import (
     _payload_hint,
     _stages,
     _valued_effect,
+    check_kinds_of,
 )
 from eodarm.cli._help import HELP
 from eodarm.cli._outputs import _claim, _claim_folder, _force_arg, _free_name
@@ -128,6 +129,7 @@ def run(args: argparse.Namespace) -> int:
     elif args.output:
         _claim(args, args.output, "-o")
     arm = _load_arm(args.arm)
+    check_kinds_of(arm, args.hidden, "--hidden")
     if args.records:
         return _records(args, arm)
     n = arm.n

@@ -98,7 +98,9 @@ def default_sigma(channel: str) -> float:
     return DEFAULT_SIGMA[channel_family(channel)]
 
 
-def expand_channels(spec: str | Iterable[str] | None, n: int) -> list[str]:
+def expand_channels(
+    spec: str | Iterable[str] | None, n: int, kinds: Sequence[str] | None = None
+) -> list[str]:
     """Channel names from a user's selection, in the fixed channel order, without repeats.
 
     Parameters
@@ -107,13 +109,26 @@ def expand_channels(spec: str | Iterable[str] | None, n: int) -> list[str]:
         (``dx``/``dx_mm``, ``dy``/``dy_mm``, ``dalpha``/``dalpha_deg`` for every link's angle,
         ``dl``/``dl_mm`` for every actuator), as an iterable or one comma-separated string.
     n : number of links.
+    kinds : each joint's kind (``Arm.kinds``): a joint turned by a ``"rotary"`` drive has no
+        length channel, so ``all`` and ``dl`` leave its ``dlK_mm`` out and naming it is an
+        error. Default: every joint linear.
 
     Raises
     ------
     EodarmError
-        On an unknown name or a channel of a link beyond ``n``.
+        On an unknown name, a channel of a link beyond ``n`` or the length of a drive.
     """
     every = channel_names(n)
+    drives = [f"dl{i + 1}_mm" for i, k in enumerate(kinds or ()) if k == "rotary"]
+    if drives:
+        for item in spec.split(",") if isinstance(spec, str) else list(spec or ()):
+            if str(item).strip() in drives:
+                i = str(item).strip()[2:-3]
+                raise EodarmError(
+                    f"channel '{str(item).strip()}': joint {i} is turned by a rotary drive, "
+                    f"which has no length channel (its turn is in dalpha{i}_deg)"
+                )
+        every = [c for c in every if c not in drives]
     if spec is None:
         return every
     items = spec.split(",") if isinstance(spec, str) else list(spec)

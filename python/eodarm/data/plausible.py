@@ -62,6 +62,7 @@ __all__ = [
     "PLAIN_PAYLOAD_KG",
     "RADIAN_CHI2_RATIO",
     "campaign_payload_hint",
+    "check_drive_channels",
     "check_states",
     "own_mass_kg",
     "payload_hint",
@@ -265,6 +266,24 @@ def _check_radians(arm: Arm, meas: Measurements, self_weight: bool) -> None:
     )
 
 
+def check_drive_channels(arm: Arm, meas: Measurements) -> None:
+    """Refuse a measured ``dlK_mm`` of a joint turned by a rotary drive: a drive has no
+    length, so the column is a mistake (a wrong arm file, a shifted column), not a channel to
+    ignore (docs/formats.md §3). A column left empty carries nothing and passes."""
+    for i, kind in enumerate(arm.kinds):
+        name = f"dl{i + 1}_mm"
+        if kind != "rotary" or name not in meas.channels:
+            continue
+        col = meas.values[:, meas.channels.index(name)]
+        rows = np.flatnonzero(np.isfinite(col))
+        if rows.size:
+            raise MeasurementFileError(
+                f"{meas.source}: column {name} (line {int(meas.line[rows[0]])}): joint "
+                f"{i + 1} of arm '{arm.name}' is turned by a rotary drive, which has no "
+                f"length to measure (its turn is in dalpha{i + 1}_deg)"
+            )
+
+
 def check_states(arm: Arm, meas: Measurements, self_weight: bool = True) -> None:
     """Refuse measured states that the arm cannot take; warn about likely unit slips.
 
@@ -277,7 +296,8 @@ def check_states(arm: Arm, meas: Measurements, self_weight: bool = True) -> None
     Raises
     ------
     MeasurementFileError
-        One line naming the file and, for each bad state (at most :data:`MAX_LISTED`), its
+        A measured length of a joint turned by a rotary drive (:func:`check_drive_channels`);
+        one line naming the file and, for each bad state (at most :data:`MAX_LISTED`), its
         1-based line, the column at fault and what was probably meant: angles in radians,
         an unloaded pose out of stroke, a pose that cannot close under its load (in grams?).
 
@@ -292,6 +312,7 @@ def check_states(arm: Arm, meas: Measurements, self_weight: bool = True) -> None
 
     if meas.n != arm.n or meas.n_rows == 0:
         return
+    check_drive_channels(arm, meas)
     _check_radians(arm, meas, self_weight)
     alpha = np.asarray(meas.alpha_deg, dtype=float)
     mass = np.asarray(meas.mass_kg, dtype=float)

@@ -2,8 +2,10 @@
 
 Built by the compiled core from the same arm and effects as the analytic model: links as
 Euler–Bernoulli beams (their ``ei_n_mm2``/``ea_n`` from the arm file, EI overridden by
-``link_bending``; a link without either is rigid), actuators as axial bars, pins with the
-rotation released, gap elements for clearance and play, the base on a rotational spring.
+``link_bending``; a link without either is rigid), actuators as axial bars, rotary drives as
+torsional springs between the housing (body i−1) and the flange (link i, clamped to it), pins
+with the rotation released, gap elements for clearance, play and backlash, the base on a
+rotational spring.
 It is linear — the payload's increment on the undeformed geometry — so it agrees with the
 analytic model's exact pose to first order in the load. ``docs/fem.md`` derives it.
 
@@ -23,7 +25,8 @@ import numpy as np
 import numpy.typing as npt
 
 from eodarm.errors import InputError
-from eodarm.model.arm import Actuator, Arm
+from eodarm.model.arm import Arm, RotaryDrive
+from eodarm.model.arm_parts import stiffness_of
 from eodarm.model.effects import CATALOGUE, Effect, effect_arrays
 
 if TYPE_CHECKING:
@@ -129,21 +132,24 @@ def channels(out: Mapping[str, Any]) -> npt.NDArray[np.float64]:
 def theta_step(arm: Arm, slot: Slot, theta: float) -> float:
     """The forward-difference step of a slot's θ: its scale or a reference scale.
 
-    Reference scales make the effect's deflection comparable to the actuators' own: 1/k of
-    the actuator (compliances), 1/(k·L³) (bending), 1/(k·R²) (base), 0.05 mm (gaps), with k
-    the stiffest actuator, L the link's length and R the arm's reach. The FE response is linear
-    in θ, so a large step costs no accuracy; a tiny one (a nearly rigid element next to the
-    actuators' springs) would drown the difference in round-off.
+    Reference scales make the effect's deflection comparable to the drives' own: 1/k of the
+    actuator or drive (compliances), 1/(k·L³) (bending), 1/(k·R²) (base), 0.05 mm (gaps; 0.05°
+    of a backlash), with k the stiffest drive (a rotary one's k/R² as N/mm), L the link's
+    length and R the arm's reach. The FE response is linear in θ, so a large step costs no
+    accuracy; a tiny one (a nearly rigid element next to the drives' springs) would drown the
+    difference in round-off.
     """
-    k = max(a.stiffness_n_per_mm for a in arm.actuators if isinstance(a, Actuator))
+    reach = sum(math.hypot(*lk.next) for lk in arm.links)
+    k = max(
+        stiffness_of(a) / (reach**2 if isinstance(a, RotaryDrive) else 1.0) for a in arm.actuators
+    )
     i = slot.index(arm.n)
-    if slot.name in ("actuator_compliance", "mount_compliance"):
-        ref = 1.0 / arm.linear(i).stiffness_n_per_mm
+    if slot.name in ("actuator_compliance", "mount_compliance", "drive_compliance"):
+        ref = 1.0 / stiffness_of(arm.actuators[i])
     elif slot.name == "link_bending":
         length = math.hypot(*arm.links[i].next)
         ref = 1.0 / (k * length**3)
     elif slot.name == "base_compliance":
-        reach = sum(math.hypot(*lk.next) for lk in arm.links)
         ref = 1.0 / (k * reach**2)
     else:
         ref = 0.05
@@ -151,10 +157,11 @@ def theta_step(arm: Arm, slot: Slot, theta: float) -> float:
 
 
 def neutral(arm: Arm, slot: Slot) -> float:
-    """θ of a slot absent from the FE model: the arm file's 1/k or 1/EI, else 0."""
+    """θ of a slot absent from the FE model: the arm file's 1/k (an actuator's body, a
+    drive's gear) or 1/EI, else 0."""
     i = slot.index(arm.n)
-    if slot.name == "actuator_compliance":
-        return 1.0 / arm.linear(i).stiffness_n_per_mm
+    if slot.name in ("actuator_compliance", "drive_compliance"):
+        return 1.0 / stiffness_of(arm.actuators[i])
     ei = arm.links[i].ei_n_mm2
     if slot.name == "link_bending" and ei is not None:
         return 1.0 / ei

@@ -22,15 +22,19 @@ So
     M = m + 1.5 · max_i 2(L_j,i + L_b,i) / |a_i|
 
 over the actuators whose elements hold anything and whose force changes with the payload
-(|a_i| > :data:`MIN_FORCE_PER_KG`); the factor 1.5 keeps every element clear of the
+(|a_i| > :data:`MIN_FORCE_PER_KG`). At a rotary drive (docs/model.md §10) x_i is the drive's
+torque change, a_i its change per kg (N·mm/kg), and the joint friction (limit T itself, no
+moment arm) and the gear's friction (``drive_friction``, limit L_g) act in series likewise:
+|a_i|·(M − m) > 2(T + L_g); the factor 1.5 keeps every element clear of the
 threshold. Beyond it the state at m no longer depends on M: every element sits on its
 unloading branch, the far side of the band. M may be more than the arm can carry (its state
 may not close): what the elements hold at m comes from the forces on the undeformed geometry,
 and only the state at m is used.
 
-Gaps (``actuator_play``, ``joint_clearance``) keep no memory of their own: at every state
-they are taken up along that state's force (docs/model.md §9), so they widen the band only
-where a friction changes an actual force's sign. A model without friction has a band of 0.
+Gaps (``actuator_play``, ``joint_clearance``, ``drive_backlash``) keep no memory of their own:
+at every state they are taken up along that state's force (docs/model.md §9), so they widen
+the band only where a friction changes an actual force's sign. A model without friction has
+a band of 0.
 """
 
 from __future__ import annotations
@@ -44,7 +48,7 @@ from eodarm.model.effects import Effect, with_arm_effects
 __all__ = ["FRICTIONS", "MIN_FORCE_PER_KG", "REVERSE_MARGIN", "band", "reversing_mass"]
 
 #: The effects that hold part of a deformation (the elements with memory).
-FRICTIONS = ("joint_friction", "actuator_friction")
+FRICTIONS = ("joint_friction", "actuator_friction", "drive_friction")
 #: An actuator whose force changes by less than this per kg of payload (N/kg) moves no
 #: friction element (the force of docs/model.md §4 below which a gap has no side, per kg).
 MIN_FORCE_PER_KG = 1e-9
@@ -63,7 +67,7 @@ def has_memory(arm: Arm, effects: Effect | list[Effect] | tuple[Effect, ...] | N
 def has_branch(arm: Arm, effects: Effect | list[Effect] | tuple[Effect, ...] | None) -> bool:
     """Whether the model holds a friction or a gap (play, clearance): where its answers say
     which branch they are on (the loading one)."""
-    gaps = ("actuator_play", "joint_clearance")
+    gaps = ("actuator_play", "joint_clearance", "drive_backlash")
     return any(
         e.name in (*FRICTIONS, *gaps) and e.value > 0
         for e in with_arm_effects(arm.effects, effects)
@@ -99,19 +103,23 @@ def reversing_mass(
     for e in with_arm_effects(arm.effects, effects):
         if e.name == "joint_friction":
             joint_t[int(e.at[1:]) - 1] += e.value
-        elif e.name == "actuator_friction":
+        elif e.name in ("actuator_friction", "drive_friction"):
             body_l[int(e.at[1:]) - 1] += e.value
     if not (joint_t > 0).any() and not (body_l > 0).any():
         return mass
+    rotary = np.array(arm.kinds) == "rotary"
     st = statics(arm, alpha, 1.0, self_weight=self_weight)
     per_kg = np.asarray(st["force_n"]) - np.asarray(st["force0_n"])  # (N, n), N/kg
-    geo = forward(arm, alpha)
+    if rotary.any():  # a drive's torque change per kg, N·mm/kg
+        per_kg = np.where(rotary, np.asarray(st["torque_nmm"]) - st["torque0_nmm"], per_kg)
+    geo = forward(arm, alpha, backend="numpy" if rotary.any() else "rust")
     o, a, b = geo["O"][:, :n], geo["A"], geo["B"]
     line = a - b
-    e_hat = line / np.linalg.norm(line, axis=-1, keepdims=True)
-    h = np.abs((a - o)[..., 0] * e_hat[..., 1] - (a - o)[..., 1] * e_hat[..., 0])  # r_i, mm
     with np.errstate(divide="ignore", invalid="ignore"):
-        limit = joint_t / h + body_l  # (N, n) L_j + L_b, N
+        e_hat = line / np.linalg.norm(line, axis=-1, keepdims=True)
+        h = np.abs((a - o)[..., 0] * e_hat[..., 1] - (a - o)[..., 1] * e_hat[..., 0])  # r_i, mm
+        # at a drive the joint friction's limit is its torque itself (no moment arm)
+        limit = np.where(rotary, joint_t + body_l, joint_t / h + body_l)  # L_j + L_b (N, N·mm)
         need = np.where(
             (limit > 0) & (np.abs(per_kg) > MIN_FORCE_PER_KG), 2 * limit / np.abs(per_kg), 0.0
         )

@@ -163,6 +163,19 @@ def deformed_shape(
         ls="none",
         label="joints (pins)",
     )
+    drives = [_node(node_kind, _JOINT, i + 1) for i in range(arm.n) if arm.is_rotary(i)]
+    if drives:
+        ax.plot(
+            *moved[drives].T,
+            "s",
+            mfc="none",
+            mec="k",
+            mew=1.4,
+            ms=16,
+            zorder=6,
+            ls="none",
+            label="rotary drives",
+        )
     measure = node_kind[:, 0] == _MEASURE
     ax.plot(*moved[measure].T, "*", color="k", ms=12, zorder=7, ls="none", label="measure point")
     for i in range(arm.n):
@@ -214,6 +227,38 @@ def _tag(ax: Axes, text: str, at: npt.NDArray[np.float64]) -> None:
         fontsize="small",
         bbox={"fc": "white", "ec": "none", "alpha": 0.75, "pad": 0.5},
         zorder=9,
+    )
+
+
+def _torque(ax: Axes, at: npt.NDArray[np.float64], t: float, r: float, what: str) -> None:
+    """A drive's torque on its link: a curved arrow around the joint, counter-clockwise for
+    T > 0, and its value."""
+    from matplotlib.patches import FancyArrowPatch
+
+    a0, a1 = (-1.0, 1.0) if t >= 0 else (1.0, -1.0)
+    start = at + r * np.array([math.cos(a0), math.sin(a0)])
+    end = at + r * np.array([math.cos(a1), math.sin(a1)])
+    ax.add_patch(
+        FancyArrowPatch(
+            tuple(start),
+            tuple(end),
+            connectionstyle=f"arc3,rad={0.6 if t >= 0 else -0.6}",
+            arrowstyle="-|>",
+            mutation_scale=14,
+            color=PALETTE[4],
+            lw=2.2,
+            zorder=5,
+        )
+    )
+    ax.annotate(
+        what.replace("-", "−"),
+        tuple(at + np.array([r, -r])),
+        xytext=(6, -10),
+        textcoords="offset points",
+        fontsize="small",
+        color=PALETTE[4],
+        bbox={"fc": "white", "ec": "none", "alpha": 0.8, "pad": 0.5},
+        zorder=6,
     )
 
 
@@ -275,7 +320,10 @@ def _moment_panel(
     marks = [(f"O{k}", 0.0), (f"C{k}", link.C[0])]
     if link.A is not None:
         marks.insert(1, (f"A{k}", link.A[0]))
-    marks.append((f"B{k}", link.B[0]) if link.B is not None else ("measure", arm.measure[0]))
+    if link.B is not None:
+        marks.append((f"B{k}", link.B[0]))
+    if k == arm.n:
+        marks.append(("measure", arm.measure[0]))
     marks.append((f"O{k + 1}" if k < arm.n else "load", link.next[0]))
     # Marks closer than 2 % of the link share one label.
     tol = 0.02 * float(np.ptp(x))
@@ -323,8 +371,10 @@ def pin_forces(
     Figure
         At each joint O_i the force of the proximal body on link i (``pin_force_n[:n]``), at
         each actuator pin A_i the actuator's force on link i (``pin_force_n[n:]``), arrows
-        scaled alike and labelled in N. Actuators in compression push their links (arrow away
-        from the actuator), in tension pull them.
+        scaled alike and labelled in N; at a rotary drive, its torque on link i
+        (``torque_nmm``) as a curved arrow around O_i, counter-clockwise for T > 0, in N·m.
+        Actuators in compression push their links (arrow away from the actuator), in tension
+        pull them.
     """
     pf = np.asarray(_row(out, "pin_force_n", row), dtype=float)
     xy = np.asarray(_row(out, "node_xy", row), dtype=float)
@@ -333,22 +383,27 @@ def pin_forces(
     node_kind = np.asarray(out["node_kind"], dtype=int)
     n = arm.n
     joints = [_node(node_kind, _JOINT, i + 1) for i in range(n)]
-    a_pins = [_node(node_kind, _PIN_A, i + 1) for i in range(n)]
     fig = figure(9.0, 6.6)
     ax = fig.add_subplot()
     colours = {0: "0.55", 1: "0.65", 2: "#f5c38f", 3: "0.75"}
     for (a, b), k in zip(seg, kind, strict=True):
         ax.plot(*np.stack([xy[a], xy[b]]).T, color=colours[int(k)], lw=_WIDTH[k] * 0.6, zorder=1)
     force = np.asarray(_row(out, "force_n", row), dtype=float)
+    torque = np.asarray(_row(out, "torque_nmm", row), dtype=float) if "torque_nmm" in out else None
     size = float(np.ptp(xy, axis=0).max())
-    fmax = float(np.hypot(pf[:, 0], pf[:, 1]).max()) or 1.0
+    finite = np.isfinite(pf).all(axis=1)
+    fmax = float(np.hypot(pf[finite, 0], pf[finite, 1]).max()) or 1.0
     k = 0.22 * size / fmax
     for i in range(n):
-        state = "compression" if force[i] > 0 else "tension"
-        for at, f, colour, what in (
-            (xy[joints[i]], pf[i], PALETTE[0], f"R{i + 1} = {math.hypot(*pf[i]):.0f} N"),
-            (xy[a_pins[i]], pf[n + i], PALETTE[2], f"F{i + 1} = {force[i]:.0f} N ({state})"),
-        ):
+        arrows = [(xy[joints[i]], pf[i], PALETTE[0], f"R{i + 1} = {math.hypot(*pf[i]):.0f} N")]
+        if arm.is_rotary(i):
+            t = float("nan") if torque is None else float(torque[i])
+            _torque(ax, xy[joints[i]], t, 0.05 * size, f"T{i + 1} = {t / 1000:.1f} N·m")
+        else:
+            state = "compression" if force[i] > 0 else "tension"
+            a_pin = xy[_node(node_kind, _PIN_A, i + 1)]
+            arrows.append((a_pin, pf[n + i], PALETTE[2], f"F{i + 1} = {force[i]:.0f} N ({state})"))
+        for at, f, colour, what in arrows:
             ax.annotate(
                 "",
                 xy=tuple(at + k * f),
@@ -370,7 +425,10 @@ def pin_forces(
     for i in range(n):
         _tag(ax, f"O{i + 1}", xy[joints[i]])
     ax.plot([], [], color=PALETTE[0], lw=2.2, label="joint O_i: proximal body on link i")
-    ax.plot([], [], color=PALETTE[2], lw=2.2, label="pin A_i: actuator i on link i")
+    if any(arm.is_linear(i) for i in range(n)):
+        ax.plot([], [], color=PALETTE[2], lw=2.2, label="pin A_i: actuator i on link i")
+    if any(arm.is_rotary(i) for i in range(n)):
+        ax.plot([], [], color=PALETTE[4], lw=2.2, label="drive i's torque on link i")
     ax.set_aspect("equal", adjustable="datalim")
     ax.autoscale_view()
     ax.margins(0.12)

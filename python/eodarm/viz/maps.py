@@ -257,10 +257,14 @@ class _Canvas:
                 mfc="white",
                 label="arm, middle pose of the grid",
             ),
-            Line2D([], [], color="0.45", lw=0.9, label="actuators"),
             Line2D([], [], color="k", marker="^", ls="none", ms=7, label="O1 (first joint)"),
-            Line2D([], [], color="k", marker="s", ls="none", ms=4, label="B0 (chassis pin)"),
         ]
+        if "linear" in self.arm.kinds:  # a rotary drive has no actuator line, no chassis pin
+            handles.insert(1, Line2D([], [], color="0.45", lw=0.9, label="actuators"))
+        if self.arm.B0 is not None:
+            handles.append(
+                Line2D([], [], color="k", marker="s", ls="none", ms=4, label="B0 (chassis pin)")
+            )
         if self.not_ok:
             handles.append(Patch(fc=NOT_OK_GREY, label=self.not_ok))
         # Outside the axes, at the figure's right, so that it never covers the map (the
@@ -456,18 +460,23 @@ def force_maps(
     *,
     path: PathLike | None = None,
 ) -> Figure:
-    """Each actuator's loaded force over the reachable workspace, one panel per actuator.
+    """Each actuator's loaded force over the reachable workspace, one panel per actuator (a
+    rotary drive's panel: its loaded torque, N·mm, counter-clockwise on its link positive).
 
     Each panel has its own colour scale spanning 2–98 % of its poses (arrows: the
     near-singular poses beyond, whose forces would flatten a full scale): red for compression,
     blue for tension, diverging around zero when the force changes sign. Each pixel shows the
     pose of largest |F|. An actuator's ``max_force_n``, when set, is in its panel's title and
-    marked on its colour bar.
+    marked on its colour bar, and a drive's ``max_torque_nmm`` likewise.
     """
     arm = arm_of(ds)
     sel, m = _select_mass(ds, mass)
     n = arm.n
-    pts = [_points(sel, sel["force_n"].sel(actuator=i + 1)) for i in range(n)]
+    rotary = [k == "rotary" for k in arm.kinds]
+    pts = [
+        _points(sel, sel["torque_nmm" if rotary[i] else "force_n"].sel(actuator=i + 1))
+        for i in range(n)
+    ]
     bad = not_ok_points(sel)
     cv = _Canvas.of(arm, ds)
     ncols = min(n, 3)
@@ -480,7 +489,8 @@ def force_maps(
             continue
         x, y, f = pts[i]
         cv.shade(ax, bad)
-        lim = getattr(arm.actuators[i], "max_force_n", None)
+        lim = getattr(arm.actuators[i], "max_torque_nmm" if rotary[i] else "max_force_n", None)
+        sym, unit = ("T", "N·mm") if rotary[i] else ("F", "N")
         if f.size:
             lo, hi, extend = _robust(f, 0.02, 0.98)
             if lo < 0 < hi:
@@ -494,7 +504,7 @@ def force_maps(
             cb = fig.colorbar(
                 mesh, ax=ax, orientation="horizontal", shrink=0.85, pad=0.02, extend=extend
             )
-            cb.set_label(f"F{i + 1} (N), 2–98 % of poses", fontsize=8)
+            cb.set_label(f"{sym}{i + 1} ({unit}), 2–98 % of poses", fontsize=8)
             cb.ax.xaxis.set_major_locator(MaxNLocator(5))  # a narrow bar: few labels
             if lim is not None:
                 for v in (-lim, lim):
@@ -506,13 +516,19 @@ def force_maps(
                         cb.ax.axvline(v, color="k", lw=1.2)
         else:
             cv.frame(ax)
-        extra = f"; limit ±{lim:g} N" if lim is not None else ""
-        rng = f"{value(f.min(), digits=4)} … {value(f.max(), 'N', 4)}" if f.size else "no pose ok"
-        ax.set_title(f"actuator {i + 1}: F{i + 1} from {rng}{extra}", fontsize=9)
+        extra = f"; limit ±{lim:g} {unit}" if lim is not None else ""
+        rng = f"{value(f.min(), digits=4)} … {value(f.max(), unit, 4)}" if f.size else "no pose ok"
+        what = "drive" if rotary[i] else "actuator"
+        ax.set_title(f"{what} {i + 1}: {sym}{i + 1} from {rng}{extra}", fontsize=9)
     cv.legend(axes[0])
     cv.note(fig, sel, pts[0][2].size, "largest-|F|", m, "the others' forces are not finite")
+    head = "Loaded actuator forces (+ compression, − tension)"
+    if all(rotary):
+        head = "Loaded drive torques (+ counter-clockwise on the link)"
+    elif any(rotary):
+        head += " and drive torques (+ counter-clockwise on the link)"
     fig.suptitle(
-        _title(ds, "Loaded actuator forces (+ compression, − tension)", m, width=15.0),
+        _title(ds, head, m, width=15.0),
         fontsize=10,
     )
     return finish(fig, path)
@@ -578,7 +594,13 @@ def capacity_map(
     for i, a in enumerate(arm.actuators):
         parts = []
         if not isinstance(a, Actuator):
-            limits.append(f"A{i + 1}: a rotary drive")
+            if a.max_torque_nmm is not None:
+                parts.append(f"|T| ≤ {a.max_torque_nmm:g} N·mm")
+            if a.min_angle_deg is not None or a.max_angle_deg is not None:
+                lo = "−∞" if a.min_angle_deg is None else f"{a.min_angle_deg:g}"
+                hi = "∞" if a.max_angle_deg is None else f"{a.max_angle_deg:g}"
+                parts.append(f"q {lo}–{hi}°")
+            limits.append(f"drive {i + 1}: " + (", ".join(parts) or "no limit"))
             continue
         if a.max_force_n is not None:
             parts.append(f"|F| ≤ {a.max_force_n:g} N")
@@ -587,7 +609,12 @@ def capacity_map(
             hi = "∞" if a.max_length_mm is None else f"{a.max_length_mm:g}"
             parts.append(f"stroke {lo}–{hi} mm")
         limits.append(f"A{i + 1}: " + (", ".join(parts) or "no limit"))
-    ax1.set_title("Largest payload before any actuator limit", fontsize=10)
+    ax1.set_title(
+        "Largest payload before any actuator limit"
+        if "rotary" not in arm.kinds
+        else "Largest payload before any actuator or drive limit",
+        fontsize=10,
+    )
     ax2.set_title("Which limit binds first", fontsize=10)
     fig.suptitle(
         _title(cap, "Payload capacity", None) + "\nlimits: " + "; ".join(limits), fontsize=10

@@ -366,6 +366,14 @@ def _model_line(kw: Mapping[str, Any]) -> str:
     )
 
 
+def _springs(kinds: Sequence[str]) -> str:
+    """The baseline's springs in words: the actuators' axial ones, the drives' torsional ones."""
+    linear, rotary = "linear" in kinds, "rotary" in kinds
+    if linear and rotary:
+        return "each actuator an axial spring and each rotary drive a torsional spring"
+    return "each rotary drive a torsional spring" if rotary else "each actuator an axial spring"
+
+
 def _baseline_section(
     meas: Measurements, d: Diagnosis, main: str, kw: Mapping[str, Any]
 ) -> list[str]:
@@ -374,8 +382,9 @@ def _baseline_section(
     what = (
         f"Baseline: the arm file's model with {page.esc(model)} fitted."
         if model
-        else "Baseline: rigid links, pins without clearance, each actuator an axial spring "
-        "with the arm file's stiffness, rigid base; nothing fitted."
+        else "Baseline: rigid links, pins without clearance, "
+        + _springs(d.baseline.problem.arm.kinds)
+        + " with the arm file's stiffness, rigid base; nothing fitted."
     )
     what += (
         f" Every model in this report is the {page.esc(model_name(**kw))}. The baseline's "

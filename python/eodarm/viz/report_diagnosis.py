@@ -76,8 +76,11 @@ def _keys(slots: Sequence[Any]) -> str:
 
 def _param(param: str, unit: str, x: float, name: str = "") -> str:
     if not math.isfinite(x):
-        # θ = 0: for an actuator body that is a rigid body, for anything else no effect.
-        what = "rigid body" if name == "actuator_compliance" else "rigid: absent"
+        # θ = 0: for an actuator body a rigid body, a drive's gear a rigid gear, for anything
+        # else no effect.
+        what = {"actuator_compliance": "rigid body", "drive_compliance": "rigid gear"}.get(
+            name, "rigid: absent"
+        )
         return f"{param} = ∞ ({what})"
     return f"{param} = {page.num(x, 3)} {unit}"
 

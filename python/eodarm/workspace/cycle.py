@@ -37,10 +37,10 @@ FloatArray = npt.NDArray[np.float64]
 #: Sequences (or poses) per call of the core (bounds the temporary outputs: ~1 kB each).
 CHUNK = 65_536
 #: The effects that remember the payload after it came off.
-FRICTIONS = frozenset({"actuator_friction", "joint_friction"})
+FRICTIONS = frozenset({"actuator_friction", "joint_friction", "drive_friction"})
 #: The effects that leave the arm off its reference after a cycle: the frictions (what they
 #: hold) and the gaps (a centred gap stays where the self-weight pushes it).
-MEMORY = FRICTIONS | {"actuator_play", "joint_clearance"}
+MEMORY = FRICTIONS | {"actuator_play", "joint_clearance", "drive_backlash"}
 
 _ATTRS = {
     "return_dx_mm": {

@@ -104,7 +104,7 @@ def payload_capacity(
     probe_kg: float = 1.0,
     **sweep_kw: Any,
 ) -> xr.Dataset:
-    """The largest payload each pose carries before an actuator reaches a limit.
+    """The largest payload each pose carries before an actuator or a drive reaches a limit.
 
     Statics are solved on the undeformed geometry, so each loaded force is affine in the
     payload: F_i(m) = F_i(0) + m·s_i, with F_i(0) the self-weight force and s_i found from a
@@ -117,6 +117,12 @@ def payload_capacity(
     the smallest of these over every actuator and limit, capped at ``max_payload_kg``.
     User-written effects (custom-effects.md) do not change the forces; their length changes are not
     in the stroke limit (a warning says so).
+
+    A rotary drive (docs/model.md §10) is limited alike by its torque: T_i(m) = T_i(0) + m·s_i
+    reaches ``max_torque_nmm`` (either sign), and its angle q_i(m) = q_i − m·s_i/k_i −
+    b·sign(T_i(m)) (k_i the gear's stiffness or ``drive_compliance``, b ``drive_backlash``)
+    leaves [``min_angle_deg``, ``max_angle_deg``]; the turn of its housing with the body before
+    it (base tilt, bending) is not in that angle.
 
     Poses that are not reachable unloaded (out of stroke, singular) have NaN, and so have
     those where the model is not valid at 0 or ``probe_kg`` (near singular, large deflection;
@@ -138,7 +144,8 @@ def payload_capacity(
     xarray.Dataset
         ``capacity_kg`` (grid…), ``limit`` (grid…): the code of the binding limit, −1 where
         NaN; ``attrs["limit_labels"]`` names the codes: ``F1 force`` … ``Fn force``,
-        ``l1 stroke`` … ``ln stroke``, then ``cap``; plus the sweep's ``reachable``,
+        ``l1 stroke`` … ``ln stroke``, then ``cap`` (at a rotary drive ``Ti torque`` and
+        ``qi range`` in place of ``Fi force`` and ``li stroke``); plus the sweep's ``reachable``,
         ``effector_x_mm``, ``effector_y_mm``.
     """
     if not (math.isfinite(max_payload_kg) and max_payload_kg > 0):
@@ -147,7 +154,7 @@ def payload_capacity(
         raise EodarmError(f"probe_kg must be finite and > 0, got {probe_kg!r}")
     effs = list(as_effects(effects))
     for e in effs:
-        if e.name == "actuator_play" and e.unloaded != "centred":
+        if e.name in ("actuator_play", "drive_backlash") and e.unloaded != "centred":
             # The stroke formula below is the centred play's; never treat this one so.
             raise EodarmError(
                 f"effect {e.label}: the capacity map models play centred when unloaded only"
@@ -167,29 +174,53 @@ def payload_capacity(
     free = arm.to_dict()
     for a in free["actuator"]:
         a.pop("max_force_n", None)
+        a.pop("max_torque_nmm", None)
     unlimited = Arm.from_dict(free, source=arm.source)
     ds = sweep(unlimited, mass_kg=[0.0, probe_kg], effects=effs, self_weight=self_weight, **kw)
     n = arm.n
+    rotary = np.array(arm.kinds) == "rotary"
     f = ds["force_n"].transpose(..., "mass_kg", "actuator").values
-    f0, f1 = f[..., 0, :], f[..., 1, :]
-    s = (f1 - f0) / probe_kg  # N per kg
     ell0 = ds["length_mm"].values
-    acts = [arm.linear(i) for i in range(n)]  # the capacity of linear actuators
-    kb = np.array([a.stiffness_n_per_mm for a in acts], dtype=float)
+    if rotary.any():  # a drive's torque (N·mm) and angle (deg) in place of force and length
+        t = ds["torque_nmm"].transpose(..., "mass_kg", "actuator").values
+        f = np.where(rotary, t, f)
+        ell0 = np.where(rotary, _drive_angles(ds, n), ell0)
+    f0, f1 = f[..., 0, :], f[..., 1, :]
+    s = (f1 - f0) / probe_kg  # N (N·mm at a drive) per kg
+    d = arm.arrays()
+    # per joint: compliance (mm/N, or deg per N·mm at a drive), gap, limits
+    kb = np.where(rotary, d["stiffness"] * math.pi / 180.0, d["stiffness"])
     km = np.full(n, np.inf)
     play = np.zeros(n)
     for e in effs:
         i = e.index(n)
         if e.name == "actuator_compliance":
             kb[i] = e.value
+        elif e.name == "drive_compliance":
+            kb[i] = e.value * math.pi / 180.0
         elif e.name == "mount_compliance":
             km[i] = e.value
-        elif e.name == "actuator_play":
+        elif e.name in ("actuator_play", "drive_backlash"):
             play[i] = e.value
-    comp = 1.0 / kb + 1.0 / km  # mm per N
-    fmax = np.array([np.inf if a.max_force_n is None else a.max_force_n for a in acts])
-    lo = np.array([-np.inf if a.min_length_mm is None else a.min_length_mm for a in acts])
-    hi = np.array([np.inf if a.max_length_mm is None else a.max_length_mm for a in acts])
+    comp = 1.0 / kb + 1.0 / km  # mm per N (deg per N·mm)
+    fmax = np.array(
+        [
+            _limit(a, "max_torque_nmm" if r else "max_force_n", np.inf)
+            for a, r in zip(arm.actuators, rotary, strict=True)
+        ]
+    )
+    lo = np.array(
+        [
+            _limit(a, "min_angle_deg" if r else "min_length_mm", -np.inf)
+            for a, r in zip(arm.actuators, rotary, strict=True)
+        ]
+    )
+    hi = np.array(
+        [
+            _limit(a, "max_angle_deg" if r else "max_length_mm", np.inf)
+            for a, r in zip(arm.actuators, rotary, strict=True)
+        ]
+    )
     m_force = _force_limit(f0, s, fmax)
     m_stroke = _stroke_limit(ell0, f0, s, comp, play, lo, hi)
     cand = np.concatenate(
@@ -204,12 +235,14 @@ def payload_capacity(
     cap = np.where(good, cap, np.nan)
     which = np.where(good, which, -1)
     dims = list(ds["reachable"].dims)
-    labels = [f"F{i + 1} force" for i in range(n)] + [f"l{i + 1} stroke" for i in range(n)]
+    labels = [f"T{i + 1} torque" if r else f"F{i + 1} force" for i, r in enumerate(rotary)] + [
+        f"q{i + 1} range" if r else f"l{i + 1} stroke" for i, r in enumerate(rotary)
+    ]
     out = ds[["reachable", "effector_x_mm", "effector_y_mm"]].copy()
     out["capacity_kg"] = (
         dims,
         cap,
-        {"units": "kg", "long_name": "largest payload before an actuator limit (capped)"},
+        {"units": "kg", "long_name": "largest payload before an actuator or drive limit (capped)"},
     )
     out["limit"] = (dims, which.astype(np.int64), {"long_name": "binding limit (see limit_labels)"})
     out = out.drop_vars(["mass_kg"], errors="ignore")
@@ -221,6 +254,30 @@ def payload_capacity(
         arm_toml=arm.to_toml(),  # the arm with its force limits, not the one swept
     )
     return out
+
+
+def _limit(act: Any, key: str, default: float) -> float:
+    """An actuator's or drive's optional limit ``key``, ``default`` where it has none."""
+    value = getattr(act, key, None)
+    return default if value is None else float(value)
+
+
+def _drive_angles(ds: xr.Dataset, n: int) -> FloatArray:
+    """Each pose's unloaded joint angles q_i = α_i − α_{i−1} (grid…, n), degrees, in the
+    layout of the sweep's ``length_mm``."""
+    import xarray as xr
+
+    from eodarm.model.validity import drive_angles
+
+    dims = [d for d in ds["length_mm"].dims if d != "actuator"]
+    if "alpha_deg" in ds:
+        alpha = ds["alpha_deg"].transpose(*dims, "link").values
+    else:
+        cols = xr.broadcast(*[ds[f"alpha{k + 1}"] for k in range(n)], ds["reachable"])
+        alpha = np.stack([c.transpose(*dims).values for c in cols[:n]], axis=-1)
+    flat = alpha.reshape(-1, n)
+    q, _ = drive_angles(flat, np.zeros_like(flat))
+    return np.asarray(q).reshape(alpha.shape)
 
 
 def _force_limit(f0: FloatArray, s: FloatArray, fmax: FloatArray) -> FloatArray:
@@ -323,7 +380,7 @@ def effect_contributions(
     n = len(comps)
     kw = {**as_sweep_kwargs(grid), **sweep_kw}
     common = {"mass_kg": [float(mass)], "self_weight": self_weight, **kw}
-    rigid = rigid_bodies(arm.n, RIGID_N_PER_MM["analytic"])
+    rigid = rigid_bodies(arm, RIGID_N_PER_MM["analytic"])
     values: dict[tuple[int, ...], FloatArray] = {}
     base: xr.Dataset | None = None
     ok: Any = None

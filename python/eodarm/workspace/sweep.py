@@ -287,6 +287,10 @@ def sweep(
             if bar is not None:
                 bar.close()
     ds = _unc.add_outputs(_dataset(setup, result), setup, result, uncertainty, compensated_miss)
+    if job.op is None and "rotary" in job.arm.kinds:
+        from eodarm.workspace.torque import add_torque
+
+        ds = add_torque(ds, job)
     if cycle:
         from eodarm.workspace.cycle import add_return
 

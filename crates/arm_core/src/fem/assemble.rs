@@ -39,16 +39,24 @@ pub enum Kind {
         /// Axial stiffness (N/mm).
         k: f64,
     },
+    /// The torsional spring of the rotary drive at joint `joint`, of stiffness `k` (N·mm/rad),
+    /// between link i's rotation at its joint (the flange) and body i−1's there (the housing).
+    Spring {
+        /// 0-based joint.
+        joint: usize,
+        /// Torsional stiffness (N·mm/rad).
+        k: f64,
+    },
 }
 
 /// One element: its kind, its local stiffness and where it goes in K.
 #[derive(Debug, Clone)]
 pub struct Element {
-    /// Beam or bar.
+    /// Beam, bar or torsional spring.
     pub kind: Kind,
     /// Local stiffness, row-major (`rows × rows`).
     pub k: Vec<f64>,
-    /// Local DOFs: 6 for a beam, 1 for a bar.
+    /// Local DOFs: 6 for a beam, 1 for a bar or a spring.
     pub rows: usize,
     /// The global DOFs it touches (in a fixed order).
     pub dofs: Vec<usize>,
@@ -62,7 +70,7 @@ pub struct Element {
 /// The assembly tables of a model.
 #[derive(Debug, Clone)]
 pub struct Assembly {
-    /// Every element: beams link by link, then the bars.
+    /// Every element: beams link by link, then one per drive (a bar or a torsional spring).
     pub elements: Vec<Element>,
     /// Stored position of the base spring's diagonal entry.
     pub base_pos: Option<usize>,
@@ -78,7 +86,8 @@ pub struct Assembly {
     pub t_len: usize,
     /// Largest number of DOFs of one element.
     pub max_dofs: usize,
-    /// The penalty stiffness of a rigid actuator (N/mm; see `spec::PENALTY`).
+    /// The penalty stiffness of a rigid actuator (N/mm; see `spec::PENALTY`); a rigid
+    /// rotary drive's is this times the arm's reach squared (N·mm/rad).
     pub rigid_k: f64,
 }
 
@@ -133,14 +142,23 @@ impl Assembly {
                 t_len += 6 * m;
             }
         }
+        let reach: f64 = extent.iter().sum();
         for i in 0..arm.n() {
             let mut dofs = Vec::new();
-            push_lin(&mut dofs, &maps.a[i]);
-            push_lin(&mut dofs, &maps.b[i]);
+            let (kind, k) = if spec.rotary[i] {
+                push_rot(&mut dofs, &maps.rot[i][mesh.links[i].origin]);
+                push_rot(&mut dofs, &maps.housing[i]);
+                let k = spec.bar_stiffness(i, rigid_k * reach * reach);
+                (Kind::Spring { joint: i, k }, k)
+            } else {
+                push_lin(&mut dofs, &maps.a[i]);
+                push_lin(&mut dofs, &maps.b[i]);
+                let k = spec.bar_stiffness(i, rigid_k);
+                (Kind::Bar { act: i, k }, k)
+            };
             let m = dofs.len();
-            let k = spec.bar_stiffness(i, rigid_k);
             elements.push(Element {
-                kind: Kind::Bar { act: i, k },
+                kind,
                 k: vec![k],
                 rows: 1,
                 dofs,
@@ -279,6 +297,16 @@ impl Assembly {
                         te[col_of(&e.dofs, d)] -= u.dot(&g);
                     }
                 }
+                Kind::Spring { joint, .. } => {
+                    // The flange's rotation minus the housing's.
+                    let o = mesh.links[joint].origin;
+                    for &(d, g) in &maps.rot[joint][o].terms {
+                        te[col_of(&e.dofs, d)] += g;
+                    }
+                    for &(d, g) in &maps.housing[joint].terms {
+                        te[col_of(&e.dofs, d)] -= g;
+                    }
+                }
             }
         }
     }
@@ -397,12 +425,14 @@ pub struct Prescribed<'a> {
     pub frames: &'a Frames,
     /// Actuator unit vectors.
     pub lines_e: &'a [V2],
-    /// Prescribed pin-to-pin length change of each actuator from its play (mm).
+    /// Prescribed change of each drive's coordinate from its lost motion: an actuator's
+    /// pin-to-pin length from its play (mm), a rotary drive's turn from its backlash (rad).
     pub play_dl: &'a [f64],
 }
 
 /// The prescribed part of an element's local displacements: the gap offsets carried by its
-/// end maps (clearance) and, for a bar, minus its play's length change `play[act]`.
+/// end maps (clearance) and, for a bar or a drive's spring, minus its lost motion
+/// `play_dl[i]` (the spring's elastic turn is the relative turn less the backlash's).
 fn prescribed(e: &Element, maps: &Maps, fr: &Frames, lines_e: &[V2], play_dl: &[f64]) -> [f64; 6] {
     let mut w = [0.0; 6];
     match e.kind {
@@ -419,6 +449,7 @@ fn prescribed(e: &Element, maps: &Maps, fr: &Frames, lines_e: &[V2], play_dl: &[
         Kind::Bar { act, .. } => {
             w[0] = lines_e[act].dot(&(maps.a[act].off - maps.b[act].off)) - play_dl[act];
         }
+        Kind::Spring { joint, .. } => w[0] = -play_dl[joint],
     }
     w
 }

@@ -24,7 +24,7 @@ pub struct FemBatchOutput<'a> {
     /// The outputs of the analytic solver, same shapes and meanings.
     pub base: BatchOutput<'a>,
     /// Loaded pin forces on the links (N), `N × 2n × 2`: first the joints O_i (body i−1 on
-    /// link i), then the actuator pins A_i (actuator i on link i).
+    /// link i), then the actuator pins A_i (actuator i on link i; NaN at a rotary drive).
     pub pin_force_n: &'a mut [f64],
     /// Loaded bending moment of each link at `model.moment_x` (N·mm), `N × n × K`.
     pub moment_nmm: &'a mut [f64],
@@ -197,19 +197,31 @@ fn solve_chunk(
         let b = &mut out.base;
         for i in 0..n {
             let j = p * n + i;
-            b.force_n[j] = ws.force[i];
+            // Each drive's load in its own arrays (N or N·mm), NaN in the other.
+            let nan = f64::NAN;
+            let rotary = model.arm.is_rotary(i);
+            let (f, df, t, dt) = if rotary {
+                (nan, nan, ws.force[i], ws.dforce[i])
+            } else {
+                (ws.force[i], ws.dforce[i], nan, nan)
+            };
+            b.force_n[j] = f;
+            b.dforce_n[j] = df;
+            b.torque_nmm[j] = t;
+            b.dtorque_nmm[j] = dt;
             b.reaction_n[2 * j] = ws.reaction[i].x;
             b.reaction_n[2 * j + 1] = ws.reaction[i].y;
-            b.dforce_n[j] = ws.dforce[i];
-            // The FE model's arms have linear actuators only: no torques.
-            b.torque_nmm[j] = f64::NAN;
-            b.dtorque_nmm[j] = f64::NAN;
             b.dalpha_deg[j] = ws.dalpha[i].to_degrees();
             b.dl_mm[j] = ws.body_dl[i];
             b.dlength_mm[j] = ws.dlength[i];
             b.length_mm[j] = ws.length[i];
             let pin = &mut out.pin_force_n[p * pins..(p + 1) * pins];
-            let fa = ws.force[i] * ws.e[i];
+            // A rotary drive has no pin A: NaN there.
+            let fa = if rotary {
+                V2::repeat(nan)
+            } else {
+                ws.force[i] * ws.e[i]
+            };
             pin[2 * i] = ws.reaction[i].x;
             pin[2 * i + 1] = ws.reaction[i].y;
             pin[2 * (n + i)] = fa.x;

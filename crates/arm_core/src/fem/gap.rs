@@ -1,20 +1,26 @@
-//! Gap elements: joint clearance and actuator play, and their active-set iteration.
+//! Gap elements: joint clearance, actuator play and drive backlash, and their active-set
+//! iteration.
 //!
 //! A gap is a contact with a free range. A joint pin of radial clearance c in its bore is a
 //! 2-D gap: loaded, the pin touches the bore where it presses on it, so the pin centre sits
 //! `s = c·u` from the bore centre, u the direction of the force that the distal body presses
 //! onto the proximal one (−R_i). An actuator's play p is a 1-D gap along its axis: closed on
-//! the side of its force, it changes the pin-to-pin length by `−p·sign(F)`.
+//! the side of its force, it changes the pin-to-pin length by `−p·sign(F)`. A rotary drive's
+//! backlash b is a 1-D gap in its turn: closed on the side of its torque, it turns link i
+//! against body i−1 by `−b·sign(T)`.
 //!
 //! A closed gap is a prescribed relative displacement (an offset in the kinematic maps or a
-//! prescribed bar length), so it changes the load vector only, never K: every iteration reuses
-//! the factorisation. The active set is the contact state of every gap — its direction u, or
-//! its side sign(F) (0: open, centred, for a force below [`FORCE_ZERO_N`]). Starting with
+//! prescribed bar length or spring turn), so it changes the load vector only, never K: every
+//! iteration reuses the factorisation. The active set is the contact state of every gap — its
+//! direction u, or its side sign(F) or sign(T) (0: open, centred, for a force below
+//! [`FORCE_ZERO_N`] or a torque below [`TORQUE_ZERO_NMM`]). Starting with
 //! every gap centred (the unloaded state), each iteration solves, reads the loaded forces,
 //! and closes each gap on the side its force now points to, until no contact state changes.
 
-use crate::effects::FORCE_ZERO_N;
+use crate::effects::{FORCE_ZERO_N, TORQUE_ZERO_NMM};
 use crate::geometry::V2;
+
+use super::spec::FemSpec;
 
 /// At most this many active-set iterations before giving up.
 pub const MAX_ITERATIONS: usize = 50;
@@ -24,7 +30,9 @@ pub const MAX_ITERATIONS: usize = 50;
 pub struct GapState {
     /// Offset of each joint's pin centre from its bore centre (global, mm).
     pub offset: Vec<V2>,
-    /// Pin-to-pin length change of each actuator from its play (mm).
+    /// Change of each drive's coordinate from its lost motion: an actuator's pin-to-pin
+    /// length from its play (mm), a rotary drive's turn of link i against body i−1 from its
+    /// backlash (rad).
     pub play_dl: Vec<f64>,
 }
 
@@ -43,10 +51,12 @@ impl GapState {
         self.play_dl.fill(0.0);
     }
 
-    /// Closes every gap on the side of the loaded forces: actuator forces `f` (compression +)
-    /// and pin forces `r` (body i−1 on link i). Returns whether any contact state changed
-    /// (a direction by more than 1e-12 of its clearance).
-    pub fn update(&mut self, clearance: &[f64], play: &[f64], f: &[f64], r: &[V2]) -> bool {
+    /// Closes every gap on the side of the loaded forces: drive loads `f` (actuator forces,
+    /// compression +, N; drive torques, counter-clockwise + on link i, N·mm) and pin forces
+    /// `r` (body i−1 on link i). Returns whether any contact state changed (a direction by
+    /// more than 1e-12 of its clearance).
+    pub fn update(&mut self, spec: &FemSpec, f: &[f64], r: &[V2]) -> bool {
+        let (clearance, play) = (&spec.clearance, &spec.play);
         let mut changed = false;
         for i in 0..self.offset.len() {
             let s = if clearance[i] > 0.0 {
@@ -64,7 +74,12 @@ impl GapState {
                 changed = true;
             }
             self.offset[i] = s;
-            let d = -play[i] * sign0(f[i]);
+            let zero = if spec.rotary[i] {
+                TORQUE_ZERO_NMM
+            } else {
+                FORCE_ZERO_N
+            };
+            let d = -play[i] * sign0(f[i], zero);
             if d != self.play_dl[i] {
                 changed = true;
             }
@@ -74,12 +89,12 @@ impl GapState {
     }
 }
 
-/// `sign(x)`, 0 below the force threshold.
+/// `sign(x)`, 0 below the threshold `zero`.
 #[inline]
-fn sign0(x: f64) -> f64 {
-    if x >= FORCE_ZERO_N {
+fn sign0(x: f64, zero: f64) -> f64 {
+    if x >= zero {
         1.0
-    } else if x <= -FORCE_ZERO_N {
+    } else if x <= -zero {
         -1.0
     } else {
         0.0

@@ -14,7 +14,9 @@
 //!   local position: `t = t_{O_i} + θ_i·(R(α_i)·(x, 0)ᵀ)^⊥` (plus `u·e_x` along the link when
 //!   it stretches but does not bend); an inextensible link's stations keep the joint's axial
 //!   displacement and add their own transverse one, `t = e_x·(e_x·t_{O_i}) + v·e_y`;
-//! * the chassis points turn with the base tilt φ about the pivot: `t = φ·(P − pivot)^⊥`.
+//! * the chassis points turn with the base tilt φ about the pivot: `t = φ·(P − pivot)^⊥`;
+//! * the housing of a rotary drive at O_i turns with body i−1 there: its rotation is that of
+//!   body i−1's station at `next_{i−1}` (its bending slope included), or φ for i = 1.
 //!
 //! The set of DOFs in each map depends on the arm only, never on the pose (a coefficient may
 //! be zero), so every pose has the same sparsity pattern. Buffers keep their capacity: after
@@ -141,10 +143,14 @@ pub struct Maps {
     pub station: Vec<Vec<Lin>>,
     /// Per link, per station: rotation of the axis there.
     pub rot: Vec<Vec<Rot>>,
-    /// Per link: pin A_i.
+    /// Per link: pin A_i (empty when a rotary drive turns the link).
     pub a: Vec<Lin>,
-    /// Per actuator i: its base pin B_{i−1} (B_0 on the chassis for i = 1).
+    /// Per actuator i: its base pin B_{i−1} (B_0 on the chassis for i = 1; empty at a rotary
+    /// drive).
     pub b: Vec<Lin>,
+    /// Per joint i: the rotation of body i−1 at O_i (the chassis tilt for i = 1), which turns
+    /// the housing of a rotary drive there (empty at a linear joint).
+    pub housing: Vec<Rot>,
     /// Per link: the next joint (last link: load point), on this link.
     pub next: Vec<Lin>,
     /// Per link: centre of mass.
@@ -174,6 +180,7 @@ impl Maps {
                 .collect(),
             a: vec![Lin::default(); n],
             b: vec![Lin::default(); n],
+            housing: vec![Rot::default(); n],
             next: vec![Lin::default(); n],
             c: vec![Lin::default(); n],
             measure: Lin::default(),
@@ -187,12 +194,24 @@ impl Maps {
     pub fn fill(&mut self, arm: &Arm, mesh: &Mesh, fr: &Frames, offset: &[V2]) {
         let pv = arm.pivot;
         self.o1.clear();
-        self.b[0].clear();
+        for (b, h) in self.b.iter_mut().zip(&mut self.housing) {
+            b.clear();
+            h.terms.clear();
+        }
         if let Some(d) = mesh.base_dof {
             self.o1.add(d, perp(arm.o1 - pv));
-            self.b[0].add(d, perp(arm.b0 - pv));
+            if mesh.links[0].rotary {
+                self.housing[0].set(d);
+            } else {
+                self.b[0].add(d, perp(arm.b0 - pv));
+            }
         }
         for (i, lm) in mesh.links.iter().enumerate() {
+            if i > 0 && lm.rotary {
+                let at = mesh.links[i - 1].next.station;
+                let (rots, housing) = (&self.rot[i - 1][at], &mut self.housing[i]);
+                housing.terms.extend_from_slice(&rots.terms);
+            }
             let (s, c) = (fr.sin[i], fr.cos[i]);
             let along = rot_sc(s, c, V2::new(1.0, 0.0));
             let across = rot_sc(s, c, V2::new(0.0, 1.0));
@@ -278,7 +297,10 @@ impl Maps {
                     out.add_turn(&rots[at.station], rot_sc(s, c, V2::new(0.0, at.y)));
                 }
             };
-            point(&mut self.a[i], lm.a);
+            match lm.a {
+                Some(a) => point(&mut self.a[i], a),
+                None => self.a[i].clear(),
+            }
             point(&mut self.next[i], lm.next);
             point(&mut self.c[i], lm.c);
             self.pin[i].copy_from(&stations[o]);

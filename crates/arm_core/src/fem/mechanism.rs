@@ -3,8 +3,8 @@
 //! The null vector of K (its eigenvector of the smallest eigenvalue, after scaling K to a
 //! unit diagonal) is a motion that deforms nothing. Reading which bodies it moves names the
 //! fault: the chassis (nothing supports the model), or the first link of the chain that
-//! moves — turning rigidly about its joint (its actuator does not hold it: its line passes
-//! through the joint, or its stiffness is zero) or deforming (a zero section stiffness).
+//! moves — turning rigidly about its joint (its drive does not hold it: an actuator whose line
+//! passes through the joint, or a zero stiffness) or deforming (a zero section stiffness).
 
 use faer::{Mat, Side};
 
@@ -46,6 +46,7 @@ pub fn describe(
     let mut link_motion = vec![0.0_f64; mesh.links.len()];
     for (i, lm) in mesh.links.iter().enumerate() {
         let mut m = 0.0_f64;
+        // (A rotary drive's link has an empty map of A: it reads as zero.)
         for lin in maps.station[i]
             .iter()
             .chain([&maps.a[i], &maps.next[i], &maps.c[i]])
@@ -81,15 +82,24 @@ pub fn describe(
     let (s, c) = (fr.sin[j], fr.cos[j]);
     let link = &arm.links[j];
     let mut misfit = 0.0_f64;
-    for (lin, p) in [
-        (&maps.a[j], link.a),
+    let pins = [
         (&maps.next[j], link.next),
         (&maps.c[j], link.c),
-    ] {
+        (&maps.a[j], link.a),
+    ];
+    let used = if lm.rotary { 2 } else { 3 };
+    for &(lin, p) in &pins[..used] {
         let rigid = o + omega * perp(rot_sc(s, c, p));
         misfit = misfit.max((lin.linear(&v) - rigid).norm());
     }
-    let what = if misfit <= 1e-6 * top && omega.abs() * reach > 1e-6 * top {
+    let turns = misfit <= 1e-6 * top && omega.abs() * reach > 1e-6 * top;
+    let what = if turns && lm.rotary {
+        format!(
+            "link {k} (with the links beyond it) turns about joint O{k} with nothing to resist \
+             it: drive {k} does not hold it (its stiffness is zero)",
+            k = j + 1
+        )
+    } else if turns {
         format!(
             "link {k} (with the links beyond it) turns about joint O{k} with nothing to resist \
              it: actuator {k} does not hold it (its line passes through O{k}, or its stiffness \

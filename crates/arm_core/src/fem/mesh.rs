@@ -3,8 +3,8 @@
 //! on the pose, so one sparsity pattern serves every pose of a sweep.
 //!
 //! Link i's axis is its local x axis. Its stations are the abscissae of its joint (x = 0), of
-//! its pins A, B, of the next joint, of its centre of mass C and (last link) of the measure
-//! point, with every interval cut into elements no longer than `extent / elements_per_link`.
+//! its pins A (when a linear actuator turns it) and B (when one turns the next link), of the
+//! next joint, of its centre of mass C and (last link) of the measure point, with every interval cut into elements no longer than `extent / elements_per_link`.
 //! A point (x, y) hangs on the station at x by a rigid offset y. Abscissae closer than
 //! [`MERGE`] of the extent form a cluster: its anchor is the joint's station if it is in it,
 //! else A's, else the first, and the others are *relative* stations whose DOFs measure their
@@ -80,9 +80,10 @@ pub struct LinkMesh {
     pub dof: Vec<[usize; 3]>,
     /// Per station: the anchor of a relative station (see the module notes).
     pub anchor: Vec<Option<usize>>,
-    /// The actuator pin A_i.
-    pub a: Attach,
-    /// The next actuator's base pin B_i (not on the last link).
+    /// The actuator pin A_i (none when a rotary drive turns the link).
+    pub a: Option<Attach>,
+    /// The next actuator's base pin B_i (none on the last link, or when a rotary drive turns
+    /// the next link).
     pub b: Option<Attach>,
     /// The next joint (last link: the load point).
     pub next: Attach,
@@ -90,8 +91,12 @@ pub struct LinkMesh {
     pub c: Attach,
     /// The measure point (last link only).
     pub measure: Option<Attach>,
-    /// Local x of A_i: the second support of the link's chord.
+    /// Local x of A_i: the second support of the link's chord (NaN when a rotary drive
+    /// turns the link).
     pub xa: f64,
+    /// A rotary drive turns the link: it is clamped to the drive's flange at its joint, and
+    /// its frame is the flange's (docs/model.md §10).
+    pub rotary: bool,
 }
 
 impl LinkMesh {
@@ -134,7 +139,8 @@ impl Mesh {
     /// # Errors
     /// [`ArmError::OutOfRange`] for `elements_per_link == 0` or above 10 000;
     /// [`ArmError::Unsupported`] for a link whose points all lie at x = 0 (no axis), or a
-    /// flexible link whose pin A lies at x = 0 (its chord, hence its angle, is undefined).
+    /// flexible link turned by a linear actuator whose pin A lies at x = 0 (its chord, hence
+    /// its angle, is undefined).
     pub fn new(arm: &Arm, spec: &FemSpec, elements_per_link: usize) -> Result<Self> {
         if elements_per_link == 0 || elements_per_link > 10_000 {
             return Err(ArmError::OutOfRange {
@@ -151,13 +157,20 @@ impl Mesh {
         let mut links = Vec::with_capacity(n);
         for (i, link) in arm.links.iter().enumerate() {
             let last = i + 1 == n;
-            let mut keys = vec![0.0, link.a.x, link.next.x, link.c.x];
-            if !last {
+            let rotary = arm.is_rotary(i);
+            let b_used = !last && !arm.is_rotary(i + 1);
+            let xa = if rotary { f64::NAN } else { link.a.x };
+            let mut keys = vec![0.0, link.next.x, link.c.x];
+            if !rotary {
+                keys.push(link.a.x);
+            }
+            if b_used {
                 keys.push(link.b.x);
-            } else {
+            }
+            if last {
                 keys.push(arm.measure.x);
             }
-            let (x, anchor) = stations(&mut keys, elements_per_link, link.a.x);
+            let (x, anchor) = stations(&mut keys, elements_per_link, xa);
             let lo = x[0];
             let hi = x[x.len() - 1];
             let scale = 1.0 + hi.abs().max(lo.abs());
@@ -174,7 +187,7 @@ impl Mesh {
                 (false, true) => LinkKind::Axial,
                 (true, true) => LinkKind::Full,
             };
-            if kind.bends() && link.a.x.abs() <= 1e-9 * (1.0 + link.a.norm()) {
+            if !rotary && kind.bends() && link.a.x.abs() <= 1e-9 * (1.0 + link.a.norm()) {
                 return Err(ArmError::Unsupported(format!(
                     "link {}: pin A lies at x = 0, so a link that bends has no chord to \
                      measure its angle by",
@@ -209,12 +222,13 @@ impl Mesh {
                 kind,
                 dof,
                 anchor,
-                a: at(link.a),
-                b: (!last).then(|| at(link.b)),
+                a: (!rotary).then(|| at(link.a)),
+                b: b_used.then(|| at(link.b)),
                 next: at(link.next),
                 c: at(link.c),
                 measure: last.then(|| at(arm.measure)),
-                xa: link.a.x,
+                xa,
+                rotary,
                 x,
             });
         }
@@ -245,7 +259,7 @@ impl Mesh {
 /// The stations of sorted `keys`: every distinct key, each interval between clusters (keys
 /// closer than `MERGE` of the extent) cut into pieces no longer than extent/m; and per
 /// station its anchor if it is a relative station (a non-anchor key of a cluster; the anchor
-/// is 0, else `xa`, else the cluster's first key).
+/// is 0, else `xa` (NaN: none), else the cluster's first key).
 fn stations(keys: &mut [f64], m: usize, xa: f64) -> (Vec<f64>, Vec<Option<usize>>) {
     keys.sort_by(f64::total_cmp);
     let lo = keys[0];

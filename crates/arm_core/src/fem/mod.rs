@@ -7,10 +7,12 @@
 //! * links: Euler–Bernoulli beam elements along their local x axis ([`mesh`], [`element`]),
 //!   pins on rigid offsets; a link without section properties is one rigid body;
 //! * actuators: axial bars, body and mount stiffness in series;
+//! * rotary drives: torsional springs between the housing (body i−1 at O_i) and the flange
+//!   (link i, whose beam is clamped to it) ([`assemble::Kind::Spring`]);
 //! * joints: pins with the rotation released (shared translation, one rotation per body),
 //!   and the base on a rotational spring about its pivot ([`maps`]);
-//! * joint clearance and actuator play: gap elements closed by an active-set iteration
-//!   ([`gap`]);
+//! * joint clearance, actuator play and drive backlash: gap elements closed by an active-set
+//!   iteration ([`gap`]);
 //! * a sparse symmetric positive definite K ([`assemble`]) factorised by faer's sparse
 //!   Cholesky, whose symbolic analysis is done once per model and reused by every pose
 //!   ([`solve`]).

@@ -62,11 +62,15 @@ impl Shape {
         let mut s = Self::default();
         let pivot = s.node(Node::Pivot);
         let o1 = s.node(Node::O1);
-        let b0 = s.node(Node::BasePin(0));
         s.seg(pivot, o1, Segment::Chassis);
-        s.seg(pivot, b0, Segment::Chassis);
-        let mut base_pins = vec![b0];
-        let mut a_pins = Vec::new();
+        // Per actuator, its base pin and its pin A (none at a rotary drive).
+        let mut base_pins = vec![None; n];
+        let mut a_pins = vec![None; n];
+        if !mesh.links[0].rotary {
+            let b0 = s.node(Node::BasePin(0));
+            s.seg(pivot, b0, Segment::Chassis);
+            base_pins[0] = Some(b0);
+        }
         for (i, lm) in mesh.links.iter().enumerate() {
             let first = s.nodes.len();
             for k in 0..lm.x.len() {
@@ -82,18 +86,22 @@ impl Shape {
                 }
                 j
             };
-            a_pins.push(hang(&mut s, Node::A(i), lm.a));
+            if let Some(a) = lm.a {
+                a_pins[i] = Some(hang(&mut s, Node::A(i), a));
+            }
             hang(&mut s, Node::Next(i), lm.next);
             hang(&mut s, Node::C(i), lm.c);
             if let Some(b) = lm.b {
-                base_pins.push(hang(&mut s, Node::BasePin(i + 1), b));
+                base_pins[i + 1] = Some(hang(&mut s, Node::BasePin(i + 1), b));
             }
             if let Some(m) = lm.measure {
                 hang(&mut s, Node::Measure, m);
             }
         }
-        for i in 0..n {
-            s.seg(base_pins[i], a_pins[i], Segment::Actuator);
+        for (b, a) in base_pins.into_iter().zip(a_pins) {
+            if let (Some(b), Some(a)) = (b, a) {
+                s.seg(b, a, Segment::Actuator);
+            }
         }
         s
     }
@@ -101,7 +109,8 @@ impl Shape {
     /// Per node, a kind code and its body, for plots: 0 pivot, 1 chassis point O1, 2 base pin
     /// of actuator `body`, 3 axis station, 4 a link's joint station (its pin O_i), 5 pin A,
     /// 6 next joint (last link: load point), 7 centre of mass, 8 measure point; `body` is the
-    /// 1-based link (actuator for kind 2), 0 for the chassis.
+    /// 1-based link (actuator for kind 2), 0 for the chassis. A joint turned by a rotary drive
+    /// has no nodes of kinds 2 and 5.
     pub fn codes(&self, mesh: &Mesh) -> Vec<[i64; 2]> {
         let b = |i: usize| i as i64 + 1;
         self.nodes

@@ -1,16 +1,18 @@
 //! The physical properties of the FE model, gathered from the arm file and the effects.
 //!
 //! Every effect of the catalogue becomes a property of an element: a body or mount stiffness
-//! of an actuator's bar, a gap (play, clearance), a link's section, the base spring. The
-//! analytic core applies the same effects as *causes*; here they are stiffnesses and gaps.
+//! of an actuator's bar, the torsional stiffness of a rotary drive's spring, a gap (play,
+//! backlash, clearance), a link's section, the base spring. The analytic core applies the same
+//! effects as *causes*; here they are stiffnesses and gaps. Frictions (history-dependent) and
+//! gaps taken up by the unloaded forces are refused, naming the effect.
 
 use crate::arm::Arm;
 use crate::effects::{Effect, EffectSet, Mechanism, Unloaded};
 use crate::error::{ArmError, Result};
 
-/// Penalty factor of a rigid actuator (body and mount both infinitely stiff, e.g. a fit at
-/// its bound): its bar is this many times stiffer than the stiffest genuine spring of the
-/// model. Rigid links, and the rigid directions of flexible ones, are exact constraints
+/// Penalty factor of a rigid drive (an actuator's body and mount both infinitely stiff, or a
+/// rotary drive's gear, e.g. a fit at its bound): its bar or torsional spring is this many
+/// times stiffer than the stiffest genuine spring of the model. Rigid links, and the rigid directions of flexible ones, are exact constraints
 /// instead (see `mesh`, `docs/fem.md`).
 pub const PENALTY: f64 = 1e6;
 
@@ -23,17 +25,25 @@ pub struct LinkSection {
     pub ea: Option<f64>,
 }
 
-/// Everything the FE model needs besides geometry, one entry per actuator, joint or link.
+/// Everything the FE model needs besides geometry, one entry per drive, joint or link. A
+/// drive's entries are in its own units: N/mm and mm for a linear actuator, N·mm/rad and rad
+/// for a rotary drive.
 ///
 /// An infinite stiffness (the fit's θ = 0) means rigid. Zero stiffnesses are accepted here
 /// and found by the factorisation, which names what is then free to move.
 #[derive(Debug, Clone, PartialEq)]
 pub struct FemSpec {
-    /// Axial stiffness of each actuator body (N/mm): the file's, or `actuator_compliance`.
+    /// Whether a rotary drive turns joint i (else a linear actuator).
+    pub rotary: Vec<bool>,
+    /// Stiffness of each drive's own spring: an actuator body's axial one (N/mm, the file's
+    /// or `actuator_compliance`), a rotary drive's torsional one at its output (N·mm/rad,
+    /// the file's or `drive_compliance`).
     pub body_stiffness: Vec<f64>,
-    /// Series mount stiffness (N/mm), infinite without `mount_compliance`.
+    /// Series mount stiffness (N/mm), infinite without `mount_compliance` (and at a rotary
+    /// drive).
     pub mount_stiffness: Vec<f64>,
-    /// Axial play of each actuator (mm), `actuator_play`.
+    /// Lost motion of each drive either side of centre: an actuator's axial play (mm,
+    /// `actuator_play`), a rotary drive's backlash (rad, `drive_backlash`).
     pub play: Vec<f64>,
     /// Radial clearance of each joint O_i (mm), `joint_clearance`.
     pub clearance: Vec<f64>,
@@ -50,17 +60,11 @@ impl FemSpec {
     /// # Errors
     /// [`ArmError::Shape`] when `sections` has neither 0 nor n entries;
     /// [`ArmError::InvalidArm`] for a negative or NaN section value;
-    /// [`ArmError::Unsupported`] for an arm with a rotary drive.
+    /// [`ArmError::InvalidEffect`] for a friction or a gap taken up by the unloaded forces.
     pub fn new(arm: &Arm, effects: &EffectSet, sections: &[LinkSection]) -> Result<Self> {
         let n = arm.n();
-        if let Some(i) = (0..n).find(|&i| arm.is_rotary(i)) {
-            return Err(ArmError::Unsupported(format!(
-                "the finite-element model has no rotary drives yet (joint {} is turned by \
-                 one): solve this arm with the analytic model",
-                i + 1
-            )));
-        }
         let mut spec = Self {
+            rotary: (0..n).map(|i| arm.is_rotary(i)).collect(),
             body_stiffness: arm.drives.iter().map(|d| d.stiffness()).collect(),
             mount_stiffness: vec![f64::INFINITY; n],
             play: vec![0.0; n],
@@ -94,13 +98,9 @@ impl FemSpec {
                 Effect::JointClearance(x) => spec.clearance[x.joint] = x.clearance,
                 Effect::LinkBending(x) => spec.sections[x.link].ei = Some(x.ei),
                 Effect::BaseCompliance(x) => spec.base_stiffness = Some(x.stiffness),
-                // An effect set refuses these at a linear actuator, and the arm has no other.
-                Effect::DriveCompliance(_) | Effect::DriveBacklash(_) => {
-                    return Err(ArmError::InvalidEffect {
-                        effect: e.label(),
-                        reason: "the FE model has no rotary drives".into(),
-                    })
-                }
+                // An effect set has checked that these sit at rotary drives.
+                Effect::DriveCompliance(x) => spec.body_stiffness[x.joint] = x.stiffness,
+                Effect::DriveBacklash(x) => spec.play[x.joint] = x.backlash_deg.to_radians(),
                 Effect::ActuatorFriction(_)
                 | Effect::JointFriction(_)
                 | Effect::DriveFriction(_) => {
@@ -141,14 +141,26 @@ impl FemSpec {
                 }
             }
         }
+        // (label at a linear actuator, label at a rotary drive)
         let checks = [
-            ("actuator_compliance@M", &self.body_stiffness),
-            ("mount_compliance@M", &self.mount_stiffness),
-            ("actuator_play@M", &self.play),
-            ("joint_clearance@O", &self.clearance),
+            (
+                ("actuator_compliance@M", "drive_compliance@O"),
+                &self.body_stiffness,
+            ),
+            (
+                ("mount_compliance@M", "mount_compliance@M"),
+                &self.mount_stiffness,
+            ),
+            (("actuator_play@M", "drive_backlash@O"), &self.play),
+            (("joint_clearance@O", "joint_clearance@O"), &self.clearance),
         ];
-        for (label, values) in checks {
+        for ((linear, rotary), values) in checks {
             if let Some(i) = values.iter().position(|&v| bad(v)) {
+                let label = if self.rotary.get(i) == Some(&true) {
+                    rotary
+                } else {
+                    linear
+                };
                 return Err(ArmError::InvalidEffect {
                     effect: format!("{label}{}", i + 1),
                     reason: format!("value must be >= 0, got {}", values[i]),
@@ -173,20 +185,28 @@ impl FemSpec {
         self.sections[i].ei.is_some() || self.sections[i].ea.is_some()
     }
 
-    /// Whether any gap (play or clearance) is open to the active-set iteration.
+    /// Whether any gap (play, backlash or clearance) is open to the active-set iteration.
     pub fn has_gaps(&self) -> bool {
         self.play.iter().chain(&self.clearance).any(|&g| g > 0.0)
     }
 
     /// The stiffest genuine spring of the model expressed in N/mm, for the penalty values:
-    /// actuator bodies and mounts, the base over the arm's reach squared, the given sections
-    /// over their link's extent (EI/L³, EA/L).
+    /// actuator bodies and mounts, rotary drives and the base over the arm's reach squared,
+    /// the given sections over their link's extent (EI/L³, EA/L).
     pub fn stiffness_scale(&self, extent: &[f64]) -> f64 {
         let reach: f64 = extent.iter().sum();
         let mut k = 0.0_f64;
-        for &v in self.body_stiffness.iter().chain(&self.mount_stiffness) {
-            if v.is_finite() {
-                k = k.max(v);
+        for (i, (&body, &mount)) in self
+            .body_stiffness
+            .iter()
+            .zip(&self.mount_stiffness)
+            .enumerate()
+        {
+            let per = if self.rotary[i] { reach * reach } else { 1.0 };
+            for v in [body / per, mount] {
+                if v.is_finite() {
+                    k = k.max(v);
+                }
             }
         }
         if let Some(kb) = self.base_stiffness {
@@ -207,8 +227,9 @@ impl FemSpec {
         }
     }
 
-    /// Axial stiffness of actuator `i`'s bar: body and mount in series (N/mm); a rigid pair
-    /// becomes the penalty stiffness `rigid`.
+    /// Stiffness of drive `i`'s element: an actuator's bar, body and mount in series (N/mm),
+    /// or a rotary drive's torsional spring (N·mm/rad); a rigid one becomes the penalty
+    /// stiffness `rigid` (in its own unit).
     pub fn bar_stiffness(&self, i: usize, rigid: f64) -> f64 {
         let compliance = recip(self.body_stiffness[i]) + recip(self.mount_stiffness[i]);
         if compliance > 0.0 {

@@ -22,9 +22,9 @@ use super::FemModel;
 pub struct FemWorkspace {
     /// Undeformed geometry.
     pub frames: Frames,
-    /// Actuator unit vectors e_i (B_{i−1} → A_i).
+    /// Actuator unit vectors e_i (B_{i−1} → A_i; zero at a rotary drive).
     pub e: Vec<V2>,
-    /// Unloaded pin-to-pin lengths (mm).
+    /// Unloaded pin-to-pin lengths (mm; NaN at a rotary drive).
     pub length: Vec<f64>,
     /// Kinematic maps (offsets: the final gap state).
     pub maps: Maps,
@@ -50,19 +50,21 @@ pub struct FemWorkspace {
     f_payload: Vec<f64>,
     f_gap: Vec<f64>,
     r_weight: Vec<V2>,
-    /// Loaded actuator forces (N, compression +).
+    /// Loaded drive loads: actuator forces (N, compression +), drive torques (N·mm,
+    /// counter-clockwise + on link i).
     pub force: Vec<f64>,
-    /// Force changes unloaded → loaded (N).
+    /// Their changes unloaded → loaded (N, N·mm).
     pub dforce: Vec<f64>,
     /// Loaded pin forces R_i (body i−1 on link i, N).
     pub reaction: Vec<V2>,
     /// Displacement of the measure point (mm).
     pub dmeasure: V2,
-    /// Change of each link's chord angle (rad).
+    /// Change of each link's angle (rad): of its chord (linear actuator), of its flange frame
+    /// (rotary drive).
     pub dalpha: Vec<f64>,
-    /// Actuator body length change seen by its sensor (mm).
+    /// Actuator body length change seen by its sensor (mm; NaN at a rotary drive).
     pub body_dl: Vec<f64>,
-    /// Pin-to-pin length change (mm).
+    /// Pin-to-pin length change (mm; NaN at a rotary drive).
     pub dlength: Vec<f64>,
     /// Loaded bending moment at the model's sample abscissae (N·mm), link by link.
     pub moment: Vec<f64>,
@@ -130,6 +132,11 @@ impl FemWorkspace {
         let arm = &model.arm;
         self.frames.fill(arm, alpha);
         for i in 0..arm.n() {
+            if arm.is_rotary(i) {
+                self.e[i] = V2::zeros();
+                self.length[i] = f64::NAN;
+                continue;
+            }
             let v = self.frames.a[i] - self.frames.b[i];
             let l = v.norm();
             let scale = 1.0 + (self.frames.a[i] - self.frames.joint[i]).norm();
@@ -196,6 +203,13 @@ impl FemWorkspace {
                 let w = |m: f64| V2::new(0.0, -m * g);
                 for i in 0..n {
                     self.maps.c[i].load(w(arm.links[i].mass_kg), fw);
+                    if arm.is_rotary(i) {
+                        // The whole drive at O_i on body i−1 (the chassis takes drive 1).
+                        if i > 0 {
+                            self.maps.next[i - 1].load(w(arm.drives[i].mass_kg()), fw);
+                        }
+                        continue;
+                    }
                     let half = w(0.5 * arm.drives[i].mass_kg());
                     self.maps.a[i].load(half, fw);
                     if i > 0 {
@@ -223,12 +237,7 @@ impl FemWorkspace {
                     self.force[i] = self.f_weight[i] + self.f_payload[i] + self.f_gap[i];
                 }
                 pin_forces(arm, &self.e, &self.force, loaded, &mut self.reaction);
-                let changed = self.gaps.update(
-                    &model.spec.clearance,
-                    &model.spec.play,
-                    &self.force,
-                    &self.reaction,
-                );
+                let changed = self.gaps.update(&model.spec, &self.force, &self.reaction);
                 if !changed && self.iterations > 0 {
                     break;
                 }
@@ -300,16 +309,23 @@ impl FemWorkspace {
         self.dmeasure = maps.measure.eval(u);
         for i in 0..n {
             let lm = &model.mesh.links[i];
-            self.dalpha[i] = if !lm.kind.bends() {
+            self.dalpha[i] = if lm.rotary || !lm.kind.bends() {
+                // A rigid link's turn, or the flange frame's of a link clamped to its drive.
                 u[lm.theta_origin()]
             } else {
                 // The chord through the joint and the axis point under A (docs/model.md §4).
                 let (s, c) = (self.frames.sin[i], self.frames.cos[i]);
                 let v = |t: V2| -s * t.x + c * t.y;
                 let vo = v(maps.station[i][lm.origin].eval(u));
-                let va = v(maps.station[i][lm.a.station].eval(u));
+                let a = lm.a.map_or(lm.origin, |a| a.station);
+                let va = v(maps.station[i][a].eval(u));
                 (va - vo) / lm.xa
             };
+            if lm.rotary {
+                self.body_dl[i] = f64::NAN;
+                self.dlength[i] = f64::NAN;
+                continue;
+            }
             let k = model.spec.body_stiffness[i];
             self.body_dl[i] = if k.is_infinite() {
                 0.0
@@ -422,8 +438,9 @@ impl FemWorkspace {
     }
 }
 
-/// Actuator forces (compression +) of the bars for displacements `u`, with the prescribed
-/// gap parts when given: `F = −k·(T·u + w₀)`.
+/// Drive loads for displacements `u`, with the prescribed gap parts when given: the bars'
+/// forces (compression +) and the torsional springs' torques on link i (counter-clockwise +),
+/// both `−k·(T·u + w₀)`.
 fn bar_forces(
     model: &FemModel,
     t: &[f64],
@@ -432,10 +449,10 @@ fn bar_forces(
     out: &mut [f64],
 ) {
     for e in &model.asm.elements[model.bar_start..] {
-        if let Kind::Bar { act, k } = e.kind {
+        if let Kind::Bar { act: i, k } | Kind::Spring { joint: i, k } = e.kind {
             let mut w = [0.0; 6];
             model.asm.local_displacement(e, t, u, pre, &mut w);
-            out[act] = -k * w[0];
+            out[i] = -k * w[0];
         }
     }
 }

@@ -18,7 +18,7 @@ from eodarm.analysis.diagnose import all_slots
 from eodarm.analysis.sequences import FRICTIONS
 from eodarm.errors import EodarmError
 from eodarm.model.arm import Arm
-from eodarm.model.effects import Slot, kind_of, param_from_theta, theta_from_param
+from eodarm.model.effects import Slot, check_kinds, kind_of, param_from_theta, theta_from_param
 
 __all__ = ["Candidate", "CandidateSpec", "candidate_specs", "parse_candidates"]
 
@@ -126,7 +126,7 @@ def candidate_specs(arm: Arm, self_weight: bool = True) -> list[CandidateSpec]:
     """Every candidate ``diagnose`` ranks on this arm (its catalogue at every place, the gaps
     taken up when unloaded where the arm carries its weight, every registered user-written
     effect at every place of its kind), without sizes."""
-    return [CandidateSpec(s) for s in all_slots(arm.n, taken_up=self_weight)]
+    return [CandidateSpec(s) for s in all_slots(arm.n, taken_up=self_weight, kinds=arm.kinds)]
 
 
 def parse_candidates(specs: Sequence[str], arm: Arm) -> list[CandidateSpec]:
@@ -148,6 +148,7 @@ def parse_candidates(specs: Sequence[str], arm: Arm) -> list[CandidateSpec]:
             try:
                 slot = Slot.parse(head.strip())
                 slot.index(arm.n)
+                check_kinds([slot.example], arm.kinds)
             except EodarmError as exc:
                 raise EodarmError(f"--candidates '{text}': {exc}") from None
             size = None

@@ -254,9 +254,13 @@ def _channels(
 
     every = channel_names(arm.n)
     if channels is None:
-        chans = list(fixed.measured_channels) if fixed is not None else every
+        chans = (
+            list(fixed.measured_channels)
+            if fixed is not None
+            else expand_channels(None, arm.n, arm.kinds)
+        )
     else:
-        chans = expand_channels(channels, arm.n)
+        chans = expand_channels(channels, arm.n, arm.kinds)
     given = _sigmas(dict(sigma or {}), every, math.nan)  # NaN where not given
     sig: dict[str, float] = {}
     for j, ch in enumerate(every):

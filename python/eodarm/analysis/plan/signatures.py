@@ -55,7 +55,10 @@ class StateSet:
         self.prob = Problem(arm, meas, self_weight)
         flat = dataclasses.replace(meas, step=None) if meas.has_sequences else meas
         self.flat = Problem(arm, flat, self_weight) if flat is not meas else self.prob
-        self.y0 = self.prob.evaluate([])[0]
+        # a rotary drive has no length channel: its dlK_mm never has a value (and no response)
+        drives = {f"dl{i + 1}_mm" for i, k in enumerate(arm.kinds) if k == "rotary"}
+        self.no_channel = np.array([c in drives for c in meas.channels])
+        self.y0 = np.where(self.no_channel, 0.0, self.prob.evaluate([])[0])
         self._y0_flat: FloatArray | None = None
         self.solves = 1
 
@@ -65,10 +68,11 @@ class StateSet:
         self.solves += 1
         if slot.kind.custom and self.flat is not self.prob:
             if self._y0_flat is None:
-                self._y0_flat = self.flat.evaluate([])[0]
+                self._y0_flat = np.where(self.no_channel, 0.0, self.flat.evaluate([])[0])
             y = self.flat.evaluate([(slot, theta)], nan_on_failure=nan_on_failure)[0]
-            return y - self._y0_flat
-        return self.prob.evaluate([(slot, theta)], nan_on_failure=nan_on_failure)[0] - self.y0
+            return np.where(self.no_channel, 0.0, y - self._y0_flat)
+        y = self.prob.evaluate([(slot, theta)], nan_on_failure=nan_on_failure)[0]
+        return np.where(self.no_channel, 0.0, y - self.y0)
 
 
 @dataclass
