@@ -18,22 +18,7 @@ from hypothesis import strategies as st
 import eodarm
 from eodarm.model.effects import UNLOADED
 from strategies import ALL_KINDS, FRICTIONS, effects_for, mixed_arm_and_poses, payload_vectors
-
-SOLVE_KEYS = {
-    "force_n",
-    "torque_nmm",
-    "reaction_n",
-    "dforce_n",
-    "dtorque_nmm",
-    "dx_mm",
-    "dy_mm",
-    "dalpha_deg",
-    "dl_mm",
-    "dlength_mm",
-    "status",
-    "length_mm",
-}
-FORWARD_KEYS = {"O", "A", "B", "C", "measure", "length_mm"}
+from test_backends import FORWARD_KEYS, SOLVE_KEYS  # the keys both backends return, listed once
 
 
 def assert_same(rust: dict[str, np.ndarray], ref: dict[str, np.ndarray], keys: set[str]) -> None:
