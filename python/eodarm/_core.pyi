@@ -81,12 +81,14 @@ def solve(
     extra_turn_rad: npt.NDArray[np.float64] | None = None,
     # a dict of arrays; typed Any so that callers may pass the extras as **kwargs
     out: Any = None,
+    outputs: Sequence[str] | None = None,
 ) -> dict[str, npt.NDArray[Any]]:
     """``force_n``, ``dforce_n``, ``torque_nmm``, ``dtorque_nmm``, ``dalpha_deg``, ``dl_mm``,
     ``dlength_mm``, ``length_mm`` (N, n), ``reaction_n`` (N, n, 2), ``dx_mm``, ``dy_mm`` (N,),
     ``status`` (N,) uint8; NaN at the joints of the other kind (forces and lengths at a drive,
     torques at a linear actuator). ``extra_turn_rad`` (N, n): turn of link i against body
-    i−1 at a rotary drive (zero at linear actuators)."""
+    i−1 at a rotary drive (zero at linear actuators). With ``outputs`` only those keys and
+    ``status`` are allocated, written and returned (``out`` then holds exactly those)."""
     ...
 
 def solve_sequence(
@@ -98,11 +100,14 @@ def solve_sequence(
     values: npt.NDArray[np.float64],
     self_weight: bool,
     nan_on_failure: bool = False,
+    *,
+    outputs: Sequence[str] | None = None,
 ) -> dict[str, npt.NDArray[Any]]:
     """N load sequences of S states. ``alpha_deg`` (N, n) C-contiguous float64; ``payload_n``
     (N, S) the vertical payload force of each state (N, y up: ``-m·g``, as column 1 of
     :func:`solve`'s ``payload_n``). Returns the keys of :func:`solve` with shape (N, S, ...),
-    relative to each sequence's reference, and ``status`` (N, S) uint8."""
+    relative to each sequence's reference, and ``status`` (N, S) uint8; with ``outputs`` only
+    those keys and ``status``."""
     ...
 
 def cycle_returns(

@@ -116,7 +116,8 @@ pub fn solve_batch_extra(
     opts: SolveOptions,
     out: BatchOutput<'_>,
 ) -> Result<()> {
-    let mut status = vec![0u8; out.dx_mm.len()];
+    // the rows from the input (an output not asked for is empty); check_input checks its shape
+    let mut status = vec![0u8; input.alpha_deg.len() / arm.n()];
     solve_batch_status(arm, effects, input, extra, opts, out, &mut status)
 }
 
@@ -190,8 +191,9 @@ fn run(
     };
     let simd = pulp::Arch::new();
     let ctx = fast::Ctx { arm, effects, opts };
+    // A chunk's rows are its statuses' (every output but the status may be absent).
     let run = |sub: BatchInput<'_>, chunk: BatchOutput<'_>, st: &mut [u8], start: usize| {
-        let m = chunk.dx_mm.len();
+        let m = st.len();
         match &kernel {
             Some(k) => k.chunk(simd, &ctx, sub, chunk, st, start),
             None => {
@@ -207,14 +209,14 @@ fn run(
     if rows < threshold {
         return run(input, out, status, 0);
     }
-    let chunks = split_output(out, n, chunk_rows);
+    let chunks = split_output(out, n, chunk_rows, rows);
     let errors: Vec<ArmError> = chunks
         .into_par_iter()
         .zip(status.par_chunks_mut(chunk_rows))
         .enumerate()
         .filter_map(|(k, (chunk, st))| {
             let start = k * chunk_rows;
-            let m = chunk.dx_mm.len();
+            let m = st.len();
             let sub = BatchInput {
                 alpha_deg: &input.alpha_deg[start * n..(start + m) * n],
                 payload_n: &input.payload_n[2 * start..2 * (start + m)],
@@ -229,23 +231,33 @@ fn run(
     }
 }
 
+/// `out` (`total` rows of an `n`-link arm) cut into chunks of `rows` rows (the last may be
+/// shorter); an output not asked for (empty) is empty in every chunk.
 pub(crate) fn split_output<'a>(
     out: BatchOutput<'a>,
     n: usize,
     rows: usize,
+    total: usize,
 ) -> Vec<BatchOutput<'a>> {
-    let mut f = out.force_n.chunks_mut(rows * n);
-    let mut r = out.reaction_n.chunks_mut(rows * n * 2);
-    let mut df = out.dforce_n.chunks_mut(rows * n);
-    let mut t = out.torque_nmm.chunks_mut(rows * n);
-    let mut dt = out.dtorque_nmm.chunks_mut(rows * n);
-    let mut dx = out.dx_mm.chunks_mut(rows);
-    let mut dy = out.dy_mm.chunks_mut(rows);
-    let mut da = out.dalpha_deg.chunks_mut(rows * n);
-    let mut dl = out.dl_mm.chunks_mut(rows * n);
-    let mut dlen = out.dlength_mm.chunks_mut(rows * n);
-    let mut len = out.length_mm.chunks_mut(rows * n);
-    let mut chunks = Vec::new();
+    let count = total.div_ceil(rows);
+    // the chunks of an output asked for; `count` empty slices for one that is not
+    let parts = |s: &'a mut [f64], width: usize| {
+        s.chunks_mut(rows * width)
+            .chain(std::iter::repeat_with(<&mut [f64]>::default))
+            .take(count)
+    };
+    let mut f = parts(out.force_n, n);
+    let mut r = parts(out.reaction_n, 2 * n);
+    let mut df = parts(out.dforce_n, n);
+    let mut t = parts(out.torque_nmm, n);
+    let mut dt = parts(out.dtorque_nmm, n);
+    let mut dx = parts(out.dx_mm, 1);
+    let mut dy = parts(out.dy_mm, 1);
+    let mut da = parts(out.dalpha_deg, n);
+    let mut dl = parts(out.dl_mm, n);
+    let mut dlen = parts(out.dlength_mm, n);
+    let mut len = parts(out.length_mm, n);
+    let mut chunks = Vec::with_capacity(count);
     while let (
         Some(force_n),
         Some(reaction_n),
@@ -306,21 +318,27 @@ fn solve_chunk(
     let reach = crate::validity::reach(arm);
     let rise_checked = crate::validity::checks_load_rise(arm, effects);
     let mut alpha = vec![0.0; n];
-    for p in 0..out.dx_mm.len() {
+    for p in 0..status.len() {
         let row = first_row + p;
         for (a, d) in alpha.iter_mut().zip(&input.alpha_deg[p * n..(p + 1) * n]) {
             *a = d.to_radians();
         }
         let payload = V2::new(input.payload_n[2 * p], input.payload_n[2 * p + 1]);
-        match ws.solve_extra(arm, effects, &alpha, payload, opts, row, (&extra, p)) {
-            Ok(()) => write_row(arm, &ws, &alpha, &mut out, p, n),
-            Err(e) if opts.nan_on_failure && e.is_pose_failure() => fill_nan(&mut out, p, n),
+        let solved = match ws.solve_extra(arm, effects, &alpha, payload, opts, row, (&extra, p)) {
+            Ok(()) => {
+                write_row(arm, &ws, &alpha, &mut out, p, n);
+                true
+            }
+            Err(e) if opts.nan_on_failure && e.is_pose_failure() => {
+                fill_nan(&mut out, p, n);
+                false
+            }
             Err(e) => return Err(e),
-        }
+        };
         let down = payload.y < 0.0;
         // the load point's rise is checked where no user-written deformation acts on the pose
         let lift = rise_checked && status::no_extra(&extra, p, n);
-        status[p] = status::pose_status(arm, &ws.frames, &mut loaded, &out, p, down, reach, lift);
+        status[p] = status::pose_status(arm, &ws, &alpha, solved, &mut loaded, down, reach, lift);
     }
     Ok(())
 }

@@ -3,7 +3,7 @@
 
 use crate::convert::{effect_set, matrix, CoreArm};
 use crate::errors::{value_error, PyArmError};
-use crate::solve::{fill_out, new_out};
+use crate::solve::{asked, fill_out, new_out};
 use arm_core::{SequenceInput, SolveOptions};
 use numpy::{
     IntoPyArray, PyArray2, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArray,
@@ -18,8 +18,9 @@ use pyo3::types::PyDict;
 /// `dx_mm`, `dy_mm` (N, S) and the uint8 `status` (N, S), every state relative to its
 /// sequence's reference. `payload_n` (N, S) is the vertical component (N, y up) of the
 /// payload force of each state, as column 1 of `solve`'s `payload_n`: `−m·g` for a mass m.
+/// With `outputs` (a list of those keys) only those arrays and `status` are returned.
 #[pyfunction]
-#[pyo3(signature = (arm, alpha_deg, payload_n, codes, places, values, self_weight, nan_on_failure=false))]
+#[pyo3(signature = (arm, alpha_deg, payload_n, codes, places, values, self_weight, nan_on_failure=false, *, outputs=None))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn solve_sequence<'py>(
     py: Python<'py>,
@@ -31,9 +32,11 @@ pub(crate) fn solve_sequence<'py>(
     values: PyReadonlyArray1<'py, f64>,
     self_weight: bool,
     nan_on_failure: bool,
+    outputs: Option<Vec<String>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let arm = &arm.inner;
     let n = arm.n();
+    let asked = asked(outputs)?;
     let (alpha, seqs) = matrix(&alpha_deg, "alpha_deg", n)?;
     let shape = payload_n.shape();
     let (rows, states) = (shape[0], shape[1]);
@@ -67,8 +70,8 @@ pub(crate) fn solve_sequence<'py>(
     };
     // numpy allocates the outputs (huge pages for large arrays), as for `solve`; the rows
     // are the states, sequence-major, reshaped below to (N, S, ...) views.
-    let flat = new_out(py, total, n)?;
-    fill_out(py, &flat, total, n, |batch, st| {
+    let flat = new_out(py, total, n, &asked)?;
+    fill_out(py, &flat, total, n, &asked, |batch, st| {
         arm_core::solve_sequence(arm, &effects, input, opts, batch, st)
     })?;
     let out = PyDict::new(py);

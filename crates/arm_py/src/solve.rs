@@ -27,14 +27,41 @@ const OUT_KEYS: [(&str, &[u8]); 11] = [
     ("length_mm", &[0, 1]),
 ];
 
-/// The caller's output arrays, borrowed writeable after their keys, dtypes and shapes were
-/// checked (a one-line error naming the key otherwise).
+/// Which of [`OUT_KEYS`] are asked for: every one without `outputs`, else those it names
+/// (`status` is always returned, naming it changes nothing); an unknown name is a one-line
+/// error listing the known ones.
+pub(crate) fn asked(outputs: Option<Vec<String>>) -> PyResult<[bool; OUT_KEYS.len()]> {
+    let Some(names) = outputs else {
+        return Ok([true; OUT_KEYS.len()]);
+    };
+    let mut asked = [false; OUT_KEYS.len()];
+    for name in &names {
+        match OUT_KEYS.iter().position(|(key, _)| key == name) {
+            Some(k) => asked[k] = true,
+            None if name == "status" => {}
+            None => {
+                let known: Vec<&str> = OUT_KEYS.iter().map(|(key, _)| *key).collect();
+                return Err(value_error(format!(
+                    "outputs: unknown key {name:?}; expected some of {}, status",
+                    known.join(", ")
+                )));
+            }
+        }
+    }
+    Ok(asked)
+}
+
+/// The caller's output arrays of the keys `asked` (None for the others), borrowed writeable
+/// after their keys, dtypes and shapes were checked (a one-line error naming the key
+/// otherwise: missing, of the wrong shape or dtype, or present but not asked for).
+#[allow(clippy::type_complexity)]
 fn borrow_out<'py>(
     out: &Bound<'py, PyDict>,
     rows: usize,
     n: usize,
+    asked: &[bool; OUT_KEYS.len()],
 ) -> PyResult<(
-    Vec<PyReadwriteArrayDyn<'py, f64>>,
+    Vec<Option<PyReadwriteArrayDyn<'py, f64>>>,
     PyReadwriteArrayDyn<'py, u8>,
 )> {
     let get = |key: &str| -> PyResult<Bound<'py, PyAny>> {
@@ -42,7 +69,16 @@ fn borrow_out<'py>(
             .ok_or_else(|| value_error(format!("out: missing key {key:?}")))
     };
     let mut arrays = Vec::with_capacity(OUT_KEYS.len());
-    for (key, code) in OUT_KEYS {
+    for ((key, code), &wanted) in OUT_KEYS.iter().zip(asked) {
+        if !wanted {
+            if out.contains(key)? {
+                return Err(value_error(format!(
+                    "out[{key:?}]: not among the outputs asked for"
+                )));
+            }
+            arrays.push(None);
+            continue;
+        }
         let want = dims(code, rows, n);
         let a = get(key)?
             .extract::<PyReadwriteArrayDyn<'py, f64>>()
@@ -58,7 +94,7 @@ fn borrow_out<'py>(
                 a.shape()
             )));
         }
-        arrays.push(a);
+        arrays.push(Some(a));
     }
     let status = get("status")?
         .extract::<PyReadwriteArrayDyn<'py, u8>>()
@@ -77,8 +113,10 @@ fn borrow_out<'py>(
 }
 
 /// Solves N poses; returns a dict of float64 arrays and the uint8 `status` per pose (see
-/// `eodarm.solve`). With `out` (a dict of C-contiguous writeable arrays of those keys, shapes
-/// and dtypes) the results are written into the caller's arrays, and that dict is returned.
+/// `eodarm.solve`). With `outputs` (a list of those keys) only those arrays and `status` are
+/// allocated, written and returned. With `out` (a dict of C-contiguous writeable arrays of
+/// those keys, shapes and dtypes) the results are written into the caller's arrays, and that
+/// dict is returned.
 ///
 /// The keyword-only `extra_*` arrays (float64, C-contiguous, each optional) are deformations
 /// of user-written effects added to the built-in effects' (global frame, see
@@ -89,7 +127,7 @@ fn borrow_out<'py>(
 /// `extra_tilt_rad` (N,) chassis tilt about the base pivot, `extra_measure_mm` (N, 2)
 /// displacement of the measure point.
 #[pyfunction]
-#[pyo3(signature = (arm, alpha_deg, payload_n, codes, places, values, self_weight, nan_on_failure=false, *, extra_seen_mm=None, extra_unseen_mm=None, extra_joint_mm=None, extra_tilt_rad=None, extra_measure_mm=None, extra_turn_rad=None, out=None))]
+#[pyo3(signature = (arm, alpha_deg, payload_n, codes, places, values, self_weight, nan_on_failure=false, *, extra_seen_mm=None, extra_unseen_mm=None, extra_joint_mm=None, extra_tilt_rad=None, extra_measure_mm=None, extra_turn_rad=None, out=None, outputs=None))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn solve<'py>(
     py: Python<'py>,
@@ -108,8 +146,10 @@ pub(crate) fn solve<'py>(
     extra_measure_mm: Option<PyReadonlyArrayDyn<'py, f64>>,
     extra_turn_rad: Option<PyReadonlyArrayDyn<'py, f64>>,
     out: Option<Bound<'py, PyDict>>,
+    outputs: Option<Vec<String>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let arm = &arm.inner;
+    let asked = asked(outputs)?;
     let n = arm.n();
     let input = poses_and_payloads(&alpha_deg, &payload_n, n)?;
     let rows = input.payload_n.len() / 2;
@@ -136,33 +176,36 @@ pub(crate) fn solve<'py>(
     // the caller's would be.
     let dict = match out {
         Some(dict) => dict,
-        None => new_out(py, rows, n)?,
+        None => new_out(py, rows, n, &asked)?,
     };
-    fill_out(py, &dict, rows, n, |batch, st| {
+    fill_out(py, &dict, rows, n, &asked, |batch, st| {
         arm_core::solve_batch_status(arm, &effects, input, extra, opts, batch, st)
     })?;
     Ok(dict)
 }
 
 /// Runs `solve` (without the GIL) on the arrays of `dict` (checked by [`borrow_out`]) lent as
-/// one [`BatchOutput`] and its status.
+/// one [`BatchOutput`] (an empty slice where an output is not `asked`) and its status.
 pub(crate) fn fill_out<'py, F>(
     py: Python<'py>,
     dict: &Bound<'py, PyDict>,
     rows: usize,
     n: usize,
+    asked: &[bool; OUT_KEYS.len()],
     solve: F,
 ) -> PyResult<()>
 where
     F: FnOnce(BatchOutput<'_>, &mut [u8]) -> arm_core::Result<()> + Send,
 {
-    let (mut arrays, mut status) = borrow_out(dict, rows, n)?;
-    let mut slices = Vec::with_capacity(arrays.len());
+    let (mut arrays, mut status) = borrow_out(dict, rows, n, asked)?;
+    let mut slices: Vec<&mut [f64]> = Vec::with_capacity(arrays.len());
     for a in arrays.iter_mut() {
-        slices.push(
-            a.as_slice_mut()
+        slices.push(match a {
+            Some(a) => a
+                .as_slice_mut()
                 .map_err(|e| value_error(format!("out: {e}")))?,
-        );
+            None => &mut [],
+        });
     }
     let st = status
         .as_slice_mut()
@@ -186,10 +229,16 @@ where
     Ok(())
 }
 
-/// Zeroed numpy output arrays of `solve` for `rows` poses of an `n`-link arm.
-pub(crate) fn new_out(py: Python<'_>, rows: usize, n: usize) -> PyResult<Bound<'_, PyDict>> {
+/// Zeroed numpy output arrays of `solve` for `rows` poses of an `n`-link arm: those `asked`
+/// for, and `status`.
+pub(crate) fn new_out<'py>(
+    py: Python<'py>,
+    rows: usize,
+    n: usize,
+    asked: &[bool; OUT_KEYS.len()],
+) -> PyResult<Bound<'py, PyDict>> {
     let d = PyDict::new(py);
-    for (key, code) in OUT_KEYS {
+    for ((key, code), _) in OUT_KEYS.iter().zip(asked).filter(|(_, &a)| a) {
         d.set_item(
             key,
             PyArrayDyn::<f64>::zeros(py, dims(code, rows, n), false),

@@ -161,9 +161,11 @@ def _per_row(values: npt.ArrayLike, rows: int, name: str) -> npt.NDArray[np.floa
         a = np.full(rows, float(a))
     if a.shape != (rows,):
         raise InputError(f"{name}: expected a scalar or shape ({rows},), got {a.shape}")
-    bad = ~np.isfinite(a)
-    if bad.any():
-        raise InputError(f"pose row {int(np.flatnonzero(bad)[0])}: {name} is not finite")
+    # The sum is finite when every value is (one pass, no temporary), as in _poses.
+    if not np.isfinite(np.sum(a)):
+        bad = ~np.isfinite(a)
+        if bad.any():
+            raise InputError(f"pose row {int(np.flatnonzero(bad)[0])}: {name} is not finite")
     return a
 
 
@@ -199,7 +201,10 @@ def _refuse_unloaded_singular(
 
     The failed rows' statics without payload are solved again (numpy reference, few rows):
     they fail only for a pose that is singular on its undeformed geometry."""
-    failed = np.flatnonzero(np.isnan(np.asarray(res["dy_mm"])))
+    dy = np.asarray(res["dy_mm"])
+    if not np.isnan(np.sum(dy)):  # no NaN (a NaN makes the sum NaN): one pass, no temporary
+        return
+    failed = np.flatnonzero(np.isnan(dy))
     if failed.size == 0:
         return
     from eodarm.model import reference

@@ -9,6 +9,7 @@ it and :func:`cycle_returns` under their old names.
 from __future__ import annotations
 
 import re
+from collections.abc import Sequence
 
 import numpy as np
 import numpy.typing as npt
@@ -25,6 +26,7 @@ from eodarm.model.kinematics import (
     _poses,
     _refuse_unloaded_singular,
 )
+from eodarm.model.outputs import check_outputs, core_outputs, select
 from eodarm.model.resources import check_output_memory, solve_output_bytes
 from eodarm.model.validity import checks_load_rise, status
 
@@ -42,6 +44,7 @@ def solve_sequence(
     strict: bool = False,
     nan_on_failure: bool | None = None,
     uncertainty: bool = False,
+    outputs: Sequence[str] | None = None,
 ) -> Arrays:
     """N load sequences: each pose loaded and unloaded through S payloads from one reference.
 
@@ -83,6 +86,11 @@ def solve_sequence(
         propagated linearly through the sequence) and ``sigma_model_*`` (the fitted model's
         inadequacy). Needs a fitted arm (``eodarm fit -o``, ``FitResult.to_arm()``);
         catalogue effects only (:func:`eodarm.model.uncertainty.sequence_sigma`).
+    outputs : the keys to return, as :func:`solve`'s (``status`` always with them); None
+        (the default) is every key. The compiled core allocates and writes only the asked
+        arrays; the numpy backend, a model with a user-written effect and ``uncertainty``
+        compute every output and select. An unknown or repeated key, an empty sequence or a
+        bare string is an :class:`~eodarm.errors.InputError` listing the valid keys.
 
     Returns
     -------
@@ -107,6 +115,7 @@ def solve_sequence(
     """
     check_arm(arm, "solve_sequence")
     _check_backend(backend)
+    asked = check_outputs(outputs, uncertainty=uncertainty)
     if nan_on_failure is not None:
         strict = not nan_on_failure
     _check_sequence_memory(alpha_deg, mass_kg, arm.n)
@@ -131,7 +140,9 @@ def solve_sequence(
         require_fit(arm)  # before any work
         if split_effects(effs)[1]:
             raise InputError("uncertainty is propagated for the catalogue's effects only")
-    res = _sequences(arm, alpha, mass, effs, backend, self_weight, strict)
+    # the sigmas are propagated from every output; the failed rows are read from dy_mm
+    keys = None if uncertainty else core_outputs(asked, need_dy=not strict)
+    res = _sequences(arm, alpha, mass, effs, backend, self_weight, strict, keys)
     if not strict:
         failed = np.isnan(np.asarray(res["dy_mm"])).any(axis=1)
         _refuse_unloaded_singular(arm, alpha, {"dy_mm": np.where(failed, np.nan, 0.0)}, "sequence")
@@ -141,7 +152,7 @@ def solve_sequence(
             return _sequences(arm, alpha, mass, model, backend, self_weight, strict=False)
 
         res.update(sequence_sigma(arm, effs, run, res))
-    return res
+    return select(res, asked)
 
 
 def _sequences(
@@ -152,16 +163,18 @@ def _sequences(
     backend: Backend,
     self_weight: bool,
     strict: bool,
+    keys: list[str] | None = None,
 ) -> Arrays:
     """:func:`solve_sequence` of checked inputs on the backend asked for, or on the numpy
-    reference for a model with user-written effects."""
+    reference for a model with user-written effects; ``keys``: the outputs the compiled core
+    writes (None: every one; the numpy reference computes every one)."""
     if split_effects(effs)[1]:
         # A user-written effect holds no history: each state sees it loaded once from the
         # sequence's reference. Its deformations are computed in Python, state by state,
         # which the numpy reference does (the compiled core takes no extras in sequences).
         backend = "numpy"
     if backend != "numpy":
-        return _core_sequence(arm, alpha, mass, effs, self_weight, strict)
+        return _core_sequence(arm, alpha, mass, effs, self_weight, strict, keys)
     from eodarm.model import reference
 
     # The numpy reference solves sequences too (eodarm.reference.solve_sequence).
@@ -193,22 +206,26 @@ def _core_sequence(
     effs: list[Effect],
     self_weight: bool,
     strict: bool,
+    keys: list[str] | None = None,
 ) -> Arrays:
-    """:func:`solve_sequence` on the compiled core; its refusals as :class:`InputError`
+    """:func:`solve_sequence` on the compiled core (the outputs ``keys``, None: every one);
+    its refusals as :class:`InputError`
     naming the sequence and, for a state that cannot be closed, the state."""
     from eodarm.model import native as _core
 
     codes, places, values = effect_arrays(effs, arm.n)
     payload = np.ascontiguousarray(mass * -arm.g)
 
-    def run(a: npt.NDArray[np.float64], p: npt.NDArray[np.float64], nan: bool) -> Arrays:
+    def run(
+        a: npt.NDArray[np.float64], p: npt.NDArray[np.float64], nan: bool, keys: list[str] | None
+    ) -> Arrays:
         out: Arrays = _core.solve_sequence(
-            _core_arm(arm), a, p, codes, places, values, self_weight, nan
+            _core_arm(arm), a, p, codes, places, values, self_weight, nan, outputs=keys
         )
         return out
 
     try:
-        return run(alpha, payload, not strict)
+        return run(alpha, payload, not strict, keys)
     except _core.CoreError as exc:
         text = " ".join(str(exc).split())
         found = re.match(r"pose row (\d+)[:,]?\s*(.*)", text)
@@ -218,7 +235,7 @@ def _core_sequence(
         state = None
         if q < alpha.shape[0]:  # which state: the sequence again, each failed state NaN
             try:
-                one = run(alpha[q : q + 1], payload[q : q + 1], True)
+                one = run(alpha[q : q + 1], payload[q : q + 1], True, ["dy_mm"])
                 bad = np.flatnonzero(np.isnan(np.asarray(one["dy_mm"])[0]))
                 state = int(bad[0]) if bad.size else None
             except _core.CoreError:

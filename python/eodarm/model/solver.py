@@ -8,7 +8,7 @@ backends refuse bad input with the same one-line message naming the row.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -31,6 +31,7 @@ from eodarm.model.kinematics import (
     forward,
     stroke_violations,
 )
+from eodarm.model.outputs import SOLVE_KEYS, check_outputs, core_outputs, select
 from eodarm.model.resources import check_output_memory, solve_output_bytes
 from eodarm.model.sequence import cycle_returns, solve_sequence
 from eodarm.model.validity import checks_load_rise, quiet_rows, status
@@ -61,6 +62,7 @@ def solve(
     uncertainty: bool = False,
     out: Mapping[str, npt.NDArray[Any]] | None = None,
     strict: bool = False,
+    outputs: Sequence[str] | None = None,
 ) -> Arrays:
     """Loaded minus unloaded state of N poses under a payload mass at the load point.
 
@@ -100,10 +102,11 @@ def solve(
         an arm file written by ``eodarm fit -o`` (:mod:`eodarm.model.uncertainty`,
         docs/model.md, Prediction errors).
     out : arrays to write the results into, for repeated calls without allocating: a dict
-        with every key of the analytic results below (``status`` included), each a writeable
-        C-contiguous array of that shape and dtype (e.g. ``{k: np.empty_like(v) for k, v in
-        solve(...).items()}``). The returned dict holds these arrays. ``backend="rust"``,
-        ``model="analytic"`` only; a missing key or a wrong shape, dtype or layout is an
+        with every key of the analytic results below (``status`` included; with ``outputs``
+        exactly the asked keys and ``status``), each a writeable C-contiguous array of that
+        shape and dtype (e.g. ``{k: np.empty_like(v) for k, v in solve(...).items()}``). The
+        returned dict holds these arrays. ``backend="rust"``, ``model="analytic"`` only; a
+        missing or extra key or a wrong shape, dtype or layout is an
         :class:`~eodarm.errors.InputError` naming the key.
     strict : a pose that cannot be closed under its load (an actuator triangle that the
         loaded lengths cannot close, a loaded pose that will not settle) raises naming the row
@@ -111,6 +114,16 @@ def solve(
         are solved (False, the default; as :func:`eodarm.sweep` marks such a cell). A pose
         that is singular *unloaded* (an actuator through its joint, coincident pins) is
         invalid input and raises either way.
+    outputs : the keys to return, e.g. ``("dx_mm", "dy_mm")``; None (the default) is every
+        key below. ``status`` is always returned as well: it says which rows of the asked
+        arrays can be trusted, and is computed from the solved pose whatever is asked. The
+        compiled core allocates and writes only the asked arrays (a caller who needs two
+        pays for two); the numpy backend, ``model="fem"`` (whose own keys may be asked) and
+        the sigma keys of ``uncertainty`` are computed in full and selected. Each value is
+        exactly that of the call without ``outputs``. An unknown or repeated key, an empty
+        sequence or a bare string (``outputs="dx_mm"``) is an
+        :class:`~eodarm.errors.InputError` listing the valid keys
+        (:mod:`eodarm.model.outputs`).
 
     Returns
     -------
@@ -159,14 +172,15 @@ def solve(
         out,
         checked=True,
         strict=strict,
+        outputs=outputs,
     )
 
 
-def _payload_of(mass_kg: npt.ArrayLike, rows: int, g: float) -> npt.NDArray[np.float64]:
-    """The (N, 2) payload force (0, −m·g) of per-row masses, or an InputError naming the row
-    of a non-finite or negative mass."""
-    mass = _per_row(mass_kg, rows, "mass_kg")
-    if not (mass >= 0).all():
+def _payload_of(mass: npt.NDArray[np.float64], rows: int, g: float) -> npt.NDArray[np.float64]:
+    """The (N, 2) payload force (0, −m·g) of the per-row masses ``mass`` ((N,) finite, as
+    :func:`~eodarm.model.kinematics._poses_and_masses` returns them), or an InputError
+    naming the row of a negative mass."""
+    if rows and not mass.min() >= 0:  # finite masses: the smallest says if any is negative
         row = int(np.flatnonzero(mass < 0)[0])
         raise InputError(f"pose row {row}: mass_kg is negative ({mass[row]})")
     payload = np.empty((rows, 2))
@@ -188,6 +202,7 @@ def solve_payload(
     uncertainty: bool = False,
     out: Mapping[str, npt.NDArray[Any]] | None = None,
     strict: bool = False,
+    outputs: Sequence[str] | None = None,
 ) -> Arrays:
     """Like :func:`solve`, with any payload force vector (N, 2) in N at the load point; one
     pose with (M, 2) payloads is that pose under each (M rows), one payload (2,) or (1, 2)
@@ -207,6 +222,7 @@ def solve_payload(
         uncertainty,
         out,
         strict=strict,
+        outputs=outputs,
     )
 
 
@@ -224,12 +240,14 @@ def _solve_payload(
     out: Mapping[str, npt.NDArray[Any]] | None,
     checked: bool = False,
     strict: bool = False,
+    outputs: Sequence[str] | None = None,
 ) -> Arrays:
     """:func:`solve_payload` once the arm and the memory the outputs need are checked (the
     memory check reads /proc: once per call, not once per layer). ``checked``: ``alpha_deg``
     and ``payload_n`` are already (N, n) and (N, 2) finite contiguous float64 arrays."""
     from eodarm.model import fem
 
+    asked = check_outputs(outputs, model, uncertainty)
     if checked:
         alpha = np.asarray(alpha_deg, dtype=np.float64)
         payload = np.asarray(payload_n, dtype=np.float64)
@@ -265,7 +283,7 @@ def _solve_payload(
     if out is not None:
         if backend != "rust" or model != "analytic" or uncertainty:
             raise InputError("out= is for backend='rust', model='analytic', no uncertainty")
-        out = check_out(out, alpha.shape[0], arm.n)
+        out = check_out(out, alpha.shape[0], arm.n, asked)
     if model == "fem":
         if uncertainty:
             raise InputError("uncertainty is propagated with model='analytic'")
@@ -274,7 +292,7 @@ def _solve_payload(
             raise InputError("model='fem' runs in the compiled core: use backend='rust'")
         fe = fem.fem_solve_payload(arm, alpha, payload, effs, self_weight, fem_options)
         fe["status"] = status(arm, alpha, payload, fe)
-        return fe
+        return select(fe, asked)
     if fem_options is not None:
         raise InputError("fem_options is for model='fem'")
     if uncertainty and (extras or custom_effs):
@@ -282,6 +300,10 @@ def _solve_payload(
     if backend == "rust":
         from eodarm.model import native as _core
 
+        # the failed rows are read from dy_mm (a pose singular unloaded is refused)
+        keys = core_outputs(asked, need_dy=not strict)
+        if out is not None and keys is not None and "dy_mm" not in out and not strict:
+            out["dy_mm"] = np.empty(alpha.shape[0])  # not the caller's: dropped below
         if custom_effs:
             from eodarm.model import custom
 
@@ -304,6 +326,7 @@ def _solve_payload(
             extra_measure_mm=extras.get("extra_measure_mm"),
             extra_turn_rad=extras.get("extra_turn_rad"),
             out=out,
+            outputs=keys,
         )
     else:
         _check_backend(backend)
@@ -330,7 +353,7 @@ def _solve_payload(
         from eodarm.model.uncertainty import prediction_sigma
 
         res.update(prediction_sigma(arm, alpha, payload, effs, self_weight))
-    return res
+    return select(res, asked)
 
 
 #: The keys :func:`statics` returns, on either backend.
@@ -476,17 +499,25 @@ _OUT_SHAPES: dict[str, tuple[type, tuple[str, ...]]] = {
 }
 
 
-def check_out(out: Mapping[str, Any], rows: int, n: int) -> dict[str, npt.NDArray[Any]]:
+def check_out(
+    out: Mapping[str, Any], rows: int, n: int, asked: Sequence[str] | None = None
+) -> dict[str, npt.NDArray[Any]]:
     """The caller's output arrays of :func:`solve` (``out=``) as a dict, or an InputError
     naming the first missing or unknown key, or the first array of the wrong type, dtype,
-    shape or layout (or not writeable, or shared with another key)."""
+    shape or layout (or not writeable, or shared with another key). With ``asked`` (the
+    ``outputs=`` of the call) exactly those keys and ``status``."""
     if not isinstance(out, Mapping):
         raise InputError(f"out: expected a dict of arrays, got {type(out).__name__}")
-    unknown = sorted(set(out) - set(_OUT_SHAPES))
+    keys = _OUT_SHAPES if asked is None else {*asked, "status"}
+    wanted = {k: v for k, v in _OUT_SHAPES.items() if k in keys}
+    unknown = sorted(set(out) - set(wanted))
     if unknown:
-        raise InputError(f"out: unknown key {unknown[0]!r}; expected {', '.join(_OUT_SHAPES)}")
+        listed = ", ".join(wanted)
+        if unknown[0] in _OUT_SHAPES:
+            raise InputError(f"out: key {unknown[0]!r} is not in outputs; expected {listed}")
+        raise InputError(f"out: unknown key {unknown[0]!r}; expected {listed}")
     checked: dict[str, npt.NDArray[Any]] = {}
-    for key, (dtype, dims) in _OUT_SHAPES.items():
+    for key, (dtype, dims) in wanted.items():
         if key not in out:
             raise InputError(f"out: missing key {key!r}")
         a = out[key]

@@ -105,7 +105,7 @@ pub fn fem_solve_batch(
     let arm = &model.arm;
     let n = arm.n();
     let rows = check_input(arm, &input)?;
-    out.base.check(rows, n)?;
+    out.base.check_all(rows, n)?;
     let (pins, moments, nodes) = extra_sizes(model);
     for (what, got, per) in [
         ("pin_force_n", out.pin_force_n.len(), pins),
@@ -125,7 +125,7 @@ pub fn fem_solve_batch(
     if rows < PARALLEL_THRESHOLD {
         return solve_chunk(model, input, opts, out, 0);
     }
-    let bases = split_output(out.base, n, CHUNK);
+    let bases = split_output(out.base, n, CHUNK, rows);
     let chunks: Vec<FemBatchOutput<'_>> = bases
         .into_iter()
         .zip(out.pin_force_n.chunks_mut(CHUNK * pins))

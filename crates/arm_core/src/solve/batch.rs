@@ -17,7 +17,9 @@ pub struct BatchInput<'a> {
 
 /// Outputs of a batch, row-major, to be filled in place. A joint's load is in the force
 /// arrays (linear actuator) or the torque arrays (rotary drive), NaN in the other; the
-/// lengths and `dl_mm` are NaN at rotary drives.
+/// lengths and `dl_mm` are NaN at rotary drives. An empty slice is an output not asked for
+/// (`outputs=` of `eodarm.solve`): nothing is written there, and the others get the values
+/// they get in a batch with every output.
 #[derive(Debug)]
 pub struct BatchOutput<'a> {
     /// Loaded actuator forces (N), `N × n`.
@@ -115,6 +117,31 @@ impl BatchBuffers {
         }
     }
 
+    /// Buffers for `rows` poses of an `n`-link arm holding only the outputs `asked` says yes
+    /// to (by their field names, `"dx_mm"`, ...); the others are empty: not asked for.
+    pub fn with_outputs(rows: usize, n: usize, asked: impl Fn(&str) -> bool) -> Self {
+        let size = |key: &str, len: usize| {
+            if asked(key) {
+                vec![0.0; len]
+            } else {
+                Vec::new()
+            }
+        };
+        Self {
+            force_n: size("force_n", rows * n),
+            reaction_n: size("reaction_n", rows * n * 2),
+            dforce_n: size("dforce_n", rows * n),
+            torque_nmm: size("torque_nmm", rows * n),
+            dtorque_nmm: size("dtorque_nmm", rows * n),
+            dx_mm: size("dx_mm", rows),
+            dy_mm: size("dy_mm", rows),
+            dalpha_deg: size("dalpha_deg", rows * n),
+            dl_mm: size("dl_mm", rows * n),
+            dlength_mm: size("dlength_mm", rows * n),
+            length_mm: size("length_mm", rows * n),
+        }
+    }
+
     /// The buffers as the solver's output slices.
     pub fn out(&mut self) -> BatchOutput<'_> {
         BatchOutput {
@@ -152,7 +179,17 @@ impl BatchBuffers {
 }
 
 impl BatchOutput<'_> {
+    /// Checks that every output asked for (a non-empty slice) holds `rows` rows.
     pub(crate) fn check(&self, rows: usize, n: usize) -> Result<()> {
+        self.check_sizes(rows, n, true)
+    }
+
+    /// Checks that every output holds `rows` rows (a solver that writes them all).
+    pub(crate) fn check_all(&self, rows: usize, n: usize) -> Result<()> {
+        self.check_sizes(rows, n, false)
+    }
+
+    fn check_sizes(&self, rows: usize, n: usize, absent_ok: bool) -> Result<()> {
         let want = [
             ("force_n", self.force_n.len(), rows * n),
             ("reaction_n", self.reaction_n.len(), rows * n * 2),
@@ -167,7 +204,7 @@ impl BatchOutput<'_> {
             ("length_mm", self.length_mm.len(), rows * n),
         ];
         for (what, got, expected) in want {
-            if got != expected {
+            if got != expected && !(absent_ok && got == 0) {
                 return Err(ArmError::Shape {
                     what,
                     expected,
@@ -199,37 +236,49 @@ pub(crate) fn write_row(
         } else {
             (load, dload, nan, nan)
         };
-        out.force_n[j] = f;
-        out.dforce_n[j] = df;
-        out.torque_nmm[j] = t;
-        out.dtorque_nmm[j] = dt;
-        out.reaction_n[2 * j] = ws.loaded.r[i].x;
-        out.reaction_n[2 * j + 1] = ws.loaded.r[i].y;
-        out.dalpha_deg[j] = (ws.new_alpha[i] - alpha[i]).to_degrees();
-        out.dl_mm[j] = ws.body_dl[i];
-        out.dlength_mm[j] = ws.new_length[i] - ws.lines.length[i];
-        out.length_mm[j] = ws.lines.length[i];
+        // An output not asked for is an empty slice: `set` writes nothing there.
+        set(out.force_n, j, f);
+        set(out.dforce_n, j, df);
+        set(out.torque_nmm, j, t);
+        set(out.dtorque_nmm, j, dt);
+        set(out.reaction_n, 2 * j, ws.loaded.r[i].x);
+        set(out.reaction_n, 2 * j + 1, ws.loaded.r[i].y);
+        set(out.dalpha_deg, j, (ws.new_alpha[i] - alpha[i]).to_degrees());
+        set(out.dl_mm, j, ws.body_dl[i]);
+        set(out.dlength_mm, j, ws.new_length[i] - ws.lines.length[i]);
+        set(out.length_mm, j, ws.lines.length[i]);
     }
-    out.dx_mm[p] = ws.dmeasure.x;
-    out.dy_mm[p] = ws.dmeasure.y;
+    set(out.dx_mm, p, ws.dmeasure.x);
+    set(out.dy_mm, p, ws.dmeasure.y);
 }
 
-pub(crate) fn fill_nan(out: &mut BatchOutput<'_>, p: usize, n: usize) {
-    for s in [
-        &mut *out.force_n,
-        &mut *out.dforce_n,
-        &mut *out.torque_nmm,
-        &mut *out.dtorque_nmm,
-        &mut *out.dalpha_deg,
-        &mut *out.dl_mm,
-        &mut *out.dlength_mm,
-        &mut *out.length_mm,
-    ] {
-        s[p * n..(p + 1) * n].fill(f64::NAN);
+/// Writes `v` at `j` of an output asked for; nothing into one that is not (empty).
+#[inline(always)]
+fn set(out: &mut [f64], j: usize, v: f64) {
+    if !out.is_empty() {
+        out[j] = v;
     }
-    out.reaction_n[2 * p * n..2 * (p + 1) * n].fill(f64::NAN);
-    out.dx_mm[p] = f64::NAN;
-    out.dy_mm[p] = f64::NAN;
+}
+
+/// Fills row `p` of every output asked for with NaN (a pose that cannot be solved).
+pub(crate) fn fill_nan(out: &mut BatchOutput<'_>, p: usize, n: usize) {
+    for (s, width) in [
+        (&mut *out.force_n, n),
+        (&mut *out.dforce_n, n),
+        (&mut *out.torque_nmm, n),
+        (&mut *out.dtorque_nmm, n),
+        (&mut *out.dalpha_deg, n),
+        (&mut *out.dl_mm, n),
+        (&mut *out.dlength_mm, n),
+        (&mut *out.length_mm, n),
+        (&mut *out.reaction_n, 2 * n),
+        (&mut *out.dx_mm, 1),
+        (&mut *out.dy_mm, 1),
+    ] {
+        if !s.is_empty() {
+            s[p * width..(p + 1) * width].fill(f64::NAN);
+        }
+    }
 }
 
 /// Inputs of a batch of load sequences, row-major.

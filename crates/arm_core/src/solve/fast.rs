@@ -517,39 +517,55 @@ fn write_block<const N: usize>(
     count: usize,
 ) {
     let span = p * N..(p + count) * N;
-    transpose_into(&sb.force, &mut out.force_n[span.clone()]);
-    transpose_into(&sb.dforce, &mut out.dforce_n[span.clone()]);
+    // An output not asked for is empty: `get_mut` finds no rows there and nothing is written.
+    let put = |block: &[[f64; L]; N], o: &mut [f64]| {
+        if let Some(rows) = o.get_mut(span.clone()) {
+            transpose_into(block, rows);
+        }
+    };
+    put(&sb.force, out.force_n);
+    put(&sb.dforce, out.dforce_n);
     match rotary {
         // Linear actuators only: no torques.
         None => {
-            out.torque_nmm[span.clone()].fill(f64::NAN);
-            out.dtorque_nmm[span.clone()].fill(f64::NAN);
+            for o in [&mut *out.torque_nmm, &mut *out.dtorque_nmm] {
+                if let Some(rows) = o.get_mut(span.clone()) {
+                    rows.fill(f64::NAN);
+                }
+            }
         }
         // Each drive's load in its own arrays, NaN in the other.
         Some(rotary) => {
-            transpose_into(&sb.force, &mut out.torque_nmm[span.clone()]);
-            transpose_into(&sb.dforce, &mut out.dtorque_nmm[span.clone()]);
+            put(&sb.force, out.torque_nmm);
+            put(&sb.dforce, out.dtorque_nmm);
             for j in span.clone() {
                 let (load, other) = if rotary[j % N] {
                     (&mut out.force_n, &mut out.dforce_n)
                 } else {
                     (&mut out.torque_nmm, &mut out.dtorque_nmm)
                 };
-                load[j] = f64::NAN;
-                other[j] = f64::NAN;
+                if let Some(v) = load.get_mut(j) {
+                    *v = f64::NAN;
+                }
+                if let Some(v) = other.get_mut(j) {
+                    *v = f64::NAN;
+                }
             }
         }
     }
-    transpose_into(&sb.dalpha, &mut out.dalpha_deg[span.clone()]);
-    transpose_into(&sb.dl, &mut out.dl_mm[span.clone()]);
-    transpose_into(&sb.dlength, &mut out.dlength_mm[span.clone()]);
-    transpose_into(&pb.len, &mut out.length_mm[span]);
-    transpose_xy_into(
-        &sb.reaction,
-        &mut out.reaction_n[2 * p * N..2 * (p + count) * N],
-    );
-    out.dx_mm[p..p + count].copy_from_slice(&sb.dx[..count]);
-    out.dy_mm[p..p + count].copy_from_slice(&sb.dy[..count]);
+    put(&sb.dalpha, out.dalpha_deg);
+    put(&sb.dl, out.dl_mm);
+    put(&sb.dlength, out.dlength_mm);
+    put(&pb.len, out.length_mm);
+    if let Some(rows) = out.reaction_n.get_mut(2 * p * N..2 * (p + count) * N) {
+        transpose_xy_into(&sb.reaction, rows);
+    }
+    if let Some(rows) = out.dx_mm.get_mut(p..p + count) {
+        rows.copy_from_slice(&sb.dx[..count]);
+    }
+    if let Some(rows) = out.dy_mm.get_mut(p..p + count) {
+        rows.copy_from_slice(&sb.dy[..count]);
+    }
     status[p..p + count].copy_from_slice(&sb.status[..count]);
 }
 
@@ -779,34 +795,57 @@ fn scatter_block<const N: usize>(
     count: usize,
     row: impl Fn(usize) -> usize,
 ) {
+    // An output not asked for is empty: `get_mut` finds no row there and nothing is written.
+    fn set(o: &mut Option<&mut [f64]>, i: usize, v: f64) {
+        if let Some(o) = o {
+            o[i] = v;
+        }
+    }
     for j in 0..count {
         let r = row(j);
         let at = r * N..(r + 1) * N;
-        let (force, dforce) = (&mut out.force_n[at.clone()], &mut out.dforce_n[at.clone()]);
-        let (torque, dtorque) = (
-            &mut out.torque_nmm[at.clone()],
-            &mut out.dtorque_nmm[at.clone()],
+        let (mut force, mut dforce) = (
+            out.force_n.get_mut(at.clone()),
+            out.dforce_n.get_mut(at.clone()),
         );
-        let (dalpha, dl) = (&mut out.dalpha_deg[at.clone()], &mut out.dl_mm[at.clone()]);
-        let (dlength, len) = (&mut out.dlength_mm[at.clone()], &mut out.length_mm[at]);
-        let reaction = &mut out.reaction_n[2 * r * N..2 * (r + 1) * N];
+        let (mut torque, mut dtorque) = (
+            out.torque_nmm.get_mut(at.clone()),
+            out.dtorque_nmm.get_mut(at.clone()),
+        );
+        let (mut dalpha, mut dl) = (
+            out.dalpha_deg.get_mut(at.clone()),
+            out.dl_mm.get_mut(at.clone()),
+        );
+        let (mut dlength, mut len) = (
+            out.dlength_mm.get_mut(at.clone()),
+            out.length_mm.get_mut(at),
+        );
+        let mut reaction = out.reaction_n.get_mut(2 * r * N..2 * (r + 1) * N);
         for i in 0..N {
             // Each drive's load in its own arrays, NaN in the other.
             let (f, df, nan) = (sb.force[i][j], sb.dforce[i][j], f64::NAN);
-            if rotary[i] {
-                (force[i], dforce[i], torque[i], dtorque[i]) = (nan, nan, f, df);
+            let (fv, dfv, tv, dtv) = if rotary[i] {
+                (nan, nan, f, df)
             } else {
-                (force[i], dforce[i], torque[i], dtorque[i]) = (f, df, nan, nan);
-            }
-            dalpha[i] = sb.dalpha[i][j];
-            dl[i] = sb.dl[i][j];
-            dlength[i] = sb.dlength[i][j];
-            len[i] = pb.len[i][j];
-            reaction[2 * i] = sb.reaction[0][i][j];
-            reaction[2 * i + 1] = sb.reaction[1][i][j];
+                (f, df, nan, nan)
+            };
+            set(&mut force, i, fv);
+            set(&mut dforce, i, dfv);
+            set(&mut torque, i, tv);
+            set(&mut dtorque, i, dtv);
+            set(&mut dalpha, i, sb.dalpha[i][j]);
+            set(&mut dl, i, sb.dl[i][j]);
+            set(&mut dlength, i, sb.dlength[i][j]);
+            set(&mut len, i, pb.len[i][j]);
+            set(&mut reaction, 2 * i, sb.reaction[0][i][j]);
+            set(&mut reaction, 2 * i + 1, sb.reaction[1][i][j]);
         }
-        out.dx_mm[r] = sb.dx[j];
-        out.dy_mm[r] = sb.dy[j];
+        if let Some(v) = out.dx_mm.get_mut(r) {
+            *v = sb.dx[j];
+        }
+        if let Some(v) = out.dy_mm.get_mut(r) {
+            *v = sb.dy[j];
+        }
         status[r] = sb.status[j];
     }
 }
@@ -820,18 +859,26 @@ pub(crate) fn copy_row(
     n: usize,
 ) {
     let (a, b) = (k * n..(k + 1) * n, r * n..(r + 1) * n);
-    to.force_n[b.clone()].copy_from_slice(&from.force_n[a.clone()]);
-    to.dforce_n[b.clone()].copy_from_slice(&from.dforce_n[a.clone()]);
-    to.torque_nmm[b.clone()].copy_from_slice(&from.torque_nmm[a.clone()]);
-    to.dtorque_nmm[b.clone()].copy_from_slice(&from.dtorque_nmm[a.clone()]);
-    to.dalpha_deg[b.clone()].copy_from_slice(&from.dalpha_deg[a.clone()]);
-    to.dl_mm[b.clone()].copy_from_slice(&from.dl_mm[a.clone()]);
-    to.dlength_mm[b.clone()].copy_from_slice(&from.dlength_mm[a.clone()]);
-    to.length_mm[b].copy_from_slice(&from.length_mm[a]);
-    to.reaction_n[2 * r * n..2 * (r + 1) * n]
-        .copy_from_slice(&from.reaction_n[2 * k * n..2 * (k + 1) * n]);
-    to.dx_mm[r] = from.dx_mm[k];
-    to.dy_mm[r] = from.dy_mm[k];
+    // An output not asked for in `to` is empty: nothing is copied there.
+    let copy =
+        |to: &mut [f64], from: &[f64], (b, a): (std::ops::Range<usize>, std::ops::Range<usize>)| {
+            if !to.is_empty() {
+                to[b].copy_from_slice(&from[a]);
+            }
+        };
+    let rows = (b.clone(), a.clone());
+    copy(to.force_n, &from.force_n, rows.clone());
+    copy(to.dforce_n, &from.dforce_n, rows.clone());
+    copy(to.torque_nmm, &from.torque_nmm, rows.clone());
+    copy(to.dtorque_nmm, &from.dtorque_nmm, rows.clone());
+    copy(to.dalpha_deg, &from.dalpha_deg, rows.clone());
+    copy(to.dl_mm, &from.dl_mm, rows.clone());
+    copy(to.dlength_mm, &from.dlength_mm, rows.clone());
+    copy(to.length_mm, &from.length_mm, rows);
+    let xy = (2 * r * n..2 * (r + 1) * n, 2 * k * n..2 * (k + 1) * n);
+    copy(to.reaction_n, &from.reaction_n, xy);
+    copy(to.dx_mm, &from.dx_mm, (r..r + 1, k..k + 1));
+    copy(to.dy_mm, &from.dy_mm, (r..r + 1, k..k + 1));
 }
 
 /// What a chunk needs besides its rows: the model, for the lanes the kernel hands back.
@@ -851,7 +898,7 @@ impl<const N: usize> SolveKernel<N> {
         status: &mut [u8],
         first_row: usize,
     ) -> Result<()> {
-        let rows = out.dx_mm.len();
+        let rows = status.len(); // an output not asked for is empty
         let mut pb = PoseBlock::<N>::new();
         let mut sb = SolveBlock::<N>::new();
         let mut general: Option<General> = None;
@@ -914,19 +961,23 @@ impl General {
         let solved = self
             .ws
             .solve(ctx.arm, ctx.effects, &self.alpha, pay, ctx.opts, row);
-        match solved {
-            Ok(()) => write_row(ctx.arm, &self.ws, &self.alpha, out, r, n),
+        let solved = match solved {
+            Ok(()) => {
+                write_row(ctx.arm, &self.ws, &self.alpha, out, r, n);
+                true
+            }
             Err(e) if ctx.opts.nan_on_failure && e.is_pose_failure() => {
                 fill_nan(out, r, n);
+                false
             }
             Err(e) => return Err(e),
-        }
+        };
         Ok(pose_status(
             ctx.arm,
-            &self.ws.frames,
+            &self.ws,
+            &self.alpha,
+            solved,
             &mut self.loaded,
-            out,
-            r,
             pay.y < 0.0,
             self.reach,
             validity::checks_load_rise(ctx.arm, ctx.effects),

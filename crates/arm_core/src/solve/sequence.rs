@@ -68,14 +68,14 @@ pub fn solve_sequence(
     if seqs <= per_chunk {
         return run(input, out, status, 0);
     }
-    let chunks = split_output(out, n, per_chunk * s);
+    let chunks = split_output(out, n, per_chunk * s, seqs * s);
     let errors: Vec<ArmError> = chunks
         .into_par_iter()
         .zip(status.par_chunks_mut(per_chunk * s))
         .enumerate()
         .filter_map(|(k, (chunk, st))| {
             let first = k * per_chunk;
-            let m = chunk.dx_mm.len() / s;
+            let m = st.len() / s; // an output not asked for is empty: the statuses count
             let sub = SequenceInput {
                 alpha_deg: &input.alpha_deg[first * n..(first + m) * n],
                 payload_n: &input.payload_n[2 * s * first..2 * s * (first + m)],
@@ -210,7 +210,7 @@ fn run_chunk(
     let lift = crate::validity::checks_load_rise(arm, effects);
     let mut alpha = vec![0.0; n];
     let none = ExtraDeformations::none();
-    for q in 0..out.dx_mm.len() / s {
+    for q in 0..status.len() / s {
         let row = first + q;
         for (a, d) in alpha.iter_mut().zip(&input.alpha_deg[q * n..(q + 1) * n]) {
             *a = d.to_radians();
@@ -225,13 +225,19 @@ fn run_chunk(
                 Ok(()) => ws.solve_prepared(arm, effects, payload, row, (&none, 0), &mut memory),
                 Err(e) => Err(e.clone()),
             };
-            match solved {
-                Ok(()) => write_row(arm, &ws, &alpha, &mut out, p, n),
-                Err(e) if opts.nan_on_failure && e.is_pose_failure() => fill_nan(&mut out, p, n),
+            let solved = match solved {
+                Ok(()) => {
+                    write_row(arm, &ws, &alpha, &mut out, p, n);
+                    true
+                }
+                Err(e) if opts.nan_on_failure && e.is_pose_failure() => {
+                    fill_nan(&mut out, p, n);
+                    false
+                }
                 Err(e) => return Err(e),
-            }
+            };
             let down = payload.y < 0.0;
-            status[p] = pose_status(arm, &ws.frames, &mut loaded, &out, p, down, reach, lift);
+            status[p] = pose_status(arm, &ws, &alpha, solved, &mut loaded, down, reach, lift);
         }
     }
     Ok(())

@@ -1,29 +1,48 @@
 //! The status of one pose solved by the general path (docs/model.md §7), from its unloaded
-//! frames and its row of the outputs; the block kernel computes the same checks in its lanes.
+//! frames and the solved pose in its [`Workspace`] (the values its output row gets, whether
+//! or not those outputs were asked for); the block kernel computes the same checks in its
+//! lanes.
 
-use super::batch::BatchOutput;
+use super::general::Workspace;
 use crate::arm::Arm;
 use crate::effects::ExtraDeformations;
 use crate::kinematics::Frames;
 use crate::validity::{self, Checks};
 
-/// The status code of output row `r`, whose unloaded pose is `fr`; `loaded` is scratch space
-/// for the rigid loaded pose (the unloaded angles plus `dalpha_deg`). `load_rise`: check the
-/// load point's rise ([`validity::checks_load_rise`], no user-written deformation).
+/// The status code of a pose whose unloaded frames are `ws.frames`: solved in `ws` from the
+/// unloaded angles `alpha` (rad) when `solved`, else failed (its outputs NaN). `loaded` is
+/// scratch space for the rigid loaded pose (the unloaded angles plus the turns). `load_rise`:
+/// check the load point's rise ([`validity::checks_load_rise`], no user-written deformation).
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn pose_status(
     arm: &Arm,
-    fr: &Frames,
+    ws: &Workspace,
+    alpha: &[f64],
+    solved: bool,
     loaded: &mut Frames,
-    out: &BatchOutput<'_>,
-    r: usize,
     payload_down: bool,
     reach: f64,
     load_rise: bool,
 ) -> u8 {
     let n = arm.n();
-    let span = r * n..(r + 1) * n;
-    let dalpha = &out.dalpha_deg[span.clone()];
+    let fr = &ws.frames;
+    // The row's values as `write_row` writes them (`fill_nan` for a failed pose): the same
+    // expressions, so the status is that of the outputs.
+    let nan = f64::NAN;
+    let dalpha: Vec<f64> = (0..n)
+        .map(|i| {
+            if solved {
+                (ws.new_alpha[i] - alpha[i]).to_degrees()
+            } else {
+                nan
+            }
+        })
+        .collect();
+    let (dx, dy) = if solved {
+        (ws.dmeasure.x, ws.dmeasure.y)
+    } else {
+        (nan, nan)
+    };
     // Triangles only where a linear actuator turns the link.
     let linear: Vec<usize> = (0..n).filter(|&i| !arm.is_rotary(i)).collect();
     let near = linear
@@ -47,21 +66,13 @@ pub(crate) fn pose_status(
     };
     let lengths: Vec<f64> = (0..n).map(|i| fr.length(i)).collect();
     // Each drive's loaded load: a force or a torque.
-    let load: Vec<f64> = span
-        .clone()
-        .zip(0..n)
-        .map(|(j, i)| {
-            if arm.is_rotary(i) {
-                out.torque_nmm[j]
-            } else {
-                out.force_n[j]
-            }
-        })
+    let load: Vec<f64> = (0..n)
+        .map(|i| if solved { ws.loaded.f[i] } else { nan })
         .collect();
     let lift = load_rise && payload_down && {
         let w = validity::load_lever(arm, fr.alpha[n - 1]);
         let (s, c) = dalpha[n - 1].to_radians().sin_cos();
-        validity::load_dy(out.dy_mm[r], s, c - 1.0, w.x, w.y) > validity::MAX_LOAD_RISE_MM
+        validity::load_dy(dy, s, c - 1.0, w.x, w.y) > validity::MAX_LOAD_RISE_MM
     };
     let checks = Checks {
         out_of_stroke: validity::out_of_stroke(arm, &lengths)
@@ -69,13 +80,7 @@ pub(crate) fn pose_status(
         near_singular: near,
         branch_flip: flip,
         over_force: validity::over_force(arm, &load),
-        large_deflection: validity::large_deflection(
-            max_da,
-            out.dx_mm[r],
-            out.dy_mm[r],
-            payload_down,
-            reach,
-        ) || lift,
+        large_deflection: validity::large_deflection(max_da, dx, dy, payload_down, reach) || lift,
     };
     validity::classify(checks).code()
 }
