@@ -32,6 +32,7 @@ def test_the_page_shows_every_feature_of_the_api() -> None:
         "fit.rms[",
         "fit.to_arm()",
         "uncertainty=True",
+        "outputs=(",
         "eodarm.solve_sequence(",
         "with_effects(fit.effects)",
         "eodarm.diagnose(",

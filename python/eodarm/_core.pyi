@@ -79,9 +79,10 @@ def solve(
     extra_tilt_rad: npt.NDArray[np.float64] | None = None,
     extra_measure_mm: npt.NDArray[np.float64] | None = None,
     extra_turn_rad: npt.NDArray[np.float64] | None = None,
-    # a dict of arrays; typed Any so that callers may pass the extras as **kwargs
+    # a dict of arrays and a list of keys; typed Any so that callers may pass the extras as
+    # **kwargs
     out: Any = None,
-    outputs: Sequence[str] | None = None,
+    outputs: Any = None,
 ) -> dict[str, npt.NDArray[Any]]:
     """``force_n``, ``dforce_n``, ``torque_nmm``, ``dtorque_nmm``, ``dalpha_deg``, ``dl_mm``,
     ``dlength_mm``, ``length_mm`` (N, n), ``reaction_n`` (N, n, 2), ``dx_mm``, ``dy_mm`` (N,),

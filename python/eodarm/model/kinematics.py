@@ -102,13 +102,19 @@ def _floats(values: npt.ArrayLike, name: str, what: str) -> npt.NDArray[np.float
         raise InputError(f"{name}: cannot be read as {what}") from None
 
 
-def _poses(values: npt.ArrayLike, n: int, name: str) -> npt.NDArray[np.float64]:
-    """(N, n) contiguous float64, or a clear InputError naming the shape or the row."""
+def _poses(
+    values: npt.ArrayLike, n: int, name: str, finite: bool = True
+) -> npt.NDArray[np.float64]:
+    """(N, n) contiguous float64, or a clear InputError naming the shape or the row (of a
+    non-finite value, unless ``finite`` is False: the caller's compiled core refuses it, in
+    the same words)."""
     a = _floats(values, name, "an array of finite numbers")
     if a.ndim == 1 and a.shape[0] == n:
         a = a[None, :]
     if a.ndim != 2 or a.shape[1] != n:
         raise InputError(f"{name}: expected shape (N, {n}), got {a.shape}")
+    if not finite:
+        return np.ascontiguousarray(a)
     # The sum is finite when every value is (one pass, no temporary); only when it is not
     # (a NaN or ±inf, or an overflow of huge values) are the rows looked at one by one.
     if not np.isfinite(np.sum(a)):
@@ -170,13 +176,14 @@ def _per_row(values: npt.ArrayLike, rows: int, name: str) -> npt.NDArray[np.floa
 
 
 def _poses_and_masses(
-    alpha_deg: npt.ArrayLike, mass_kg: npt.ArrayLike, n: int
+    alpha_deg: npt.ArrayLike, mass_kg: npt.ArrayLike, n: int, finite: bool = True
 ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
     """Poses (R, n) and payload masses (R,), broadcast against each other over the rows as
     numpy broadcasts: one pose ((n,) or (1, n)) with M masses gives M rows, N poses with one
     mass (a scalar or (1,)) N rows, N poses with N masses N rows; anything else is an
-    InputError naming both shapes (docs/python.md, "Broadcasting")."""
-    alpha = _poses(alpha_deg, n, "alpha_deg")
+    InputError naming both shapes (docs/python.md, "Broadcasting"). ``finite``: as
+    :func:`_poses`'s, for the angles (the masses are always checked)."""
+    alpha = _poses(alpha_deg, n, "alpha_deg", finite)
     mass = _floats(mass_kg, "mass_kg", "finite numbers")
     rows = alpha.shape[0]
     if mass.ndim == 1 and mass.shape[0] not in (1, rows) and rows == 1:

@@ -79,8 +79,7 @@ def check_outputs(
         keys = tuple(outputs)
     except TypeError:
         raise InputError(
-            f"outputs: expected a sequence of keys, got {type(outputs).__name__}; "
-            f"valid: {listed}"
+            f"outputs: expected a sequence of keys, got {type(outputs).__name__}; valid: {listed}"
         ) from None
     if not keys:
         raise InputError(f"outputs: empty (no key asked for); valid: {listed}")

@@ -8,7 +8,9 @@ backends refuse bad input with the same one-line message naming the row.
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+import re
+from collections.abc import Iterator, Mapping, Sequence
+from contextlib import contextmanager
 from typing import Any
 
 import numpy as np
@@ -24,14 +26,13 @@ from eodarm.model.kinematics import (
     _check_backend,
     _core_arm,
     _lengths,
-    _per_row,
     _poses,
     _poses_and_masses,
     _refuse_unloaded_singular,
     forward,
     stroke_violations,
 )
-from eodarm.model.outputs import SOLVE_KEYS, check_outputs, core_outputs, select
+from eodarm.model.outputs import check_outputs, core_outputs, select
 from eodarm.model.resources import check_output_memory, solve_output_bytes
 from eodarm.model.sequence import cycle_returns, solve_sequence
 from eodarm.model.validity import checks_load_rise, quiet_rows, status
@@ -156,7 +157,10 @@ def solve(
     """
     check_arm(arm, "solve")
     _check_memory(alpha_deg, arm.n, mass_kg)
-    alpha, mass = _poses_and_masses(alpha_deg, mass_kg, arm.n)
+    # The compiled core's analytic solve refuses a non-finite angle naming its row, in the
+    # words of the Python check (_core_refusals): the angles are not read twice for it.
+    core = backend == "rust" and model == "analytic"
+    alpha, mass = _poses_and_masses(alpha_deg, mass_kg, arm.n, finite=not core)
     payload = _payload_of(mass, alpha.shape[0], arm.g)
     return _solve_payload(
         arm,
@@ -183,10 +187,23 @@ def _payload_of(mass: npt.NDArray[np.float64], rows: int, g: float) -> npt.NDArr
     if rows and not mass.min() >= 0:  # finite masses: the smallest says if any is negative
         row = int(np.flatnonzero(mass < 0)[0])
         raise InputError(f"pose row {row}: mass_kg is negative ({mass[row]})")
-    payload = np.empty((rows, 2))
-    payload[:, 0] = 0.0
+    payload = np.zeros((rows, 2))  # zeroed by the allocator (calloc): x = 0 costs no pass
     np.multiply(mass, -g, out=payload[:, 1])
     return payload
+
+
+@contextmanager
+def _core_refusals() -> Iterator[None]:
+    """The compiled core's refusal of a non-finite angle (``check_input``, the check
+    :func:`solve` leaves to it) as the :class:`InputError` of the Python check, same words."""
+    from eodarm.model import native as _core
+
+    try:
+        yield
+    except _core.CoreError as exc:
+        if re.fullmatch(r"pose row \d+: alpha_deg has a non-finite value", str(exc)):
+            raise InputError(str(exc)) from None
+        raise
 
 
 def solve_payload(
@@ -307,27 +324,29 @@ def _solve_payload(
         if custom_effs:
             from eodarm.model import custom
 
-            st = _core.statics(_core_arm(arm), alpha, payload, self_weight)
+            with _core_refusals():
+                st = _core.statics(_core_arm(arm), alpha, payload, self_weight)
             state = custom.EffectState.from_statics(arm, alpha, payload, st, self_weight)
             extras = custom.add_extras(extras, custom.extras_of(custom_effs, state))
-        res: Arrays = _core.solve(
-            _core_arm(arm),
-            alpha,
-            payload,
-            codes,
-            places,
-            values,
-            self_weight,
-            not strict,  # nan_on_failure: a pose that cannot close under load is NaN
-            extra_seen_mm=extras.get("extra_seen_mm"),
-            extra_unseen_mm=extras.get("extra_unseen_mm"),
-            extra_joint_mm=extras.get("extra_joint_mm"),
-            extra_tilt_rad=extras.get("extra_tilt_rad"),
-            extra_measure_mm=extras.get("extra_measure_mm"),
-            extra_turn_rad=extras.get("extra_turn_rad"),
-            out=out,
-            outputs=keys,
-        )
+        with _core_refusals():
+            res: Arrays = _core.solve(
+                _core_arm(arm),
+                alpha,
+                payload,
+                codes,
+                places,
+                values,
+                self_weight,
+                not strict,  # nan_on_failure: a pose that cannot close under load is NaN
+                extra_seen_mm=extras.get("extra_seen_mm"),
+                extra_unseen_mm=extras.get("extra_unseen_mm"),
+                extra_joint_mm=extras.get("extra_joint_mm"),
+                extra_tilt_rad=extras.get("extra_tilt_rad"),
+                extra_measure_mm=extras.get("extra_measure_mm"),
+                extra_turn_rad=extras.get("extra_turn_rad"),
+                out=out,
+                outputs=keys,
+            )
     else:
         _check_backend(backend)
         from eodarm.model import reference
