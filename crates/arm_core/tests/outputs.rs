@@ -113,7 +113,8 @@ fn effects(arm: &Arm, general: bool) -> EffectSet {
 }
 
 /// `rows` poses in the example arm's working range and their payloads (N): 0–10 kg down, and
-/// every seventh row a load no pose can carry (its triangle or drive cannot close: NaN rows).
+/// every seventh row a load no pose can carry (NaN where an actuator's triangle cannot close;
+/// a drive turns through it, out of the model's range).
 fn poses(rows: usize, seed: u64) -> (Vec<f64>, Vec<f64>) {
     let mut s = seed | 1;
     let mut u = |lo: f64, hi: f64| {
@@ -203,9 +204,11 @@ fn check_solve(kind: usize, path: usize, rows: usize, seed: u64, masks: &[u16]) 
     let extra = path == 2;
     let full = solve(&arm, &set, (&alpha, &payload), extra, |_| true);
     if rows > 3 {
+        // the overloaded rows: NaN where an actuator's triangle cannot close (a drive turns)
+        assert!(full.1.iter().any(|s| *s != 0), "a row out of the model");
         assert!(
-            full.0.dy_mm.iter().any(|v| v.is_nan()),
-            "a failed row is covered"
+            kind == 1 || full.0.dy_mm.iter().any(|v| v.is_nan()),
+            "a failed row"
         );
         assert!(
             full.0.dy_mm.iter().any(|v| v.is_finite()),
@@ -247,8 +250,8 @@ fn check_sequence(kind: usize, general: bool, seqs: usize, seed: u64, masses: &[
     };
     let full = run(u16::MAX);
     assert!(
-        full.0.dy_mm.iter().any(|v| v.is_nan()),
-        "a failed state is covered"
+        kind == 1 || full.0.dy_mm.iter().any(|v| v.is_nan()),
+        "a failed state"
     );
     for mask in [
         0u16,
