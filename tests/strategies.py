@@ -481,3 +481,11 @@ def repeated_values(draw: Any) -> tuple[np.ndarray, np.ndarray]:
             state.append(g)
     order = draw(st.permutations(range(len(vals))))
     return np.array(vals)[list(order)], np.array(state)[list(order)]
+
+
+def output_subsets() -> SearchStrategy[list[str]]:
+    """Subsets of the analytic solve's outputs and ``status``, in any order, for ``outputs=``
+    of :func:`eodarm.solve` and :func:`eodarm.solve_sequence`."""
+    from eodarm.model.outputs import SOLVE_KEYS
+
+    return st.lists(st.sampled_from([*SOLVE_KEYS, "status"]), min_size=1, unique=True)

@@ -25,6 +25,7 @@ from hypothesis import strategies as st
 import eodarm
 from eodarm.errors import InputError
 from eodarm.model.outputs import FEM_KEYS, SOLVE_KEYS
+from strategies import output_subsets
 
 ROOT = Path(__file__).resolve().parent.parent
 ARM_FILES = {
@@ -92,14 +93,11 @@ def assert_subset(full: dict[str, Any], part: dict[str, Any], asked: list[str]) 
         assert np.array_equal(np.asarray(part[key]), np.asarray(full[key]), equal_nan=True), key
 
 
-subsets = st.lists(st.sampled_from([*SOLVE_KEYS, "status"]), min_size=1, unique=True)
-
-
 @settings(max_examples=40, deadline=None)
 @given(
     kind=st.sampled_from(sorted(ARM_FILES)),
     path=st.sampled_from(PATHS),
-    asked=subsets,
+    asked=output_subsets(),
     sequence=st.booleans(),
     seed=st.integers(0, 2**16),
 )

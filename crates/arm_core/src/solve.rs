@@ -20,7 +20,7 @@ use crate::error::{ArmError, Result};
 use crate::geometry::V2;
 use crate::kinematics::Frames;
 
-pub(crate) use batch::{fill_nan, write_row};
+pub(crate) use batch::{fill_nan, write_outcome};
 pub use batch::{BatchBuffers, BatchInput, BatchOutput};
 pub use general::{SolveOptions, Workspace};
 
@@ -324,17 +324,8 @@ fn solve_chunk(
             *a = d.to_radians();
         }
         let payload = V2::new(input.payload_n[2 * p], input.payload_n[2 * p + 1]);
-        let solved = match ws.solve_extra(arm, effects, &alpha, payload, opts, row, (&extra, p)) {
-            Ok(()) => {
-                write_row(arm, &ws, &alpha, &mut out, p, n);
-                true
-            }
-            Err(e) if opts.nan_on_failure && e.is_pose_failure() => {
-                fill_nan(&mut out, p, n);
-                false
-            }
-            Err(e) => return Err(e),
-        };
+        let solved = ws.solve_extra(arm, effects, &alpha, payload, opts, row, (&extra, p));
+        let solved = write_outcome(arm, &ws, &alpha, solved, opts, &mut out, p)?;
         let down = payload.y < 0.0;
         // the load point's rise is checked where no user-written deformation acts on the pose
         let lift = rise_checked && status::no_extra(&extra, p, n);

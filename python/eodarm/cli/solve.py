@@ -33,22 +33,10 @@ from eodarm.cli._common import (
 from eodarm.cli._help import HELP
 from eodarm.errors import EodarmError
 from eodarm.model.arm import Arm
+from eodarm.model.outputs import SOLVE_KEYS
 from eodarm.model.solver import solve
 
-_SOLVE_KEYS = (
-    "force_n",
-    "reaction_n",
-    "dforce_n",
-    "torque_nmm",
-    "dtorque_nmm",
-    "dx_mm",
-    "dy_mm",
-    "dalpha_deg",
-    "dl_mm",
-    "dlength_mm",
-    "length_mm",
-    "status",
-)
+_SOLVE_KEYS = (*SOLVE_KEYS, "status")
 
 
 def _fem_plots(

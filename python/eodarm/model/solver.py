@@ -261,7 +261,9 @@ def _solve_payload(
 ) -> Arrays:
     """:func:`solve_payload` once the arm and the memory the outputs need are checked (the
     memory check reads /proc: once per call, not once per layer). ``checked``: ``alpha_deg``
-    and ``payload_n`` are already (N, n) and (N, 2) finite contiguous float64 arrays."""
+    and ``payload_n`` are already (N, n) and (N, 2) finite contiguous float64 arrays (the
+    angles' finiteness left to the compiled core's analytic solve, which refuses it in the
+    same words: :func:`_core_refusals`)."""
     from eodarm.model import fem
 
     asked = check_outputs(outputs, model, uncertainty)

@@ -160,20 +160,27 @@ impl BatchBuffers {
     }
 
     /// The first `rows` rows (`n` links) as the solver's output slices: buffers sized once
-    /// for the largest of several batches.
+    /// for the largest of several batches (an empty buffer stays empty: not asked for).
     pub(crate) fn first_rows(&mut self, rows: usize, n: usize) -> BatchOutput<'_> {
+        fn first(v: &mut [f64], len: usize) -> &mut [f64] {
+            if v.is_empty() {
+                v
+            } else {
+                &mut v[..len]
+            }
+        }
         BatchOutput {
-            force_n: &mut self.force_n[..rows * n],
-            reaction_n: &mut self.reaction_n[..2 * rows * n],
-            dforce_n: &mut self.dforce_n[..rows * n],
-            torque_nmm: &mut self.torque_nmm[..rows * n],
-            dtorque_nmm: &mut self.dtorque_nmm[..rows * n],
-            dx_mm: &mut self.dx_mm[..rows],
-            dy_mm: &mut self.dy_mm[..rows],
-            dalpha_deg: &mut self.dalpha_deg[..rows * n],
-            dl_mm: &mut self.dl_mm[..rows * n],
-            dlength_mm: &mut self.dlength_mm[..rows * n],
-            length_mm: &mut self.length_mm[..rows * n],
+            force_n: first(&mut self.force_n, rows * n),
+            reaction_n: first(&mut self.reaction_n, 2 * rows * n),
+            dforce_n: first(&mut self.dforce_n, rows * n),
+            torque_nmm: first(&mut self.torque_nmm, rows * n),
+            dtorque_nmm: first(&mut self.dtorque_nmm, rows * n),
+            dx_mm: first(&mut self.dx_mm, rows),
+            dy_mm: first(&mut self.dy_mm, rows),
+            dalpha_deg: first(&mut self.dalpha_deg, rows * n),
+            dl_mm: first(&mut self.dl_mm, rows * n),
+            dlength_mm: first(&mut self.dlength_mm, rows * n),
+            length_mm: first(&mut self.length_mm, rows * n),
         }
     }
 }
@@ -218,7 +225,7 @@ impl BatchOutput<'_> {
 
 /// Writes the solved pose in `ws` (unloaded angles `alpha`, rad) into output row `p`.
 #[allow(clippy::needless_range_loop)] // i indexes six parallel arrays
-pub(crate) fn write_row(
+fn write_row(
     arm: &Arm,
     ws: &Workspace,
     alpha: &[f64],
@@ -257,6 +264,34 @@ pub(crate) fn write_row(
 fn set(out: &mut [f64], j: usize, v: f64) {
     if !out.is_empty() {
         out[j] = v;
+    }
+}
+
+/// Writes the outcome `solved` of pose `p` into `out`: the pose solved in `ws` from the
+/// unloaded angles `alpha` (rad), or NaN for a pose failure when `opts.nan_on_failure`;
+/// whether it was solved (its status reads the pose, [`super::status::pose_status`]).
+///
+/// # Errors
+/// Any other error of the pose, as it came.
+pub(crate) fn write_outcome(
+    arm: &Arm,
+    ws: &Workspace,
+    alpha: &[f64],
+    solved: Result<()>,
+    opts: super::SolveOptions,
+    out: &mut BatchOutput<'_>,
+    p: usize,
+) -> Result<bool> {
+    match solved {
+        Ok(()) => {
+            write_row(arm, ws, alpha, out, p, arm.n());
+            Ok(true)
+        }
+        Err(e) if opts.nan_on_failure && e.is_pose_failure() => {
+            fill_nan(out, p, arm.n());
+            Ok(false)
+        }
+        Err(e) => Err(e),
     }
 }
 

@@ -37,7 +37,7 @@ use clearance::Clearance;
 use friction::{Friction, Held};
 use rotary::{Ranges, Turns};
 
-use super::batch::{fill_nan, write_row, BatchBuffers, BatchInput, BatchOutput, SequenceInput};
+use super::batch::{write_outcome, BatchBuffers, BatchInput, BatchOutput, SequenceInput};
 use super::general::{SolveOptions, Workspace};
 use super::status::pose_status;
 use crate::arm::{Arm, Drive};
@@ -961,17 +961,7 @@ impl General {
         let solved = self
             .ws
             .solve(ctx.arm, ctx.effects, &self.alpha, pay, ctx.opts, row);
-        let solved = match solved {
-            Ok(()) => {
-                write_row(ctx.arm, &self.ws, &self.alpha, out, r, n);
-                true
-            }
-            Err(e) if ctx.opts.nan_on_failure && e.is_pose_failure() => {
-                fill_nan(out, r, n);
-                false
-            }
-            Err(e) => return Err(e),
-        };
+        let solved = write_outcome(ctx.arm, &self.ws, &self.alpha, solved, ctx.opts, out, r)?;
         Ok(pose_status(
             ctx.arm,
             &self.ws,

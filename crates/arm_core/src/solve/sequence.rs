@@ -12,9 +12,7 @@ use rayon::prelude::*;
 
 pub use super::batch::SequenceInput;
 use super::status::pose_status;
-use super::{
-    fill_nan, split_output, write_row, BatchBuffers, BatchOutput, SolveOptions, Workspace,
-};
+use super::{split_output, write_outcome, BatchBuffers, BatchOutput, SolveOptions, Workspace};
 use crate::arm::Arm;
 use crate::effects::{EffectSet, ExtraDeformations, SequenceMemory};
 use crate::error::{ArmError, Result};
@@ -225,17 +223,7 @@ fn run_chunk(
                 Ok(()) => ws.solve_prepared(arm, effects, payload, row, (&none, 0), &mut memory),
                 Err(e) => Err(e.clone()),
             };
-            let solved = match solved {
-                Ok(()) => {
-                    write_row(arm, &ws, &alpha, &mut out, p, n);
-                    true
-                }
-                Err(e) if opts.nan_on_failure && e.is_pose_failure() => {
-                    fill_nan(&mut out, p, n);
-                    false
-                }
-                Err(e) => return Err(e),
-            };
+            let solved = write_outcome(arm, &ws, &alpha, solved, opts, &mut out, p)?;
             let down = payload.y < 0.0;
             status[p] = pose_status(arm, &ws, &alpha, solved, &mut loaded, down, reach, lift);
         }
@@ -307,9 +295,10 @@ pub fn cycle_returns(
         nan_on_failure: true,
     };
     let per_chunk = (CYCLE_CELLS / m).max(1) * m;
-    // Per thread: the chunk's sequences, and the outputs of their last states.
+    // Per thread: the chunk's sequences, and the outputs of their last states (only the
+    // measure point's: nothing else is written).
     let scratch = || {
-        let out = BatchBuffers::new(per_chunk, n);
+        let out = BatchBuffers::with_outputs(per_chunk, n, |k| k == "dx_mm" || k == "dy_mm");
         (Vec::new(), Vec::new(), out, vec![0u8; per_chunk])
     };
     dx.par_chunks_mut(per_chunk)
