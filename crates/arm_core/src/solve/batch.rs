@@ -2,7 +2,7 @@
 //! the batch drivers (`solve.rs`), the block kernel (`solve/fast.rs`) and the status
 //! (`solve/status.rs`), below all of them.
 
-use super::general::Workspace;
+use super::general::{SolveOptions, Workspace};
 use crate::arm::Arm;
 use crate::error::{ArmError, Result};
 
@@ -278,7 +278,7 @@ pub(crate) fn write_outcome(
     ws: &Workspace,
     alpha: &[f64],
     solved: Result<()>,
-    opts: super::SolveOptions,
+    opts: SolveOptions,
     out: &mut BatchOutput<'_>,
     p: usize,
 ) -> Result<bool> {
