@@ -12,13 +12,14 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 
-from eodarm.analysis.problem import Problem
+from eodarm import text
+from eodarm.analysis.problem import Z95, Problem
 from eodarm.errors import EodarmError
 from eodarm.model.effects import Effect, Slot, theta_from_param
 
@@ -40,7 +41,12 @@ class Solution:
     at_bound : whether each θ sits at a physical bound.
     prediction : (N, C) the model's channels at ``theta``; ``chi2`` its χ².
     iterations : Gauss–Newton steps taken.
-    notes : one line per parameter stuck at a bound (the fit warns them).
+    notes : one line per parameter stuck at a bound or known only from below (the fit warns
+        them).
+    lower_only : per parameter, whether the data give it only a lower limit: a friction whose
+        χ² with the friction holding every state rises by less than 1.96²·max(1, χ²/dof)
+        above the minimum (:func:`holds_everything`), so that its 95 % interval has no
+        upper end.
     """
 
     slots: list[Slot]
@@ -52,6 +58,7 @@ class Solution:
     chi2: float
     iterations: int
     notes: list[str]
+    lower_only: list[bool] = field(default_factory=list)
 
 
 def iterate(
@@ -147,11 +154,10 @@ def iterate(
     theta_cov = np.zeros((len(slots), len(slots)))
     at_bound = [bool(theta[i] <= lo[i] + 1e-15 or theta[i] >= hi[i]) for i in range(len(slots))]
     notes: list[str] = []
+    scale = max(1.0, chi2 / max(prob.n_values - len(slots), 1))
     if slots:
         a = prob.whiten_jac(jac)
         free = ~np.array(at_bound)
-        dof = max(prob.n_values - len(slots), 1)
-        scale = max(1.0, chi2 / dof)
         if free.any():
             # Scale the columns first: θ of different effects differ by 1e8 (mm vs 1/EI),
             # and an unscaled pseudo-inverse would cut the small directions off.
@@ -171,7 +177,57 @@ def iterate(
                 theta_cov[i, i] = stderr[i] ** 2 if stderr[i] < 1e150 else math.inf
                 where = "its upper bound" if theta[i] >= hi[i] else "its lower bound (absent)"
                 notes.append(f"{s.key}: parameter stuck at {where}; the data do not want it")
-    return Solution(slots, theta, stderr, theta_cov, at_bound, y, chi2, it, notes)
+    lower_only = [False] * len(slots)
+    for i in holds_everything(prob, slots, theta, at_bound, chi2, Z95**2 * scale):
+        lower_only[i] = True
+        low = max(float(theta[i]) - Z95 * float(stderr[i]), lo[i])
+        notes.append(
+            f"{slots[i].key}: the friction could hold every measured state (χ² rises by less "
+            f"than the 95 % level when it does): the data say only that it is at least "
+            f"{text.value(low, slots[i].kind.unit)}"
+        )
+    return Solution(slots, theta, stderr, theta_cov, at_bound, y, chi2, it, notes, lower_only)
+
+
+#: A friction limit that holds every state of any arm the tool can solve (N or N·mm): no
+#: force or torque change reaches it, so every element sticks from the reference on.
+HOLDING = 1e15
+
+
+def holds_everything(
+    prob: Problem,
+    slots: Sequence[Slot],
+    theta: FloatArray,
+    at_bound: Sequence[bool],
+    chi2: float,
+    level: float,
+) -> list[int]:
+    """The frictions among ``slots`` whose 95 % interval has no upper end (docs/model.md §9,
+    "A friction that holds every state").
+
+    Above the largest force change a friction element sees, it holds every state and the
+    model no longer depends on its limit: χ² is flat from there to infinity. Where the fitted
+    limit lies within ``level`` (1.96²·max(1, χ²/dof)) of that flat χ², the data cannot exclude
+    any larger limit. The flat χ² is the model with the friction at :data:`HOLDING`, the other
+    parameters held at their fitted values (a slice of the profile, not the profile itself:
+    refitting them could only lower it and flag more).
+    """
+    from eodarm.analysis.sequences import FRICTIONS
+
+    out = []
+    for i, s in enumerate(slots):
+        if s.name not in FRICTIONS or at_bound[i]:
+            continue
+        trial = theta.copy()
+        trial[i] = max(HOLDING, float(theta[i]))
+        try:
+            y, _ = prob.evaluate(list(zip(slots, trial, strict=True)), [])
+        except EodarmError:
+            continue  # the friction holding everything cannot be solved: it is excluded
+        r = prob.whiten(y)
+        if float(r @ r) - chi2 < level:
+            out.append(i)
+    return out
 
 
 def _bounded_step(
