@@ -33,23 +33,38 @@ CASES = {
     "lin joint_friction": ("example_arm", [E("joint_friction", "O2", torque_nmm=5000.0)]),
     "lin joint_friction+clearance": (
         "example_arm",
-        [E("joint_friction", "O2", torque_nmm=5000.0), E("joint_clearance", "O2", clearance_mm=0.1)],
+        [
+            E("joint_friction", "O2", torque_nmm=5000.0),
+            E("joint_clearance", "O2", clearance_mm=0.1),
+        ],
     ),
     "rot joint_friction": ("rotary_arm", [E("joint_friction", "O2", torque_nmm=3000.0)]),
     "rot joint_friction+backlash": (
         "rotary_arm",
-        [E("joint_friction", "O2", torque_nmm=3000.0), E("drive_backlash", "O2", backlash_deg=0.05)],
+        [
+            E("joint_friction", "O2", torque_nmm=3000.0),
+            E("drive_backlash", "O2", backlash_deg=0.05),
+        ],
     ),
     "rot drive_friction": ("rotary_arm", [E("drive_friction", "O2", torque_nmm=3000.0)]),
     "rot drive_friction+backlash": (
         "rotary_arm",
-        [E("drive_friction", "O2", torque_nmm=3000.0), E("drive_backlash", "O2", backlash_deg=0.05)],
+        [
+            E("drive_friction", "O2", torque_nmm=3000.0),
+            E("drive_backlash", "O2", backlash_deg=0.05),
+        ],
     ),
 }
 
 
 def run_case(
-    name: str, seeds: int, k: int = 16, channels=None, scale: float = 1.0, noise: float = 1.0, seed0: int = 0
+    name: str,
+    seeds: int,
+    k: int = 16,
+    channels=None,
+    scale: float = 1.0,
+    noise: float = 1.0,
+    seed0: int = 0,
 ) -> dict[str, np.ndarray]:
     arm_name, hidden = CASES[name]
     hidden = [hidden[0].with_value(hidden[0].value * scale), *hidden[1:]]

@@ -83,7 +83,10 @@ def test_the_friction_estimate_is_linear_in_the_noise(case: str) -> None:
     "hidden",
     [
         [E("joint_friction", "O2", torque_nmm=50000.0)],
-        [E("joint_friction", "O2", torque_nmm=50000.0), E("joint_clearance", "O2", clearance_mm=0.1)],
+        [
+            E("joint_friction", "O2", torque_nmm=50000.0),
+            E("joint_clearance", "O2", clearance_mm=0.1),
+        ],
     ],
     ids=["alone", "with a clearance"],
 )

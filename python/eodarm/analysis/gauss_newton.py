@@ -284,7 +284,9 @@ def _polish_frictions(
             method="bounded",
             options={"xatol": 1e-6 * h},
         )
-        t, f = min([(float(grid[k]), vals[k]), (float(found.x), float(found.fun))], key=lambda p: p[1])
+        t, f = min(
+            [(float(grid[k]), vals[k]), (float(found.x), float(found.fun))], key=lambda p: p[1]
+        )
         if f < best:
             out[i], best = t, f
     enough = 1e-4 * max(1.0, chi2 / max(prob.n_values - len(slots), 1))
