@@ -179,7 +179,7 @@ def iterate(
     # kink (measured: up to 0.4 σ). Each friction's slice is searched directly, and the
     # iteration resumed from a better point.
     for _ in range(3):
-        better = _polish_frictions(prob, slots, theta, chi2, lo, hi)
+        better = _polish_frictions(prob, slots, theta, chi2, lo, hi, prob.whiten_jac(jac))
         if better is None:
             break
         y, jac, chi2 = at(better)
@@ -258,10 +258,14 @@ def _polish_frictions(
     chi2: float,
     lo: FloatArray,
     hi: FloatArray,
+    a: FloatArray,
 ) -> FloatArray | None:
     """θ with each friction's limit moved to the least χ² of its slice within its secant
     step (a grid of 7, then Brent's method to 10⁻⁶ of the step), or None when no friction
-    lowers χ² by more than 10⁻⁴·max(1, χ²/dof) (a move of at most 0.01 σ)."""
+    lowers χ² by more than 10⁻⁴·max(1, χ²/dof) (a move of at most 0.01 σ).
+
+    A friction is searched only where its slice is lower 0.1 σ to either side (σ = 1/|a_i|,
+    ``a`` the whitened Jacobian; two solves): a minimum more than 0.05 σ away shows so."""
     from scipy.optimize import minimize_scalar
 
     from eodarm.analysis.sequences import FRICTIONS, friction_step
@@ -272,8 +276,12 @@ def _polish_frictions(
         if s.name not in FRICTIONS:
             continue
         h = friction_step(s, float(out[i]))
-        a, b = max(float(out[i]) - h, lo[i]), min(float(out[i]) + h, hi[i])
-        grid = np.linspace(a, b, 7)
+        d = 0.1 / max(float(np.linalg.norm(a[:, i])), 1e-300)
+        sides = [float(out[i]) + d, max(float(out[i]) - d, lo[i])]
+        if min(_slice_chi2(prob, slots, out, i, t) for t in sides) >= best:
+            continue  # (best: χ² at `out`)
+        left_end, right_end = max(float(out[i]) - h, lo[i]), min(float(out[i]) + h, hi[i])
+        grid = np.linspace(left_end, right_end, 7)
         vals = [_slice_chi2(prob, slots, out, i, float(t)) for t in grid]
         k = int(np.argmin(vals))
         left, right = float(grid[max(k - 1, 0)]), float(grid[min(k + 1, 6)])
