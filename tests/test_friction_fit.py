@@ -4,8 +4,8 @@ friction").
 
 The data are ``synth``'s load cycles with one friction hidden; the fit is of the same effect.
 z = (estimate − truth)/σ. The statistics were measured with ``scripts/friction_bias.py``
-(2000 seeds: mean z +0.03 ± 0.02 on the linear arm's joint friction, +0.04 ± 0.02 on the
-rotary arm's gear friction, 95 % of the 2σ intervals covering).
+(1000 seeds of 16 cycles: mean z −0.00 ± 0.03 on the linear arm's joint friction, +0.02 ±
+0.03 on the rotary arm's gear friction, 95–96 % of the 2σ intervals covering).
 """
 
 from __future__ import annotations
@@ -48,7 +48,7 @@ def test_the_fitted_friction_is_unbiased_and_its_interval_covers(case: str) -> N
     """Over 30 seeds the 95 % interval covers the truth at least 25 times (nominal 28.5: with
     a true coverage of 95 % fewer than 25 happen with probability 0.3 %), and the mean z is
     within ±0.55 = 3/√30 of 0 (its standard error with an honest σ; the −0.7 once seen on 8
-    seeds was that sample's scatter: seeds 0–11 give −0.76, 2000 seeds +0.03)."""
+    seeds was that sample's scatter: seeds 0–11 give −0.76, 1000 others −0.00)."""
     arm_name, effect = CASES[case]
     arm = arm_of(arm_name)
     z, covered = [], 0
