@@ -2,10 +2,16 @@
 
 For each case (an arm, a hidden friction alone or with a gap) and each seed: synthetic load
 cycles (``synth(..., sequence=True)``) from the hidden effects, a fit of the same effects,
-and z = (estimate − truth)/σ of the friction. Prints per case the mean and spread of z, the
-fraction of 2σ intervals that cover the truth, and the bias in units of the truth.
+and z = (estimate − truth)/σ of the friction. Prints per case the mean of z, its spread and
+standard error, the fraction of 2σ intervals that cover the truth, the mean bias and σ in
+units of the truth, the fraction of 95 % intervals (``Param.interval``, without an upper end
+for a friction that could hold every state) that cover it, and how often that flag was set.
+Configurations are drawn as ``eodarm synth`` draws them (``rng = [1, seed]``).
 
-Run: ``PYTHONPATH=python python scripts/friction_bias.py [--seeds 30] [--case NAME]``.
+Run: ``PYTHONPATH=python python scripts/friction_bias.py [--seeds 30] [--seed0 0]
+[--case NAME]… [--scale F]… [--noise F] [--k 16] [--channels dx_mm,dy_mm]``; ``--scale``
+multiplies the hidden friction, ``--noise`` the noise with the same draws (a z that changes
+with it is the estimator's nonlinearity, docs/model.md §9 "Fitting a friction").
 """
 
 from __future__ import annotations
@@ -61,7 +67,7 @@ def run_case(
     name: str,
     seeds: int,
     k: int = 16,
-    channels=None,
+    channels: list[str] | None = None,
     scale: float = 1.0,
     noise: float = 1.0,
     seed0: int = 0,
