@@ -159,8 +159,8 @@ def _print_fit(
     _print_table(["parameter", "estimate ± standard error", "95 % interval"], rows)
     if undetermined:
         print(
-            "* not determined (relative standard error > 100 %, |correlation| > 0.95, or a "
-            "friction that may hold every state):"
+            "* not determined (relative standard error > 100 %, |correlation| > 0.95, "
+            "or a lower limit):"
         )
     for i, why in undetermined:
         s = res.slots[i]
