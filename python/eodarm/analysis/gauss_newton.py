@@ -11,7 +11,7 @@ fitted model hands over (:mod:`eodarm.analysis.handover`) import the result they
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -261,13 +261,11 @@ def _polish_frictions(
     a: FloatArray,
 ) -> FloatArray | None:
     """θ with each friction's limit moved to the least χ² of its slice within its secant
-    step (a grid of 7, then Brent's method to 10⁻⁶ of the step), or None when no friction
+    step (a grid of 7, then golden section to 0.01 σ), or None when no friction
     lowers χ² by more than 10⁻⁴·max(1, χ²/dof) (a move of at most 0.01 σ).
 
     A friction is searched only where its slice is lower 0.1 σ to either side (σ = 1/|a_i|,
     ``a`` the whitened Jacobian; two solves): a minimum more than 0.05 σ away shows so."""
-    from scipy.optimize import minimize_scalar
-
     from eodarm.analysis.sequences import FRICTIONS, friction_step
 
     out = theta.copy()
@@ -285,20 +283,35 @@ def _polish_frictions(
         vals = [_slice_chi2(prob, slots, out, i, float(t)) for t in grid]
         k = int(np.argmin(vals))
         left, right = float(grid[max(k - 1, 0)]), float(grid[min(k + 1, 6)])
-        # Brent's method: each piece is an exact parabola, so its steps land in few calls.
-        found = minimize_scalar(
-            lambda t, i=i: _slice_chi2(prob, slots, out, i, float(t)),
-            bounds=(left, right),
-            method="bounded",
-            options={"xatol": 1e-6 * h},
-        )
-        t, f = min(
-            [(float(grid[k]), vals[k]), (float(found.x), float(found.fun))], key=lambda p: p[1]
-        )
+
+        def along(t: float, i: int = i) -> float:
+            return _slice_chi2(prob, slots, out, i, t)
+
+        x, fx = _golden(along, left, right, 0.1 * d)
+        t, f = min([(float(grid[k]), vals[k]), (x, fx)], key=lambda p: p[1])
         if f < best:
             out[i], best = t, f
     enough = 1e-4 * max(1.0, chi2 / max(prob.n_values - len(slots), 1))
     return out if best < chi2 - enough else None
+
+
+def _golden(
+    f: Callable[[float], float], left: float, right: float, tol: float
+) -> tuple[float, float]:
+    """The least of ``f`` on [left, right] by golden section, to ``tol``: (x, f(x))."""
+    g = (math.sqrt(5) - 1) / 2
+    x1, x2 = right - g * (right - left), left + g * (right - left)
+    f1, f2 = f(x1), f(x2)
+    while right - left > tol:
+        if f1 <= f2:
+            right, x2, f2 = x2, x1, f1
+            x1 = right - g * (right - left)
+            f1 = f(x1)
+        else:
+            left, x1, f1 = x1, x2, f2
+            x2 = left + g * (right - left)
+            f2 = f(x2)
+    return (x1, f1) if f1 <= f2 else (x2, f2)
 
 
 def _slice_limit(
