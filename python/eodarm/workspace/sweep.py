@@ -60,6 +60,10 @@ __all__ = [
 FloatArray = npt.NDArray[np.float64]
 BoolArray = npt.NDArray[np.bool_]
 
+#: A chunk solved, with the drives' torques on an arm that has one: what :func:`_run` runs
+#: here or on a Dask worker.
+_chunk = torque.chunk
+
 #: Outputs per pose (no payload dimension).
 POSE_VARS = ("reachable", "length_mm", "effector_x_mm", "effector_y_mm")
 #: Default number of poses per chunk.
@@ -552,10 +556,10 @@ def _sweep_grid(
 def _solve_span(setup: _Setup, start: int, stop: int) -> dict[str, npt.NDArray[Any]]:
     """Flat poses [start, stop) solved here: by the core's grid walker where it can
     (:func:`_core_walks`; its poses are never built in Python), else by
-    :func:`eodarm.workspace.torque.chunk`; with the drives' torques on an arm that has one."""
+    :func:`_chunk`; with the drives' torques on an arm that has one."""
     job = setup.job
     if not _core_walks(job):
-        return torque.chunk(job, start, stop)
+        return _chunk(job, start, stop)
     rows = (stop - start) // job.block
     out = _allocate({k: (rows, *s[1:]) for k, s in setup.shapes.items()}, setup.dtypes)
     _core_grid_sweep(job, start, stop - start, out)
@@ -573,17 +577,17 @@ def _run(
     """
     if scheduler is None:
         for span in spans:
-            yield span, torque.chunk(job, *span)
+            yield span, _chunk(job, *span)
         return
     if hasattr(scheduler, "submit") and hasattr(scheduler, "scatter"):  # distributed.Client
-        yield from cluster.run_chunks(scheduler, torque.chunk, job, spans)
+        yield from cluster.run_chunks(scheduler, _chunk, job, spans)
         return
     import dask
 
     wave = 64
     it = iter(spans)
     while part := list(itertools.islice(it, wave)):
-        tasks = [dask.delayed(torque.chunk, pure=False)(job, a, b) for a, b in part]
+        tasks = [dask.delayed(_chunk, pure=False)(job, a, b) for a, b in part]
         results = dask.compute(*tasks, scheduler=scheduler)
         yield from zip(part, results, strict=True)
 
