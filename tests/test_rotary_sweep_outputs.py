@@ -170,3 +170,35 @@ def test_the_cli_writes_the_torques_into_zarr_and_maps_them_from_it(
             np.testing.assert_array_equal(got[key].values, want[key].values)
         t = got["torque_nmm"].values
         assert np.isfinite(t[..., rotary]).any() and np.isnan(t[..., ~rotary]).all()
+
+
+def test_a_zarr_sweep_begun_without_the_torques_is_not_resumed_with_them(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A partial store of a rotary arm's sweep started by an eodarm that wrote no torques
+    (simulated) is refused in one line, not filled with holes or ended in a traceback."""
+    pytest.importorskip("zarr")
+    pytest.importorskip("dask")
+    from eodarm.workspace import store, torque
+
+    grid = [f"--alpha{i + 1}={a - 10}:{a + 10}:3" for i, a in enumerate(POSE["rotary"])]
+    out = tmp_path / "s.zarr"
+    argv = ["sweep", "--arm", str(ARMS["rotary"]), *grid, "--mass", "1.5", "--no-progress"]
+    real = store._solve_span
+    calls: list[int] = []
+
+    def stop_after_one(setup: Any, start: int, stop: int) -> Any:
+        if calls:
+            raise KeyboardInterrupt
+        calls.append(start)
+        return real(setup, start, stop)
+
+    with monkeypatch.context() as m:
+        m.setattr(torque, "wanted", lambda job: False)
+        m.setattr(store, "_solve_span", stop_after_one)
+        assert main([*argv, "--chunk-size", "3", "-o", str(out)]) == 130
+    capsys.readouterr()
+    assert main([*argv, "-o", str(out), "--resume"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and len(err) < 300
+    assert "has no torque_nmm (an older eodarm started it); remove it" in err
