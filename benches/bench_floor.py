@@ -48,6 +48,7 @@ from typing import Any
 import numpy as np
 
 import eodarm
+from machine import cpu_model  # benches/ is the script's directory
 
 ROOT = Path(__file__).resolve().parent.parent
 ARMS = {
@@ -149,16 +150,6 @@ def load() -> float:
     return os.getloadavg()[0]
 
 
-def cpu_name() -> str:
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or "unknown CPU"
-
-
 Row = tuple[str, str, str, int, float, float, float]
 
 
@@ -244,7 +235,7 @@ def main() -> None:
     head = [
         f"- run: {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, "
         f"`python3 benches/bench_floor.py{scale}`",
-        f"- machine: {platform.machine()}, {os.cpu_count()} CPUs, {cpu_name()}",
+        f"- machine: {platform.machine()}, {os.cpu_count()} CPUs, {cpu_model()}",
         f"- python {platform.python_version()}, numpy {np.__version__}, "
         f"RAYON_NUM_THREADS {threads}",
         f"- load average (1 min) before / after: {before:.2f} / {after:.2f}",
