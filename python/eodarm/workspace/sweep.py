@@ -225,7 +225,9 @@ def sweep(
         dims (grid dims…, ``mass_kg``[, ``actuator`` | ``link``]) minus reduced ones, with
         ``force_n``, ``dx_mm``, ``dy_mm``, ``dalpha_deg`` (…, link), ``dl_mm`` (…, actuator),
         ``status`` (uint8, docs/model.md §7) and ``ok`` (status 0) per cell, NaN values
-        where a cell is not ok; ``reachable``, ``length_mm`` (…, actuator), ``effector_x_mm``,
+        where a cell is not ok (an arm with a rotary drive: ``torque_nmm``, ``dtorque_nmm``
+        (…, actuator) too, NaN at linear joints; :mod:`eodarm.workspace.torque`);
+        ``reachable``, ``length_mm`` (…, actuator), ``effector_x_mm``,
         ``effector_y_mm`` (and ``alpha_deg`` for lengths and effector grids) per pose. Every
         variable and coordinate has ``units`` and ``long_name`` attrs; the dataset's attrs
         name the arm (and carry its TOML), the model, self-weight, the grid kind and the
