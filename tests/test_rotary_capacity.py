@@ -97,3 +97,7 @@ def test_the_arm_files_effects_count_and_frictions_at_a_drive_are_left_out() -> 
     ):
         np.testing.assert_array_equal(got["capacity_kg"].values, want["capacity_kg"].values)
         np.testing.assert_array_equal(got["limit"].values, want["limit"].values)
+    # the map's title says what its drives' limits leave out
+    assert got.attrs["model"].endswith(
+        "(joint_friction@O2, drive_friction@O2: left out of the drives' limits)"
+    )

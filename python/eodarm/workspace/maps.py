@@ -268,6 +268,13 @@ def payload_capacity(
         max_force_n=np.where(np.isfinite(fmax), fmax, -1.0),
         arm_toml=arm.to_toml(),  # the arm with its force limits, not the one swept
     )
+    swept = {e.key for e in model}
+    left = [e.key for e in with_arm_effects(arm.effects, effs) if e.key not in swept]
+    if left:  # the title names the whole model, and what its drives' limits leave out
+        out.attrs["model"] = (
+            model_name(with_arm_effects(arm.effects, effs))
+            + f" ({', '.join(left)}: left out of the drives' limits)"
+        )
     return out
 
 
