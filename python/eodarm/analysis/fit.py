@@ -90,6 +90,10 @@ class FitResult:
     #: Covariance of θ (P, P); a parameter at a bound has its half-normal variance and no
     #: correlation (the data push it against the bound, not along the others).
     theta_cov: npt.NDArray[np.float64] | None = None
+    #: Per parameter, whether the data give it only a lower limit: a friction that could hold
+    #: every measured state (:func:`eodarm.analysis.gauss_newton.holds_everything`); its
+    #: interval has no upper end and it is not determined.
+    lower_only: list[bool] = field(default_factory=list)
 
     @property
     def effects(self) -> list[Effect]:
@@ -213,6 +217,10 @@ class FitResult:
             est, err = self.estimate(i), self.stderr(i)
             if self.at_bound[i]:
                 continue  # reported as at its bound
+            if self.only_lower_limit(i):
+                low = fmt.value(self.interval(i)[0], self.slots[i].kind.unit)
+                out.append((i, f"could hold every state: at least {low}"))
+                continue
             if not math.isfinite(err) or (est != 0 and err / abs(est) > max_relative):
                 rel = "∞" if not math.isfinite(err) or est == 0 else f"{100 * err / abs(est):.0f} %"
                 out.append((i, f"relative standard error {rel}"))
@@ -235,7 +243,14 @@ class FitResult:
         t, e = float(self.theta[i]), float(self.theta_stderr[i])
         if not math.isfinite(e):
             return lo, hi
+        if self.only_lower_limit(i):
+            return max(lo, t - Z95 * e), hi
         return max(lo, t - Z95 * e), min(hi, t + Z95 * e)
+
+    def only_lower_limit(self, i: int) -> bool:
+        """Whether the data give parameter ``i`` only a lower limit: a friction that could
+        hold every measured state (:attr:`lower_only`)."""
+        return i < len(self.lower_only) and self.lower_only[i]
 
     def interval(self, i: int) -> tuple[float, float]:
         """The 95 % interval of the physical parameter, mapped from :meth:`theta_interval`
@@ -446,9 +461,15 @@ def validity_mark(result: FitResult) -> ValidityMark | None:
     return ValidityMark(int(bad.sum()), meas.n_rows, counts, lines, before, msg)
 
 
-def determining_channel(slot: Slot, measured: Sequence[str]) -> str:
+def determining_channel(slot: Slot, measured: Sequence[str], lower_only: bool = False) -> str:
     """The measurement that would pin down a slot's parameter, in words: its own channel if
-    the data lack it, else more poses that load it differently."""
+    the data lack it, else more poses that load it differently; for a friction that could
+    hold every measured state (``lower_only``), heavier loads that make it slip."""
+    if lower_only:
+        return (
+            "load it harder: a payload whose force or torque change at it exceeds the "
+            "friction makes it slip (docs/model.md §9, a friction that holds every state)"
+        )
     i = slot.index(10**6) + 1  # 1-based place number (the arm's size does not matter here)
     own = {
         "actuator_compliance": f"dl{i}_mm",  # the body's own length sensor
@@ -521,6 +542,7 @@ def fit(
         sol.iterations,
         sol.notes,
         theta_cov=sol.theta_cov,
+        lower_only=sol.lower_only,
     )
 
 

@@ -11,14 +11,15 @@ fitted model hands over (:mod:`eodarm.analysis.handover`) import the result they
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Sequence
-from dataclasses import dataclass
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 
-from eodarm.analysis.problem import Problem
+from eodarm import text
+from eodarm.analysis.problem import Z95, Problem
 from eodarm.errors import EodarmError
 from eodarm.model.effects import Effect, Slot, theta_from_param
 
@@ -40,7 +41,12 @@ class Solution:
     at_bound : whether each θ sits at a physical bound.
     prediction : (N, C) the model's channels at ``theta``; ``chi2`` its χ².
     iterations : Gauss–Newton steps taken.
-    notes : one line per parameter stuck at a bound (the fit warns them).
+    notes : one line per parameter stuck at a bound or known only from below (the fit warns
+        them).
+    lower_only : per parameter, whether the data give it only a lower limit: a friction whose
+        χ² with the friction holding every state rises by less than 1.96²·max(1, χ²/dof)
+        above the minimum (:func:`holds_everything`), so that its 95 % interval has no
+        upper end.
     """
 
     slots: list[Slot]
@@ -52,6 +58,7 @@ class Solution:
     chi2: float
     iterations: int
     notes: list[str]
+    lower_only: list[bool] = field(default_factory=list)
 
 
 def iterate(
@@ -113,45 +120,82 @@ def iterate(
             theta = default + lam * (np.clip(np.asarray(start, dtype=float), lo, hi) - default)
     else:
         y, jac, chi2 = at(theta)
-    it = 0
-    for it in range(1, max_iter + 1):  # noqa: B007
-        if not slots:
-            break
+    from eodarm.analysis.sequences import has_friction
+
+    # With memory the Jacobian costs a solve of every sequence per probe and side: a trial
+    # step is judged by its χ² alone, and the Jacobian taken only where one is accepted.
+    judge_by_chi2 = prob.meas.has_sequences or has_friction(slots)
+
+    def chi2_of(th: FloatArray) -> tuple[Any, Any, float]:
+        if not judge_by_chi2:
+            return at(th)
+        y, _ = prob.evaluate(list(zip(slots, th, strict=True)), [])
         r = prob.whiten(y)
-        a = prob.whiten_jac(jac)
-        step = _bounded_step(a, r, lo - theta, hi - theta)
-        # Backtrack if the exact model disagrees with the linear one (rare: it is ~linear).
-        lam = 1.0
-        accepted = False
-        for _ in range(8):
-            trial = np.clip(theta + lam * step, lo, hi)
-            try:
-                y2, jac2, chi2b = at(trial)
-            except EodarmError:
-                # The trial left the model's domain (a triangle that cannot close, a singular
-                # pose): too long a step, like one that raises χ²; the current θ was solvable.
-                lam *= 0.5
-                continue
-            if chi2b <= chi2 * (1 + 1e-12) + 1e-12:
-                accepted = True
+        return y, None, float(r @ r)
+
+    def descend(
+        theta: FloatArray, y: Any, jac: Any, chi2: float, budget: int
+    ) -> tuple[FloatArray, Any, Any, float, int, int]:
+        """Bounded Gauss–Newton steps from ``theta``, at most ``budget``; the last values are
+        the iterations (the one that found no lower χ² included) and the steps accepted."""
+        taken = it = 0
+        for it in range(1, budget + 1):  # noqa: B007
+            if not slots:
                 break
-            lam *= 0.5
-        if not accepted:
+            r = prob.whiten(y)
+            a = prob.whiten_jac(jac)
+            step = _bounded_step(a, r, lo - theta, hi - theta)
+            # Backtrack if the exact model disagrees with the linear one (rare: it is ~linear).
+            lam = 1.0
+            accepted = False
+            for _ in range(8):
+                trial = np.clip(theta + lam * step, lo, hi)
+                try:
+                    y2, jac2, chi2b = chi2_of(trial)
+                except EodarmError:
+                    # The trial left the model's domain (a triangle that cannot close, a
+                    # singular pose): too long a step, like one that raises χ²; the current θ
+                    # was solvable.
+                    lam *= 0.5
+                    continue
+                if chi2b <= chi2 * (1 + 1e-12) + 1e-12:
+                    accepted = True
+                    break
+                lam *= 0.5
+            if not accepted:
+                break
+            if jac2 is None:
+                y2, jac2, chi2b = at(trial)
+            improvement = chi2 - chi2b
+            theta, y, jac, chi2 = trial, y2, jac2, chi2b
+            taken += 1
+            if improvement <= 1e-9 * max(chi2, 1.0):
+                break
+        return theta, y, jac, chi2, it, taken
+
+    theta, y, jac, chi2, it, _ = descend(theta, y, jac, chi2, max_iter)
+    # A friction's χ² is piecewise quadratic in its limit, and the step the wide secant gives
+    # (docs: analysis/sequences.py) can stop short of the least χ² where the data sit near a
+    # kink (measured: up to 0.4 σ). Each friction's slice is searched directly, and the
+    # iteration resumed from a better point.
+    for _ in range(3):
+        better = _polish_frictions(prob, slots, theta, chi2, lo, hi, prob.whiten_jac(jac))
+        if better is None:
             break
-        improvement = chi2 - chi2b
-        theta, y, jac, chi2 = trial, y2, jac2, chi2b
-        if improvement <= 1e-9 * max(chi2, 1.0):
-            break
+        y, jac, chi2 = at(better)
+        theta, y, jac, chi2, more, taken = descend(better, y, jac, chi2, max_iter)
+        it += more
+        if taken == 0:
+            break  # the others stay where they were: polishing again finds the same
     # Covariance of θ from the whitened Jacobian at the solution.
     stderr = np.full(len(slots), np.nan)
     theta_cov = np.zeros((len(slots), len(slots)))
     at_bound = [bool(theta[i] <= lo[i] + 1e-15 or theta[i] >= hi[i]) for i in range(len(slots))]
     notes: list[str] = []
+    scale = max(1.0, chi2 / max(prob.n_values - len(slots), 1))
     if slots:
         a = prob.whiten_jac(jac)
         free = ~np.array(at_bound)
-        dof = max(prob.n_values - len(slots), 1)
-        scale = max(1.0, chi2 / dof)
         if free.any():
             # Scale the columns first: θ of different effects differ by 1e8 (mm vs 1/EI),
             # and an unscaled pseudo-inverse would cut the small directions off.
@@ -171,7 +215,174 @@ def iterate(
                 theta_cov[i, i] = stderr[i] ** 2 if stderr[i] < 1e150 else math.inf
                 where = "its upper bound" if theta[i] >= hi[i] else "its lower bound (absent)"
                 notes.append(f"{s.key}: parameter stuck at {where}; the data do not want it")
-    return Solution(slots, theta, stderr, theta_cov, at_bound, y, chi2, it, notes)
+    lower_only = [False] * len(slots)
+    level = Z95**2 * scale
+    for i in holds_everything(prob, slots, theta, at_bound, chi2, level):
+        # χ² is flat above the fitted limit: its 95 % interval is [low, ∞), low where the
+        # slice rises by `level` below it (the Jacobian's σ may be 0 there, or one side's).
+        lower_only[i] = True
+        low = _slice_limit(prob, slots, theta, i, chi2 + level, lo[i])
+        stderr[i] = (float(theta[i]) - low) / Z95
+        theta_cov[i, :] = 0.0
+        theta_cov[:, i] = 0.0
+        theta_cov[i, i] = stderr[i] ** 2
+        notes.append(
+            f"{slots[i].key}: the friction could hold every measured state (χ² rises by less "
+            f"than the 95 % level when it does): the data say only that it is at least "
+            f"{text.value(low, slots[i].kind.unit)}"
+        )
+    return Solution(slots, theta, stderr, theta_cov, at_bound, y, chi2, it, notes, lower_only)
+
+
+#: A friction limit that holds every state of any arm the tool can solve (N or N·mm): no
+#: force or torque change reaches it, so every element sticks from the reference on.
+HOLDING = 1e15
+
+
+def _slice_chi2(prob: Problem, slots: Sequence[Slot], theta: FloatArray, i: int, t: float) -> float:
+    """χ² with θ_i at ``t``, the other parameters held (∞ outside the model's domain)."""
+    trial = theta.copy()
+    trial[i] = t
+    try:
+        y, _ = prob.evaluate(list(zip(slots, trial, strict=True)), [])
+    except EodarmError:
+        return math.inf
+    r = prob.whiten(y)
+    return float(r @ r)
+
+
+def _polish_frictions(
+    prob: Problem,
+    slots: Sequence[Slot],
+    theta: FloatArray,
+    chi2: float,
+    lo: FloatArray,
+    hi: FloatArray,
+    a: FloatArray,
+) -> FloatArray | None:
+    """θ with each friction's limit moved to the least χ² of its slice within its secant
+    step (a grid of 7, then golden section to 0.01 σ), or None when no friction
+    lowers χ² by more than 10⁻⁴·max(1, χ²/dof) (a move of at most 0.01 σ).
+
+    A friction is searched only where its slice is lower 0.1 σ to either side (σ = 1/|a_i|,
+    ``a`` the whitened Jacobian; two solves): a minimum more than 0.05 σ away shows so."""
+    from eodarm.analysis.sequences import FRICTIONS, friction_step
+
+    out = theta.copy()
+    best = chi2
+    for i, s in enumerate(slots):
+        if s.name not in FRICTIONS:
+            continue
+        h = friction_step(s, float(out[i]))
+        d = 0.1 / max(float(np.linalg.norm(a[:, i])), 1e-300)
+        sides = [float(out[i]) + d, max(float(out[i]) - d, lo[i])]
+        if min(_slice_chi2(prob, slots, out, i, t) for t in sides) >= best:
+            continue  # (best: χ² at `out`)
+        left_end, right_end = max(float(out[i]) - h, lo[i]), min(float(out[i]) + h, hi[i])
+        grid = np.linspace(left_end, right_end, 7)
+        vals = [_slice_chi2(prob, slots, out, i, float(t)) for t in grid]
+        k = int(np.argmin(vals))
+        left, right = float(grid[max(k - 1, 0)]), float(grid[min(k + 1, 6)])
+
+        def along(t: float, i: int = i) -> float:
+            return _slice_chi2(prob, slots, out, i, t)
+
+        x, fx = _golden(along, left, right, 0.1 * d)
+        t, f = min([(float(grid[k]), vals[k]), (x, fx)], key=lambda p: p[1])
+        if f < best:
+            out[i], best = t, f
+    enough = 1e-4 * max(1.0, chi2 / max(prob.n_values - len(slots), 1))
+    return out if best < chi2 - enough else None
+
+
+def _golden(
+    f: Callable[[float], float], left: float, right: float, tol: float
+) -> tuple[float, float]:
+    """The least of ``f`` on [left, right] by golden section, to ``tol``: (x, f(x))."""
+    g = (math.sqrt(5) - 1) / 2
+    x1, x2 = right - g * (right - left), left + g * (right - left)
+    f1, f2 = f(x1), f(x2)
+    while right - left > tol:
+        if f1 <= f2:
+            right, x2, f2 = x2, x1, f1
+            x1 = right - g * (right - left)
+            f1 = f(x1)
+        else:
+            left, x1, f1 = x1, x2, f2
+            x2 = left + g * (right - left)
+            f2 = f(x2)
+    return (x1, f1) if f1 <= f2 else (x2, f2)
+
+
+def _slice_limit(
+    prob: Problem, slots: Sequence[Slot], theta: FloatArray, i: int, target: float, bound: float
+) -> float:
+    """The θ_i below ``theta[i]`` where χ², the other parameters held, reaches ``target``
+    (``bound`` when it stays below it down to there): steps down doubling, then bisection to
+    10⁻⁴ of the bracket's first step."""
+
+    def chi2_at(t: float) -> float:
+        trial = theta.copy()
+        trial[i] = t
+        try:
+            y, _ = prob.evaluate(list(zip(slots, trial, strict=True)), [])
+        except EodarmError:
+            return math.inf  # outside the model's domain: excluded
+        r = prob.whiten(y)
+        return float(r @ r)
+
+    top = float(theta[i])
+    step = max(1e-3 * abs(top), 1e-9)
+    inside, outside = top, max(top - step, bound)
+    while chi2_at(outside) < target:
+        if outside <= bound:
+            return bound
+        inside, step = outside, 2 * step
+        outside = max(top - step, bound)
+    first = inside - outside
+    while inside - outside > 1e-4 * first:
+        mid = 0.5 * (inside + outside)
+        if chi2_at(mid) < target:
+            inside = mid
+        else:
+            outside = mid
+    return outside
+
+
+def holds_everything(
+    prob: Problem,
+    slots: Sequence[Slot],
+    theta: FloatArray,
+    at_bound: Sequence[bool],
+    chi2: float,
+    level: float,
+) -> list[int]:
+    """The frictions among ``slots`` whose 95 % interval has no upper end (docs/model.md §9,
+    "A friction that holds every state").
+
+    Above the largest force change a friction element sees, it holds every state and the
+    model no longer depends on its limit: χ² is flat from there to infinity. Where the fitted
+    limit lies within ``level`` (1.96²·max(1, χ²/dof)) of that flat χ², the data cannot exclude
+    any larger limit. The flat χ² is the model with the friction at :data:`HOLDING`, the other
+    parameters held at their fitted values (a slice of the profile, not the profile itself:
+    refitting them could only lower it and flag more).
+    """
+    from eodarm.analysis.sequences import FRICTIONS
+
+    out = []
+    for i, s in enumerate(slots):
+        if s.name not in FRICTIONS or at_bound[i]:
+            continue
+        trial = theta.copy()
+        trial[i] = max(HOLDING, float(theta[i]))
+        try:
+            y, _ = prob.evaluate(list(zip(slots, trial, strict=True)), [])
+        except EodarmError:
+            continue  # the friction holding everything cannot be solved: it is excluded
+        r = prob.whiten(y)
+        if float(r @ r) - chi2 < level:
+            out.append(i)
+    return out
 
 
 def _bounded_step(

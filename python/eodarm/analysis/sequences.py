@@ -21,10 +21,11 @@ where a state is about to switch. The Jacobian of a friction is taken instead as
 over a wide step, ``h = 5 %`` of max(L, L_typical) (central where the bounds allow, forward
 from L = 0): it averages the slopes of the states that switch within ±h, which is what a
 Gauss–Newton step of that size will meet. The fit's backtracking (a step is accepted only
-when the exact χ² does not rise) keeps every iteration honest, and because the response is
-exactly linear between kinks, the converged L is where the exact χ² is least and the
-standard error from the secant is that of the linear piece the data sit on. The other
-effects keep their small steps (:func:`eodarm.analysis.sensitivity.step`).
+when the exact χ² does not rise) keeps every iteration honest, but where the data sit near
+a kink the secant's step can stop short of the least χ² (measured up to 0.4 σ): the fit then
+searches each friction's χ² slice directly (:mod:`eodarm.analysis.gauss_newton`). The
+standard error from the secant covers as promised (docs/model.md §9, "Fitting a friction").
+The other effects keep their small steps (:func:`eodarm.analysis.sensitivity.step`).
 """
 
 from __future__ import annotations

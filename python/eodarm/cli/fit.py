@@ -158,12 +158,16 @@ def _print_fit(
         )
     _print_table(["parameter", "estimate ± standard error", "95 % interval"], rows)
     if undetermined:
-        print("* not determined (relative standard error > 100 % or |correlation| > 0.95):")
+        print(
+            "* not determined (relative standard error > 100 %, |correlation| > 0.95, "
+            "or a lower limit):"
+        )
     for i, why in undetermined:
         s = res.slots[i]
         _say(
             f"{s.spec} ({why}): fix or drop it (-o fixes a stiffness whose interval reaches "
-            f"∞ as rigid), or {determining_channel(s, meas.measured_channels)}",
+            f"∞ as rigid), or "
+            f"{determining_channel(s, meas.measured_channels, res.only_lower_limit(i))}",
             "  ",
         )
     print()

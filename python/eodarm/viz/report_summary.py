@@ -392,7 +392,7 @@ def parameter_section(
             )
             note = (
                 f"NOT DETERMINED ({flagged[i]}): fix it or drop it ({fixed}); to determine "
-                f"it, {determining_channel(s, meas.measured_channels)}"
+                f"it, {determining_channel(s, meas.measured_channels, fit.only_lower_limit(i))}"
             )
         for x in alike:
             if x.member == s.spec:
