@@ -505,14 +505,23 @@ impl<const N: usize> FastArm<N> {
         pay: &[[f64; L]; 2],
         out: &mut PoseBlock<N>,
     ) {
-        for at in (0..L).step_by(W) {
-            self.poses_pack(at, sn, cs, pay, out);
+        // One branch per block on the arm's kinds of drive, none per link in the packs: an
+        // arm of linear actuators only runs the code without the rotary drives' cases.
+        if self.any_rotary {
+            for at in (0..L).step_by(W) {
+                self.poses_pack::<true>(at, sn, cs, pay, out);
+            }
+        } else {
+            for at in (0..L).step_by(W) {
+                self.poses_pack::<false>(at, sn, cs, pay, out);
+            }
         }
     }
 
-    /// [`Self::poses_sc_impl`] for lanes `at..at + 4`.
+    /// [`Self::poses_sc_impl`] for lanes `at..at + 4`; `ROT`: some joint is turned by a
+    /// rotary drive (else `self.rotary` is all false and is not read).
     #[inline(always)]
-    fn poses_pack(
+    fn poses_pack<const ROT: bool>(
         &self,
         at: usize,
         sn: &[[f64; L]; N],
@@ -548,7 +557,7 @@ impl<const N: usize> FastArm<N> {
             rcx[i] = c * this.c[i][0] - s * this.c[i][1];
         }
         for i in 0..N {
-            if this.rotary[i] {
+            if ROT && this.rotary[i] {
                 // A drive's torque is a couple: no line (e = 0), unit moment, no length.
                 inv_h[i] = F4::splat(1.0);
                 let nan = F4::splat(f64::NAN);
@@ -574,7 +583,7 @@ impl<const N: usize> FastArm<N> {
             }
             px = px + rnx[i];
             py = py + rny[i];
-            if this.rotary[i] {
+            if ROT && this.rotary[i] {
                 continue;
             }
             // D_i = B_{i−1} − O_i: fixed on the chassis, else R(α_{i−1})·(b − next)_{i−1}.
@@ -638,7 +647,7 @@ impl<const N: usize> FastArm<N> {
             let qux = gx - rux1;
             let quy = gy - ruy1;
             let mut tu = (bx * gy - by * gx) - (nx * ruy1 - ny * rux1);
-            if i + 1 < N && this.rotary[i + 1] {
+            if ROT && i + 1 < N && this.rotary[i + 1] {
                 // Drive i+1's housing: its weight at O_{i+1} and the couple −T_{i+1}.
                 let wo = this.w_drive[i + 1];
                 qy = qy - wo;
@@ -684,10 +693,15 @@ impl<const N: usize> FastArm<N> {
     /// [`Self::cells`] for every play setting.
     #[inline(always)]
     fn cells_any(&self, pb: &PoseBlock<N>, m: f64, cb: &mut CellBlock<N>) {
-        match (self.any_play, self.any_up) {
-            (_, true) => self.cells_impl::<true, true>(pb, m, cb),
-            (true, false) => self.cells_impl::<true, false>(pb, m, cb),
-            (false, false) => self.cells_impl::<false, false>(pb, m, cb),
+        // One branch per block on the play settings and the arm's kinds of drive, none per
+        // joint in the lane loops.
+        match (self.any_rotary, self.any_play, self.any_up) {
+            (true, _, true) => self.cells_impl::<true, true, true>(pb, m, cb),
+            (true, true, false) => self.cells_impl::<true, true, false>(pb, m, cb),
+            (true, false, false) => self.cells_impl::<true, false, false>(pb, m, cb),
+            (false, _, true) => self.cells_impl::<false, true, true>(pb, m, cb),
+            (false, true, false) => self.cells_impl::<false, true, false>(pb, m, cb),
+            (false, false, false) => self.cells_impl::<false, false, false>(pb, m, cb),
         }
     }
 
@@ -714,10 +728,11 @@ impl<const N: usize> FastArm<N> {
         }
     }
 
-    /// [`Self::cells`], without the play terms when `PLAY` is false and without those of a
-    /// taken-up play when `UP` is false.
+    /// [`Self::cells`], without the play terms when `PLAY` is false, without those of a
+    /// taken-up play when `UP` is false and without the rotary drives' case when `ROT` is
+    /// false (an arm of linear actuators only).
     #[inline(always)]
-    fn cells_impl<const PLAY: bool, const UP: bool>(
+    fn cells_impl<const ROT: bool, const PLAY: bool, const UP: bool>(
         &self,
         pb: &PoseBlock<N>,
         m: f64,
@@ -733,7 +748,7 @@ impl<const N: usize> FastArm<N> {
         let mut far = false;
         for i in 0..N {
             let (bc, hr, fmax) = (self.body_c[i], self.half_inv_rd[i], self.fmax[i]);
-            if self.rotary[i] {
+            if ROT && self.rotary[i] {
                 // Link i turns against body i−1 by its gear's Δq_i: no triangle. A drive's
                 // torque and its (absent) body length are not cell fields: NaN.
                 let (mut q, mut f) = ([0.0; L], [0.0; L]);
