@@ -28,8 +28,8 @@ import time
 from pathlib import Path
 
 import eodarm
-from bench_diagnose import cpu_model  # benches/ is the script's directory
 from eodarm.data.datasets import bundled_arm_path
+from machine import cpu_model  # benches/ is the script's directory
 
 SEED = str(bundled_arm_path("seed2022").with_name("measurements.csv"))
 

@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import argparse
 import os
-import platform
 import time
 import warnings
 from datetime import UTC, datetime
@@ -29,6 +28,7 @@ from pathlib import Path
 import numpy as np
 
 import eodarm
+from machine import cpu_model  # benches/ is the script's directory
 
 ROOT = Path(__file__).resolve().parent.parent
 ARM_FILE = ROOT / "examples" / "example_arm.toml"
@@ -52,16 +52,6 @@ def poses(rows: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
     rng = np.random.default_rng(seed)
     lo, hi = np.array([60.0, 0.0, -10.0]), np.array([110.0, 30.0, 10.0])
     return lo + (hi - lo) * rng.random((rows, 3)), rng.uniform(0.0, 7.0, rows)
-
-
-def cpu_model() -> str:
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or "unknown"
 
 
 def busy_cpus() -> tuple[float, float]:

@@ -1,10 +1,19 @@
 """Throughput of ``eodarm.solve`` and ``eodarm.solve_sequence`` against the machine's floor.
 
 The floor of a call is the time numpy takes to allocate and write the arrays the call returns
-(``np.empty(shape, dtype).fill(1)`` for each of them, the same keys, shapes and dtypes), in
-the same process: a call cannot return its outputs faster than it can write them. Each figure
-is printed beside its floor and the ratio call time / floor time (1 would be a core that costs
-nothing). Every figure is the best of 5 calls, the call and its floor timed alternately.
+(the same keys, shapes and dtypes), in the same process: a call cannot return its outputs
+faster than it can write them. The floor's arrays are all allocated first and held together
+until the timing ends, as the call's outputs are (allocating, filling and freeing one array
+after another would recycle the same pages and skip the page faults that fresh outputs cost),
+then written by as many threads as the core uses (``np.copyto`` releases the GIL; each thread
+writes its share of the rows of every array). The one-thread floor is printed too. Each
+figure is printed beside its floor and the ratio call time / floor time (1 would be a core
+that costs nothing). Every figure is the best of 5 calls, the call and its floor timed
+alternately.
+
+``solve`` is also timed writing into arrays that already exist (``out=``), beside numpy
+filling those same arrays: no allocation, no page fault, so the ratio is the core's compute
+against the machine's write bandwidth.
 
 Workloads, on the linear example arm (``examples/example_arm.toml``), the rotary arm
 (``examples/rotary_arm.toml``) and the mixed arm (``examples/mixed_arm.toml``):
@@ -32,12 +41,14 @@ import os
 import platform
 import time
 from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 import eodarm
+from machine import cpu_model  # benches/ is the script's directory
 
 ROOT = Path(__file__).resolve().parent.parent
 ARMS = {
@@ -84,57 +95,96 @@ def poses(kind: str, count: int, rng: np.random.Generator) -> np.ndarray:
     return q if kind == "linear" else np.cumsum(q, axis=1)
 
 
-def floor_of(result: dict[str, Any]) -> Callable[[], None]:
-    """Allocating and writing arrays of the keys, shapes and dtypes of ``result``."""
+def _threads() -> int:
+    """The threads the core uses (rayon: RAYON_NUM_THREADS, else one per CPU)."""
+    env = os.environ.get("RAYON_NUM_THREADS", "")
+    return int(env) if env.isdigit() and int(env) > 0 else os.cpu_count() or 1
+
+
+POOL = ThreadPoolExecutor(_threads())
+
+
+def fill(arrays: list[np.ndarray], threads: int) -> None:
+    """Writes 1 into every element of ``arrays``, each thread its share of every array's
+    rows."""
+
+    def share(t: int) -> None:
+        for a in arrays:
+            rows = a.shape[0]
+            np.copyto(a[rows * t // threads : rows * (t + 1) // threads], 1)
+
+    if threads == 1:
+        share(0)
+    else:
+        list(POOL.map(share, range(threads)))
+
+
+def floor_of(result: dict[str, Any], threads: int) -> Callable[[], list[np.ndarray]]:
+    """Allocating arrays of the keys, shapes and dtypes of ``result``, all held together, and
+    writing them with ``threads`` threads; returns them (the caller drops them after timing,
+    as it drops the call's outputs)."""
     specs = [(np.shape(v), np.asarray(v).dtype) for v in result.values()]
 
-    def write() -> None:
-        for shape, dtype in specs:
-            np.empty(shape, dtype).fill(1)
+    def write() -> list[np.ndarray]:
+        arrays = [np.empty(shape, dtype) for shape, dtype in specs]
+        fill(arrays, threads)
+        return arrays
 
     return write
 
 
-def best_pair(call: Callable[[], Any], floor: Callable[[], None]) -> tuple[float, float]:
-    """Best of ``REPEATS`` times of ``call`` and of ``floor``, timed alternately."""
-    tc, tf = [], []
+def best(*calls: Callable[[], Any]) -> list[float]:
+    """Best of ``REPEATS`` times of each call, timed in turn (round-robin); each call's result
+    is dropped after its time is taken."""
+    times: list[list[float]] = [[] for _ in calls]
     for _ in range(REPEATS):
-        t0 = time.perf_counter()
-        call()
-        tc.append(time.perf_counter() - t0)
-        t0 = time.perf_counter()
-        floor()
-        tf.append(time.perf_counter() - t0)
-    return min(tc), min(tf)
+        for call, ts in zip(calls, times, strict=True):
+            t0 = time.perf_counter()
+            result = call()
+            ts.append(time.perf_counter() - t0)
+            del result
+    return [min(ts) for ts in times]
 
 
 def load() -> float:
     return os.getloadavg()[0]
 
 
-def cpu_name() -> str:
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or "unknown CPU"
-
-
-Row = tuple[str, str, str, int, float, float]
+Row = tuple[str, str, str, int, float, float, float]
 
 
 def timed(kind: str, what: str, unit: str, count: int, call: Callable[[], Any]) -> Row:
-    """One figure: ``call`` beside its floor (the floor's arrays are the call's own)."""
-    floor = floor_of(call())
-    tc, tf = best_pair(call, floor)
+    """One figure: ``call`` beside its floors (the floors' arrays are the call's own): all
+    threads, and one thread."""
+    result = call()
+    many, one = floor_of(result, _threads()), floor_of(result, 1)
+    del result
+    tc, tf, t1 = best(call, many, one)
     print(
         f"{kind:7s} {what:38s} {count / tc / 1e6:7.2f} M {unit}/s  floor "
-        f"{count / tf / 1e6:7.2f} M/s  ratio {tc / tf:5.2f}",
+        f"{count / tf / 1e6:7.2f} M/s ({count / t1 / 1e6:6.2f} on 1 thread)  ratio {tc / tf:5.2f}",
         flush=True,
     )
-    return (kind, what, unit, count, tc, tf)
+    return (kind, what, unit, count, tc, tf, t1)
+
+
+def timed_into(kind: str, count: int, arm: eodarm.Arm, alpha: np.ndarray, mass: np.ndarray) -> Row:
+    """``solve`` writing into arrays that exist already (``out=``) beside numpy filling the
+    same arrays: the core's compute against the write bandwidth, no page fault in either."""
+    out = {k: np.empty_like(v) for k, v in eodarm.solve(arm, alpha, mass).items()}
+    arrays = list(out.values())
+    tc, tf, t1 = best(
+        lambda: eodarm.solve(arm, alpha, mass, out=out),
+        lambda: fill(arrays, _threads()),
+        lambda: fill(arrays, 1),
+    )
+    what = "solve, baseline, into existing arrays"
+    print(
+        f"{kind:7s} {what:38s} {count / tc / 1e6:7.2f} M poses/s  fill "
+        f"{count / tf / 1e6:7.2f} M/s ({count / t1 / 1e6:6.2f} on 1 thread)  ratio {tc / tf:5.2f}",
+        flush=True,
+    )
+    return (kind, what, "poses", count, tc, tf, t1)
 
 
 def bench_arm(
@@ -145,7 +195,8 @@ def bench_arm(
     alpha = poses(kind, n_poses, rng)
     mass = rng.uniform(0.0, 7.0, n_poses)
     rows = [
-        timed(kind, "solve, baseline", "poses", n_poses, lambda: eodarm.solve(arm, alpha, mass))
+        timed(kind, "solve, baseline", "poses", n_poses, lambda: eodarm.solve(arm, alpha, mass)),
+        timed_into(kind, n_poses, arm, alpha, mass),
     ]
     if outputs[0]:
         two = lambda: eodarm.solve(arm, alpha, mass, outputs=TWO)  # noqa: E731
@@ -175,7 +226,7 @@ def main() -> None:
     has_outputs = "outputs" in inspect.signature(eodarm.solve).parameters
     has_seq_outputs = "outputs" in inspect.signature(eodarm.solve_sequence).parameters
     before = load()
-    rows: list[tuple[str, str, str, int, float, float]] = []
+    rows: list[Row] = []
     for kind in ARMS:
         rows += bench_arm(kind, n_poses, n_seq, rng, (has_outputs, has_seq_outputs))
     after = load()
@@ -184,22 +235,24 @@ def main() -> None:
     head = [
         f"- run: {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, "
         f"`python3 benches/bench_floor.py{scale}`",
-        f"- machine: {platform.machine()}, {os.cpu_count()} CPUs, {cpu_name()}",
+        f"- machine: {platform.machine()}, {os.cpu_count()} CPUs, {cpu_model()}",
         f"- python {platform.python_version()}, numpy {np.__version__}, "
         f"RAYON_NUM_THREADS {threads}",
         f"- load average (1 min) before / after: {before:.2f} / {after:.2f}",
-        f"- best of {REPEATS} calls; floor = numpy allocating and writing the call's output "
-        "arrays (`np.empty(shape, dtype).fill(1)`), best of 5, alternated with the call",
+        f"- best of {REPEATS} calls; floor = numpy allocating the call's output arrays "
+        f"(`np.empty`, all held together) and writing them (`np.copyto(..., 1)`) on "
+        f"{_threads()} threads (on 1 thread in its own column), best of {REPEATS}, timed in "
+        "turn with the call; for `into existing arrays` the floor is the filling alone",
         f"- `outputs=`: {'timed' if has_outputs else 'not in this build'}",
     ]
     table = [
-        "| arm | call | items | rate (M/s) | floor (M/s) | call / floor |",
-        "|---|---|---:|---:|---:|---:|",
+        "| arm | call | items | rate (M/s) | floor (M/s) | floor, 1 thread (M/s) | call / floor |",
+        "|---|---|---:|---:|---:|---:|---:|",
     ]
-    for kind, what, unit, count, tc, tf in rows:
+    for kind, what, unit, count, tc, tf, t1 in rows:
         table.append(
             f"| {kind} | {what} | {count:,} {unit} | {count / tc / 1e6:.2f} | "
-            f"{count / tf / 1e6:.2f} | {tc / tf:.2f} |"
+            f"{count / tf / 1e6:.2f} | {count / t1 / 1e6:.2f} | {tc / tf:.2f} |"
         )
     print("\n".join([*head, "", *table]))
     if args.markdown:

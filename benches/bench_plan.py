@@ -26,18 +26,9 @@ import numpy as np
 import eodarm
 from eodarm.analysis.plan import plan
 from eodarm.data.datasets import bundled_arm_path
+from machine import cpu_model  # benches/ is the script's directory
 
 EXAMPLE = Path(__file__).resolve().parent.parent / "examples" / "example_arm.toml"
-
-
-def cpu_model() -> str:
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or "unknown"
 
 
 def cpu_time() -> float:

@@ -29,6 +29,8 @@ import tempfile
 import time
 from pathlib import Path
 
+from machine import cpu_model  # benches/ is the script's directory
+
 ROOT = Path(__file__).resolve().parent.parent
 EXAMPLE = ROOT / "examples" / "example_arm.toml"
 MASSES = "1.5,3,5"
@@ -38,16 +40,6 @@ COMMANDS = {
     "fit": ["--add", "joint_clearance@O3"],
     "diagnose": ["--max-set", "2"],
 }
-
-
-def cpu_model() -> str:
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or "unknown"
 
 
 def eodarm(*argv: str) -> tuple[float, float, int]:

@@ -50,11 +50,11 @@ from typing import Any
 import numpy as np
 
 import eodarm
-from bench_diagnose import cpu_model  # benches/ is the script's directory
 from eodarm.analysis.diagnose import all_slots, diagnose
 from eodarm.analysis.fit import Problem, fit
 from eodarm.analysis.synth import random_configs, synth
 from eodarm.data.datasets import bundled_arm
+from machine import cpu_model  # benches/ is the script's directory
 
 ROOT = Path(__file__).resolve().parent.parent
 MASSES = [1.5, 3.0, 5.0, 6.5]

@@ -403,6 +403,26 @@ def test_random_configs_say_why_when_no_pose_fits(arm: eodarm.Arm) -> None:
         random_configs(tight, 3, 0, max_draws=2000)
 
 
+def test_random_configs_keep_a_drive_within_the_angle_tolerance_of_its_limit() -> None:
+    """An angle within 10⁻⁹° of a drive's limit is inside its range (docs/model.md §10), the
+    same as the solver's status says: a pose 5·10⁻¹⁰° past drive 1's ``min_angle_deg`` is drawn
+    and solves ok, one 2·10⁻⁹° past it is refused and solves out_of_stroke."""
+    from eodarm.model.validity import STATUS
+
+    arm = eodarm.Arm.from_toml(Path(__file__).resolve().parents[1] / "examples/rotary_arm.toml")
+    lo = arm.actuators[0].min_angle_deg
+    for past, inside in ((5e-10, True), (2e-9, False)):
+        a1 = lo - past  # q1 = α1; q2 = q3 = 0, well inside their ranges
+        code = int(np.asarray(eodarm.solve(arm, [[a1, a1, a1]], 0.0)["status"])[0])
+        assert (code == 0) is inside and (code == STATUS.index("out_of_stroke")) is not inside
+        ranges = [(a1, a1)] * 3
+        if inside:
+            np.testing.assert_array_equal(random_configs(arm, 2, 0, ranges), [[a1, a1, a1]] * 2)
+        else:
+            with pytest.raises(eodarm.EodarmError, match=r"a drive's range in 500\b"):
+                random_configs(arm, 2, 0, ranges, max_draws=500)
+
+
 # ---------------------------------------------------------------------------- CLI
 def run_synth(argv: list[str]) -> int:
     parser = argparse.ArgumentParser(prog="eodarm")

@@ -175,14 +175,12 @@ def random_configs(
 
 
 def _in_drive_range(arm: Arm, alpha: npt.NDArray[np.float64]) -> npt.NDArray[np.bool_]:
-    """(N,) whether every rotary drive's unloaded angle q_i lies within its range."""
-    from eodarm.model.validity import drive_angles
+    """(N,) whether every rotary drive's unloaded angle q_i lies within its range, as the
+    solver's status checks it (:func:`eodarm.model.validity.out_of_angle`: within 10⁻⁹° of a
+    limit is inside)."""
+    from eodarm.model.validity import out_of_angle
 
-    d = arm.arrays()
-    q, _ = drive_angles(alpha, np.zeros_like(alpha))
-    lo = np.where(np.isnan(d["min_angle_deg"]), -np.inf, d["min_angle_deg"])
-    hi = np.where(np.isnan(d["max_angle_deg"]), np.inf, d["max_angle_deg"])
-    return np.asarray(((q >= lo) & (q <= hi)).all(axis=1))
+    return ~out_of_angle(arm, alpha, np.zeros_like(alpha))
 
 
 # ---------------------------------------------------------------------------- data

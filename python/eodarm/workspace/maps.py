@@ -21,7 +21,8 @@ import numpy.typing as npt
 
 from eodarm.errors import EodarmError
 from eodarm.model.arm import Arm
-from eodarm.model.effects import Effect, as_effects
+from eodarm.model.effects import Effect, as_effects, with_arm_effects
+from eodarm.model.reference import TORQUE_ZERO_NMM
 from eodarm.workspace.grid import grid_kwargs, grid_of
 from eodarm.workspace.sweep import sweep
 
@@ -119,10 +120,16 @@ def payload_capacity(
     in the stroke limit (a warning says so).
 
     A rotary drive (docs/model.md §10) is limited alike by its torque: T_i(m) = T_i(0) + m·s_i
-    reaches ``max_torque_nmm`` (either sign), and its angle q_i(m) = q_i − m·s_i/k_i −
-    b·sign(T_i(m)) (k_i the gear's stiffness or ``drive_compliance``, b ``drive_backlash``)
-    leaves [``min_angle_deg``, ``max_angle_deg``]; the turn of its housing with the body before
-    it (base tilt, bending) is not in that angle.
+    reaches ``max_torque_nmm`` (either sign), and its loaded angle leaves
+    [``min_angle_deg``, ``max_angle_deg``]. That angle is the one the solver's status checks,
+    q_i + Δα_i − Δα_{i−1} (Δα_0 = 0): the gear's turn −m·s_i/k_i and the backlash's
+    −b·sign(T_i(m)), and also the turn of the drive's housing with the body before it (the
+    bending slope of body i−1 at O_i, the chassis' tilt for drive 1). Apart from the backlash
+    it is affine in the payload, t_i(m) = t_i(0) + m·r_i, read from the same sweep's
+    ``dalpha_deg`` at 0 and ``probe_kg``. Frictions at a drive (``drive_friction``, a
+    ``joint_friction`` at its joint) are left out of its limits: they only hold part of a load
+    change back (docs/model.md §9), so the frictionless drive's torque and turn are affine
+    and reach a limit no later (a backlash's jump aside).
 
     Poses that are not reachable unloaded (out of stroke, singular) have NaN, and so have
     those where the model is not valid at 0 or ``probe_kg`` (near singular, large deflection;
@@ -153,7 +160,7 @@ def payload_capacity(
     if not (math.isfinite(probe_kg) and probe_kg > 0):
         raise EodarmError(f"probe_kg must be finite and > 0, got {probe_kg!r}")
     effs = list(as_effects(effects))
-    for e in effs:
+    for e in with_arm_effects(arm.effects, effs):
         if e.name in ("actuator_play", "drive_backlash") and e.unloaded != "centred":
             # The stroke formula below is the centred play's; never treat this one so.
             raise EodarmError(
@@ -168,41 +175,49 @@ def payload_capacity(
             stacklevel=2,
         )
     kw = {**as_sweep_kwargs(grid), **sweep_kw}
+    n = arm.n
+    rotary = np.array(arm.kinds) == "rotary"
+    # The arm file's effects, then these; without the frictions at the drives (see above).
+    model = [
+        e
+        for e in with_arm_effects(arm.effects, effs)
+        if not (e.name in ("drive_friction", "joint_friction") and rotary[e.index(n)])
+    ]
     # The force limits are this function's to apply (a probe over a limit still gives the
     # forces' slope): swept without them, the cells are dropped only where the model itself
     # cannot be trusted (status other than over_force, docs/model.md §7).
-    free = arm.to_dict()
+    free = {k: v for k, v in arm.to_dict().items() if k not in ("effect", "fit")}
     for a in free["actuator"]:
         a.pop("max_force_n", None)
         a.pop("max_torque_nmm", None)
     unlimited = Arm.from_dict(free, source=arm.source)
-    ds = sweep(unlimited, mass_kg=[0.0, probe_kg], effects=effs, self_weight=self_weight, **kw)
-    n = arm.n
-    rotary = np.array(arm.kinds) == "rotary"
+    ds = sweep(unlimited, mass_kg=[0.0, probe_kg], effects=model, self_weight=self_weight, **kw)
     f = ds["force_n"].transpose(..., "mass_kg", "actuator").values
-    ell0 = ds["length_mm"].values
-    if rotary.any():  # a drive's torque (N·mm) and angle (deg) in place of force and length
-        t = ds["torque_nmm"].transpose(..., "mass_kg", "actuator").values
-        f = np.where(rotary, t, f)
-        ell0 = np.where(rotary, _drive_angles(ds, n), ell0)
+    if rotary.any():  # a drive's torque (N·mm) in place of a force
+        f = np.where(rotary, ds["torque_nmm"].transpose(..., "mass_kg", "actuator").values, f)
     f0, f1 = f[..., 0, :], f[..., 1, :]
     s = (f1 - f0) / probe_kg  # N (N·mm at a drive) per kg
     d = arm.arrays()
-    # per joint: compliance (mm/N, or deg per N·mm at a drive), gap, limits
-    kb = np.where(rotary, d["stiffness"] * math.pi / 180.0, d["stiffness"])
+    # per joint: body and mount compliance (mm/N), gap (mm, deg at a drive), limits
+    kb = d["stiffness"].copy()
     km = np.full(n, np.inf)
     play = np.zeros(n)
-    for e in effs:
+    for e in model:
         i = e.index(n)
         if e.name == "actuator_compliance":
             kb[i] = e.value
-        elif e.name == "drive_compliance":
-            kb[i] = e.value * math.pi / 180.0
         elif e.name == "mount_compliance":
             km[i] = e.value
         elif e.name in ("actuator_play", "drive_backlash"):
             play[i] = e.value
-    comp = 1.0 / kb + 1.0 / km  # mm per N (deg per N·mm)
+    eps = np.where(rotary, TORQUE_ZERO_NMM, F_EPS)  # below it a force or torque has no sign
+    # the unloaded length (angle at a drive) and its elastic change per kg
+    start = ds["length_mm"].values
+    rate = -s * (1.0 / kb + 1.0 / km)  # mm per kg
+    if rotary.any():
+        q, t0, r = _drive_turns(ds, f0, f1, play, eps, probe_kg)
+        start = np.where(rotary, q + t0, start)
+        rate = np.where(rotary, r, rate)
     fmax = np.array(
         [
             _limit(a, "max_torque_nmm" if r else "max_force_n", np.inf)
@@ -222,7 +237,7 @@ def payload_capacity(
         ]
     )
     m_force = _force_limit(f0, s, fmax)
-    m_stroke = _stroke_limit(ell0, f0, s, comp, play, lo, hi)
+    m_stroke = _stroke_limit(start, f0, s, rate, play, lo, hi, eps)
     cand = np.concatenate(
         [m_force, m_stroke, np.full((*m_force.shape[:-1], 1), max_payload_kg)], -1
     )
@@ -253,6 +268,13 @@ def payload_capacity(
         max_force_n=np.where(np.isfinite(fmax), fmax, -1.0),
         arm_toml=arm.to_toml(),  # the arm with its force limits, not the one swept
     )
+    swept = {e.key for e in model}
+    left = [e.key for e in with_arm_effects(arm.effects, effs) if e.key not in swept]
+    if left:  # the title names the whole model, and what its drives' limits leave out
+        out.attrs["model"] = (
+            model_name(with_arm_effects(arm.effects, effs))
+            + f" ({', '.join(left)}: left out of the drives' limits)"
+        )
     return out
 
 
@@ -260,6 +282,29 @@ def _limit(act: Any, key: str, default: float) -> float:
     """An actuator's or drive's optional limit ``key``, ``default`` where it has none."""
     value = getattr(act, key, None)
     return default if value is None else float(value)
+
+
+def _drive_turns(
+    ds: xr.Dataset,
+    t0: FloatArray,
+    t1: FloatArray,
+    play: FloatArray,
+    eps: FloatArray,
+    probe_kg: float,
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Each pose's unloaded joint angles q_i (deg), and the loaded turn of each joint apart
+    from its backlash, affine in the payload: its value at 0 (deg) and its rate (deg per kg).
+
+    The loaded turn is Δα_i − Δα_{i−1} (Δα_0 = 0) of the sweep's cells at 0 and ``probe_kg``
+    (the solver's, as its status reads it: gear, housing and every other effect), less the
+    backlash's −b·sign(T_i) at each (``t0``, ``t1`` the loaded torques, zero below ``eps``).
+    Arrays (grid…, n); at a linear joint the numbers mean nothing (the caller uses its own).
+    """
+    dal = ds["dalpha_deg"].transpose(..., "mass_kg", "link").values
+    turn = dal - np.concatenate([np.zeros_like(dal[..., :1]), dal[..., :-1]], axis=-1)
+    e0 = turn[..., 0, :] + play * _sign(t0, eps)
+    e1 = turn[..., 1, :] + play * _sign(t1, eps)
+    return _drive_angles(ds, play.shape[0]), e0, (e1 - e0) / probe_kg
 
 
 def _drive_angles(ds: xr.Dataset, n: int) -> FloatArray:
@@ -294,14 +339,15 @@ def _stroke_limit(
     ell0: FloatArray,
     f0: FloatArray,
     s: FloatArray,
-    comp: FloatArray,
+    rate: FloatArray,
     play: FloatArray,
     lo: FloatArray,
     hi: FloatArray,
+    eps: FloatArray | float = F_EPS,
 ) -> FloatArray:
-    """Smallest m ≥ 0 where ℓ0 − m·s·comp − play·sign(f0 + m·s) leaves [lo, hi]."""
-    rate = -s * comp  # mm per kg
-    sgn0 = _sign(f0)
+    """Smallest m ≥ 0 where ℓ0 + m·rate − play·sign(f0 + m·s) leaves [lo, hi] (the sign 0
+    below ``eps``)."""
+    sgn0 = _sign(f0, eps)
     with np.errstate(divide="ignore", invalid="ignore"):
         m_flip = np.where(s != 0, -f0 / s, np.inf)
     m_flip = np.where(m_flip > 0, m_flip, np.inf)  # where the force changes sign
@@ -324,8 +370,8 @@ def _stroke_limit(
     return np.where(np.isnan(best), np.inf, best)
 
 
-def _sign(f: FloatArray) -> FloatArray:
-    return np.where(np.abs(f) < F_EPS, 0.0, np.sign(f))
+def _sign(f: FloatArray, eps: FloatArray | float = F_EPS) -> FloatArray:
+    return np.where(np.abs(f) < eps, 0.0, np.sign(f))
 
 
 # ---------------------------------------------------------------------------- dominant effect

@@ -551,6 +551,12 @@ def sweep_to_zarr(
 
     group = zarr.open_group(str(zstore), mode="r+")
     layout = _layout(setup)
+    lacking = [key for key in layout if key not in group]
+    if lacking:  # started by an eodarm whose sweep had fewer outputs (the drives' torques)
+        raise EodarmError(
+            f"sweep: cannot resume {part}: its store has no {lacking[0]} (an older eodarm "
+            "started it); remove it to start over"
+        )
     targets: dict[str, Any] = {key: group[key] for key in layout}
     bar = _progress_bar(chunks.count, progress)
     if bar is not None and done:

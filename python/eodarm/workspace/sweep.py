@@ -43,8 +43,8 @@ from eodarm.errors import InputError
 from eodarm.model.arm import Arm, check_arm
 from eodarm.model.effects import Effect, effect_arrays, split_effects, with_arm_effects
 from eodarm.model.validity import STATUS
-from eodarm.workspace import cluster, limits
-from eodarm.workspace.chunk import CELL_VARS, _chunk, _core_grid_sweep, _Job, _Setup
+from eodarm.workspace import cluster, limits, torque
+from eodarm.workspace.chunk import CELL_VARS, _core_grid_sweep, _Job, _Setup
 from eodarm.workspace.fallback import REDUCE_OPS
 from eodarm.workspace.grid import Grid, coord_attrs, make_grid, masses_axis
 
@@ -59,6 +59,10 @@ __all__ = [
 
 FloatArray = npt.NDArray[np.float64]
 BoolArray = npt.NDArray[np.bool_]
+
+#: A chunk solved, with the drives' torques on an arm that has one: what :func:`_run` runs
+#: here or on a Dask worker.
+_chunk = torque.chunk
 
 #: Outputs per pose (no payload dimension).
 POSE_VARS = ("reachable", "length_mm", "effector_x_mm", "effector_y_mm")
@@ -94,7 +98,10 @@ _ATTRS: dict[str, dict[str, Any]] = {
     "effector_x_mm": {"units": "mm", "long_name": "x of the unloaded load point (global)"},
     "effector_y_mm": {"units": "mm", "long_name": "y of the unloaded load point (global)"},
     "alpha_deg": {"units": "deg", "long_name": "unloaded absolute link angle of the pose"},
+    **torque.ATTRS,
 }
+#: Outputs per (pose, payload) cell and actuator.
+PER_ACTUATOR = ("force_n", "dl_mm", *torque.TORQUE_VARS)
 
 
 def _plan(grid: Grid, reduce: Mapping[str, Any] | None) -> tuple[str | None, list[str], int]:
@@ -218,7 +225,9 @@ def sweep(
         dims (grid dims…, ``mass_kg``[, ``actuator`` | ``link``]) minus reduced ones, with
         ``force_n``, ``dx_mm``, ``dy_mm``, ``dalpha_deg`` (…, link), ``dl_mm`` (…, actuator),
         ``status`` (uint8, docs/model.md §7) and ``ok`` (status 0) per cell, NaN values
-        where a cell is not ok; ``reachable``, ``length_mm`` (…, actuator), ``effector_x_mm``,
+        where a cell is not ok (an arm with a rotary drive: ``torque_nmm``, ``dtorque_nmm``
+        (…, actuator) too, NaN at linear joints; :mod:`eodarm.workspace.torque`);
+        ``reachable``, ``length_mm`` (…, actuator), ``effector_x_mm``,
         ``effector_y_mm`` (and ``alpha_deg`` for lengths and effector grids) per pose. Every
         variable and coordinate has ``units`` and ``long_name`` attrs; the dataset's attrs
         name the arm (and carry its TOML), the model, self-weight, the grid kind and the
@@ -276,6 +285,8 @@ def sweep(
     if scheduler is None and _core_walks(job):
         # One call: the core walks the grid itself, in parallel, straight into `result`.
         _sweep_grid(job, result, None if chunk_size == CHUNK_SIZE else step, progress)
+        if torque.wanted(job):
+            torque.fill(job, result, 0, setup.size)
     else:
         bar = _progress_bar(-(-setup.size // step), progress)
         try:
@@ -287,10 +298,6 @@ def sweep(
             if bar is not None:
                 bar.close()
     ds = _unc.add_outputs(_dataset(setup, result), setup, result, uncertainty, compensated_miss)
-    if job.op is None and "rotary" in job.arm.kinds:
-        from eodarm.workspace.torque import add_torque
-
-        ds = add_torque(ds, job)
     if cycle:
         from eodarm.workspace.cycle import add_return
 
@@ -356,8 +363,8 @@ def _prepare(
 
     out_poses = size // block  # poses (or reduction groups) in the output
     shapes: dict[str, tuple[int, ...]] = {}
-    for key in CELL_VARS:
-        per = (n,) if key in ("force_n", "dalpha_deg", "dl_mm") else ()
+    for key in _cell_vars(job):
+        per = (n,) if key in (*PER_ACTUATOR, "dalpha_deg") else ()
         shapes[key] = (out_poses, *per) if op else (out_poses, m, *per)
     shapes["reachable"] = (out_poses,)
     if block == 1:
@@ -372,12 +379,18 @@ def _prepare(
             else np.uint8
             if key == "status"
             else np.int64
-            if arg and key in CELL_VARS
+            if arg and key in _cell_vars(job)
             else np.float64
         )
         for key in shapes
     }
     return _Setup(job, rdims, step, shapes, dtypes)
+
+
+def _cell_vars(job: _Job) -> tuple[str, ...]:
+    """The job's outputs per (pose, payload) cell: the drives' torques too on an arm with a
+    rotary drive."""
+    return (*CELL_VARS, *torque.TORQUE_VARS) if torque.wanted(job) else CELL_VARS
 
 
 def _spans(size: int, step: int) -> Iterator[tuple[int, int]]:
@@ -399,16 +412,17 @@ def _layout(setup: _Setup) -> dict[str, tuple[list[str], list[int], dict[str, st
     pose_dims = kept if block > 1 else list(grid.names)
     over = ", ".join(rdims)
     out = {}
+    cells = _cell_vars(job)
     for key in setup.shapes:
-        inner = ["actuator"] if key in ("force_n", "dl_mm", "length_mm") else []
+        inner = ["actuator"] if key in (*PER_ACTUATOR, "length_mm") else []
         inner = ["link"] if key in ("dalpha_deg", "alpha_deg") else inner
-        if key in CELL_VARS:
+        if key in cells:
             dims, shape = [*cell_dims, *inner], [*cell_shape, *([n] if inner else [])]
         else:
             dims = [*pose_dims, *inner]
             shape = [*(grid.shape if block == 1 else kept_shape), *([n] if inner else [])]
         vattrs = dict(_ATTRS[key])
-        if op and key in CELL_VARS:
+        if op and key in cells:
             if key == "ok":
                 vattrs["long_name"] = f"some cell over ({over}) is ok (status 0)"
             elif key == "status":
@@ -543,13 +557,16 @@ def _sweep_grid(
 
 def _solve_span(setup: _Setup, start: int, stop: int) -> dict[str, npt.NDArray[Any]]:
     """Flat poses [start, stop) solved here: by the core's grid walker where it can
-    (:func:`_core_walks`; its poses are never built in Python), else by :func:`_chunk`."""
+    (:func:`_core_walks`; its poses are never built in Python), else by
+    :func:`_chunk`; with the drives' torques on an arm that has one."""
     job = setup.job
     if not _core_walks(job):
         return _chunk(job, start, stop)
     rows = (stop - start) // job.block
     out = _allocate({k: (rows, *s[1:]) for k, s in setup.shapes.items()}, setup.dtypes)
     _core_grid_sweep(job, start, stop - start, out)
+    if torque.wanted(job):
+        torque.fill(job, out, start, stop)
     return out
 
 
