@@ -19,6 +19,7 @@ import pytest
 import eodarm
 from eodarm.analysis.fit import FitWarning
 from eodarm.analysis.synth import random_configs, synth
+from eodarm.viz.report_summary import parameter_section
 
 ROOT = Path(__file__).resolve().parents[1]
 CYCLE = [0.0, 1.5, 5.0, 6.5, 5.0, 1.5, 0.0]
@@ -105,6 +106,11 @@ def test_a_friction_that_holds_every_state_is_known_only_from_below(hidden) -> N
         assert p.interval[0] <= truth
         assert p.interval[0] > 0.8 * truth  # the lower limit is informative: near the flat's edge
         assert any("at least" in w for w in res.warnings)
+        # the report's table says why the interval has no upper end (not "up to rigid",
+        # which is a stiffness's open end)
+        table = " ".join(parameter_section(res, res.problem.meas))
+        row = next(r for r in table.split("<tr") if "joint_friction@O2" in r)
+        assert "held every state" in row and "up to rigid" not in row
         # the solved model is the same for any limit from the interval's lower end on
         others = [e for e in res.effects if e.name != "joint_friction"]
         alpha = res.problem.meas.alpha_deg[:: len(CYCLE) - 1][:3]

@@ -30,7 +30,13 @@ from eodarm.analysis.fit import FitResult, determining_channel
 from eodarm.data.measurements import Measurements
 from eodarm.model.arm import Arm
 from eodarm.viz import html as page
-from eodarm.viz.format import bounded_interval, parameter_name, value, value_error
+from eodarm.viz.format import (
+    HOLDS_EVERY_STATE,
+    bounded_interval,
+    parameter_name,
+    value,
+    value_error,
+)
 from eodarm.viz.report_cycle import CycleReturn, cycle_return, return_line, return_section
 from eodarm.viz.report_diagnosis import Lookalike, lookalike_html, lookalikes
 from eodarm.viz.style import channel_unit, short_channel
@@ -379,7 +385,8 @@ def parameter_section(
         kind = s.kind
         est, err = fit.estimate(i), fit.stderr(i)
         rel = err / abs(est) if math.isfinite(est) and est and math.isfinite(err) else math.nan
-        span = bounded_interval(*fit.interval(i), kind.unit, err)
+        open_end = HOLDS_EVERY_STATE if fit.only_lower_limit(i) else "up to rigid"
+        span = bounded_interval(*fit.interval(i), kind.unit, err, open_end=open_end)
         note = ""
         if fit.at_bound[i]:
             note = "at its bound"
@@ -424,7 +431,8 @@ def parameter_section(
         "the 95 % interval is θ ± 1.96 standard errors in the parameter the fit works in "
         "(1/stiffness for a spring, the gap itself for play and clearance), mapped back, so "
         "that it never crosses a physical bound: a stiffness whose interval reaches θ = 0 "
-        "reads ≥ its lower end (up to rigid). A "
+        "reads ≥ its lower end (up to rigid), and so does a friction that could hold every "
+        "measured state (no load change reached it: load the arm harder to bound it). A "
         "parameter is <b>not determined</b> when its relative error exceeds 100 % or its "
         "correlation with another parameter exceeds 0.95 in magnitude: the data then allow "
         "almost any value, and the model is better with it fixed or dropped.</p>",
