@@ -126,3 +126,20 @@ def test_a_friction_that_slips_is_not_flagged() -> None:
     for arm_name, effect in CASES.values():
         res = fitted(arm_of(arm_name), [effect], 0)
         assert res.lower_only == [False]
+
+
+def test_a_step_whose_jacobian_leaves_the_domain_is_shortened_not_fatal(tmp_path: Path) -> None:
+    """A friction of 50 N·m (10× the example's) on load cycles: while the report's diagnosis
+    refines a candidate, a trial step is accepted on its χ² and the Jacobian's probes around
+    it then meet a state that cannot close (a triangle of actuator 2). That step is too long
+    like any other that leaves the model's domain, and is shortened; the report is written
+    (it ended in 'actuator 2 cannot close its triangle', exit 2, once the Jacobian was taken
+    only after a step was accepted)."""
+    from eodarm.cli import main
+
+    arm = str(ROOT / "examples" / "example_arm.toml")
+    meas, out = tmp_path / "meas.csv", tmp_path / "report.html"
+    seq = ["--sequence", "0,1.5,5,6.5,5,1.5,0", "--hidden", "joint_friction@O2=50000"]
+    assert main(["synth", "--arm", arm, *seq, "--seed", "3", "-o", str(meas)]) == 0
+    assert main(["report", str(meas), "--arm", arm, "-o", str(out)]) == 0
+    assert "joint_friction@O2" in out.read_text()

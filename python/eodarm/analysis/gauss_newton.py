@@ -152,20 +152,19 @@ def iterate(
                 trial = np.clip(theta + lam * step, lo, hi)
                 try:
                     y2, jac2, chi2b = chi2_of(trial)
+                    if chi2b <= chi2 * (1 + 1e-12) + 1e-12:
+                        if jac2 is None:  # judged by χ² alone: the Jacobian's probes now
+                            y2, jac2, chi2b = at(trial)
+                        accepted = True
+                        break
                 except EodarmError:
-                    # The trial left the model's domain (a triangle that cannot close, a
-                    # singular pose): too long a step, like one that raises χ²; the current θ
-                    # was solvable.
-                    lam *= 0.5
-                    continue
-                if chi2b <= chi2 * (1 + 1e-12) + 1e-12:
-                    accepted = True
-                    break
+                    # The trial, or a probe of its Jacobian, left the model's domain (a
+                    # triangle that cannot close, a singular pose): too long a step, like one
+                    # that raises χ²; the current θ and its probes were solvable.
+                    pass
                 lam *= 0.5
             if not accepted:
                 break
-            if jac2 is None:
-                y2, jac2, chi2b = at(trial)
             improvement = chi2 - chi2b
             theta, y, jac, chi2 = trial, y2, jac2, chi2b
             taken += 1
