@@ -183,21 +183,21 @@ def bounded_interval(
     unit: str = "",
     err: float | None = None,
     digits: int = 3,
-    open_end: str = "up to rigid",
+    held: bool = False,
 ) -> str:
     """A 95 % interval ``[lo, hi]`` given by its ends (which need not be symmetric about the
     value: :meth:`eodarm.analysis.fit.FitResult.interval` maps it from the fit's θ).
 
     With the value's standard error ``err`` the ends are rounded as :func:`interval95`
     rounds them (at the error's second significant digit); otherwise each to ``digits``
-    significant digits. An interval that reaches +∞ reads ``≥ lo (open_end)``: "up to
-    rigid" for a stiffness that may be rigid, :data:`HOLDS_EVERY_STATE` for a friction that
-    could hold every measured state; one with no finite end reads ``—``.
+    significant digits. An interval that reaches +∞ reads ``≥ lo (up to rigid)`` (a stiffness
+    that may be rigid), or with ``held`` ``≥ lo (held every state: load harder)`` (a friction
+    that could hold every measured state); one with no finite end reads ``—``.
     """
     if math.isnan(lo) or math.isnan(hi) or (math.isinf(hi) and lo <= 0):
         return "—"
     if math.isinf(hi):
-        return f"≥ {value(lo, unit, digits)} ({open_end})"
+        return f"≥ {value(lo, unit, digits)} ({HOLDS_EVERY_STATE if held else 'up to rigid'})"
     if err is not None and math.isfinite(err) and err > 0:
         return _pair(lo, hi, err, unit, 2)
     return _with_unit(f"[{value(lo, digits=digits)}, {value(hi, digits=digits)}]", unit)

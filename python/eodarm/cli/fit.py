@@ -138,7 +138,7 @@ def _print_fit(
     """The parameter table (value ± error to the error's two digits, 95 % interval, a
     footnote mark on what the data do not determine), then χ² and RMS before and after."""
     from eodarm.analysis.fit import determining_channel
-    from eodarm.viz.format import HOLDS_EVERY_STATE, bounded_interval, parameter_name, value_error
+    from eodarm.viz.format import bounded_interval, parameter_name, value_error
 
     arm = res.problem.arm
     _say(f"fit {meas.source} with arm '{arm.name}', model: {_model_words(arm, res.slots)}")
@@ -149,12 +149,11 @@ def _print_fit(
         est, err, unit = res.estimate(i), res.stderr(i), s.kind.unit
         lo, hi = res.interval(i)
         mark = " (at its bound)" if res.at_bound[i] else (" *" if i in flags else "")
-        open_end = HOLDS_EVERY_STATE if res.only_lower_limit(i) else "up to rigid"
         rows.append(
             [
                 f"{parameter_name(s.name, s.at)} ({s.spec})",
                 value_error(est, err, unit) + mark,
-                bounded_interval(lo, hi, unit, err, open_end=open_end)
+                bounded_interval(lo, hi, unit, err, held=res.only_lower_limit(i))
                 if not res.at_bound[i]
                 else "—",
             ]

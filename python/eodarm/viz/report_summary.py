@@ -30,13 +30,7 @@ from eodarm.analysis.fit import FitResult, determining_channel
 from eodarm.data.measurements import Measurements
 from eodarm.model.arm import Arm
 from eodarm.viz import html as page
-from eodarm.viz.format import (
-    HOLDS_EVERY_STATE,
-    bounded_interval,
-    parameter_name,
-    value,
-    value_error,
-)
+from eodarm.viz.format import bounded_interval, parameter_name, value, value_error
 from eodarm.viz.report_cycle import CycleReturn, cycle_return, return_line, return_section
 from eodarm.viz.report_diagnosis import Lookalike, lookalike_html, lookalikes
 from eodarm.viz.style import channel_unit, short_channel
@@ -385,8 +379,7 @@ def parameter_section(
         kind = s.kind
         est, err = fit.estimate(i), fit.stderr(i)
         rel = err / abs(est) if math.isfinite(est) and est and math.isfinite(err) else math.nan
-        open_end = HOLDS_EVERY_STATE if fit.only_lower_limit(i) else "up to rigid"
-        span = bounded_interval(*fit.interval(i), kind.unit, err, open_end=open_end)
+        span = bounded_interval(*fit.interval(i), kind.unit, err, held=fit.only_lower_limit(i))
         note = ""
         if fit.at_bound[i]:
             note = "at its bound"
