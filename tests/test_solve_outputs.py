@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 import eodarm
@@ -82,7 +82,11 @@ def model(kind: str, path: str) -> dict[str, Any]:
 
 ROWS = 12
 #: Masses of the solve's rows (kg): the last one no arm carries (its status not ok; NaN where
-#: an actuator's triangle cannot close), so that the failed rows are compared too.
+#: an actuator's triangle cannot close), so that the failed rows are compared too. On the
+#: example arm some actuator's triangle fails under it for every seed (none of the 9363 seeds
+#: 0, 7, 14, … below 2¹⁶ gave a number); on the mixed arm the drive at joint 1 can carry it
+#: while links 2 and 3 stand so that the two cylinders are almost unloaded (58 of those 9363
+#: seeds, 1422 among them: dy −238 mm, status not ok), so only the status is asserted there.
 MASSES = np.array([0.0, 1.0, 2.5, 4.0, 7.0, 0.5, 3.0, 6.0, 2.0, 5.0, 1.5, 4e5])
 STATES = np.array([1.5, 5.0, 0.0, 3.0])
 
@@ -101,6 +105,8 @@ def assert_subset(full: dict[str, Any], part: dict[str, Any], asked: list[str]) 
     sequence=st.booleans(),
     seed=st.integers(0, 2**16),
 )
+# the mixed arm carrying the last row without a NaN (a soak run's failure of an older check)
+@example(kind="mixed", path="none", asked=["force_n"], sequence=False, seed=1422)
 def test_any_subset_is_the_full_call(
     kind: str, path: str, asked: list[str], sequence: bool, seed: int
 ) -> None:
@@ -115,7 +121,7 @@ def test_any_subset_is_the_full_call(
         full = eodarm.solve(arm, alpha, MASSES, **kw)
         part = eodarm.solve(arm, alpha, MASSES, **kw, outputs=asked)
         assert full["status"][-1] != 0  # a load no arm carries
-        assert kind == "rotary" or np.isnan(full["dy_mm"][-1])  # a triangle that cannot close
+        assert kind != "example" or np.isnan(full["dy_mm"][-1])  # a triangle that cannot close
     assert_subset(full, part, asked)
 
 

@@ -527,11 +527,15 @@ proptest! {
         let col = |p: V2| {
             let pay = [p.x * h, p.y * h, -p.x * h, -p.y * h];
             let al = [alpha.clone(), alpha.clone()].concat();
-            let (b, _) = solve(&arm, effects.clone(), &al, &pay, ExtraDeformations::none(), false);
-            V2::new(b.dx_mm[0] - b.dx_mm[1], b.dy_mm[0] - b.dy_mm[1]) / (2.0 * h)
+            let (b, st) = solve(&arm, effects.clone(), &al, &pay, ExtraDeformations::none(), false);
+            (V2::new(b.dx_mm[0] - b.dx_mm[1], b.dy_mm[0] - b.dy_mm[1]) / (2.0 * h), st)
         };
-        let cx = col(V2::new(1.0, 0.0));
-        let cy = col(V2::new(0.0, 1.0));
+        let (cx, sx) = col(V2::new(1.0, 0.0));
+        let (cy, sy) = col(V2::new(0.0, 1.0));
+        // A pose near a singularity (an actuator almost along its link: status 2) is outside
+        // the small-deflection model, where 0.01 N can already open a triangle (NaN): a
+        // random arm there is not this property's case (seed 13378286124837718306).
+        prop_assume!(sx.iter().chain(&sy).all(|&s| s == 0));
         let scale = cx.x.abs().max(cy.y.abs());
         prop_assert!((cx.y - cy.x).abs() < 1e-6 * scale, "C_yx {} vs C_xy {}", cx.y, cy.x);
         prop_assert!(cx.x > 0.0 && cy.y > 0.0);

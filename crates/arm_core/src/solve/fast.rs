@@ -49,6 +49,7 @@ use crate::lanes::trig::{asin_small, cos_m1, wrap_once, ASIN_SERIES_MAX};
 use crate::lanes::{Lane, F4, M4, W};
 use crate::sweep::fast::{block_trig, compose, lanes_of_rows, rot, FastArm, PoseBlock, Turn, L};
 use crate::validity::{self, Checks};
+use std::ops::Range;
 
 /// Per-arm constants of the solve kernel for an arm of `N` links.
 #[derive(Debug, Clone)]
@@ -505,7 +506,8 @@ fn large_turns<const N: usize>(turn: &[[F4; N]; 2], far: M4, dth: &mut [F4; N]) 
 }
 
 /// Writes a solved block to rows `p..p + count` of the outputs (inlined into the block's
-/// instruction-set variant, so that the transposes are vectorised with it).
+/// instruction-set variant, so that the transposes are vectorised with it: no closure or
+/// helper here may be left out of line, which would compile it for the baseline x86-64).
 #[inline(always)]
 fn write_block<const N: usize>(
     pb: &PoseBlock<N>,
@@ -518,16 +520,17 @@ fn write_block<const N: usize>(
 ) {
     let span = p * N..(p + count) * N;
     // An output not asked for is empty: `get_mut` finds no rows there and nothing is written.
-    let put = |block: &[[f64; L]; N], o: &mut [f64]| {
-        if let Some(rows) = o.get_mut(span.clone()) {
+    #[inline(always)]
+    fn put<const N: usize>(block: &[[f64; L]; N], o: &mut [f64], span: Range<usize>) {
+        if let Some(rows) = o.get_mut(span) {
             transpose_into(block, rows);
         }
-    };
-    put(&sb.force, out.force_n);
-    put(&sb.dforce, out.dforce_n);
+    }
     match rotary {
         // Linear actuators only: no torques.
         None => {
+            put(&sb.force, out.force_n, span.clone());
+            put(&sb.dforce, out.dforce_n, span.clone());
             for o in [&mut *out.torque_nmm, &mut *out.dtorque_nmm] {
                 if let Some(rows) = o.get_mut(span.clone()) {
                     rows.fill(f64::NAN);
@@ -536,27 +539,25 @@ fn write_block<const N: usize>(
         }
         // Each drive's load in its own arrays, NaN in the other.
         Some(rotary) => {
-            put(&sb.force, out.torque_nmm);
-            put(&sb.dforce, out.dtorque_nmm);
-            for j in span.clone() {
-                let (load, other) = if rotary[j % N] {
-                    (&mut out.force_n, &mut out.dforce_n)
-                } else {
-                    (&mut out.torque_nmm, &mut out.dtorque_nmm)
-                };
-                if let Some(v) = load.get_mut(j) {
-                    *v = f64::NAN;
-                }
-                if let Some(v) = other.get_mut(j) {
-                    *v = f64::NAN;
+            let loads = [(false, &sb.force), (false, &sb.dforce)];
+            let torques = [(true, &sb.force), (true, &sb.dforce)];
+            let targets = [
+                &mut *out.force_n,
+                &mut *out.dforce_n,
+                &mut *out.torque_nmm,
+                &mut *out.dtorque_nmm,
+            ];
+            for ((drive, block), o) in loads.into_iter().chain(torques).zip(targets) {
+                if !o.is_empty() {
+                    put(&of_kind(block, rotary, drive), o, span.clone());
                 }
             }
         }
     }
-    put(&sb.dalpha, out.dalpha_deg);
-    put(&sb.dl, out.dl_mm);
-    put(&sb.dlength, out.dlength_mm);
-    put(&pb.len, out.length_mm);
+    put(&sb.dalpha, out.dalpha_deg, span.clone());
+    put(&sb.dl, out.dl_mm, span.clone());
+    put(&sb.dlength, out.dlength_mm, span.clone());
+    put(&pb.len, out.length_mm, span);
     if let Some(rows) = out.reaction_n.get_mut(2 * p * N..2 * (p + count) * N) {
         transpose_xy_into(&sb.reaction, rows);
     }
@@ -567,6 +568,23 @@ fn write_block<const N: usize>(
         rows.copy_from_slice(&sb.dy[..count]);
     }
     status[p..p + count].copy_from_slice(&sb.status[..count]);
+}
+
+/// A load block with NaN at the links whose drive is not of the kind asked for (`drive`:
+/// rotary drives' torques; else linear actuators' forces).
+#[inline(always)]
+fn of_kind<const N: usize>(
+    block: &[[f64; L]; N],
+    rotary: &[bool; N],
+    drive: bool,
+) -> [[f64; L]; N] {
+    std::array::from_fn(|i| {
+        if rotary[i] == drive {
+            block[i]
+        } else {
+            [f64::NAN; L]
+        }
+    })
 }
 
 /// The solve kernel of an arm of 1–6 links (one per call: the variants' sizes do not matter).
@@ -784,7 +802,7 @@ struct SeqScratch<const N: usize> {
 }
 
 /// Writes lane `j < count` of a solved block to output row `row(j)` (a sequence's state:
-/// the lanes' rows are `S` apart).
+/// the lanes' rows are `S` apart), one output at a time.
 #[inline(always)]
 fn scatter_block<const N: usize>(
     pb: &PoseBlock<N>,
@@ -795,57 +813,47 @@ fn scatter_block<const N: usize>(
     count: usize,
     row: impl Fn(usize) -> usize,
 ) {
-    // An output not asked for is empty: `get_mut` finds no row there and nothing is written.
-    fn set(o: &mut Option<&mut [f64]>, i: usize, v: f64) {
-        if let Some(o) = o {
-            o[i] = v;
+    let rows: [usize; L] = std::array::from_fn(|j| row(j.min(count - 1)));
+    let rows = &rows[..count];
+    // An output not asked for is empty: nothing is written there.
+    #[inline(always)]
+    fn put<const N: usize>(block: &[[f64; L]; N], o: &mut [f64], rows: &[usize]) {
+        if o.is_empty() {
+            return;
+        }
+        for (j, &r) in rows.iter().enumerate() {
+            let dst = &mut o[r * N..(r + 1) * N];
+            for i in 0..N {
+                dst[i] = block[i][j];
+            }
         }
     }
-    for j in 0..count {
-        let r = row(j);
-        let at = r * N..(r + 1) * N;
-        let (mut force, mut dforce) = (
-            out.force_n.get_mut(at.clone()),
-            out.dforce_n.get_mut(at.clone()),
-        );
-        let (mut torque, mut dtorque) = (
-            out.torque_nmm.get_mut(at.clone()),
-            out.dtorque_nmm.get_mut(at.clone()),
-        );
-        let (mut dalpha, mut dl) = (
-            out.dalpha_deg.get_mut(at.clone()),
-            out.dl_mm.get_mut(at.clone()),
-        );
-        let (mut dlength, mut len) = (
-            out.dlength_mm.get_mut(at.clone()),
-            out.length_mm.get_mut(at),
-        );
-        let mut reaction = out.reaction_n.get_mut(2 * r * N..2 * (r + 1) * N);
-        for i in 0..N {
-            // Each drive's load in its own arrays, NaN in the other.
-            let (f, df, nan) = (sb.force[i][j], sb.dforce[i][j], f64::NAN);
-            let (fv, dfv, tv, dtv) = if rotary[i] {
-                (nan, nan, f, df)
-            } else {
-                (f, df, nan, nan)
-            };
-            set(&mut force, i, fv);
-            set(&mut dforce, i, dfv);
-            set(&mut torque, i, tv);
-            set(&mut dtorque, i, dtv);
-            set(&mut dalpha, i, sb.dalpha[i][j]);
-            set(&mut dl, i, sb.dl[i][j]);
-            set(&mut dlength, i, sb.dlength[i][j]);
-            set(&mut len, i, pb.len[i][j]);
-            set(&mut reaction, 2 * i, sb.reaction[0][i][j]);
-            set(&mut reaction, 2 * i + 1, sb.reaction[1][i][j]);
+    // Each drive's load in its own arrays, NaN in the other.
+    put(&of_kind(&sb.force, rotary, false), out.force_n, rows);
+    put(&of_kind(&sb.dforce, rotary, false), out.dforce_n, rows);
+    put(&of_kind(&sb.force, rotary, true), out.torque_nmm, rows);
+    put(&of_kind(&sb.dforce, rotary, true), out.dtorque_nmm, rows);
+    put(&sb.dalpha, out.dalpha_deg, rows);
+    put(&sb.dl, out.dl_mm, rows);
+    put(&sb.dlength, out.dlength_mm, rows);
+    put(&pb.len, out.length_mm, rows);
+    if !out.reaction_n.is_empty() {
+        for (j, &r) in rows.iter().enumerate() {
+            let dst = &mut out.reaction_n[2 * r * N..2 * (r + 1) * N];
+            for i in 0..N {
+                dst[2 * i] = sb.reaction[0][i][j];
+                dst[2 * i + 1] = sb.reaction[1][i][j];
+            }
         }
-        if let Some(v) = out.dx_mm.get_mut(r) {
-            *v = sb.dx[j];
+    }
+    for (o, v) in [(&mut *out.dx_mm, &sb.dx), (&mut *out.dy_mm, &sb.dy)] {
+        if !o.is_empty() {
+            for (j, &r) in rows.iter().enumerate() {
+                o[r] = v[j];
+            }
         }
-        if let Some(v) = out.dy_mm.get_mut(r) {
-            *v = sb.dy[j];
-        }
+    }
+    for (j, &r) in rows.iter().enumerate() {
         status[r] = sb.status[j];
     }
 }
