@@ -24,9 +24,7 @@ use arm_core::fem::{
 };
 use arm_core::geometry::{angle, V2};
 use arm_core::kinematics::Frames;
-use arm_core::{
-    Actuator, Arm, ArmError, BatchInput, Effect, EffectSet, Link, SolveOptions, Workspace,
-};
+use arm_core::{Arm, ArmError, BatchInput, Effect, EffectSet, SolveOptions, Workspace};
 use common::{act, analytic, fem, link, rad, sci, v, Channels, SCALES};
 
 /// The bundled seed2022 arm, pivot moved off O1 so that the base spring has a lever.

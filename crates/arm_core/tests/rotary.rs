@@ -27,7 +27,7 @@ use arm_core::sensitivity::{jacobian_batch, jacobian_batch_general, n_channels, 
 use arm_core::{
     cycle_returns, solve_batch_general, solve_batch_status, solve_sequence, statics_batch,
     Actuator, Arm, ArmError, BatchBuffers, BatchInput, Drive, Effect, EffectSet, ExtraDeformations,
-    Link, RotaryDrive, SequenceInput, SolveOptions, StaticsBuffers, Status, V2,
+    Link, RotaryDrive, SequenceInput, StaticsBuffers, Status, V2,
 };
 use common::{opts, poses, Rng};
 use proptest::prelude::*;

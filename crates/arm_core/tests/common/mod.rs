@@ -78,7 +78,7 @@ pub fn push_payload(payload: &mut Vec<f64>, r: usize, rng: &mut Rng, any_directi
         payload.push(rng.uniform(-100.0, 100.0));
         payload.push(rng.uniform(-100.0, 100.0));
     } else {
-        let m = if r % 7 == 0 {
+        let m = if r.is_multiple_of(7) {
             0.0
         } else {
             rng.uniform(0.0, 10.0)
