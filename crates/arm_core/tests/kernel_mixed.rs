@@ -23,8 +23,7 @@ use arm_core::examples::example_arm;
 use arm_core::solve::Workspace;
 use arm_core::{
     solve_batch_general, solve_batch_status, solve_sequence, Actuator, Arm, BatchBuffers,
-    BatchInput, Drive, Effect, EffectSet, ExtraDeformations, Link, RotaryDrive, SequenceInput,
-    SolveOptions, V2,
+    BatchInput, Drive, Effect, EffectSet, ExtraDeformations, Link, RotaryDrive, SequenceInput, V2,
 };
 use common::{opts, push_payload, Rng};
 use proptest::prelude::*;
