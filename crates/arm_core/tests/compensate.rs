@@ -17,8 +17,8 @@ use common::{act, link, rad, v};
 use std::ops::Mul;
 
 use arm_core::{
-    compensate_batch, Actuator, Arm, ArmError, BatchInput, CompensateBuffers, CompensateOptions,
-    Effect, EffectSet, Link, SolveOptions, Workspace, V2,
+    compensate_batch, Arm, ArmError, BatchInput, CompensateBuffers, CompensateOptions, Effect,
+    EffectSet, SolveOptions, Workspace, V2,
 };
 
 /// A 1-link arm (a boom on one actuator).

@@ -15,7 +15,7 @@ use arm_core::sweep::{
     sweep, sweep_poses, CellFields, Cells, Grid, Poses, Reduce, ReduceOp, SweepOptions, SweepOut,
 };
 use arm_core::validity::{self, classify, Checks, Status};
-use arm_core::{Actuator, Arm, ArmError, Effect, EffectSet, Link, SolveOptions, Workspace, V2};
+use arm_core::{Actuator, Arm, ArmError, Effect, EffectSet, Link, SolveOptions, Workspace};
 use common::{v, Rng};
 
 /// The example arm (`arm_core::examples`) with `n` links (the third link's shape repeated
