@@ -21,12 +21,13 @@
 //!   thread's scratch on the per-cell path. A sweep of 10⁸ poses never holds 10⁸ poses.
 //! * **Chunks.** Poses are processed in chunks of about `chunk_rows` rows (default
 //!   [`CHUNK_ROWS`]), taken from a queue by the calling thread and `threads − 1` pool
-//!   threads; each thread owns its scratch, nothing is allocated per pose. Before each of its
-//!   chunks, the first included, the calling thread calls `cancel(poses_done)` (only there,
-//!   so a Python signal check and a progress report work; calling it before the first chunk
-//!   means every sweep reports at least once and honours an interrupt that came early, even
-//!   when the pool threads take every other chunk); when it returns true the sweep stops and
-//!   returns [`ArmError::Cancelled`], with the outputs partly written.
+//!   threads; each thread owns its scratch, nothing is allocated per pose. Before any chunk
+//!   starts, and before each of its own chunks after its first, the calling thread calls
+//!   `cancel(poses_done)` (only there, so a Python signal check and a progress report work;
+//!   calling it before the pool threads start means every sweep reports at least once and
+//!   honours an interrupt that came early, even when the pool threads take every chunk);
+//!   when it returns true the sweep stops and returns [`ArmError::Cancelled`], with the
+//!   outputs partly written.
 //! * **Reductions.** With [`SweepOptions::reduce`], the cell fields are not stored per cell:
 //!   every `group` consecutive rows fold into one output row over the cells that are ok (a
 //!   group without one is NaN, its index −1); its status is 0 when every cell is ok, else the
@@ -335,9 +336,9 @@ pub fn sweep(
 /// Sweeps every pose of `poses` under every payload mass of `mass_kg` (`M`, kg), writing
 /// `out` in place; see the [module documentation](self).
 ///
-/// `cancel` is called on the calling thread before each of its chunks, the first included,
-/// with the number of poses finished so far (by all threads); when it returns true the sweep
-/// stops.
+/// `cancel` is called on the calling thread before any chunk starts and before each of its
+/// later chunks, with the number of poses finished so far (by all threads); when it returns
+/// true the sweep stops.
 ///
 /// # Errors
 /// * [`ArmError::Shape`] for input or output buffers of the wrong length;
@@ -521,13 +522,20 @@ struct Shared<'e, 'a> {
 }
 
 /// Runs the chunks on the calling thread and `threads − 1` workers of the scope's pool; the
-/// calling thread calls `cancel` before each of its chunks. Returns whether it was cancelled.
+/// calling thread calls `cancel` before any worker starts, then before each of its chunks
+/// after its first. Returns whether it was cancelled.
 fn drive<'e, 'a: 'e>(
     s: &rayon::Scope<'e>,
     threads: usize,
     sh: Shared<'e, 'a>,
     cancel: &(dyn Fn(usize) -> bool + Sync),
 ) -> bool {
+    // Asked before the workers start, not when this thread takes its first chunk: on a busy
+    // machine the workers can take every chunk before this thread gets one, and an interrupt
+    // that came early went unseen (the sweep ran to the end; a test loop under load saw it).
+    if cancel(0) {
+        return true;
+    }
     let work = move |k: usize, chunk: ChunkOut<'a>, scratch: &mut Scratch| {
         let poses = chunk.poses;
         let r = run_chunk(sh.plan, chunk, scratch);
@@ -545,13 +553,15 @@ fn drive<'e, 'a: 'e>(
         });
     }
     let mut scratch = Scratch::default();
+    let mut asked = true; // for the first chunk, above
     while !sh.stop.load(Ordering::Relaxed) {
         let next = lock(sh.queue).next();
         let Some((k, chunk)) = next else { break };
-        if cancel(sh.finished.load(Ordering::Relaxed)) {
+        if !asked && cancel(sh.finished.load(Ordering::Relaxed)) {
             sh.stop.store(true, Ordering::Relaxed);
             return true;
         }
+        asked = false;
         work(k, chunk, &mut scratch);
     }
     false
