@@ -4,6 +4,7 @@
 //! input are reported.
 
 #![allow(clippy::unwrap_used, clippy::needless_range_loop)] // test code: a failure should panic
+mod common;
 use arm_core::compensate::{CompensateStatus, Compensator, JacobianKind, PoseResult};
 use arm_core::effects::{
     ActuatorCompliance, ActuatorPlay, BaseCompliance, JointClearance, LinkBending, MountCompliance,
@@ -12,36 +13,13 @@ use arm_core::effects::{
 use arm_core::examples::example_arm;
 use arm_core::geometry::angle;
 use arm_core::kinematics::Frames;
+use common::{act, link, rad, v};
 use std::ops::Mul;
 
 use arm_core::{
-    compensate_batch, Actuator, Arm, ArmError, BatchInput, CompensateBuffers, CompensateOptions,
-    Effect, EffectSet, Link, SolveOptions, Workspace, V2,
+    compensate_batch, Arm, ArmError, BatchInput, CompensateBuffers, CompensateOptions, Effect,
+    EffectSet, SolveOptions, Workspace, V2,
 };
-
-fn v(x: f64, y: f64) -> V2 {
-    V2::new(x, y)
-}
-
-fn act(stiffness: f64, mass_kg: f64) -> Actuator {
-    Actuator {
-        stiffness,
-        mass_kg,
-        min_length: None,
-        max_length: None,
-        max_force: None,
-    }
-}
-
-fn link(next: V2, a: V2, b: V2, c: V2, mass_kg: f64) -> Link {
-    Link {
-        next,
-        a,
-        b,
-        c,
-        mass_kg,
-    }
-}
 
 /// A 1-link arm (a boom on one actuator).
 fn one_link() -> Arm {
@@ -138,10 +116,6 @@ fn four_link() -> Arm {
         v(220.0, -30.0),
     )
     .unwrap()
-}
-
-fn rad(a: &[f64]) -> Vec<f64> {
-    a.iter().map(|d| d.to_radians()).collect()
 }
 
 /// Elastic effects everywhere they fit, plus a clearance taken up when unloaded.

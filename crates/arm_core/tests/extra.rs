@@ -9,6 +9,7 @@
 //! extras alone. tests/solve_fast.rs compares the block kernel with the general path.
 
 #![allow(clippy::unwrap_used, clippy::needless_range_loop)] // test code: a failure should panic
+mod common;
 use arm_core::effects::{
     ActuatorCompliance, ActuatorPlay, BaseCompliance, JointClearance, MountCompliance, Unloaded,
 };
@@ -21,11 +22,8 @@ use arm_core::{
     BatchBuffers, BatchInput, Effect, EffectSet, ExtraDeformations, Mechanism, SolveOptions,
     StaticsBuffers, Workspace, V2,
 };
+use common::v;
 use proptest::prelude::*;
-
-fn v(x: f64, y: f64) -> V2 {
-    V2::new(x, y)
-}
 
 /// `rows` poses of the example arm (degrees) and payloads of `mass` kg each.
 fn batch(arm: &Arm, poses: &[[f64; 3]], mass: &[f64]) -> (Vec<f64>, Vec<f64>) {

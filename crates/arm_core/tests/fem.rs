@@ -12,6 +12,7 @@
 //!   mesh is refined; the three linear solvers agree.
 
 #![allow(clippy::unwrap_used, clippy::needless_range_loop)] // test code: a failure should panic
+mod common;
 use arm_core::effects::{
     ActuatorCompliance, ActuatorPlay, BaseCompliance, JointClearance, LinkBending, MountCompliance,
     Unloaded,
@@ -23,33 +24,8 @@ use arm_core::fem::{
 };
 use arm_core::geometry::{angle, V2};
 use arm_core::kinematics::Frames;
-use arm_core::{
-    Actuator, Arm, ArmError, BatchInput, Effect, EffectSet, Link, SolveOptions, Workspace,
-};
-
-fn v(x: f64, y: f64) -> V2 {
-    V2::new(x, y)
-}
-
-fn act(stiffness: f64, mass_kg: f64) -> Actuator {
-    Actuator {
-        stiffness,
-        mass_kg,
-        min_length: None,
-        max_length: None,
-        max_force: None,
-    }
-}
-
-fn link(next: V2, a: V2, b: V2, c: V2, mass_kg: f64) -> Link {
-    Link {
-        next,
-        a,
-        b,
-        c,
-        mass_kg,
-    }
-}
+use arm_core::{Arm, ArmError, BatchInput, Effect, EffectSet, SolveOptions, Workspace};
+use common::{act, analytic, fem, link, rad, sci, v, Channels, SCALES};
 
 /// The bundled seed2022 arm, pivot moved off O1 so that the base spring has a lever.
 fn seed_arm() -> Arm {
@@ -73,49 +49,6 @@ fn cases() -> Vec<(Arm, Vec<[f64; 3]>)> {
     ]
 }
 
-/// What both models report for one pose.
-#[derive(Debug, Clone)]
-struct Channels {
-    dxy: V2,
-    dalpha: Vec<f64>,
-    dl: Vec<f64>,
-    dlength: Vec<f64>,
-    force: Vec<f64>,
-    reaction: Vec<V2>,
-}
-
-fn analytic(arm: &Arm, effects: &EffectSet, alpha: &[f64], p: V2, sw: bool) -> Channels {
-    let mut ws = Workspace::new(arm);
-    let opts = SolveOptions {
-        self_weight: sw,
-        nan_on_failure: false,
-    };
-    ws.solve(arm, effects, alpha, p, opts, 0).unwrap();
-    Channels {
-        dxy: ws.dmeasure,
-        dalpha: (0..arm.n()).map(|i| ws.new_alpha[i] - alpha[i]).collect(),
-        dl: ws.body_dl.clone(),
-        dlength: (0..arm.n())
-            .map(|i| ws.new_length[i] - ws.lines.length[i])
-            .collect(),
-        force: ws.loaded.f.clone(),
-        reaction: ws.loaded.r.clone(),
-    }
-}
-
-fn fem(model: &FemModel, alpha: &[f64], p: V2, sw: bool) -> Channels {
-    let mut ws = FemWorkspace::new(model);
-    ws.solve(model, alpha, p, sw, 0).unwrap();
-    Channels {
-        dxy: ws.dmeasure,
-        dalpha: ws.dalpha.clone(),
-        dl: ws.body_dl.clone(),
-        dlength: ws.dlength.clone(),
-        force: ws.force.clone(),
-        reaction: ws.reaction.clone(),
-    }
-}
-
 fn max_abs(x: &[f64]) -> f64 {
     x.iter().fold(0.0, |m, v| m.max(v.abs()))
 }
@@ -137,12 +70,7 @@ fn rel_diff(fe: &Channels, an: &Channels) -> f64 {
     .fold(0.0, f64::max)
 }
 
-fn rad(deg: &[f64; 3]) -> Vec<f64> {
-    deg.iter().map(|d| d.to_radians()).collect()
-}
-
 const PAYLOAD_N: f64 = 15.0; // the seed's FEM figures
-const SCALES: [f64; 4] = [1.0, 1e-1, 1e-2, 1e-3];
 
 /// Checks second-order agreement for a family of models: `make(s)` gives the effects at load
 /// scale s (gaps scale with the load). Returns the worst relative difference at each scale.
@@ -177,13 +105,6 @@ fn second_order(
     }
     eprintln!("{name:24} worst: {}", sci(&worst));
     worst
-}
-
-fn sci(x: &[f64]) -> String {
-    x.iter()
-        .map(|v| format!("{v:.2e}"))
-        .collect::<Vec<_>>()
-        .join(" ")
 }
 
 fn no_sections(_: &Arm) -> Vec<LinkSection> {
@@ -381,9 +302,9 @@ fn forces_equal_the_statics_of_the_analytic_model() {
             let p = v(3.0, -60.0);
             let an = analytic(&arm, &effects, &alpha, p, true);
             let fe = fem(&model, &alpha, p, true);
-            let fmax = max_abs(&an.force);
+            let fmax = max_abs(&an.load);
             for i in 0..arm.n() {
-                assert!((fe.force[i] - an.force[i]).abs() < 1e-9 * fmax, "{pose:?}");
+                assert!((fe.load[i] - an.load[i]).abs() < 1e-9 * fmax, "{pose:?}");
                 assert!((fe.reaction[i] - an.reaction[i]).norm() < 1e-9 * fmax);
             }
         }

@@ -19,19 +19,14 @@
 //! * What the FE model cannot do at a rotary joint is refused naming the effect.
 
 #![allow(clippy::unwrap_used, clippy::needless_range_loop)] // test code: a failure should panic
+mod common;
 use arm_core::effects::{
     ActuatorPlay, BaseCompliance, DriveBacklash, DriveCompliance, DriveFriction, JointClearance,
     LinkBending, MountCompliance, Unloaded,
 };
 use arm_core::fem::{FemModel, FemOptions, FemWorkspace, LinkSection};
-use arm_core::{
-    Actuator, Arm, ArmError, Drive, Effect, EffectSet, Link, RotaryDrive, SolveOptions, Workspace,
-    V2,
-};
-
-fn v(x: f64, y: f64) -> V2 {
-    V2::new(x, y)
-}
+use arm_core::{Arm, ArmError, Drive, Effect, EffectSet, RotaryDrive, V2};
+use common::{act, analytic, fem, link, rad, sci, v, Channels, SCALES};
 
 fn rotary(stiffness: f64, mass_kg: f64) -> Drive {
     Drive::Rotary(RotaryDrive {
@@ -44,23 +39,7 @@ fn rotary(stiffness: f64, mass_kg: f64) -> Drive {
 }
 
 fn linear(stiffness: f64, mass_kg: f64) -> Drive {
-    Drive::Linear(Actuator {
-        stiffness,
-        mass_kg,
-        min_length: None,
-        max_length: None,
-        max_force: None,
-    })
-}
-
-fn link(next: V2, a: V2, b: V2, c: V2, mass_kg: f64) -> Link {
-    Link {
-        next,
-        a,
-        b,
-        c,
-        mass_kg,
-    }
+    Drive::Linear(act(stiffness, mass_kg))
 }
 
 /// `examples/rotary_arm.toml`: three rotary drives (unused pins at zero, as Python gives them).
@@ -132,50 +111,6 @@ fn cases() -> Vec<(Arm, Vec<[f64; 3]>, f64)> {
     ]
 }
 
-/// What both models report for one pose; NaN where a channel does not exist (a rotary
-/// joint's lengths).
-#[derive(Debug, Clone)]
-struct Channels {
-    dxy: V2,
-    dalpha: Vec<f64>,
-    dl: Vec<f64>,
-    dlength: Vec<f64>,
-    load: Vec<f64>,
-    reaction: Vec<V2>,
-}
-
-fn analytic(arm: &Arm, effects: &EffectSet, alpha: &[f64], p: V2, sw: bool) -> Channels {
-    let mut ws = Workspace::new(arm);
-    let opts = SolveOptions {
-        self_weight: sw,
-        nan_on_failure: false,
-    };
-    ws.solve(arm, effects, alpha, p, opts, 0).unwrap();
-    Channels {
-        dxy: ws.dmeasure,
-        dalpha: (0..arm.n()).map(|i| ws.new_alpha[i] - alpha[i]).collect(),
-        dl: ws.body_dl.clone(),
-        dlength: (0..arm.n())
-            .map(|i| ws.new_length[i] - ws.lines.length[i])
-            .collect(),
-        load: ws.loaded.f.clone(),
-        reaction: ws.loaded.r.clone(),
-    }
-}
-
-fn fem(model: &FemModel, alpha: &[f64], p: V2, sw: bool) -> Channels {
-    let mut ws = FemWorkspace::new(model);
-    ws.solve(model, alpha, p, sw, 0).unwrap();
-    Channels {
-        dxy: ws.dmeasure,
-        dalpha: ws.dalpha.clone(),
-        dl: ws.body_dl.clone(),
-        dlength: ws.dlength.clone(),
-        load: ws.force.clone(),
-        reaction: ws.reaction.clone(),
-    }
-}
-
 /// The largest relative difference over the channel groups (dx,dy | dα | dl | dℓ), each
 /// group's max-norm difference over the analytic group's max norm; a channel must be NaN in
 /// both models or in neither.
@@ -204,19 +139,6 @@ fn rel_diff(fe: &Channels, an: &Channels) -> f64 {
     .into_iter()
     .fold(0.0, f64::max)
 }
-
-fn rad(deg: &[f64; 3]) -> Vec<f64> {
-    deg.iter().map(|d| d.to_radians()).collect()
-}
-
-fn sci(x: &[f64]) -> String {
-    x.iter()
-        .map(|v| format!("{v:.2e}"))
-        .collect::<Vec<_>>()
-        .join(" ")
-}
-
-const SCALES: [f64; 4] = [1.0, 1e-1, 1e-2, 1e-3];
 
 /// Second-order agreement for a family of effects `make(arm, s)` at load scale s (gaps scale
 /// with the load); effects a case's arm cannot take are left out by `make`. Returns the worst

@@ -13,6 +13,7 @@
 //! libm's sin/cos on the absolute ones), so they agree to rounding, ≈ 1e-13 mm.
 
 #![allow(clippy::unwrap_used, clippy::needless_range_loop)] // test code: a failure should panic
+mod common;
 use arm_core::effects::{
     ActuatorCompliance, ActuatorFriction, ActuatorPlay, BaseCompliance, DriveBacklash,
     DriveCompliance, DriveFriction, JointClearance, JointFriction, LinkBending, MountCompliance,
@@ -22,28 +23,10 @@ use arm_core::examples::example_arm;
 use arm_core::solve::Workspace;
 use arm_core::{
     solve_batch_general, solve_batch_status, solve_sequence, Actuator, Arm, BatchBuffers,
-    BatchInput, Drive, Effect, EffectSet, ExtraDeformations, Link, RotaryDrive, SequenceInput,
-    SolveOptions, V2,
+    BatchInput, Drive, Effect, EffectSet, ExtraDeformations, Link, RotaryDrive, SequenceInput, V2,
 };
+use common::{opts, push_payload, Rng};
 use proptest::prelude::*;
-
-/// A deterministic generator (xorshift64) for the arm's details, seeded by proptest.
-struct Rng(u64);
-
-impl Rng {
-    fn uniform(&mut self, lo: f64, hi: f64) -> f64 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        lo + (hi - lo) * ((self.0 >> 11) as f64 / (1u64 << 53) as f64)
-    }
-    fn jitter(&mut self, p: V2, d: f64) -> V2 {
-        p + V2::new(self.uniform(-d, d), self.uniform(-d, d))
-    }
-    fn coin(&mut self) -> bool {
-        self.uniform(0.0, 1.0) < 0.5
-    }
-}
 
 /// The example arm's shapes jittered (the third repeated beyond three), joint i turned by a
 /// rotary drive where `rotary[i]`; with `limits`, strokes, force and torque limits and angle
@@ -208,17 +191,7 @@ fn poses(n: usize, rows: usize, rng: &mut Rng, any_direction: bool) -> (Vec<f64>
             a += rng.uniform(-30.0, 30.0);
             alpha.push(a);
         }
-        if any_direction {
-            payload.push(rng.uniform(-100.0, 100.0));
-            payload.push(rng.uniform(-100.0, 100.0));
-        } else {
-            let m = if r % 7 == 0 {
-                0.0
-            } else {
-                rng.uniform(0.0, 10.0)
-            };
-            payload.extend_from_slice(&[0.0, -9.81 * m]);
-        }
+        push_payload(&mut payload, r, rng, any_direction);
     }
     (alpha, payload)
 }
@@ -280,13 +253,6 @@ fn nan_row(b: &mut BatchBuffers, r: usize, n: usize) {
     b.reaction_n[2 * r * n..2 * (r + 1) * n].fill(f64::NAN);
     b.dx_mm[r] = f64::NAN;
     b.dy_mm[r] = f64::NAN;
-}
-
-fn opts(self_weight: bool) -> SolveOptions {
-    SolveOptions {
-        self_weight,
-        nan_on_failure: true,
-    }
 }
 
 proptest! {

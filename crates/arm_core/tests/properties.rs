@@ -4,6 +4,7 @@
 //! reciprocity.
 
 #![allow(clippy::unwrap_used, clippy::needless_range_loop)] // test code: a failure should panic
+mod common;
 use arm_core::effects::{
     ActuatorCompliance, ActuatorPlay, BaseCompliance, JointClearance, LinkBending, MountCompliance,
     Unloaded,
@@ -12,11 +13,8 @@ use arm_core::examples::example_arm;
 use arm_core::geometry::{cross, rot};
 use arm_core::kinematics::{angles_from_lengths, inverse_kinematics, Frames};
 use arm_core::{Actuator, Arm, Effect, EffectSet, Link, SolveOptions, Workspace, V2};
+use common::v;
 use proptest::prelude::*;
-
-fn v(x: f64, y: f64) -> V2 {
-    V2::new(x, y)
-}
 
 /// The example arm of the contract (`arm_core::examples`), geometry scaled by `s` (about O_1,
 /// the origin) and stiffness by `k`, with the chassis pivot at `pivot` and no stroke or force

@@ -15,6 +15,7 @@
 //! relative (third-order terms of a 0.01 N probe: ~1e-9).
 
 #![allow(clippy::unwrap_used, clippy::needless_range_loop)] // test code: a failure should panic
+mod common;
 use arm_core::effects::{
     ActuatorCompliance, ActuatorPlay, BaseCompliance, DriveBacklash, DriveCompliance,
     DriveFriction, JointClearance, JointFriction, LinkBending, MountCompliance, Unloaded,
@@ -26,27 +27,10 @@ use arm_core::sensitivity::{jacobian_batch, jacobian_batch_general, n_channels, 
 use arm_core::{
     cycle_returns, solve_batch_general, solve_batch_status, solve_sequence, statics_batch,
     Actuator, Arm, ArmError, BatchBuffers, BatchInput, Drive, Effect, EffectSet, ExtraDeformations,
-    Link, RotaryDrive, SequenceInput, SolveOptions, StaticsBuffers, Status, V2,
+    Link, RotaryDrive, SequenceInput, StaticsBuffers, Status, V2,
 };
+use common::{opts, poses, Rng};
 use proptest::prelude::*;
-
-/// A deterministic generator (xorshift64) for the arm's details, seeded by proptest.
-struct Rng(u64);
-
-impl Rng {
-    fn uniform(&mut self, lo: f64, hi: f64) -> f64 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        lo + (hi - lo) * ((self.0 >> 11) as f64 / (1u64 << 53) as f64)
-    }
-    fn jitter(&mut self, p: V2, d: f64) -> V2 {
-        p + V2::new(self.uniform(-d, d), self.uniform(-d, d))
-    }
-    fn pick(&mut self, n: usize) -> usize {
-        (self.uniform(0.0, n as f64) as usize).min(n - 1)
-    }
-}
 
 /// The example arm's links (the third one's shape repeated beyond three, with a B pin),
 /// points jittered by 15 mm, masses and stiffnesses by ±40 %; joint i turned by a rotary
@@ -119,33 +103,6 @@ fn arm(rotary: &[bool], rng: &mut Rng) -> Arm {
     .unwrap()
 }
 
-/// `rows` poses (deg) in the seed's ranges, and payloads: masses 0–10 kg straight down (some
-/// exactly zero), or any force up to 100 N when `any_direction`.
-fn poses(n: usize, rows: usize, rng: &mut Rng, any_direction: bool) -> (Vec<f64>, Vec<f64>) {
-    let ranges = [(60.0, 110.0), (0.0, 30.0), (-10.0, 10.0), (-15.0, 15.0)];
-    let mut alpha = Vec::with_capacity(n * rows);
-    let mut payload = Vec::with_capacity(2 * rows);
-    for r in 0..rows {
-        for i in 0..n {
-            let (lo, hi) = ranges[i.min(3)];
-            alpha.push(rng.uniform(lo, hi));
-        }
-        if any_direction {
-            payload.push(rng.uniform(-100.0, 100.0));
-            payload.push(rng.uniform(-100.0, 100.0));
-        } else {
-            let m = if r % 7 == 0 {
-                0.0
-            } else {
-                rng.uniform(0.0, 10.0)
-            };
-            payload.push(0.0);
-            payload.push(-9.81 * m);
-        }
-    }
-    (alpha, payload)
-}
-
 /// Kinds of drive from the bits of `bits` (bit i: joint i + 1 rotary), `n` joints.
 fn kinds(n: usize, bits: u8) -> Vec<bool> {
     (0..n).map(|i| bits >> i & 1 == 1).collect()
@@ -155,14 +112,6 @@ fn input<'a>(alpha: &'a [f64], payload: &'a [f64]) -> BatchInput<'a> {
     BatchInput {
         alpha_deg: alpha,
         payload_n: payload,
-    }
-}
-
-/// With NaN for a pose that cannot close under its load (soft seven-link arms under 10 kg).
-fn opts(self_weight: bool) -> SolveOptions {
-    SolveOptions {
-        self_weight,
-        nan_on_failure: true,
     }
 }
 

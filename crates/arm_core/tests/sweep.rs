@@ -4,6 +4,7 @@
 //! of chunk size and thread count; cancellation; bad options; the reachability mask.
 
 #![allow(clippy::unwrap_used, clippy::needless_range_loop)] // test code: a failure should panic
+mod common;
 use arm_core::effects::{
     ActuatorCompliance, ActuatorFriction, ActuatorPlay, BaseCompliance, JointClearance,
     JointFriction, LinkBending, MountCompliance, Unloaded,
@@ -14,26 +15,8 @@ use arm_core::sweep::{
     sweep, sweep_poses, CellFields, Cells, Grid, Poses, Reduce, ReduceOp, SweepOptions, SweepOut,
 };
 use arm_core::validity::{self, classify, Checks, Status};
-use arm_core::{Actuator, Arm, ArmError, Effect, EffectSet, Link, SolveOptions, Workspace, V2};
-
-fn v(x: f64, y: f64) -> V2 {
-    V2::new(x, y)
-}
-
-/// A small deterministic generator (xorshift64).
-struct Rng(u64);
-
-impl Rng {
-    fn uniform(&mut self, lo: f64, hi: f64) -> f64 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        lo + (hi - lo) * ((self.0 >> 11) as f64 / (1u64 << 53) as f64)
-    }
-    fn jitter(&mut self, p: V2, d: f64) -> V2 {
-        p + v(self.uniform(-d, d), self.uniform(-d, d))
-    }
-}
+use arm_core::{Actuator, Arm, ArmError, Effect, EffectSet, Link, SolveOptions, Workspace};
+use common::{v, Rng};
 
 /// The example arm (`arm_core::examples`) with `n` links (the third link's shape repeated
 /// beyond three), every point jittered by up to 10 mm (O_1 by up to 5 mm), masses and
