@@ -828,11 +828,18 @@ fn scatter_block<const N: usize>(
             }
         }
     }
-    // Each drive's load in its own arrays, NaN in the other.
-    put(&of_kind(&sb.force, rotary, false), out.force_n, rows);
-    put(&of_kind(&sb.dforce, rotary, false), out.dforce_n, rows);
-    put(&of_kind(&sb.force, rotary, true), out.torque_nmm, rows);
-    put(&of_kind(&sb.dforce, rotary, true), out.dtorque_nmm, rows);
+    // Each drive's load in its own arrays, NaN in the other; the masked copy is made
+    // only for an output that was asked for.
+    for (o, load, drive) in [
+        (&mut *out.force_n, &sb.force, false),
+        (&mut *out.dforce_n, &sb.dforce, false),
+        (&mut *out.torque_nmm, &sb.force, true),
+        (&mut *out.dtorque_nmm, &sb.dforce, true),
+    ] {
+        if !o.is_empty() {
+            put(&of_kind(load, rotary, drive), o, rows);
+        }
+    }
     put(&sb.dalpha, out.dalpha_deg, rows);
     put(&sb.dl, out.dl_mm, rows);
     put(&sb.dlength, out.dlength_mm, rows);
