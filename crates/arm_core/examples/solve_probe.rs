@@ -1,7 +1,7 @@
 //! Fixed `solve` and `solve_sequence` workloads for instruction counts (docs/benchmarks.md,
 //! "Kernel compute"): the example arm, 10⁵ poses in `bench_floor.py`'s working range with
 //! payloads 0–7 kg (`solve`, baseline model), or 10⁴ sequences of its 8 states with its two
-//! frictions, clearance and mount (`seq`); every output stored, into buffers allocated once
+//! frictions, clearance and mount (`seq`) or without effects (`seq0`); every output stored, into buffers allocated once
 //! (the core's compute, no page faults). Run it under
 //! `valgrind --tool=callgrind` with `RAYON_NUM_THREADS=1`; the second argument `k` repeats the
 //! work k times (default 1), so that the per-pose count is the difference of two runs divided
@@ -48,28 +48,32 @@ fn main() -> arm_core::Result<()> {
     let mut pose = || ranges.map(|(lo, hi)| lo + (hi - lo) * rng.next());
     let g = 9.81;
     let mut checksum = 0.0;
-    if what == "seq" {
+    if what == "seq" || what == "seq0" {
         let seqs = 10_000;
         let masses = [0.0, 1.5, 5.0, 6.5, 5.0, 1.5, 0.0, 3.0];
-        let effects = vec![
-            Effect::ActuatorFriction(ActuatorFriction {
-                actuator: 0,
-                friction: 40.0,
-            }),
-            Effect::JointFriction(JointFriction {
-                joint: 2,
-                torque: 4000.0,
-            }),
-            Effect::JointClearance(JointClearance {
-                joint: 2,
-                clearance: 0.15,
-                unloaded: Unloaded::Centred,
-            }),
-            Effect::MountCompliance(MountCompliance {
-                actuator: 1,
-                stiffness: 4000.0,
-            }),
-        ];
+        let effects = if what == "seq0" {
+            vec![]
+        } else {
+            vec![
+                Effect::ActuatorFriction(ActuatorFriction {
+                    actuator: 0,
+                    friction: 40.0,
+                }),
+                Effect::JointFriction(JointFriction {
+                    joint: 2,
+                    torque: 4000.0,
+                }),
+                Effect::JointClearance(JointClearance {
+                    joint: 2,
+                    clearance: 0.15,
+                    unloaded: Unloaded::Centred,
+                }),
+                Effect::MountCompliance(MountCompliance {
+                    actuator: 1,
+                    stiffness: 4000.0,
+                }),
+            ]
+        };
         let set = EffectSet::new(&arm, effects)?;
         let alpha: Vec<f64> = (0..seqs).flat_map(|_| pose()).collect();
         let payload: Vec<f64> = (0..seqs)
