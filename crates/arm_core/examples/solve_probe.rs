@@ -1,11 +1,11 @@
 //! Fixed `solve` and `solve_sequence` workloads for instruction counts (docs/benchmarks.md,
 //! "Kernel compute"): the example arm, 10⁵ poses in `bench_floor.py`'s working range with
 //! payloads 0–7 kg (`solve`, baseline model), or 10⁴ sequences of its 8 states with its two
-//! frictions, clearance and mount (`seq`) or without effects (`seq0`); every output stored, into buffers allocated once
-//! (the core's compute, no page faults). Run it under
-//! `valgrind --tool=callgrind` with `RAYON_NUM_THREADS=1`; the second argument `k` repeats the
-//! work k times (default 1), so that the per-pose count is the difference of two runs divided
-//! by the poses, free of the start-up.
+//! frictions, clearance and mount (`seq`) or without effects (`seq0`); every output stored,
+//! into buffers allocated once (the core's compute, no page faults). Run it under
+//! `valgrind --tool=callgrind` with `RAYON_NUM_THREADS=1`; the second argument `k` repeats
+//! the work k times (default 1), so that the per-pose count is the difference of two runs
+//! divided by the poses, free of the start-up.
 //!
 //! ```sh
 //! cargo build --release -p arm_core --example solve_probe

@@ -143,8 +143,9 @@ def solve_sequence(
     # the sigmas are propagated from every output; the failed rows are read from dy_mm
     keys = None if uncertainty else core_outputs(asked, need_dy=not strict)
     res = _sequences(arm, alpha, mass, effs, backend, self_weight, strict, keys)
-    if not strict:
-        failed = np.isnan(np.asarray(res["dy_mm"])).any(axis=1)
+    dy = np.asarray(res["dy_mm"]) if not strict else None
+    if dy is not None and np.isnan(np.sum(dy)):  # some state failed (one pass, no temporary)
+        failed = np.isnan(dy).any(axis=1)
         _refuse_unloaded_singular(arm, alpha, {"dy_mm": np.where(failed, np.nan, 0.0)}, "sequence")
     if uncertainty:
 

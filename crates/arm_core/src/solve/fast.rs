@@ -27,14 +27,18 @@
 
 mod base;
 mod bending;
+mod block;
 mod clearance;
 mod friction;
+mod group;
 mod rotary;
 
 use base::Base;
 use bending::{Bending, Shifts};
+use block::SolveBlock;
 use clearance::Clearance;
 use friction::{Friction, Held};
+use group::{Group, GROUP};
 use rotary::{Ranges, Turns};
 
 use super::batch::{write_outcome, BatchBuffers, BatchInput, BatchOutput, SequenceInput};
@@ -70,50 +74,6 @@ pub(crate) struct SolveKernel<const N: usize> {
     /// geometric effects.
     d_moves: [bool; N],
     a_moves: [bool; N],
-}
-
-/// Per-pose results of a block (`[link][lane]`).
-#[derive(Debug, Clone)]
-pub(crate) struct SolveBlock<const N: usize> {
-    force: [[f64; L]; N],
-    dforce: [[f64; L]; N],
-    /// Loaded joint reactions, x and y.
-    reaction: [[[f64; L]; N]; 2],
-    /// Change of absolute angles (deg).
-    dalpha: [[f64; L]; N],
-    dl: [[f64; L]; N],
-    dlength: [[f64; L]; N],
-    dx: [f64; L],
-    dy: [f64; L],
-    /// Singular or a triangle that cannot close.
-    fail: [bool; L],
-    /// Status codes (docs/model.md §7).
-    status: [u8; L],
-    /// Further body length a body friction leaves (mm; zero without one), a further turn
-    /// at a rotary drive (rad).
-    seen: [[f64; L]; N],
-    /// Unloaded angles of the rotary drives with a range (rad).
-    q: [[f64; L]; N],
-}
-
-impl<const N: usize> SolveBlock<N> {
-    fn new() -> Self {
-        let z = [[0.0; L]; N];
-        Self {
-            force: z,
-            dforce: z,
-            reaction: [z; 2],
-            dalpha: z,
-            dl: z,
-            dlength: z,
-            dx: [0.0; L],
-            dy: [0.0; L],
-            fail: [false; L],
-            status: [0; L],
-            seen: z,
-            q: z,
-        }
-    }
 }
 
 impl<const N: usize> SolveKernel<N> {
@@ -672,11 +632,12 @@ impl<const N: usize> SolveKernel<N> {
     ) -> Vec<usize> {
         let seqs = input.alpha_deg.len() / N;
         let mut sc = SeqScratch {
-            pbx: PoseBlock::<N>::new(),
-            pby: PoseBlock::<N>::new(),
+            ux: Unit::new(),
+            uy: Unit::new(),
             pb: PoseBlock::<N>::new(),
             sb: SolveBlock::<N>::new(),
             pay: Vec::new(),
+            group: Group::new(),
         };
         let mut failed = Vec::new();
         let mut q0 = 0;
@@ -724,16 +685,19 @@ impl<const N: usize> SolveKernel<N> {
                 let states = self.input.states;
                 let alpha = &self.input.alpha_deg[q0 * N..(q0 + count) * N];
                 let trig = block_trig::<N>(alpha, count);
+                // The pose stage twice, with a unit payload along x and along y: only the
+                // payload case changes from state to state, so only its forces are kept.
                 let (one, zero) = ([1.0; L], [0.0; L]);
-                k.fa.poses_sc_impl(&trig.0, &trig.1, &[one, zero], &mut sc.pbx);
-                k.fa.poses_sc_impl(&trig.0, &trig.1, &[zero, one], &mut sc.pby);
+                k.fa.poses_sc_impl(&trig.0, &trig.1, &[one, zero], &mut sc.pb);
+                sc.ux.keep(&sc.pb);
+                k.fa.poses_sc_impl(&trig.0, &trig.1, &[zero, one], &mut sc.pb);
+                sc.uy.keep(&sc.pb);
                 if k.ranges.any {
-                    k.ranges.unloaded(alpha, count, &mut sc.pbx, &mut sc.sb.q);
+                    k.ranges.unloaded(alpha, count, &mut sc.pb, &mut sc.sb.q);
                 }
-                // Only the payload case changes from state to state.
-                sc.pb.clone_from(&sc.pbx);
                 let mut held = Held::<N>::new();
                 let mut bad = [false; L];
+                let group = states.min(GROUP);
                 // The block's payloads by state, its lanes' rows being contiguous; missing
                 // lanes repeat the last sequence.
                 let rows = &self.input.payload_n[2 * q0 * states..2 * (q0 + count) * states];
@@ -751,10 +715,9 @@ impl<const N: usize> SolveKernel<N> {
                     for i in 0..N {
                         for j in 0..L {
                             let (px, py) = (pay[0][j], pay[1][j]);
-                            sc.pb.fu[i][j] = px * sc.pbx.fu[i][j] + py * sc.pby.fu[i][j];
+                            sc.pb.fu[i][j] = px * sc.ux.fu[i][j] + py * sc.uy.fu[i][j];
                             for c in 0..2 {
-                                sc.pb.ru[c][i][j] =
-                                    px * sc.pbx.ru[c][i][j] + py * sc.pby.ru[c][i][j];
+                                sc.pb.ru[c][i][j] = px * sc.ux.ru[c][i][j] + py * sc.uy.ru[c][i][j];
                             }
                         }
                     }
@@ -766,14 +729,26 @@ impl<const N: usize> SolveKernel<N> {
                     for j in 0..count {
                         bad[j] |= sc.sb.fail[j];
                     }
-                    let rotary = &k.fa.rotary;
-                    if !self.last_only {
-                        let row = |j: usize| (q0 + j) * states + st;
-                        scatter_block(&sc.pb, &sc.sb, rotary, self.out, self.status, count, row);
+                    // Every state is written, a group of states at a time; or only the
+                    // last state, to row q (a group of one).
+                    let (g, first, stride) = if !self.last_only {
+                        let g = st % group + 1;
+                        if g < group && st + 1 < states {
+                            sc.group.keep(g - 1, &sc.sb, self.out);
+                            continue;
+                        }
+                        (g, q0 * states + st + 1 - g, states)
                     } else if st + 1 == states {
-                        let row = |j: usize| q0 + j;
-                        scatter_block(&sc.pb, &sc.sb, rotary, self.out, self.status, count, row);
-                    }
+                        (1, q0, 1)
+                    } else {
+                        continue;
+                    };
+                    sc.group.keep(g - 1, &sc.sb, self.out);
+                    let rows: [usize; L] =
+                        std::array::from_fn(|j| first + j.min(count - 1) * stride);
+                    let (len, rotary) = (&sc.pb.len, &k.fa.rotary);
+                    sc.group
+                        .write(g, len, rotary, self.out, self.status, &rows[..count]);
                 }
                 bad
             }
@@ -791,77 +766,35 @@ impl<const N: usize> SolveKernel<N> {
     }
 }
 
-/// Scratch of [`SolveKernel::sequence_block`]: the unit payload cases and the state's block.
+/// Scratch of [`SolveKernel::sequence_block`]: the unit payload cases' forces, the state's
+/// pose and solved blocks, the payloads and the states kept for writing.
 struct SeqScratch<const N: usize> {
-    pbx: PoseBlock<N>,
-    pby: PoseBlock<N>,
+    ux: Unit<N>,
+    uy: Unit<N>,
     pb: PoseBlock<N>,
     sb: SolveBlock<N>,
     /// The block's payloads (x, y per lane) by state.
     pay: Vec<[[f64; L]; 2]>,
+    /// The states kept for writing.
+    group: Group<N>,
 }
 
-/// Writes lane `j < count` of a solved block to output row `row(j)` (a sequence's state:
-/// the lanes' rows are `S` apart), one output at a time.
-#[inline(always)]
-fn scatter_block<const N: usize>(
-    pb: &PoseBlock<N>,
-    sb: &SolveBlock<N>,
-    rotary: &[bool; N],
-    out: &mut BatchOutput<'_>,
-    status: &mut [u8],
-    count: usize,
-    row: impl Fn(usize) -> usize,
-) {
-    let rows: [usize; L] = std::array::from_fn(|j| row(j.min(count - 1)));
-    let rows = &rows[..count];
-    // An output not asked for is empty: nothing is written there.
+/// The forces and reactions of a unit payload (a pose stage's payload case), `[link][lane]`.
+struct Unit<const N: usize> {
+    fu: [[f64; L]; N],
+    ru: [[[f64; L]; N]; 2],
+}
+
+impl<const N: usize> Unit<N> {
+    fn new() -> Self {
+        let z = [[0.0; L]; N];
+        Self { fu: z, ru: [z; 2] }
+    }
+
     #[inline(always)]
-    fn put<const N: usize>(block: &[[f64; L]; N], o: &mut [f64], rows: &[usize]) {
-        if o.is_empty() {
-            return;
-        }
-        for (j, &r) in rows.iter().enumerate() {
-            let dst = &mut o[r * N..(r + 1) * N];
-            for i in 0..N {
-                dst[i] = block[i][j];
-            }
-        }
-    }
-    // Each drive's load in its own arrays, NaN in the other; the masked copy is made
-    // only for an output that was asked for.
-    for (o, load, drive) in [
-        (&mut *out.force_n, &sb.force, false),
-        (&mut *out.dforce_n, &sb.dforce, false),
-        (&mut *out.torque_nmm, &sb.force, true),
-        (&mut *out.dtorque_nmm, &sb.dforce, true),
-    ] {
-        if !o.is_empty() {
-            put(&of_kind(load, rotary, drive), o, rows);
-        }
-    }
-    put(&sb.dalpha, out.dalpha_deg, rows);
-    put(&sb.dl, out.dl_mm, rows);
-    put(&sb.dlength, out.dlength_mm, rows);
-    put(&pb.len, out.length_mm, rows);
-    if !out.reaction_n.is_empty() {
-        for (j, &r) in rows.iter().enumerate() {
-            let dst = &mut out.reaction_n[2 * r * N..2 * (r + 1) * N];
-            for i in 0..N {
-                dst[2 * i] = sb.reaction[0][i][j];
-                dst[2 * i + 1] = sb.reaction[1][i][j];
-            }
-        }
-    }
-    for (o, v) in [(&mut *out.dx_mm, &sb.dx), (&mut *out.dy_mm, &sb.dy)] {
-        if !o.is_empty() {
-            for (j, &r) in rows.iter().enumerate() {
-                o[r] = v[j];
-            }
-        }
-    }
-    for (j, &r) in rows.iter().enumerate() {
-        status[r] = sb.status[j];
+    fn keep(&mut self, pb: &PoseBlock<N>) {
+        self.fu = pb.fu;
+        self.ru = pb.ru;
     }
 }
 
