@@ -11,7 +11,7 @@ use super::block::SolveBlock;
 use crate::solve::batch::BatchOutput;
 use crate::sweep::fast::L;
 
-/// States kept before they are written (8 states of a 6-link arm keep about 40 kB).
+/// States kept before they are written (8 states of a 6-link arm keep about 45 kB).
 pub(super) const GROUP: usize = 8;
 
 /// A group's outputs by state (`[state][link][lane]`); only the outputs asked for are kept.
