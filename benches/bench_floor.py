@@ -28,7 +28,7 @@ Workloads, on the linear example arm (``examples/example_arm.toml``), the rotary
 
 Run from the repository root (``docs/benchmarks.md`` has the results)::
 
-    python3 benches/bench_floor.py                # 1e6 poses, 1e5 × 8 states, ~1 min
+    python3 benches/bench_floor.py                # 1e6 poses, 1e5 × 8 states, ~15 s quiet
     python3 benches/bench_floor.py --scale 0.1    # a tenth of each workload
     python3 benches/bench_floor.py --markdown floor.md
 """
