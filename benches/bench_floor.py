@@ -31,14 +31,26 @@ Run from the repository root (``docs/benchmarks.md`` has the results)::
     python3 benches/bench_floor.py                # 1e6 poses, 1e5 × 8 states, ~15 s quiet
     python3 benches/bench_floor.py --scale 0.1    # a tenth of each workload
     python3 benches/bench_floor.py --markdown floor.md
+    python3 benches/bench_floor.py --runs 6       # six runs in fresh processes: medians
+
+One run cannot separate 3.0× from 3.3×: the floor's best of 5 depends on whether glibc hands
+back heap pages that are already mapped, and varies by up to 3× from one process to the next
+on a quiet machine. ``--runs N`` runs the whole benchmark N times, each in its own process,
+and prints per row the median rate, the median floor, and the median and range of the N
+ratios (each ratio is the call against the floor measured beside it in the same run).
 """
 
 from __future__ import annotations
 
 import argparse
 import inspect
+import json
 import os
 import platform
+import statistics
+import subprocess
+import sys
+import tempfile
 import time
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
@@ -215,11 +227,64 @@ def bench_arm(
     return rows
 
 
+def runs(n: int, scale: float) -> list[str]:
+    """The table of ``n`` whole runs, each in a fresh process: per row the medians of the
+    rates and floors, and the median and range of the ratios."""
+    per_run: list[list[Row]] = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for i in range(n):
+            dump = Path(tmp) / f"run{i}.json"
+            cmd = [sys.executable, __file__, "--scale", str(scale), "--rows-json", str(dump)]
+            print(f"run {i + 1} of {n}", file=sys.stderr, flush=True)
+            subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL)
+            rows = json.loads(dump.read_text())
+            per_run.append([(k, w, u, int(c), a, b, d) for k, w, u, c, a, b, d in rows])
+    table = [
+        f"| arm | call | items | rate, median (M/s) | floor, median (M/s) "
+        f"| call / floor, median of {n} | range |",
+        "|---|---|---:|---:|---:|---:|---|",
+    ]
+    for same in zip(*per_run, strict=True):
+        kind, what, unit, count = same[0][:4]
+        med = statistics.median
+        ratios = [r[4] / r[5] for r in same]
+        table.append(
+            f"| {kind} | {what} | {count:,} {unit} | {med(count / r[4] for r in same) / 1e6:.2f} | "
+            f"{med(count / r[5] for r in same) / 1e6:.2f} | {med(ratios):.2f} | "
+            f"{min(ratios):.2f}–{max(ratios):.2f} |"
+        )
+    return table
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--scale", type=float, default=1.0, help="fraction of each workload")
     ap.add_argument("--markdown", type=Path, help="also write the table here")
+    ap.add_argument(
+        "--runs", type=int, default=1, help="whole runs, each in a fresh process (medians)"
+    )
+    ap.add_argument("--force", action="store_true", help="replace an existing --markdown file")
+    ap.add_argument("--rows-json", type=Path, help=argparse.SUPPRESS)
     args = ap.parse_args()
+    if args.runs < 1:
+        ap.error(f"--runs: expected at least 1, got {args.runs}")
+    if args.markdown is not None and args.markdown.exists() and not args.force:
+        ap.error(f"--markdown {args.markdown}: the file exists; add --force to replace it")
+    if args.runs > 1:
+        before = load()
+        table = runs(args.runs, args.scale)
+        head = [
+            f"- run: {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, "
+            f"`python3 benches/bench_floor.py --runs {args.runs}"
+            + (f" --scale {args.scale}`" if args.scale != 1 else "`"),
+            f"- machine: {platform.machine()}, {os.cpu_count()} CPUs, {cpu_model()}",
+            f"- load average (1 min) before / after: {before:.2f} / {load():.2f}",
+            f"- each run as below (best of {REPEATS} calls beside the best of {REPEATS} floors)",
+        ]
+        print("\n".join([*head, "", *table]))
+        if args.markdown:
+            args.markdown.write_text("\n".join([*head, "", *table]) + "\n")
+        return
     rng = np.random.default_rng(31)
     n_poses = max(16, int(1_000_000 * args.scale))
     n_seq = max(16, int(100_000 * args.scale))
@@ -257,6 +322,8 @@ def main() -> None:
     print("\n".join([*head, "", *table]))
     if args.markdown:
         args.markdown.write_text("\n".join([*head, "", *table]) + "\n")
+    if args.rows_json:
+        args.rows_json.write_text(json.dumps(rows))
 
 
 if __name__ == "__main__":
