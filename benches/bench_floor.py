@@ -279,7 +279,8 @@ def main() -> None:
             + (f" --scale {args.scale}`" if args.scale != 1 else "`"),
             f"- machine: {platform.machine()}, {os.cpu_count()} CPUs, {cpu_model()}",
             f"- load average (1 min) before / after: {before:.2f} / {load():.2f}",
-            f"- each run as below (best of {REPEATS} calls beside the best of {REPEATS} floors)",
+            f"- each run: the best of {REPEATS} calls beside the best of {REPEATS} floors "
+            "(numpy allocating and writing the same arrays, as in a single run)",
         ]
         print("\n".join([*head, "", *table]))
         if args.markdown:
