@@ -66,13 +66,14 @@ class CoreArm:
 def solve(
     arm: CoreArm,
     alpha_deg: npt.NDArray[np.float64],
-    payload_n: npt.NDArray[np.float64],
+    payload_n: npt.NDArray[np.float64] | None,
     codes: npt.NDArray[np.int64],
     places: npt.NDArray[np.int64],
     values: npt.NDArray[np.float64],
     self_weight: bool,
     nan_on_failure: bool = False,
     *,
+    mass_kg: float | npt.NDArray[np.float64] | None = None,
     extra_seen_mm: npt.NDArray[np.float64] | None = None,
     extra_unseen_mm: npt.NDArray[np.float64] | None = None,
     extra_joint_mm: npt.NDArray[np.float64] | None = None,
@@ -89,13 +90,15 @@ def solve(
     ``status`` (N,) uint8; NaN at the joints of the other kind (forces and lengths at a drive,
     torques at a linear actuator). ``extra_turn_rad`` (N, n): turn of link i against body
     i−1 at a rotary drive (zero at linear actuators). With ``outputs`` only those keys and
-    ``status`` are allocated, written and returned (``out`` then holds exactly those)."""
+    ``status`` are allocated, written and returned (``out`` then holds exactly those).
+    ``payload_n`` None with ``mass_kg`` (a float, or (N,)): the payload masses (kg), their
+    weight downward; not with the ``extra_*`` arrays."""
     ...
 
 def solve_sequence(
     arm: CoreArm,
     alpha_deg: npt.NDArray[np.float64],
-    payload_n: npt.NDArray[np.float64],
+    mass_kg: npt.NDArray[np.float64],
     codes: npt.NDArray[np.int64],
     places: npt.NDArray[np.int64],
     values: npt.NDArray[np.float64],
@@ -104,9 +107,9 @@ def solve_sequence(
     *,
     outputs: Sequence[str] | None = None,
 ) -> dict[str, npt.NDArray[Any]]:
-    """N load sequences of S states. ``alpha_deg`` (N, n) C-contiguous float64; ``payload_n``
-    (N, S) the vertical payload force of each state (N, y up: ``-m·g``, as column 1 of
-    :func:`solve`'s ``payload_n``). Returns the keys of :func:`solve` with shape (N, S, ...),
+    """N load sequences of S states. ``alpha_deg`` (N, n) C-contiguous float64; ``mass_kg``
+    (N, S) the payload mass of each state (kg, its weight ``m·g`` downward), or (S,) / (1, S)
+    the same S for every sequence. Returns the keys of :func:`solve` with shape (N, S, ...),
     relative to each sequence's reference, and ``status`` (N, S) uint8; with ``outputs`` only
     those keys and ``status``."""
     ...

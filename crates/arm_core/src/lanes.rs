@@ -203,9 +203,9 @@ impl M4 {
     }
 }
 
-/// `R(s, c)·v` for lanes of sines and cosines and a constant vector.
+/// `R(s, c)·v` for lanes of sines and cosines and a constant vector `v` in every lane.
 #[inline(always)]
-pub(crate) fn rot4(s: F4, c: F4, v: [f64; 2]) -> (F4, F4) {
+pub(crate) fn rot4(s: F4, c: F4, v: &[F4; 2]) -> (F4, F4) {
     (c * v[0] - s * v[1], s * v[0] + c * v[1])
 }
 

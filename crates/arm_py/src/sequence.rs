@@ -4,10 +4,10 @@
 use crate::convert::{effect_set, matrix, CoreArm};
 use crate::errors::{value_error, PyArmError};
 use crate::solve::{asked, fill_out, new_out};
-use arm_core::{SequenceInput, SolveOptions};
+use arm_core::SolveOptions;
 use numpy::{
-    IntoPyArray, PyArray2, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArray,
-    PyUntypedArrayMethods,
+    IntoPyArray, PyArray2, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyReadonlyArrayDyn,
+    PyUntypedArray, PyUntypedArrayMethods,
 };
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -16,17 +16,17 @@ use pyo3::types::PyDict;
 /// `torque_nmm`, `dtorque_nmm`, `dalpha_deg`, `dl_mm`, `dlength_mm`, `length_mm` (N, S, n),
 /// `reaction_n` (N, S, n, 2),
 /// `dx_mm`, `dy_mm` (N, S) and the uint8 `status` (N, S), every state relative to its
-/// sequence's reference. `payload_n` (N, S) is the vertical component (N, y up) of the
-/// payload force of each state, as column 1 of `solve`'s `payload_n`: `−m·g` for a mass m.
+/// sequence's reference. `mass_kg` (N, S) is the payload mass (kg) of each state, its
+/// weight `m·g` downward (`g` of the arm); (1, S) or (S,) gives every sequence the same S.
 /// With `outputs` (a list of those keys) only those arrays and `status` are returned.
 #[pyfunction]
-#[pyo3(signature = (arm, alpha_deg, payload_n, codes, places, values, self_weight, nan_on_failure=false, *, outputs=None))]
+#[pyo3(signature = (arm, alpha_deg, mass_kg, codes, places, values, self_weight, nan_on_failure=false, *, outputs=None))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn solve_sequence<'py>(
     py: Python<'py>,
     arm: &CoreArm,
     alpha_deg: PyReadonlyArray2<'py, f64>,
-    payload_n: PyReadonlyArray2<'py, f64>,
+    mass_kg: PyReadonlyArrayDyn<'py, f64>,
     codes: PyReadonlyArray1<'py, i64>,
     places: PyReadonlyArray1<'py, i64>,
     values: PyReadonlyArray1<'py, f64>,
@@ -38,41 +38,34 @@ pub(crate) fn solve_sequence<'py>(
     let n = arm.n();
     let asked = asked(outputs)?;
     let (alpha, seqs) = matrix(&alpha_deg, "alpha_deg", n)?;
-    let shape = payload_n.shape();
-    let (rows, states) = (shape[0], shape[1]);
-    if rows != seqs {
-        return Err(value_error(format!(
-            "payload_n: expected {seqs} rows like alpha_deg, got {rows}"
-        )));
-    }
+    let states = match *mass_kg.shape() {
+        [s] | [1, s] => s,
+        [rows, s] if rows == seqs => s,
+        ref shape => {
+            return Err(value_error(format!(
+                "mass_kg: expected shape ({seqs}, S), (1, S) or (S,), got {shape:?}"
+            )))
+        }
+    };
     if states == 0 {
         return Err(value_error(
-            "payload_n: a sequence needs at least one state".into(),
+            "mass_kg: a sequence needs at least one state".into(),
         ));
     }
-    let py_payload = payload_n
+    let mass = mass_kg
         .as_slice()
-        .map_err(|_| value_error("payload_n: array must be C-contiguous".into()))?;
+        .map_err(|_| value_error("mass_kg: array must be C-contiguous".into()))?;
     let effects = effect_set(arm, &codes, &places, &values, true)?;
     let opts = SolveOptions {
         self_weight,
         nan_on_failure,
     };
     let total = seqs * states;
-    let mut payload = vec![0.0; 2 * total];
-    for (p, y) in payload.chunks_exact_mut(2).zip(py_payload) {
-        p[1] = *y;
-    }
-    let input = SequenceInput {
-        alpha_deg: alpha,
-        payload_n: &payload,
-        states,
-    };
     // numpy allocates the outputs (huge pages for large arrays), as for `solve`; the rows
     // are the states, sequence-major, reshaped below to (N, S, ...) views.
     let flat = new_out(py, total, n, &asked)?;
     fill_out(py, &flat, total, n, &asked, |batch, st| {
-        arm_core::solve_sequence(arm, &effects, input, opts, batch, st)
+        arm_core::solve_sequence_masses(arm, &effects, alpha, mass, states, opts, batch, st)
     })?;
     let out = PyDict::new(py);
     for (key, value) in flat.iter() {

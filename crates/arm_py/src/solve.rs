@@ -1,9 +1,9 @@
 //! `solve`: the analytic model over N poses (with the extra deformations of user effects), and
 //! `statics`: the forces of both states that those effects read.
 
-use crate::convert::{effect_set, optional, poses_and_payloads, CoreArm};
+use crate::convert::{effect_set, matrix, optional, poses_and_payloads, CoreArm};
 use crate::errors::{value_error, PyArmError};
-use arm_core::{BatchOutput, ExtraDeformations, SolveOptions, StaticsBuffers};
+use arm_core::{BatchOutput, ExtraDeformations, Masses, SolveOptions, StaticsBuffers};
 use numpy::{
     IntoPyArray, PyArrayDyn, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2,
     PyReadonlyArrayDyn, PyReadwriteArrayDyn, PyUntypedArrayMethods,
@@ -126,19 +126,25 @@ fn borrow_out<'py>(
 /// at linear actuators), `extra_joint_mm` (N, n, 2) offset of link i's pin centre at O_i,
 /// `extra_tilt_rad` (N,) chassis tilt about the base pivot, `extra_measure_mm` (N, 2)
 /// displacement of the measure point.
+///
+/// `payload_n` may be None with the keyword `mass_kg` instead: a float (every pose) or an
+/// (N,) float64 array of payload masses (kg) whose weight `m·g` acts downward (`g` of the
+/// arm), as `eodarm.solve` takes them; the force rows are then made a chunk at a time in the
+/// core, never for the whole batch. Not with the `extra_*` arrays.
 #[pyfunction]
-#[pyo3(signature = (arm, alpha_deg, payload_n, codes, places, values, self_weight, nan_on_failure=false, *, extra_seen_mm=None, extra_unseen_mm=None, extra_joint_mm=None, extra_tilt_rad=None, extra_measure_mm=None, extra_turn_rad=None, out=None, outputs=None))]
+#[pyo3(signature = (arm, alpha_deg, payload_n, codes, places, values, self_weight, nan_on_failure=false, *, mass_kg=None, extra_seen_mm=None, extra_unseen_mm=None, extra_joint_mm=None, extra_tilt_rad=None, extra_measure_mm=None, extra_turn_rad=None, out=None, outputs=None))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn solve<'py>(
     py: Python<'py>,
     arm: &CoreArm,
     alpha_deg: PyReadonlyArray2<'py, f64>,
-    payload_n: PyReadonlyArray2<'py, f64>,
+    payload_n: Option<PyReadonlyArray2<'py, f64>>,
     codes: PyReadonlyArray1<'py, i64>,
     places: PyReadonlyArray1<'py, i64>,
     values: PyReadonlyArray1<'py, f64>,
     self_weight: bool,
     nan_on_failure: bool,
+    mass_kg: Option<Bound<'py, PyAny>>,
     extra_seen_mm: Option<PyReadonlyArrayDyn<'py, f64>>,
     extra_unseen_mm: Option<PyReadonlyArrayDyn<'py, f64>>,
     extra_joint_mm: Option<PyReadonlyArrayDyn<'py, f64>>,
@@ -151,9 +157,55 @@ pub(crate) fn solve<'py>(
     let arm = &arm.inner;
     let asked = asked(outputs)?;
     let n = arm.n();
+    let effects = effect_set(arm, &codes, &places, &values, true)?;
+    let opts = SolveOptions {
+        self_weight,
+        nan_on_failure,
+    };
+    let payload_n = match (payload_n, mass_kg) {
+        (Some(p), None) => p,
+        (None, Some(m)) => {
+            let extras = [
+                &extra_seen_mm,
+                &extra_unseen_mm,
+                &extra_joint_mm,
+                &extra_tilt_rad,
+                &extra_measure_mm,
+                &extra_turn_rad,
+            ];
+            if extras.iter().any(|e| e.is_some()) {
+                return Err(value_error(
+                    "mass_kg: give payload_n with the extra_* arrays".into(),
+                ));
+            }
+            let (alpha, rows) = matrix(&alpha_deg, "alpha_deg", n)?;
+            let array = m.extract::<PyReadonlyArray1<'py, f64>>().ok();
+            let masses = match &array {
+                Some(a) => Masses::Each(
+                    a.as_slice()
+                        .map_err(|_| value_error("mass_kg: array must be C-contiguous".into()))?,
+                ),
+                None => Masses::All(m.extract::<f64>().map_err(|_| {
+                    value_error("mass_kg: expected a float or an (N,) float64 array".into())
+                })?),
+            };
+            let dict = match out {
+                Some(dict) => dict,
+                None => new_out(py, rows, n, &asked)?,
+            };
+            fill_out(py, &dict, rows, n, &asked, |batch, st| {
+                arm_core::solve_batch_masses(arm, &effects, alpha, masses, opts, batch, st)
+            })?;
+            return Ok(dict);
+        }
+        _ => {
+            return Err(value_error(
+                "give exactly one of payload_n and mass_kg".into(),
+            ))
+        }
+    };
     let input = poses_and_payloads(&alpha_deg, &payload_n, n)?;
     let rows = input.payload_n.len() / 2;
-    let effects = effect_set(arm, &codes, &places, &values, true)?;
     let extra = ExtraDeformations {
         seen_mm: optional(&extra_seen_mm, "extra_seen_mm", &[rows, n], "(N, n)")?,
         unseen_mm: optional(&extra_unseen_mm, "extra_unseen_mm", &[rows, n], "(N, n)")?,
@@ -166,10 +218,6 @@ pub(crate) fn solve<'py>(
         )?,
         tilt_rad: optional(&extra_tilt_rad, "extra_tilt_rad", &[rows], "(N,)")?,
         measure_mm: optional(&extra_measure_mm, "extra_measure_mm", &[rows, 2], "(N, 2)")?,
-    };
-    let opts = SolveOptions {
-        self_weight,
-        nan_on_failure,
     };
     // Without `out`, numpy allocates the outputs (it asks the kernel for huge pages for large
     // arrays: a million poses fault in 100 pages rather than 50 000), and they are filled as

@@ -176,13 +176,18 @@ def _per_row(values: npt.ArrayLike, rows: int, name: str) -> npt.NDArray[np.floa
 
 
 def _poses_and_masses(
-    alpha_deg: npt.ArrayLike, mass_kg: npt.ArrayLike, n: int, finite: bool = True
+    alpha_deg: npt.ArrayLike,
+    mass_kg: npt.ArrayLike,
+    n: int,
+    finite: bool = True,
+    expand: bool = True,
 ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
     """Poses (R, n) and payload masses (R,), broadcast against each other over the rows as
     numpy broadcasts: one pose ((n,) or (1, n)) with M masses gives M rows, N poses with one
     mass (a scalar or (1,)) N rows, N poses with N masses N rows; anything else is an
     InputError naming both shapes (docs/python.md, "Broadcasting"). ``finite``: as
-    :func:`_poses`'s, for the angles (the masses are always checked)."""
+    :func:`_poses`'s, for the angles (the masses are always checked). ``expand=False``
+    leaves one mass for every row as a 0-d array instead of R copies."""
     alpha = _poses(alpha_deg, n, "alpha_deg", finite)
     mass = _floats(mass_kg, "mass_kg", "finite numbers")
     rows = alpha.shape[0]
@@ -196,6 +201,10 @@ def _poses_and_masses(
         )
     if mass.ndim == 1 and mass.shape[0] == 1:
         mass = mass[0]
+    if not expand and np.ndim(mass) == 0:
+        if rows and not np.isfinite(mass):  # as _per_row says it of the copies
+            raise InputError("pose row 0: mass_kg is not finite")
+        return alpha, np.asarray(mass, dtype=np.float64)
     return alpha, _per_row(mass, rows, "mass_kg")
 
 

@@ -215,18 +215,25 @@ def _core_sequence(
     from eodarm.model import native as _core
 
     codes, places, values = effect_arrays(effs, arm.n)
-    payload = np.ascontiguousarray(mass * -arm.g)
 
     def run(
-        a: npt.NDArray[np.float64], p: npt.NDArray[np.float64], nan: bool, keys: list[str] | None
+        a: npt.NDArray[np.float64], m: npt.NDArray[np.float64], nan: bool, keys: list[str] | None
     ) -> Arrays:
         out: Arrays = _core.solve_sequence(
-            _core_arm(arm), a, p, codes, places, values, self_weight, nan, outputs=keys
+            _core_arm(arm),
+            a,
+            _core_masses(m),
+            codes,
+            places,
+            values,
+            self_weight,
+            nan,
+            outputs=keys,
         )
         return out
 
     try:
-        return run(alpha, payload, not strict, keys)
+        return run(alpha, mass, not strict, keys)
     except _core.CoreError as exc:
         text = " ".join(str(exc).split())
         found = re.match(r"pose row (\d+)[:,]?\s*(.*)", text)
@@ -236,12 +243,21 @@ def _core_sequence(
         state = None
         if q < alpha.shape[0]:  # which state: the sequence again, each failed state NaN
             try:
-                one = run(alpha[q : q + 1], payload[q : q + 1], True, ["dy_mm"])
+                one = run(alpha[q : q + 1], mass[q : q + 1], True, ["dy_mm"])
                 bad = np.flatnonzero(np.isnan(np.asarray(one["dy_mm"])[0]))
                 state = int(bad[0]) if bad.size else None
             except _core.CoreError:
                 pass  # singular unloaded: every state fails alike, the sequence says it
         raise InputError(f"{_state_words(q, state, mass)}: {reason}") from None
+
+
+def _core_masses(mass: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
+    """The (N, S) masses as the compiled core takes them: the S of every sequence once, when
+    ``mass`` repeats one row (a broadcast view, as :func:`_sequence_masses` leaves (S,) and
+    (1, S)), else the (N, S) rows, contiguous."""
+    if mass.shape[0] > 1 and mass.strides[0] == 0:
+        return np.ascontiguousarray(mass[0])
+    return np.ascontiguousarray(mass)
 
 
 def _state_words(q: int, s: int | None, mass: npt.NDArray[np.float64]) -> str:
@@ -321,10 +337,13 @@ def _sequence_masses(mass_kg: npt.ArrayLike, rows: int) -> npt.NDArray[np.float6
         raise InputError(
             f"mass_kg: expected shape ({rows}, S) or (S,) with S >= 1, got {np.shape(mass_kg)}"
         )
-    bad = ~np.isfinite(mass) | (mass < 0)
-    if bad.any():
+    # One row repeated (a broadcast view) is checked once: its own values are all there is.
+    rows_of = mass[:1] if mass.shape[0] > 1 and mass.strides[0] == 0 else mass
+    if not (np.isfinite(np.sum(rows_of)) and rows_of.min() >= 0):  # one pass each, no copy
+        bad = ~np.isfinite(rows_of) | (rows_of < 0)
         q, s = (int(v) for v in np.argwhere(bad)[0])
         raise InputError(
             f"mass_kg: sequence {q}, state {s}: expected a finite mass >= 0, got {mass[q, s]}"
         )
-    return np.ascontiguousarray(mass, dtype=np.float64)
+    # a repeated row stays a (read-only) view: the compiled core takes its S masses once
+    return mass if rows_of is not mass else np.ascontiguousarray(mass, dtype=np.float64)

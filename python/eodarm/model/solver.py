@@ -11,7 +11,7 @@ from __future__ import annotations
 import re
 from collections.abc import Iterator, Mapping, Sequence
 from contextlib import contextmanager
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 import numpy.typing as npt
@@ -158,10 +158,14 @@ def solve(
     check_arm(arm, "solve")
     _check_memory(alpha_deg, arm.n, mass_kg)
     # The compiled core's analytic solve refuses a non-finite angle naming its row, in the
-    # words of the Python check (_core_refusals): the angles are not read twice for it.
+    # words of the Python check (_core_refusals): the angles are not read twice for it. It
+    # takes the masses themselves (one for all rows, or one per row) and makes the payload
+    # forces a chunk at a time: the (N, 2) forces are built here only where another path
+    # needs them (:func:`_solve_payload`).
     core = backend == "rust" and model == "analytic"
-    alpha, mass = _poses_and_masses(alpha_deg, mass_kg, arm.n, finite=not core)
-    payload = _payload_of(mass, alpha.shape[0], arm.g)
+    alpha, mass = _poses_and_masses(alpha_deg, mass_kg, arm.n, finite=not core, expand=not core)
+    _refuse_negative(mass, alpha.shape[0])
+    payload = None if core else _payload_of(mass, alpha.shape[0], arm.g)
     return _solve_payload(
         arm,
         alpha,
@@ -177,19 +181,33 @@ def solve(
         checked=True,
         strict=strict,
         outputs=outputs,
+        mass=mass,
     )
 
 
-def _payload_of(mass: npt.NDArray[np.float64], rows: int, g: float) -> npt.NDArray[np.float64]:
-    """The (N, 2) payload force (0, −m·g) of the per-row masses ``mass`` ((N,) finite, as
-    :func:`~eodarm.model.kinematics._poses_and_masses` returns them), or an InputError
-    naming the row of a negative mass."""
+def _refuse_negative(mass: npt.NDArray[np.float64], rows: int) -> None:
+    """An InputError naming the row of the first negative mass of ``mass`` (finite: a scalar
+    for each of the ``rows`` rows, or one per row)."""
     if rows and not mass.min() >= 0:  # finite masses: the smallest says if any is negative
-        row = int(np.flatnonzero(mass < 0)[0])
-        raise InputError(f"pose row {row}: mass_kg is negative ({mass[row]})")
+        row = int(np.flatnonzero(np.atleast_1d(mass) < 0)[0])
+        raise InputError(f"pose row {row}: mass_kg is negative ({np.atleast_1d(mass)[row]})")
+
+
+def _payload_of(mass: npt.NDArray[np.float64], rows: int, g: float) -> npt.NDArray[np.float64]:
+    """The (N, 2) payload force (0, −m·g) of the masses ``mass`` (finite and not negative,
+    as :func:`_refuse_negative` leaves them: one per row, or a scalar for every row)."""
     payload = np.zeros((rows, 2))  # zeroed by the allocator (calloc): x = 0 costs no pass
     np.multiply(mass, -g, out=payload[:, 1])
     return payload
+
+
+def _mass_arg(mass: npt.NDArray[np.float64] | None) -> float | npt.NDArray[np.float64]:
+    """``mass`` as the compiled core takes it: a float for every row, else (N,) contiguous."""
+    if mass is None:
+        raise InputError("solve: neither a payload nor masses")  # not reached from solve()
+    if mass.ndim == 0:
+        return float(mass)
+    return np.ascontiguousarray(mass, dtype=np.float64)
 
 
 @contextmanager
@@ -246,7 +264,7 @@ def solve_payload(
 def _solve_payload(
     arm: Arm,
     alpha_deg: npt.ArrayLike,
-    payload_n: npt.ArrayLike,
+    payload_n: npt.ArrayLike | None,
     effects: Effect | list[Effect] | tuple[Effect, ...] | None,
     backend: Backend,
     self_weight: bool,
@@ -258,30 +276,48 @@ def _solve_payload(
     checked: bool = False,
     strict: bool = False,
     outputs: Sequence[str] | None = None,
+    mass: npt.NDArray[np.float64] | None = None,
 ) -> Arrays:
     """:func:`solve_payload` once the arm and the memory the outputs need are checked (the
     memory check reads /proc: once per call, not once per layer). ``checked``: ``alpha_deg``
     and ``payload_n`` are already (N, n) and (N, 2) finite contiguous float64 arrays (the
     angles' finiteness left to the compiled core's analytic solve, which refuses it in the
-    same words: :func:`_core_refusals`)."""
+    same words: :func:`_core_refusals`). ``payload_n`` may be None with ``mass``, the checked
+    masses of :func:`solve` (a scalar or (N,)): the compiled core then takes the masses
+    themselves, and the forces are built here only for the paths that need them."""
     from eodarm.model import fem
 
     asked = check_outputs(outputs, model, uncertainty)
-    if checked:
+    payload: npt.NDArray[np.float64] | None
+    if checked and payload_n is None:
+        alpha = np.asarray(alpha_deg, dtype=np.float64)
+        payload = None
+    elif checked:
         alpha = np.asarray(alpha_deg, dtype=np.float64)
         payload = np.asarray(payload_n, dtype=np.float64)
     else:
         alpha = _poses(alpha_deg, arm.n, "alpha_deg")
-        payload = _poses(payload_n, 2, "payload_n")
-    if payload.shape[0] == 1 and alpha.shape[0] != 1:
+        payload = _poses(cast(npt.ArrayLike, payload_n), 2, "payload_n")
+
+    def forces() -> npt.NDArray[np.float64]:
+        """The (N, 2) payload forces: given, or built from solve's masses for a path that
+        reads them (the compiled core's analytic solve takes the masses themselves)."""
+        nonlocal payload
+        if payload is None:
+            payload = _payload_of(np.asarray(mass), alpha.shape[0], arm.g)
+        return payload
+
+    if payload is None:
+        pass  # solve's masses, broadcast against the poses already
+    elif payload.shape[0] == 1 and alpha.shape[0] != 1:
         payload = np.ascontiguousarray(np.broadcast_to(payload, (alpha.shape[0], 2)))
-    if alpha.shape[0] == 1 and payload.shape[0] != 1:  # one pose under M payloads
+    elif alpha.shape[0] == 1 and payload.shape[0] != 1:  # one pose under M payloads
         alpha = np.ascontiguousarray(np.broadcast_to(alpha, (payload.shape[0], arm.n)))
-    if payload.shape[0] != alpha.shape[0]:
+    if payload is not None and payload.shape[0] != alpha.shape[0]:
         raise InputError(
             f"alpha_deg of shape {np.shape(alpha_deg)} and payload_n of shape "
-            f"{np.shape(payload_n)} do not broadcast: give one pose for M payloads, N poses "
-            "for one payload, or N of each"
+            f"{np.shape(cast(npt.ArrayLike, payload_n))} do not broadcast: give one pose for M "
+            "payloads, N poses for one payload, or N of each"
         )
     effs = with_arm_effects(arm.effects, effects)
     codes, places, values = effect_arrays(effs, arm.n)
@@ -309,8 +345,8 @@ def _solve_payload(
         _check_backend(backend)
         if backend != "rust":
             raise InputError("model='fem' runs in the compiled core: use backend='rust'")
-        fe = fem.fem_solve_payload(arm, alpha, payload, effs, self_weight, fem_options)
-        fe["status"] = status(arm, alpha, payload, fe)
+        fe = fem.fem_solve_payload(arm, alpha, forces(), effs, self_weight, fem_options)
+        fe["status"] = status(arm, alpha, forces(), fe)
         return select(fe, asked)
     if fem_options is not None:
         raise InputError("fem_options is for model='fem'")
@@ -327,19 +363,21 @@ def _solve_payload(
             from eodarm.model import custom
 
             with _core_refusals():
-                st = _core.statics(_core_arm(arm), alpha, payload, self_weight)
-            state = custom.EffectState.from_statics(arm, alpha, payload, st, self_weight)
+                st = _core.statics(_core_arm(arm), alpha, forces(), self_weight)
+            state = custom.EffectState.from_statics(arm, alpha, forces(), st, self_weight)
             extras = custom.add_extras(extras, custom.extras_of(custom_effs, state))
         with _core_refusals():
             res: Arrays = _core.solve(
                 _core_arm(arm),
                 alpha,
-                payload,
+                forces() if payload is not None or extras else None,
                 codes,
                 places,
                 values,
                 self_weight,
                 not strict,  # nan_on_failure: a pose that cannot close under load is NaN
+                # with extras (also a custom effect's) the core takes force rows
+                mass_kg=_mass_arg(mass) if payload is None and not extras else None,
                 extra_seen_mm=extras.get("extra_seen_mm"),
                 extra_unseen_mm=extras.get("extra_unseen_mm"),
                 extra_joint_mm=extras.get("extra_joint_mm"),
@@ -357,7 +395,7 @@ def _solve_payload(
             reference.solve_payload(
                 arm,
                 alpha,
-                payload,
+                forces(),
                 effs,
                 self_weight=self_weight,
                 extra=extras,
@@ -366,14 +404,14 @@ def _solve_payload(
         )
         lift = checks_load_rise(arm, effs)
         res["status"] = status(
-            arm, alpha, payload, res, load_rise=lift & quiet_rows(extras, alpha.shape[0])
+            arm, alpha, forces(), res, load_rise=lift & quiet_rows(extras, alpha.shape[0])
         )
     if not strict:
         _refuse_unloaded_singular(arm, alpha, res)
     if uncertainty:
         from eodarm.model.uncertainty import prediction_sigma
 
-        res.update(prediction_sigma(arm, alpha, payload, effs, self_weight))
+        res.update(prediction_sigma(arm, alpha, forces(), effs, self_weight))
     return select(res, asked)
 
 
@@ -411,6 +449,7 @@ def statics(
     """
     check_arm(arm, "statics")
     alpha, mass = _poses_and_masses(alpha_deg, mass_kg, arm.n)
+    _refuse_negative(mass, alpha.shape[0])
     payload = _payload_of(mass, alpha.shape[0], arm.g)
     _check_backend(backend)
     if backend == "rust":

@@ -112,6 +112,90 @@ pub struct FastArm<const N: usize> {
     rise_lim: f64,
     /// The load point's rise is checked ([`validity::checks_load_rise`]).
     pub(crate) load_rise: bool,
+    /// The pose stage's constants in every lane of a pack.
+    k4: Packed<N>,
+}
+
+/// The per-arm constants of the pose stage, each in every lane of a pack ([`F4`]): an
+/// operand read from memory as a whole register, where a scalar costs a broadcast
+/// instruction per use and pack (AVX2 cannot fold one). The same values as the scalar
+/// fields, so the same bits.
+#[derive(Debug, Clone)]
+struct Packed<const N: usize> {
+    a: [[F4; 2]; N],
+    next: [[F4; 2]; N],
+    b: [[F4; 2]; N],
+    c: [[F4; 2]; N],
+    measure: [F4; 2],
+    d0: [F4; 2],
+    o1: [F4; 2],
+    len_tol: [F4; N],
+    arm_tol: [F4; N],
+    near_tol: [F4; N],
+    lo: [F4; N],
+    hi: [F4; N],
+    inv_rd: [F4; N],
+    /// −w_link, w_half and w_half of the next actuator (zero beyond the tip), their sum
+    /// w_link + w_half + w_half(next) and a drive's weight, per link.
+    neg_wl: [F4; N],
+    wa: [F4; N],
+    wb: [F4; N],
+    w_sum: [F4; N],
+    w_drive: [F4; N],
+}
+
+impl<const N: usize> Packed<N> {
+    /// Zeros, until the scalar fields are known.
+    fn of_nothing() -> Self {
+        let (z, z2) = ([F4::ZERO; N], [[F4::ZERO; 2]; N]);
+        let p = [F4::ZERO; 2];
+        Self {
+            a: z2,
+            next: z2,
+            b: z2,
+            c: z2,
+            measure: p,
+            d0: p,
+            o1: p,
+            len_tol: z,
+            arm_tol: z,
+            near_tol: z,
+            lo: z,
+            hi: z,
+            inv_rd: z,
+            neg_wl: z,
+            wa: z,
+            wb: z,
+            w_sum: z,
+            w_drive: z,
+        }
+    }
+
+    fn of(k: &FastArm<N>) -> Self {
+        let sp = |v: [f64; 2]| [F4::splat(v[0]), F4::splat(v[1])];
+        let each = |f: &dyn Fn(usize) -> f64| std::array::from_fn(|i| F4::splat(f(i)));
+        let wb = |i: usize| if i + 1 < N { k.w_half[i + 1] } else { 0.0 };
+        Self {
+            a: k.a.map(sp),
+            next: k.next.map(sp),
+            b: k.b.map(sp),
+            c: k.c.map(sp),
+            measure: sp(k.measure),
+            d0: sp(k.d0),
+            o1: sp(k.o1),
+            len_tol: each(&|i| k.len_tol[i]),
+            arm_tol: each(&|i| k.arm_tol[i]),
+            near_tol: each(&|i| k.near_tol[i]),
+            lo: each(&|i| k.lo[i]),
+            hi: each(&|i| k.hi[i]),
+            inv_rd: each(&|i| k.inv_rd[i]),
+            neg_wl: each(&|i| -k.w_link[i]),
+            wa: each(&|i| k.w_half[i]),
+            wb: each(&|i| wb(i)),
+            w_sum: each(&|i| k.w_link[i] + k.w_half[i] + wb(i)),
+            w_drive: each(&|i| k.w_drive[i]),
+        }
+    }
 }
 
 fn p2(v: crate::V2) -> [f64; 2] {
@@ -189,6 +273,7 @@ impl<const N: usize> FastArm<N> {
             move_lim2: 0.0,
             rise_lim: 0.0,
             load_rise: validity::checks_load_rise(arm, effects),
+            k4: Packed::of_nothing(),
         };
         let reach = validity::reach(arm);
         k.move_lim2 = (MAX_DEFLECTION_OF_REACH * reach).powi(2);
@@ -268,6 +353,7 @@ impl<const N: usize> FastArm<N> {
         }
         k.any_play = k.play.iter().any(|&p| p != 0.0);
         k.any_up = k.play_up.iter().any(|&p| p != 0.0);
+        k.k4 = Packed::of(&k);
         Some(k)
     }
 }
@@ -549,12 +635,13 @@ impl<const N: usize> FastArm<N> {
         let mut e0 = [F4::ZERO; N];
         let mut e1 = [F4::ZERO; N];
         let mut inv_h = [F4::ZERO; N];
+        let k4 = &this.k4;
         for i in 0..N {
             let (s, c) = (ld(&sn[i]), ld(&cs[i]));
-            (rax[i], ray[i]) = rot4(s, c, this.a[i]);
-            (rnx[i], rny[i]) = rot4(s, c, this.next[i]);
-            (rbx[i], rby[i]) = rot4(s, c, this.b[i]);
-            rcx[i] = c * this.c[i][0] - s * this.c[i][1];
+            (rax[i], ray[i]) = rot4(s, c, &k4.a[i]);
+            (rnx[i], rny[i]) = rot4(s, c, &k4.next[i]);
+            (rbx[i], rby[i]) = rot4(s, c, &k4.b[i]);
+            rcx[i] = c * k4.c[i][0] - s * k4.c[i][1];
         }
         for i in 0..N {
             if ROT && this.rotary[i] {
@@ -573,7 +660,7 @@ impl<const N: usize> FastArm<N> {
             let (gx, gy) = if i + 1 < N {
                 (rnx[i], rny[i])
             } else {
-                rot4(ld(&sn[i]), ld(&cs[i]), this.measure)
+                rot4(ld(&sn[i]), ld(&cs[i]), &k4.measure)
             };
             gx.store(&mut pb.gx[i], at);
             gy.store(&mut pb.gy[i], at);
@@ -590,7 +677,7 @@ impl<const N: usize> FastArm<N> {
             let (dx, dy) = if i > 0 {
                 (rbx[i - 1] - rnx[i - 1], rby[i - 1] - rny[i - 1])
             } else {
-                (F4::splat(this.d0[0]), F4::splat(this.d0[1]))
+                (k4.d0[0], k4.d0[1])
             };
             let (ax, ay) = (rax[i], ray[i]);
             let (vx, vy) = (ax - dx, ay - dy);
@@ -605,16 +692,16 @@ impl<const N: usize> FastArm<N> {
             (e0[i], e1[i]) = (vx * inv_l, vy * inv_l);
             // `!(x > t)`: NaN counts as singular, as in the scalar core.
             let habs = hv.abs();
-            singular = singular | !l.gt(F4::splat(this.len_tol[i])) | !habs.ge(this.arm_tol[i] * l);
-            near = near | !habs.ge(this.near_tol[i] * l);
-            reach = reach & l.ge(F4::splat(this.lo[i])) & l.le(F4::splat(this.hi[i]));
+            singular = singular | !l.gt(k4.len_tol[i]) | !habs.ge(k4.arm_tol[i] * l);
+            near = near | !habs.ge(k4.near_tol[i] * l);
+            reach = reach & l.ge(k4.lo[i]) & l.le(k4.hi[i]);
             e0[i].store(&mut pb.e[0][i], at);
             e1[i].store(&mut pb.e[1][i], at);
             dx.store(&mut pb.d[0][i], at);
             dy.store(&mut pb.d[1][i], at);
             l.store(&mut pb.len[i], at);
-            let sg = (dx * ay - dy * ax) * this.inv_rd[i];
-            ((dx * ax + dy * ay) * this.inv_rd[i]).store(&mut pb.c[i], at);
+            let sg = (dx * ay - dy * ax) * k4.inv_rd[i];
+            ((dx * ax + dy * ay) * k4.inv_rd[i]).store(&mut pb.c[i], at);
             sg.abs().store(&mut pb.s[i], at);
             sg.sign_one().store(&mut pb.side[i], at);
         }
@@ -629,8 +716,6 @@ impl<const N: usize> FastArm<N> {
         let mut rux1 = F4::ZERO - ld(&pay[0]);
         let mut ruy1 = F4::ZERO - ld(&pay[1]);
         for i in (0..N).rev() {
-            let wb = if i + 1 < N { this.w_half[i + 1] } else { 0.0 };
-            let (wl, wa) = (this.w_link[i], this.w_half[i]);
             // Weights at C_i, A_i and B_i; moments about O_i. B_i is unused for the last link.
             let (ax, nx, ny) = (rax[i], rnx[i], rny[i]);
             let (bx, by) = if i + 1 < N {
@@ -640,16 +725,16 @@ impl<const N: usize> FastArm<N> {
             };
             let (fx, fy) = (-fw1 * e0n, -fw1 * e1n);
             let qx = fx - rwx1;
-            let mut qy = fy - rwy1 - (wl + wa + wb);
-            let mut t =
-                -wl * rcx[i] - wa * ax - wb * bx + (bx * fy - by * fx) - (nx * rwy1 - ny * rwx1);
+            let mut qy = fy - rwy1 - k4.w_sum[i];
+            let mut t = k4.neg_wl[i] * rcx[i] - k4.wa[i] * ax - k4.wb[i] * bx + (bx * fy - by * fx)
+                - (nx * rwy1 - ny * rwx1);
             let (gx, gy) = (-fu1 * e0n, -fu1 * e1n);
             let qux = gx - rux1;
             let quy = gy - ruy1;
             let mut tu = (bx * gy - by * gx) - (nx * ruy1 - ny * rux1);
             if ROT && i + 1 < N && this.rotary[i + 1] {
                 // Drive i+1's housing: its weight at O_{i+1} and the couple −T_{i+1}.
-                let wo = this.w_drive[i + 1];
+                let wo = k4.w_drive[i + 1];
                 qy = qy - wo;
                 t = t - wo * nx - fw1;
                 tu = tu - fu1;
@@ -671,8 +756,8 @@ impl<const N: usize> FastArm<N> {
             rux1.store(&mut pb.ru[0][i], at);
             ruy1.store(&mut pb.ru[1][i], at);
         }
-        (px + this.o1[0]).store(&mut pb.ex, at);
-        (py + this.o1[1]).store(&mut pb.ey, at);
+        (px + k4.o1[0]).store(&mut pb.ex, at);
+        (py + k4.o1[1]).store(&mut pb.ey, at);
         for j in 0..W {
             let k = at + j;
             let (singular, near, reach) = (singular.get(j), near.get(j), reach.get(j));
