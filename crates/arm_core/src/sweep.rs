@@ -50,7 +50,7 @@ use std::sync::Mutex;
 use crate::arm::Arm;
 use crate::effects::EffectSet;
 use crate::error::{ArmError, Result};
-use crate::lanes::transpose::transpose_into;
+use crate::lanes::transpose::{transpose_into, Shuffles};
 use crate::lanes::trig;
 use cells::{cut, PoseOut};
 pub use cells::{CellFields, Cells, ReduceOp};
@@ -938,7 +938,11 @@ fn run_fast<const N: usize>(
             None => k.poses(simd, &alpha[p * N..(p + count) * N], count, &mut pb),
         }
         if !out.length.is_empty() {
-            transpose_into(&pb.len, &mut out.length[p * N..(p + count) * N]);
+            transpose_into(
+                Shuffles::copies(),
+                &pb.len,
+                &mut out.length[p * N..(p + count) * N],
+            );
         }
         if !out.reachable.is_empty() {
             out.reachable[p..p + count].copy_from_slice(&pb.reachable[..count]);
@@ -973,9 +977,17 @@ fn run_fast<const N: usize>(
                     cells.dx_mm[rows.clone()].copy_from_slice(&cb.dx[..count]);
                     cells.dy_mm[rows].copy_from_slice(&cb.dy[..count]);
                     let span = r0 * N..(r0 + count) * N;
-                    transpose_into(&cb.force, &mut cells.force_n[span.clone()]);
-                    transpose_into(&cb.dalpha, &mut cells.dalpha_deg[span.clone()]);
-                    transpose_into(&cb.dl, &mut cells.dl_mm[span]);
+                    transpose_into(
+                        Shuffles::copies(),
+                        &cb.force,
+                        &mut cells.force_n[span.clone()],
+                    );
+                    transpose_into(
+                        Shuffles::copies(),
+                        &cb.dalpha,
+                        &mut cells.dalpha_deg[span.clone()],
+                    );
+                    transpose_into(Shuffles::copies(), &cb.dl, &mut cells.dl_mm[span]);
                     continue;
                 }
                 for q in 0..count {

@@ -2,6 +2,8 @@
 //! the same results as the forces (0, −m·g) they stand for, and the input refused in the
 //! same order as when the whole input is checked before any pose is solved.
 
+#![allow(clippy::unwrap_used)] // test code: a failure should panic
+
 mod common;
 
 use arm_core::examples::example_arm;

@@ -48,10 +48,11 @@ use crate::arm::{Arm, Drive};
 use crate::effects::{Effect, EffectSet};
 use crate::error::Result;
 use crate::geometry::V2;
+use crate::lanes::transpose::{lanes_of_rows, Shuffles};
 use crate::lanes::transpose::{transpose_into, transpose_xy_into};
 use crate::lanes::trig::{asin_small, cos_m1, wrap_once, ASIN_SERIES_MAX};
 use crate::lanes::{Lane, F4, M4, W};
-use crate::sweep::fast::{block_trig, compose, lanes_of_rows, rot, FastArm, PoseBlock, Turn, L};
+use crate::sweep::fast::{block_trig, compose, rot, FastArm, PoseBlock, Turn, L};
 use crate::validity::{self, Checks};
 use std::ops::Range;
 
@@ -154,8 +155,9 @@ impl<const N: usize> SolveKernel<N> {
             #[inline(always)]
             fn with_simd<S: pulp::Simd>(self, _simd: S) {
                 // Missing lanes repeat the last pose.
-                let pay = lanes_of_rows::<2>(self.payload, self.count);
-                let trig = block_trig::<N>(self.alpha_deg, self.count);
+                let sh = self.k.fa.sh;
+                let pay = lanes_of_rows::<2>(sh, self.payload, self.count);
+                let trig = block_trig::<N>(sh, self.alpha_deg, self.count);
                 let k = self.k;
                 k.fa.poses_sc_impl(&trig.0, &trig.1, &pay, self.pb);
                 if k.ranges.any {
@@ -171,6 +173,7 @@ impl<const N: usize> SolveKernel<N> {
                 k.close_any(&trig, &pay, self.pb, self.sb);
                 let rotary = k.fa.any_rotary.then_some(&k.fa.rotary);
                 write_block(
+                    sh,
                     self.pb,
                     self.sb,
                     rotary,
@@ -469,7 +472,9 @@ fn large_turns<const N: usize>(turn: &[[F4; N]; 2], far: M4, dth: &mut [F4; N]) 
 /// instruction-set variant, so that the transposes are vectorised with it: no closure or
 /// helper here may be left out of line, which would compile it for the baseline x86-64).
 #[inline(always)]
+#[allow(clippy::too_many_arguments)]
 fn write_block<const N: usize>(
+    sh: Shuffles,
     pb: &PoseBlock<N>,
     sb: &SolveBlock<N>,
     rotary: Option<&[bool; N]>,
@@ -481,16 +486,16 @@ fn write_block<const N: usize>(
     let span = p * N..(p + count) * N;
     // An output not asked for is empty: `get_mut` finds no rows there and nothing is written.
     #[inline(always)]
-    fn put<const N: usize>(block: &[[f64; L]; N], o: &mut [f64], span: Range<usize>) {
+    fn put<const N: usize>(sh: Shuffles, block: &[[f64; L]; N], o: &mut [f64], span: Range<usize>) {
         if let Some(rows) = o.get_mut(span) {
-            transpose_into(block, rows);
+            transpose_into(sh, block, rows);
         }
     }
     match rotary {
         // Linear actuators only: no torques.
         None => {
-            put(&sb.force, out.force_n, span.clone());
-            put(&sb.dforce, out.dforce_n, span.clone());
+            put(sh, &sb.force, out.force_n, span.clone());
+            put(sh, &sb.dforce, out.dforce_n, span.clone());
             for o in [&mut *out.torque_nmm, &mut *out.dtorque_nmm] {
                 if let Some(rows) = o.get_mut(span.clone()) {
                     rows.fill(f64::NAN);
@@ -509,17 +514,17 @@ fn write_block<const N: usize>(
             ];
             for ((drive, block), o) in loads.into_iter().chain(torques).zip(targets) {
                 if !o.is_empty() {
-                    put(&of_kind(block, rotary, drive), o, span.clone());
+                    put(sh, &of_kind(block, rotary, drive), o, span.clone());
                 }
             }
         }
     }
-    put(&sb.dalpha, out.dalpha_deg, span.clone());
-    put(&sb.dl, out.dl_mm, span.clone());
-    put(&sb.dlength, out.dlength_mm, span.clone());
-    put(&pb.len, out.length_mm, span);
+    put(sh, &sb.dalpha, out.dalpha_deg, span.clone());
+    put(sh, &sb.dl, out.dl_mm, span.clone());
+    put(sh, &sb.dlength, out.dlength_mm, span.clone());
+    put(sh, &pb.len, out.length_mm, span);
     if let Some(rows) = out.reaction_n.get_mut(2 * p * N..2 * (p + count) * N) {
-        transpose_xy_into(&sb.reaction, rows);
+        transpose_xy_into(sh, &sb.reaction, rows);
     }
     if let Some(rows) = out.dx_mm.get_mut(p..p + count) {
         rows.copy_from_slice(&sb.dx[..count]);
@@ -684,7 +689,7 @@ impl<const N: usize> SolveKernel<N> {
                 let (k, sc, count, q0) = (self.k, self.sc, self.count, self.q0);
                 let states = self.input.states;
                 let alpha = &self.input.alpha_deg[q0 * N..(q0 + count) * N];
-                let trig = block_trig::<N>(alpha, count);
+                let trig = block_trig::<N>(k.fa.sh, alpha, count);
                 // The pose stage twice, with a unit payload along x and along y: only the
                 // payload case changes from state to state, so only its forces are kept.
                 let (one, zero) = ([1.0; L], [0.0; L]);

@@ -43,6 +43,7 @@
 use crate::arm::Arm;
 use crate::arm::Drive;
 use crate::effects::{Effect, EffectSet, Unloaded, FORCE_ZERO_N, TORQUE_ZERO_NMM};
+use crate::lanes::transpose::{lanes_of_rows, Shuffles};
 use crate::lanes::trig::{
     asin_small, cos_m1, sincos_deg, sincos_small, wrap_once, ASIN_SERIES_MAX,
 };
@@ -114,6 +115,8 @@ pub struct FastArm<const N: usize> {
     pub(crate) load_rise: bool,
     /// The pose stage's constants in every lane of a pack.
     k4: Packed<N>,
+    /// The CPU's shuffles for the transposes in and out of a block.
+    pub(crate) sh: Shuffles,
 }
 
 /// The per-arm constants of the pose stage, each in every lane of a pack ([`F4`]): an
@@ -274,6 +277,7 @@ impl<const N: usize> FastArm<N> {
             rise_lim: 0.0,
             load_rise: validity::checks_load_rise(arm, effects),
             k4: Packed::of_nothing(),
+            sh: Shuffles::detect(),
         };
         let reach = validity::reach(arm);
         k.move_lim2 = (MAX_DEFLECTION_OF_REACH * reach).powi(2);
@@ -518,28 +522,15 @@ impl<T: Lane> Turn<T> {
     }
 }
 
-/// `count` rows of `M` values (row-major) as `[column][lane]`; the lanes beyond `count`
-/// repeat the last row.
-#[inline(always)]
-pub(crate) fn lanes_of_rows<const M: usize>(rows: &[f64], count: usize) -> [[f64; L]; M] {
-    let mut x = [[0.0; L]; M];
-    for k in 0..L {
-        let row = &rows[k.min(count - 1) * M..][..M];
-        for i in 0..M {
-            x[i][k] = row[i];
-        }
-    }
-    x
-}
-
 /// Sines and cosines ([`sincos_deg`]) of a block's `count` rows of `N` angles (deg), as
 /// `[link][lane]` (see [`lanes_of_rows`]).
 #[inline(always)]
 pub(crate) fn block_trig<const N: usize>(
+    sh: Shuffles,
     alpha_deg: &[f64],
     count: usize,
 ) -> ([[f64; L]; N], [[f64; L]; N]) {
-    let x = lanes_of_rows::<N>(alpha_deg, count);
+    let x = lanes_of_rows::<N>(sh, alpha_deg, count);
     let (mut sn, mut cs) = ([[0.0; L]; N], [[0.0; L]; N]);
     for i in 0..N {
         sincos_deg(&x[i], &mut sn[i], &mut cs[i]);
@@ -570,7 +561,7 @@ impl<const N: usize> FastArm<N> {
     /// The body of [`Self::poses`], inlined into each instruction-set variant.
     #[inline(always)]
     fn poses_impl(&self, alpha_deg: &[f64], count: usize, out: &mut PoseBlock<N>) {
-        let (sn, cs) = block_trig::<N>(alpha_deg, count);
+        let (sn, cs) = block_trig::<N>(self.sh, alpha_deg, count);
         self.poses_sc_impl(&sn, &cs, &self.unit_payload(), out);
     }
 

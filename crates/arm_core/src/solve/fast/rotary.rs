@@ -9,9 +9,10 @@
 use crate::arm::Arm;
 use crate::drive::rotary::ANGLE_TOL_RAD;
 use crate::drive::RotaryDrive;
+use crate::lanes::transpose::{lanes_of_rows, Shuffles};
 use crate::lanes::trig::{cos_m1, sincos_small};
 use crate::lanes::{Lane, F4, M4};
-use crate::sweep::fast::{lanes_of_rows, FastArm, PoseBlock, L};
+use crate::sweep::fast::{FastArm, PoseBlock, L};
 use crate::validity::Status;
 
 /// The rotary drives of an arm with an angle range.
@@ -85,7 +86,7 @@ impl<const N: usize> Ranges<N> {
         pb: &mut PoseBlock<N>,
         q: &mut [[f64; L]; N],
     ) {
-        let x = lanes_of_rows::<N>(alpha_deg, count);
+        let x = lanes_of_rows::<N>(Shuffles::copies(), alpha_deg, count);
         for (i, d) in self.drives.iter().enumerate() {
             let Some(d) = d else { continue };
             for k in 0..L {
