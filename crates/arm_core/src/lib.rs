@@ -60,7 +60,7 @@ pub use geometry::V2;
 pub use solve::sequence::{cycle_returns, solve_sequence, solve_sequence_masses, SequenceInput};
 pub use solve::{
     solve_batch, solve_batch_extra, solve_batch_general, solve_batch_masses, solve_batch_status,
-    BatchBuffers, BatchInput, BatchOutput, Loads, Masses, SolveOptions, Workspace,
+    BatchBuffers, BatchInput, BatchOutput, Masses, SolveOptions, Workspace,
 };
 pub use statics::{statics_batch, StaticsBuffers, StaticsOutput};
 pub use sweep::{sweep, CellFields, Cells, Reduce, ReduceOp, SweepOptions, SweepOut};

@@ -46,7 +46,7 @@ pub fn check_input(arm: &Arm, input: &BatchInput<'_>) -> Result<usize> {
 
 /// The payloads of a batch's poses: force rows, or masses whose weight acts downward.
 #[derive(Debug, Clone, Copy)]
-pub enum Loads<'a> {
+pub(crate) enum Loads<'a> {
     /// The payload force at the load point (N, global), `N × 2`.
     Forces(&'a [f64]),
     /// The payload masses (kg): the force (0, −m·g) with the arm's g.
