@@ -154,6 +154,22 @@ impl Arm {
         self.links.len()
     }
 
+    /// The number of poses in `alpha_deg`, `n` angles (degrees) per pose.
+    ///
+    /// # Errors
+    /// [`ArmError::Shape`] when its length is not a multiple of `n`.
+    pub(crate) fn pose_rows(&self, alpha_deg: &[f64]) -> Result<usize> {
+        let n = self.n();
+        if !alpha_deg.len().is_multiple_of(n) {
+            return Err(ArmError::Shape {
+                what: "alpha_deg",
+                expected: (alpha_deg.len() / n + 1) * n,
+                got: alpha_deg.len(),
+            });
+        }
+        Ok(alpha_deg.len() / n)
+    }
+
     /// Whether a rotary drive turns link `i` (0-based).
     #[inline]
     pub fn is_rotary(&self, i: usize) -> bool {

@@ -9,6 +9,7 @@
 pub(crate) mod batch;
 pub(crate) mod fast;
 pub(crate) mod general;
+mod loads;
 pub mod sequence;
 mod status;
 
@@ -19,6 +20,7 @@ use crate::effects::{EffectSet, ExtraDeformations};
 use crate::error::{ArmError, Result};
 use crate::geometry::V2;
 use crate::kinematics::Frames;
+use loads::Loads;
 
 pub(crate) use batch::{fill_nan, write_outcome};
 pub use batch::{BatchBuffers, BatchInput, BatchOutput};
@@ -39,18 +41,10 @@ pub const KERNEL_CHUNK: usize = 1024;
 /// # Errors
 /// [`ArmError::Shape`] or [`ArmError::NonFinite`] naming the first bad row.
 pub fn check_input(arm: &Arm, input: &BatchInput<'_>) -> Result<usize> {
-    let rows = check_shapes(arm, input.alpha_deg, Loads::Forces(input.payload_n))?;
-    check_finite(arm.n(), input.alpha_deg, Loads::Forces(input.payload_n), 0)?;
+    let loads = Loads::Forces(input.payload_n);
+    let rows = loads::check_shapes(arm, input.alpha_deg, loads, 1)?;
+    loads::check_finite(arm.n(), input.alpha_deg, loads, 1, 0, false)?;
     Ok(rows)
-}
-
-/// The payloads of a batch's poses: force rows, or masses whose weight acts downward.
-#[derive(Debug, Clone, Copy)]
-pub(crate) enum Loads<'a> {
-    /// The payload force at the load point (N, global), `N × 2`.
-    Forces(&'a [f64]),
-    /// The payload masses (kg): the force (0, −m·g) with the arm's g.
-    Masses(Masses<'a>),
 }
 
 /// Payload masses (kg) of a batch's poses.
@@ -60,133 +54,6 @@ pub enum Masses<'a> {
     Each(&'a [f64]),
     /// The same mass for every pose.
     All(f64),
-}
-
-impl<'a> Loads<'a> {
-    /// Rows `start..start + m` (a mass for all stays one).
-    fn rows(self, start: usize, m: usize) -> Self {
-        match self {
-            Self::Forces(f) => Self::Forces(&f[2 * start..2 * (start + m)]),
-            Self::Masses(Masses::Each(kg)) => Self::Masses(Masses::Each(&kg[start..start + m])),
-            all @ Self::Masses(Masses::All(_)) => all,
-        }
-    }
-
-    /// The force rows of these `m` poses: the rows themselves, or written into `buf` from
-    /// the masses with `g`.
-    fn forces<'b>(self, m: usize, g: f64, buf: &'b mut Vec<f64>) -> &'b [f64]
-    where
-        'a: 'b,
-    {
-        let weight = |kg: f64| [0.0, -kg * g];
-        match self {
-            Self::Forces(f) => f,
-            Self::Masses(masses) => {
-                buf.clear();
-                match masses {
-                    Masses::Each(kg) => buf.extend(kg.iter().flat_map(|&k| weight(k))),
-                    Masses::All(kg) => buf.extend((0..m).flat_map(|_| weight(kg))),
-                }
-                buf
-            }
-        }
-    }
-}
-
-/// The rows of a batch from the shapes of its angles and loads.
-fn check_shapes(arm: &Arm, alpha_deg: &[f64], loads: Loads<'_>) -> Result<usize> {
-    let n = arm.n();
-    if !alpha_deg.len().is_multiple_of(n) {
-        return Err(ArmError::Shape {
-            what: "alpha_deg",
-            expected: (alpha_deg.len() / n + 1) * n,
-            got: alpha_deg.len(),
-        });
-    }
-    let rows = alpha_deg.len() / n;
-    let (what, expected, got) = match loads {
-        Loads::Forces(f) => ("payload_n", 2 * rows, f.len()),
-        Loads::Masses(Masses::Each(kg)) => ("mass_kg", rows, kg.len()),
-        Loads::Masses(Masses::All(_)) => ("mass_kg", rows, rows),
-    };
-    if got != expected {
-        return Err(ArmError::Shape {
-            what,
-            expected,
-            got,
-        });
-    }
-    Ok(rows)
-}
-
-/// Refuses a non-finite angle or load, or a negative mass, naming the first such row
-/// (`first` is the batch row of the first of these); a row's angles are looked at before its
-/// load.
-fn check_finite(n: usize, alpha_deg: &[f64], loads: Loads<'_>, first: usize) -> Result<()> {
-    // One branch-free pass (vectorised) over each array; the rows only when it finds one.
-    let finite = |v: &[f64]| {
-        let exp = f64::INFINITY.to_bits();
-        v.iter()
-            .fold(0u64, |bad, x| bad | u64::from(x.to_bits() & exp == exp))
-            == 0
-    };
-    // `!(m >= 0)`: NaN is refused as well
-    let mass_ok = |kg: f64| kg >= 0.0 && kg.is_finite();
-    let loads_ok = match loads {
-        Loads::Forces(f) => finite(f),
-        Loads::Masses(Masses::Each(kg)) => {
-            finite(kg) && kg.iter().fold(true, |ok, &k| ok & (k >= 0.0))
-        }
-        Loads::Masses(Masses::All(kg)) => mass_ok(kg),
-    };
-    if finite(alpha_deg) && loads_ok {
-        return Ok(());
-    }
-    for p in 0..alpha_deg.len() / n {
-        let row = first + p;
-        if !alpha_deg[p * n..(p + 1) * n].iter().all(|v| v.is_finite()) {
-            return Err(ArmError::NonFinite {
-                row,
-                what: "alpha_deg",
-            });
-        }
-        let kg = match loads {
-            Loads::Forces(f) => {
-                if !f[2 * p..2 * p + 2].iter().all(|v| v.is_finite()) {
-                    return Err(ArmError::NonFinite {
-                        row,
-                        what: "payload",
-                    });
-                }
-                continue;
-            }
-            Loads::Masses(Masses::Each(kg)) => kg[p],
-            Loads::Masses(Masses::All(kg)) => kg,
-        };
-        if !kg.is_finite() {
-            return Err(ArmError::NonFinite {
-                row,
-                what: "mass_kg",
-            });
-        }
-        if !mass_ok(kg) {
-            return Err(ArmError::OutOfRange {
-                row,
-                what: format!("mass_kg is negative ({kg:?})"),
-            });
-        }
-    }
-    Ok(())
-}
-
-/// An error of the input itself (a non-finite value, a negative mass): reported before any
-/// error of solving, whichever row it names, as when the input is checked first.
-pub(crate) fn is_input_error(e: &ArmError) -> bool {
-    match e {
-        ArmError::NonFinite { .. } => true,
-        ArmError::OutOfRange { what, .. } => what.starts_with("mass_kg"),
-        _ => false,
-    }
 }
 
 /// Solves a batch of poses, filling `out` in place.
@@ -258,7 +125,17 @@ pub fn solve_batch_masses(
     out: BatchOutput<'_>,
     status: &mut [u8],
 ) -> Result<()> {
-    let loads = Loads::Masses(masses);
+    let one;
+    let loads = match masses {
+        Masses::Each(kg) => Loads::Masses { kg, shared: false },
+        Masses::All(kg) => {
+            one = [kg];
+            Loads::Masses {
+                kg: &one,
+                shared: true,
+            }
+        }
+    };
     let extra = ExtraDeformations::none();
     run(
         arm, effects, alpha_deg, loads, extra, opts, out, status, false,
@@ -297,7 +174,7 @@ fn run(
     general: bool,
 ) -> Result<()> {
     let n = arm.n();
-    let rows = check_shapes(arm, alpha_deg, loads)?;
+    let rows = loads::check_shapes(arm, alpha_deg, loads, 1)?;
     extra.check(rows, n)?;
     extra.check_drives(arm)?;
     out.check(rows, n)?;
@@ -323,8 +200,8 @@ fn run(
     let run = |start: usize, chunk: BatchOutput<'_>, st: &mut [u8], buf: &mut Vec<f64>| {
         let m = st.len();
         let alpha = &alpha_deg[start * n..(start + m) * n];
-        let loads = loads.rows(start, m);
-        check_finite(n, alpha, loads, start)?;
+        let loads = loads.rows(start, m, 1);
+        loads::check_finite(n, alpha, loads, 1, start, false)?;
         let sub = BatchInput {
             alpha_deg: alpha,
             payload_n: loads.forces(m, arm.g, buf),
@@ -345,7 +222,7 @@ fn run(
         return run(0, out, status, &mut Vec::new());
     }
     let chunks = split_output(out, n, chunk_rows, rows);
-    let errors: Vec<ArmError> = chunks
+    let errors = chunks
         .into_par_iter()
         .zip(status.par_chunks_mut(chunk_rows))
         .enumerate()
@@ -354,14 +231,8 @@ fn run(
         })
         .flatten()
         .collect();
-    // Chunks come back in order, so the first error is the lowest failing chunk's; an error
-    // of the input itself comes first, as it would if the whole input were checked first.
-    let mut errors = errors;
-    if errors.is_empty() {
-        return Ok(());
-    }
-    let k = errors.iter().position(is_input_error).unwrap_or(0);
-    Err(errors.swap_remove(k))
+    // Chunks come back in order: the first error is the lowest failing chunk's.
+    loads::first_error(errors)
 }
 
 /// `out` (`total` rows of an `n`-link arm) cut into chunks of `rows` rows (the last may be

@@ -358,16 +358,7 @@ pub fn sweep_poses(
 ) -> Result<()> {
     let n = arm.n();
     let poses = match poses_in {
-        Poses::Rows(alpha_deg) => {
-            if !alpha_deg.len().is_multiple_of(n) {
-                return Err(ArmError::Shape {
-                    what: "alpha_deg",
-                    expected: (alpha_deg.len() / n + 1) * n,
-                    got: alpha_deg.len(),
-                });
-            }
-            alpha_deg.len() / n
-        }
+        Poses::Rows(alpha_deg) => arm.pose_rows(alpha_deg)?,
         Poses::Grid(g) => g.check(n)?,
     };
     let masses = mass_kg.len();

@@ -52,76 +52,43 @@ fn same(a: &BatchBuffers, b: &BatchBuffers) {
     }
 }
 
-#[test]
-fn masses_solve_as_the_forces_they_stand_for() {
+/// `solve` of the poses `alpha` with the force rows of `mass`, and with `masses`: the
+/// outputs and statuses of both.
+fn both(
+    alpha: &[f64],
+    mass: &[f64],
+    masses: Masses<'_>,
+) -> ((BatchBuffers, Vec<u8>), (BatchBuffers, Vec<u8>)) {
     let arm = example_arm();
-    // several chunks (1024 poses each) and a partial block at the end
-    let rows = 3 * 1024 + 21;
-    let (alpha, mass) = inputs(rows, 7);
-    let payload = forces(&mass, arm.g);
-    let set = EffectSet::empty();
-    let mut by_force = BatchBuffers::new(rows, 3);
-    let mut st_force = vec![0u8; rows];
+    let (rows, set) = (mass.len(), EffectSet::empty());
+    let payload = forces(mass, arm.g);
     let input = BatchInput {
-        alpha_deg: &alpha,
+        alpha_deg: alpha,
         payload_n: &payload,
     };
     let none = ExtraDeformations::none();
-    solve_batch_status(
-        &arm,
-        &set,
-        input,
-        none,
-        opts(true),
-        by_force.out(),
-        &mut st_force,
-    )
-    .unwrap();
-    let mut by_mass = BatchBuffers::new(rows, 3);
-    let mut st_mass = vec![0u8; rows];
-    let each = Masses::Each(&mass);
-    solve_batch_masses(
-        &arm,
-        &set,
-        &alpha,
-        each,
-        opts(true),
-        by_mass.out(),
-        &mut st_mass,
-    )
-    .unwrap();
-    same(&by_force, &by_mass);
-    assert_eq!(st_force, st_mass);
-    // one mass for every pose
+    let (mut by_force, mut st_force) = (BatchBuffers::new(rows, 3), vec![0u8; rows]);
+    let out = by_force.out();
+    solve_batch_status(&arm, &set, input, none, opts(true), out, &mut st_force).unwrap();
+    let (mut by_mass, mut st_mass) = (BatchBuffers::new(rows, 3), vec![0u8; rows]);
+    let out = by_mass.out();
+    solve_batch_masses(&arm, &set, alpha, masses, opts(true), out, &mut st_mass).unwrap();
+    ((by_force, st_force), (by_mass, st_mass))
+}
+
+#[test]
+fn masses_solve_as_the_forces_they_stand_for() {
+    // several chunks (1024 poses each) and a partial block at the end
+    let rows = 3 * 1024 + 21;
+    let (alpha, mass) = inputs(rows, 7);
     let all = vec![4.5; rows];
-    let payload = forces(&all, arm.g);
-    let input = BatchInput {
-        alpha_deg: &alpha,
-        payload_n: &payload,
-    };
-    solve_batch_status(
-        &arm,
-        &set,
-        input,
-        none,
-        opts(true),
-        by_force.out(),
-        &mut st_force,
-    )
-    .unwrap();
-    let one = Masses::All(4.5);
-    solve_batch_masses(
-        &arm,
-        &set,
-        &alpha,
-        one,
-        opts(true),
-        by_mass.out(),
-        &mut st_mass,
-    )
-    .unwrap();
-    same(&by_force, &by_mass);
-    assert_eq!(st_force, st_mass);
+    for (mass, masses) in [(&mass, Masses::Each(&mass)), (&all, Masses::All(4.5))] {
+        let ((by_force, st_force), (by_mass, st_mass)) = both(&alpha, mass, masses);
+        same(&by_force, &by_mass);
+        assert_eq!(st_force, st_mass);
+        // the masses reached the poses: every one carries a payload, and its tip sags
+        assert!(by_mass.dy_mm.iter().all(|d| *d < 0.0));
+    }
 }
 
 #[test]

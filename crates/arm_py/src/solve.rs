@@ -3,7 +3,7 @@
 
 use crate::convert::{effect_set, matrix, optional, poses_and_payloads, CoreArm};
 use crate::errors::{value_error, PyArmError};
-use arm_core::{BatchOutput, ExtraDeformations, Masses, SolveOptions, StaticsBuffers};
+use arm_core::{BatchInput, BatchOutput, ExtraDeformations, Masses, SolveOptions, StaticsBuffers};
 use numpy::{
     IntoPyArray, PyArrayDyn, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2,
     PyReadonlyArrayDyn, PyReadwriteArrayDyn, PyUntypedArrayMethods,
@@ -162,8 +162,29 @@ pub(crate) fn solve<'py>(
         self_weight,
         nan_on_failure,
     };
-    let payload_n = match (payload_n, mass_kg) {
-        (Some(p), None) => p,
+    // a mass per pose, borrowed for the call (a float is read below)
+    let per_pose = mass_kg
+        .as_ref()
+        .and_then(|m| m.extract::<PyReadonlyArray1<'py, f64>>().ok());
+    let (rows, given) = match (&payload_n, &mass_kg) {
+        (Some(payload_n), None) => {
+            let input = poses_and_payloads(&alpha_deg, payload_n, n)?;
+            let rows = input.payload_n.len() / 2;
+            let extra = ExtraDeformations {
+                seen_mm: optional(&extra_seen_mm, "extra_seen_mm", &[rows, n], "(N, n)")?,
+                unseen_mm: optional(&extra_unseen_mm, "extra_unseen_mm", &[rows, n], "(N, n)")?,
+                turn_rad: optional(&extra_turn_rad, "extra_turn_rad", &[rows, n], "(N, n)")?,
+                joint_mm: optional(
+                    &extra_joint_mm,
+                    "extra_joint_mm",
+                    &[rows, n, 2],
+                    "(N, n, 2)",
+                )?,
+                tilt_rad: optional(&extra_tilt_rad, "extra_tilt_rad", &[rows], "(N,)")?,
+                measure_mm: optional(&extra_measure_mm, "extra_measure_mm", &[rows, 2], "(N, 2)")?,
+            };
+            (rows, Given::Forces(input, extra))
+        }
         (None, Some(m)) => {
             let extras = [
                 &extra_seen_mm,
@@ -179,8 +200,7 @@ pub(crate) fn solve<'py>(
                 ));
             }
             let (alpha, rows) = matrix(&alpha_deg, "alpha_deg", n)?;
-            let array = m.extract::<PyReadonlyArray1<'py, f64>>().ok();
-            let masses = match &array {
+            let masses = match &per_pose {
                 Some(a) => Masses::Each(
                     a.as_slice()
                         .map_err(|_| value_error("mass_kg: array must be C-contiguous".into()))?,
@@ -189,35 +209,13 @@ pub(crate) fn solve<'py>(
                     value_error("mass_kg: expected a float or an (N,) float64 array".into())
                 })?),
             };
-            let dict = match out {
-                Some(dict) => dict,
-                None => new_out(py, rows, n, &asked)?,
-            };
-            fill_out(py, &dict, rows, n, &asked, |batch, st| {
-                arm_core::solve_batch_masses(arm, &effects, alpha, masses, opts, batch, st)
-            })?;
-            return Ok(dict);
+            (rows, Given::Masses(alpha, masses))
         }
         _ => {
             return Err(value_error(
                 "give exactly one of payload_n and mass_kg".into(),
             ))
         }
-    };
-    let input = poses_and_payloads(&alpha_deg, &payload_n, n)?;
-    let rows = input.payload_n.len() / 2;
-    let extra = ExtraDeformations {
-        seen_mm: optional(&extra_seen_mm, "extra_seen_mm", &[rows, n], "(N, n)")?,
-        unseen_mm: optional(&extra_unseen_mm, "extra_unseen_mm", &[rows, n], "(N, n)")?,
-        turn_rad: optional(&extra_turn_rad, "extra_turn_rad", &[rows, n], "(N, n)")?,
-        joint_mm: optional(
-            &extra_joint_mm,
-            "extra_joint_mm",
-            &[rows, n, 2],
-            "(N, n, 2)",
-        )?,
-        tilt_rad: optional(&extra_tilt_rad, "extra_tilt_rad", &[rows], "(N,)")?,
-        measure_mm: optional(&extra_measure_mm, "extra_measure_mm", &[rows, 2], "(N, 2)")?,
     };
     // Without `out`, numpy allocates the outputs (it asks the kernel for huge pages for large
     // arrays: a million poses fault in 100 pages rather than 50 000), and they are filled as
@@ -226,10 +224,22 @@ pub(crate) fn solve<'py>(
         Some(dict) => dict,
         None => new_out(py, rows, n, &asked)?,
     };
-    fill_out(py, &dict, rows, n, &asked, |batch, st| {
-        arm_core::solve_batch_status(arm, &effects, input, extra, opts, batch, st)
+    fill_out(py, &dict, rows, n, &asked, |batch, st| match given {
+        Given::Forces(input, extra) => {
+            arm_core::solve_batch_status(arm, &effects, input, extra, opts, batch, st)
+        }
+        Given::Masses(alpha, masses) => {
+            arm_core::solve_batch_masses(arm, &effects, alpha, masses, opts, batch, st)
+        }
     })?;
     Ok(dict)
+}
+
+/// The payloads of a `solve` call as given: force rows (with any extra deformations), or
+/// masses of the poses `alpha_deg`.
+enum Given<'a> {
+    Forces(BatchInput<'a>, ExtraDeformations<'a>),
+    Masses(&'a [f64], Masses<'a>),
 }
 
 /// Runs `solve` (without the GIL) on the arrays of `dict` (checked by [`borrow_out`]) lent as

@@ -11,6 +11,7 @@
 use rayon::prelude::*;
 
 pub use super::batch::SequenceInput;
+use super::loads::{self, Loads};
 use super::status::pose_status;
 use super::{split_output, write_outcome, BatchBuffers, BatchOutput, SolveOptions, Workspace};
 use crate::arm::Arm;
@@ -39,7 +40,7 @@ pub fn solve_sequence(
     out: BatchOutput<'_>,
     status: &mut [u8],
 ) -> Result<()> {
-    let loads = StateLoads::Forces(input.payload_n);
+    let loads = Loads::Forces(input.payload_n);
     let (alpha, s) = (input.alpha_deg, input.states);
     run_sequences(arm, effects, alpha, loads, s, opts, out, status)
 }
@@ -64,67 +65,11 @@ pub fn solve_sequence_masses(
 ) -> Result<()> {
     // one sequence's S masses are the same either way
     let shared = states > 0 && mass_kg.len() == states;
-    let loads = StateLoads::Masses {
+    let loads = Loads::Masses {
         kg: mass_kg,
         shared,
     };
     run_sequences(arm, effects, alpha_deg, loads, states, opts, out, status)
-}
-
-/// The payloads of a batch's states: force rows (2 per state), or masses.
-#[derive(Debug, Clone, Copy)]
-enum StateLoads<'a> {
-    Forces(&'a [f64]),
-    /// One mass per state (N·S), or with `shared` the S of every sequence.
-    Masses {
-        kg: &'a [f64],
-        shared: bool,
-    },
-}
-
-impl<'a> StateLoads<'a> {
-    /// Sequences `first..first + m` of S states each.
-    fn sequences(self, first: usize, m: usize, s: usize) -> Self {
-        match self {
-            Self::Forces(f) => Self::Forces(&f[2 * s * first..2 * s * (first + m)]),
-            Self::Masses { kg, shared: false } => Self::Masses {
-                kg: &kg[s * first..s * (first + m)],
-                shared: false,
-            },
-            shared @ Self::Masses { shared: true, .. } => shared,
-        }
-    }
-
-    /// The mass of state `k` of sequence `q` (chunk-local), or `None` for force rows.
-    fn mass(self, q: usize, k: usize, s: usize) -> Option<f64> {
-        match self {
-            Self::Forces(_) => None,
-            Self::Masses { kg, shared } => Some(if shared { kg[k] } else { kg[q * s + k] }),
-        }
-    }
-
-    /// The force rows of these `m` sequences: the rows themselves, or written into `buf`
-    /// from the masses with `g`.
-    fn forces<'b>(self, m: usize, g: f64, buf: &'b mut Vec<f64>) -> &'b [f64]
-    where
-        'a: 'b,
-    {
-        match self {
-            Self::Forces(f) => f,
-            Self::Masses { kg, shared } => {
-                buf.clear();
-                let weight = |&k: &f64| [0.0, -k * g];
-                if shared {
-                    for _ in 0..m {
-                        buf.extend(kg.iter().flat_map(weight));
-                    }
-                } else {
-                    buf.extend(kg.iter().flat_map(weight));
-                }
-                buf
-            }
-        }
-    }
 }
 
 /// [`solve_sequence`] of either kind of payloads.
@@ -133,14 +78,14 @@ fn run_sequences(
     arm: &Arm,
     effects: &EffectSet,
     alpha_deg: &[f64],
-    loads: StateLoads<'_>,
+    loads: Loads<'_>,
     s: usize,
     opts: SolveOptions,
     out: BatchOutput<'_>,
     status: &mut [u8],
 ) -> Result<()> {
     let n = arm.n();
-    let seqs = check_shapes(n, alpha_deg, loads, s)?;
+    let seqs = loads::check_shapes(arm, alpha_deg, loads, s)?;
     out.check(seqs * s, n)?;
     if status.len() != seqs * s {
         return Err(ArmError::Shape {
@@ -160,8 +105,8 @@ fn run_sequences(
     let run = |first: usize, chunk: BatchOutput<'_>, st: &mut [u8], buf: &mut Vec<f64>| {
         let m = st.len() / s; // an output not asked for is empty: the statuses count
         let alpha = &alpha_deg[first * n..(first + m) * n];
-        let loads = loads.sequences(first, m, s);
-        check_finite(n, alpha, loads, s, first)?;
+        let loads = loads.rows(first, m, s);
+        loads::check_finite(n, alpha, loads, s, first, true)?;
         let sub = SequenceInput {
             alpha_deg: alpha,
             payload_n: loads.forces(m, arm.g, buf),
@@ -177,7 +122,7 @@ fn run_sequences(
         return run(0, out, status, &mut Vec::new());
     }
     let chunks = split_output(out, n, per_chunk * s, seqs * s);
-    let mut errors: Vec<ArmError> = chunks
+    let errors = chunks
         .into_par_iter()
         .zip(status.par_chunks_mut(per_chunk * s))
         .enumerate()
@@ -186,102 +131,8 @@ fn run_sequences(
         })
         .flatten()
         .collect();
-    // Chunks come back in order, so the first error is the lowest failing chunk's; an error
-    // of the input itself comes first, as it would if the whole input were checked first.
-    if errors.is_empty() {
-        return Ok(());
-    }
-    let k = errors.iter().position(super::is_input_error).unwrap_or(0);
-    Err(errors.swap_remove(k))
-}
-
-/// Checks the shapes; returns the number of sequences.
-fn check_shapes(n: usize, alpha_deg: &[f64], loads: StateLoads<'_>, s: usize) -> Result<usize> {
-    if !alpha_deg.len().is_multiple_of(n) {
-        return Err(ArmError::Shape {
-            what: "alpha_deg",
-            expected: (alpha_deg.len() / n + 1) * n,
-            got: alpha_deg.len(),
-        });
-    }
-    let seqs = alpha_deg.len() / n;
-    let (what, expected, got) = match loads {
-        StateLoads::Forces(f) => ("payload_n", 2 * s * seqs, f.len()),
-        StateLoads::Masses { kg, shared: true } => ("mass_kg", s, kg.len()),
-        StateLoads::Masses { kg, shared: false } => ("mass_kg", s * seqs, kg.len()),
-    };
-    if got != expected {
-        return Err(ArmError::Shape {
-            what,
-            expected,
-            got,
-        });
-    }
-    Ok(seqs)
-}
-
-/// Refuses a non-finite angle or payload, or a negative mass, naming the first such
-/// sequence (`first` is the batch index of the first of these); a sequence's angles are
-/// looked at before its payloads.
-fn check_finite(
-    n: usize,
-    alpha_deg: &[f64],
-    loads: StateLoads<'_>,
-    s: usize,
-    first: usize,
-) -> Result<()> {
-    // One branch-free pass (vectorised) over each array; the sequences only when it finds one.
-    let finite = |v: &[f64]| {
-        let exp = f64::INFINITY.to_bits();
-        v.iter()
-            .fold(0u64, |bad, x| bad | u64::from(x.to_bits() & exp == exp))
-            == 0
-    };
-    let loads_ok = match loads {
-        StateLoads::Forces(f) => finite(f),
-        StateLoads::Masses { kg, .. } => {
-            finite(kg) && kg.iter().fold(true, |ok, &k| ok & (k >= 0.0))
-        }
-    };
-    if finite(alpha_deg) && loads_ok {
-        return Ok(());
-    }
-    for q in 0..alpha_deg.len() / n {
-        let row = first + q;
-        if !alpha_deg[q * n..(q + 1) * n].iter().all(|v| v.is_finite()) {
-            return Err(ArmError::NonFinite {
-                row,
-                what: "alpha_deg",
-            });
-        }
-        if let StateLoads::Forces(f) = loads {
-            if !f[2 * s * q..2 * s * (q + 1)].iter().all(|v| v.is_finite()) {
-                return Err(ArmError::NonFinite {
-                    row,
-                    what: "payload",
-                });
-            }
-        }
-        for k in 0..s {
-            let Some(kg) = loads.mass(q, k, s) else {
-                break;
-            };
-            if !kg.is_finite() {
-                return Err(ArmError::NonFinite {
-                    row,
-                    what: "mass_kg",
-                });
-            }
-            if kg < 0.0 {
-                // finite here
-                return Err(ArmError::OutOfRange {
-                    row,
-                    what: format!("mass_kg is negative (state {k}: {kg:?})"),
-                });
-            }
-        }
-    }
-    Ok(())
+    // Chunks come back in order: the first error is the lowest failing chunk's.
+    loads::first_error(errors)
 }
 
 /// The sequences of one chunk on the block kernel; a sequence with a state the kernel could
@@ -408,14 +259,7 @@ pub fn cycle_returns(
 ) -> Result<()> {
     let n = arm.n();
     let m = mass_kg.len();
-    if !alpha_deg.len().is_multiple_of(n) {
-        return Err(ArmError::Shape {
-            what: "alpha_deg",
-            expected: (alpha_deg.len() / n + 1) * n,
-            got: alpha_deg.len(),
-        });
-    }
-    let poses = alpha_deg.len() / n;
+    let poses = arm.pose_rows(alpha_deg)?;
     for (what, got) in [("dx", dx.len()), ("dy", dy.len())] {
         if got != poses * m {
             return Err(ArmError::Shape {
