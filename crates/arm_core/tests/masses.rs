@@ -82,12 +82,24 @@ fn masses_solve_as_the_forces_they_stand_for() {
     let rows = 3 * 1024 + 21;
     let (alpha, mass) = inputs(rows, 7);
     let all = vec![4.5; rows];
+    // the arm under its own weight alone
+    let zero = vec![0.0; rows];
+    let ((unloaded, _), _) = both(&alpha, &zero, Masses::All(0.0));
     for (mass, masses) in [(&mass, Masses::Each(&mass)), (&all, Masses::All(4.5))] {
         let ((by_force, st_force), (by_mass, st_mass)) = both(&alpha, mass, masses);
         same(&by_force, &by_mass);
         assert_eq!(st_force, st_mass);
-        // the masses reached the poses: every one carries a payload, and its tip sags
-        assert!(by_mass.dy_mm.iter().all(|d| *d < 0.0));
+        // the masses reached the poses: a payload makes the tip sag below its self-weight sag
+        for (r, (&m, (d, d0))) in mass
+            .iter()
+            .zip(by_mass.dy_mm.iter().zip(&unloaded.dy_mm))
+            .enumerate()
+        {
+            assert!(
+                m == 0.0 || d < d0,
+                "pose {r}: {m} kg, dy {d} mm, unloaded {d0} mm"
+            );
+        }
     }
 }
 
