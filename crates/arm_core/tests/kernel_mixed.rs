@@ -236,6 +236,46 @@ fn worst(a: &BatchBuffers, b: &BatchBuffers) -> (f64, &'static str) {
         )
 }
 
+/// A value no output can hold. The Python binding hands the kernel numpy's uninitialised
+/// arrays (`numpy.empty`), so every element of every output and status must be written,
+/// whatever the arm, the effects and the rows that fail: the tests start from this value
+/// (and status 255, no code) and look for it afterwards.
+const UNWRITTEN: f64 = -7.25e300;
+
+/// Buffers for `rows` poses of an `n`-link arm holding [`UNWRITTEN`] everywhere.
+fn unwritten(rows: usize, n: usize) -> BatchBuffers {
+    let mut b = BatchBuffers::new(rows, n);
+    for (_, v) in fields(&mut b) {
+        v.fill(UNWRITTEN);
+    }
+    b
+}
+
+/// Every output of `b` by name.
+fn fields(b: &mut BatchBuffers) -> [(&'static str, &mut Vec<f64>); 11] {
+    [
+        ("force_n", &mut b.force_n),
+        ("reaction_n", &mut b.reaction_n),
+        ("dforce_n", &mut b.dforce_n),
+        ("torque_nmm", &mut b.torque_nmm),
+        ("dtorque_nmm", &mut b.dtorque_nmm),
+        ("dx_mm", &mut b.dx_mm),
+        ("dy_mm", &mut b.dy_mm),
+        ("dalpha_deg", &mut b.dalpha_deg),
+        ("dl_mm", &mut b.dl_mm),
+        ("dlength_mm", &mut b.dlength_mm),
+        ("length_mm", &mut b.length_mm),
+    ]
+}
+
+/// The first output element (name, index) or status row still unwritten, if any.
+fn first_unwritten(b: &mut BatchBuffers, status: &[u8]) -> Option<(&'static str, usize)> {
+    fields(b)
+        .into_iter()
+        .find_map(|(name, v)| v.iter().position(|&x| x == UNWRITTEN).map(|j| (name, j)))
+        .or_else(|| status.iter().position(|&s| s == 255).map(|r| ("status", r)))
+}
+
 /// Every output of row `r` NaN.
 fn nan_row(b: &mut BatchBuffers, r: usize, n: usize) {
     for v in [
@@ -277,10 +317,12 @@ proptest! {
         let (alpha, payload) = poses(n, 37, &mut rng, any_direction);
         let input = BatchInput { alpha_deg: &alpha, payload_n: &payload };
         let none = ExtraDeformations::none;
-        let (mut fast, mut gen) = (BatchBuffers::new(37, n), BatchBuffers::new(37, n));
+        let (mut fast, mut gen) = (unwritten(37, n), unwritten(37, n));
         let (mut st_fast, mut st_gen) = (vec![255u8; 37], vec![255u8; 37]);
         solve_batch_status(&arm, &set, input, none(), opts(sw), fast.out(), &mut st_fast).unwrap();
         solve_batch_general(&arm, &set, input, none(), opts(sw), gen.out(), &mut st_gen).unwrap();
+        prop_assert_eq!(first_unwritten(&mut fast, &st_fast), None, "kernel, {:?}", set.effects());
+        prop_assert_eq!(first_unwritten(&mut gen, &st_gen), None, "general, {:?}", set.effects());
         let (w, field) = worst(&fast, &gen);
         prop_assert!(w <= 1.0, "{} differs by {:e} × its tolerance, {:?}", field, w, set.effects());
         prop_assert_eq!(st_fast, st_gen, "status, {:?}", set.effects());
@@ -302,10 +344,11 @@ proptest! {
         let (seqs, states) = (19, 5);
         let (alpha, _) = poses(n, seqs, &mut rng, false);
         let (_, payload) = poses(n, seqs * states, &mut rng, true);
-        let mut fast = BatchBuffers::new(seqs * states, n);
+        let mut fast = unwritten(seqs * states, n);
         let mut st_fast = vec![255u8; seqs * states];
         let seq = SequenceInput { alpha_deg: &alpha, payload_n: &payload, states };
         solve_sequence(&arm, &set, seq, opts(sw), fast.out(), &mut st_fast).unwrap();
+        prop_assert_eq!(first_unwritten(&mut fast, &st_fast), None, "{:?}", set.effects());
         // The general path, state by state, with the sequence's memory.
         let mut ws = Workspace::new(&arm);
         let mut gen = BatchBuffers::new(seqs * states, n);

@@ -61,7 +61,7 @@ pub(crate) fn solve_sequence<'py>(
         nan_on_failure,
     };
     let total = seqs * states;
-    // numpy allocates the outputs (huge pages for large arrays), as for `solve`; the rows
+    // numpy allocates the outputs (uninitialised, as for `solve`: `new_out`); the rows
     // are the states, sequence-major, reshaped below to (N, S, ...) views.
     let flat = new_out(py, total, n, &asked)?;
     fill_out(py, &flat, total, n, &asked, |batch, st| {

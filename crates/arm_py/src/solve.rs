@@ -5,8 +5,8 @@ use crate::convert::{effect_set, matrix, optional, poses_and_payloads, CoreArm};
 use crate::errors::{value_error, PyArmError};
 use arm_core::{BatchInput, BatchOutput, ExtraDeformations, Masses, SolveOptions, StaticsBuffers};
 use numpy::{
-    IntoPyArray, PyArrayDyn, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2,
-    PyReadonlyArrayDyn, PyReadwriteArrayDyn, PyUntypedArrayMethods,
+    IntoPyArray, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyReadonlyArrayDyn,
+    PyReadwriteArrayDyn, PyUntypedArrayMethods,
 };
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -217,9 +217,8 @@ pub(crate) fn solve<'py>(
             ))
         }
     };
-    // Without `out`, numpy allocates the outputs (it asks the kernel for huge pages for large
-    // arrays: a million poses fault in 100 pages rather than 50 000), and they are filled as
-    // the caller's would be.
+    // Without `out`, numpy allocates the outputs ([`new_out`]) and they are filled as the
+    // caller's would be.
     let dict = match out {
         Some(dict) => dict,
         None => new_out(py, rows, n, &asked)?,
@@ -287,22 +286,23 @@ where
     Ok(())
 }
 
-/// Zeroed numpy output arrays of `solve` for `rows` poses of an `n`-link arm: those `asked`
-/// for, and `status`.
+/// Uninitialised numpy output arrays (`numpy.empty`, as a caller's `out=` would be) of
+/// `solve` for `rows` poses of an `n`-link arm: those `asked` for, and `status`. The kernel
+/// writes every element of them, whatever fails (`arm_core/tests/kernel_mixed.rs` checks),
+/// so zeroed arrays would cost a pass for nothing: `calloc` clears memory that the heap
+/// hands back rather than fresh from the kernel.
 pub(crate) fn new_out<'py>(
     py: Python<'py>,
     rows: usize,
     n: usize,
     asked: &[bool; OUT_KEYS.len()],
 ) -> PyResult<Bound<'py, PyDict>> {
+    let empty = py.import("numpy")?.getattr("empty")?;
     let d = PyDict::new(py);
     for ((key, code), _) in OUT_KEYS.iter().zip(asked).filter(|(_, &a)| a) {
-        d.set_item(
-            key,
-            PyArrayDyn::<f64>::zeros(py, dims(code, rows, n), false),
-        )?;
+        d.set_item(key, empty.call1((dims(code, rows, n),))?)?;
     }
-    d.set_item("status", PyArrayDyn::<u8>::zeros(py, vec![rows], false))?;
+    d.set_item("status", empty.call1(((rows,), "u1"))?)?;
     Ok(d)
 }
 
