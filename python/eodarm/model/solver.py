@@ -8,7 +8,6 @@ backends refuse bad input with the same one-line message naming the row.
 
 from __future__ import annotations
 
-import re
 from collections.abc import Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from typing import Any, cast
@@ -212,16 +211,16 @@ def _mass_arg(mass: npt.NDArray[np.float64] | None) -> float | npt.NDArray[np.fl
 
 @contextmanager
 def _core_refusals() -> Iterator[None]:
-    """The compiled core's refusal of a non-finite angle (``check_input``, the check
-    :func:`solve` leaves to it) as the :class:`InputError` of the Python check, same words."""
+    """The compiled core's refusals as the :class:`InputError` the docstrings promise, in the
+    core's words: a non-finite angle (``check_input``, the check :func:`solve` leaves to it,
+    in the Python check's words), a pose singular unloaded, and (``strict=True``) a pose
+    that cannot be closed under its load, each naming its row."""
     from eodarm.model import native as _core
 
     try:
         yield
     except _core.CoreError as exc:
-        if re.fullmatch(r"pose row \d+: alpha_deg has a non-finite value", str(exc)):
-            raise InputError(str(exc)) from None
-        raise
+        raise InputError(" ".join(str(exc).split())) from None
 
 
 def solve_payload(
