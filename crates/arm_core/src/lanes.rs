@@ -9,9 +9,12 @@
 //! The block kernels' pose stage and the solve kernel's closure are written with them instead
 //! of `for k in 0..L` lane loops: with AVX2 and generic tuning LLVM's loop vectoriser left the
 //! pose stage's loop (square root, division, sixteen stores per lane) scalar, which made it
-//! the kernel's largest cost. Each operation here rounds exactly as the scalar one (no fused
-//! multiply–add: Rust never contracts), so the results are the same bits on every instruction
-//! set.
+//! the kernel's largest cost. Each operation here rounds exactly as the scalar one, so the
+//! results are the same bits on every instruction set. Rust never contracts `a·b + c` on its
+//! own; the kernels ask for a fused multiply–add where they want one ([`Lane::mul_add`]),
+//! which IEEE 754 rounds once, the same on every instruction set (one `vfmadd` with AVX2 +
+//! FMA or AVX-512; libm's correctly rounded `fma` on a CPU without FMA, which is slow but
+//! gives the same bits).
 
 pub(crate) mod transpose;
 pub mod trig;
@@ -72,6 +75,12 @@ impl F4 {
     fn cmp(self, o: Self, f: impl Fn(f64, f64) -> bool) -> M4 {
         let m = |a: f64, b: f64| 0u64.wrapping_sub(u64::from(f(a, b)));
         M4(std::array::from_fn(|k| m(self.0[k], o.0[k])))
+    }
+
+    /// `self·a + b`, rounded once (see [`Lane::mul_add`]).
+    #[inline(always)]
+    pub(crate) fn mul_add(self, a: Self, b: Self) -> Self {
+        Self(std::array::from_fn(|k| self.0[k].mul_add(a.0[k], b.0[k])))
     }
 
     #[inline(always)]
@@ -206,7 +215,7 @@ impl M4 {
 /// `R(s, c)·v` for lanes of sines and cosines and a constant vector `v` in every lane.
 #[inline(always)]
 pub(crate) fn rot4(s: F4, c: F4, v: &[F4; 2]) -> (F4, F4) {
-    (c * v[0] - s * v[1], s * v[0] + c * v[1])
+    (c.mul_add(v[0], -(s * v[1])), s.mul_add(v[0], c * v[1]))
 }
 
 /// A lane type of the block kernels: one `f64` (the lane loops, which LLVM vectorises
@@ -248,6 +257,9 @@ pub trait Lane:
     fn le(self, o: f64) -> Self::Mask;
     /// `a` where `m`, else `b`.
     fn select(m: Self::Mask, a: Self, b: Self) -> Self;
+    /// `self·a + b` with one rounding (IEEE 754's fused multiply–add: the same bits on every
+    /// instruction set, one instruction where the CPU has FMA).
+    fn mul_add(self, a: Self, b: Self) -> Self;
 }
 
 impl Lane for f64 {
@@ -292,6 +304,10 @@ impl Lane for f64 {
             b
         }
     }
+    #[inline(always)]
+    fn mul_add(self, a: Self, b: Self) -> Self {
+        f64::mul_add(self, a, b)
+    }
 }
 
 impl Lane for F4 {
@@ -334,6 +350,10 @@ impl Lane for F4 {
             f64::from_bits((a.0[k].to_bits() & m.0[k]) | (b.0[k].to_bits() & !m.0[k]))
         }))
     }
+    #[inline(always)]
+    fn mul_add(self, a: Self, b: Self) -> Self {
+        F4::mul_add(self, a, b)
+    }
 }
 
 #[cfg(test)]
@@ -361,6 +381,14 @@ mod tests {
         same(x.abs(), &|a, _| a.abs());
         same(x.sqrt(), &|a, _| a.sqrt());
         same(x.sign_one(), &|a, _| 1.0f64.copysign(a));
+        // fused: one rounding, the scalar `mul_add`'s (0.1·10 − 1 is not 0 when fused)
+        same(x.mul_add(y, x), &|a, b| a.mul_add(b, a));
+        let (t, ten) = (F4::splat(0.1), F4::splat(10.0));
+        assert_eq!(
+            t.mul_add(ten, F4::splat(-1.0)).0[0],
+            0.1f64.mul_add(10.0, -1.0)
+        );
+        assert_ne!(0.1f64.mul_add(10.0, -1.0), 0.1 * 10.0 - 1.0);
         for k in 0..W {
             assert_eq!(x.gt(y).get(k), xs[k] > ys[k]);
             assert_eq!(x.ge(y).get(k), xs[k] >= ys[k]);

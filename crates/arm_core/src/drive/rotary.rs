@@ -74,13 +74,19 @@ impl RotaryDrive {
     /// lo + 2π)` with only a lower limit, `(hi − 2π, hi]` with only an upper one, `[−π, π)`
     /// without limits). Where any of them lies within a range of at most a turn, this one does.
     pub fn angle_of(&self, q: f64) -> f64 {
-        let mid = match (self.min_angle, self.max_angle) {
+        let mid = self.mid_angle();
+        mid + wrap_pi(q - mid)
+    }
+
+    /// The middle of the angles [`Self::angle_of`] gives (rad): of the range, or a half turn
+    /// above a lone lower limit, below a lone upper one, zero without limits.
+    pub fn mid_angle(&self) -> f64 {
+        match (self.min_angle, self.max_angle) {
             (Some(lo), Some(hi)) => 0.5 * (lo + hi),
             (Some(lo), None) => lo + PI,
             (None, Some(hi)) => hi - PI,
             (None, None) => 0.0,
-        };
-        mid + wrap_pi(q - mid)
+        }
     }
 
     /// A drive angle (rad, from [`Self::angle_of`], plus any deflection) outside

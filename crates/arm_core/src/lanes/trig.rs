@@ -3,7 +3,8 @@
 //! * [`sincos_deg`]: sine and cosine of angles given in **degrees**. The reduction modulo 90°
 //!   is exact (`x − 90·q` is representable for every |x| below [`FAST_TRIG_LIMIT_DEG`]), the
 //!   remainder (|r| ≤ 45°) is turned into radians with one rounding, and fdlibm's kernels
-//!   (`__kernel_sin`, `__kernel_cos`, error below 1 ulp on |t| ≤ π/4) give the result. Overall
+//!   (`__kernel_sin`, `__kernel_cos`, error below 1 ulp on |t| ≤ π/4; their polynomials
+//!   evaluated in fused multiply–adds) give the result. Overall
 //!   within about 2 ulp of the exact sine/cosine of the degree value: the core's `sin_cos` of
 //!   `x.to_radians()` differs from it by the rounding of `x·π/180` (≈ |x| · 2e-18 absolute for
 //!   x in degrees), i.e. a few 1e-16 for arm angles. Lanes beyond the limit use libm exactly
@@ -42,14 +43,18 @@ const C6: f64 = -1.135_964_755_778_819_482_65e-11;
 /// sin and cos of `t`, |t| ≤ π/4 (fdlibm kernels, no tail).
 #[inline(always)]
 fn kernel(t: f64) -> (f64, f64) {
+    // Horner's scheme in fused multiply–adds (one rounding per step, not two).
     let z = t * t;
     let v = z * t;
-    let rs = S2 + z * (S3 + z * (S4 + z * (S5 + z * S6)));
-    let s = t + v * (S1 + z * rs);
-    let rc = z * (C1 + z * (C2 + z * (C3 + z * (C4 + z * (C5 + z * C6)))));
+    let rs = z.mul_add(z.mul_add(z.mul_add(z.mul_add(S6, S5), S4), S3), S2);
+    let s = v.mul_add(z.mul_add(rs, S1), t);
+    let rc = z * z.mul_add(
+        z.mul_add(z.mul_add(z.mul_add(z.mul_add(C6, C5), C4), C3), C2),
+        C1,
+    );
     let hz = 0.5 * z;
     let w = 1.0 - hz;
-    let c = w + (((1.0 - w) - hz) + z * rc);
+    let c = w + z.mul_add(rc, (1.0 - w) - hz);
     (s, c)
 }
 
@@ -126,8 +131,12 @@ pub fn asin_small<T: Lane>(x: T) -> T {
     // Estrin's scheme: a short dependency chain (the lanes of the sweep are latency-bound).
     let z = x * x;
     let z2 = z * z;
-    let p = (z * A2 + A1) + z2 * ((z * A4 + A3) + z2 * (z * A6 + A5));
-    x + x * z * p
+    let c = T::splat;
+    let p = z2.mul_add(
+        z2.mul_add(z.mul_add(c(A6), c(A5)), z.mul_add(c(A4), c(A3))),
+        z.mul_add(c(A2), c(A1)),
+    );
+    (x * z).mul_add(p, x)
 }
 
 /// `cos a − 1` from `sin a` and `cos a`, without cancellation where cos a > 0.

@@ -35,7 +35,7 @@ mod rotary;
 
 use base::Base;
 use bending::{Bending, Shifts};
-use block::SolveBlock;
+use block::{Moves, SolveBlock};
 use clearance::Clearance;
 use friction::{Friction, Held};
 use group::{Group, GROUP};
@@ -133,6 +133,7 @@ impl<const N: usize> SolveKernel<N> {
         count: usize,
         pb: &mut PoseBlock<N>,
         sb: &mut SolveBlock<N>,
+        mv: &mut Moves<N>,
         out: &mut BatchOutput<'_>,
         status: &mut [u8],
         p: usize,
@@ -145,6 +146,7 @@ impl<const N: usize> SolveKernel<N> {
             count: usize,
             pb: &'a mut PoseBlock<N>,
             sb: &'a mut SolveBlock<N>,
+            mv: &'a mut Moves<N>,
             out: &'a mut BatchOutput<'o>,
             status: &'a mut [u8],
             p: usize,
@@ -170,7 +172,7 @@ impl<const N: usize> SolveKernel<N> {
                     let held = self.held.unwrap_or(&mut fresh);
                     k.fric.step(self.pb, held, &k.fa.body_c, &mut self.sb.seen);
                 }
-                k.close_any(&trig, &pay, self.pb, self.sb);
+                k.close_any(&trig, &pay, self.pb, self.sb, self.mv);
                 let rotary = k.fa.any_rotary.then_some(&k.fa.rotary);
                 write_block(
                     sh,
@@ -191,6 +193,7 @@ impl<const N: usize> SolveKernel<N> {
             count,
             pb,
             sb,
+            mv,
             out,
             status,
             p,
@@ -206,15 +209,16 @@ impl<const N: usize> SolveKernel<N> {
         pay: &[[f64; L]; 2],
         pb: &PoseBlock<N>,
         sb: &mut SolveBlock<N>,
+        mv: &mut Moves<N>,
     ) {
         let geom = self.clear.any || self.bend.any;
         match (self.fa.any_play, self.fa.any_up, geom) {
-            (_, true, true) => self.close::<true, true, true>(trig, pay, pb, sb),
-            (_, true, false) => self.close::<true, true, false>(trig, pay, pb, sb),
-            (true, false, true) => self.close::<true, false, true>(trig, pay, pb, sb),
-            (true, false, false) => self.close::<true, false, false>(trig, pay, pb, sb),
-            (false, false, true) => self.close::<false, false, true>(trig, pay, pb, sb),
-            (false, false, false) => self.close::<false, false, false>(trig, pay, pb, sb),
+            (_, true, true) => self.close::<true, true, true>(trig, pay, pb, sb, mv),
+            (_, true, false) => self.close::<true, true, false>(trig, pay, pb, sb, mv),
+            (true, false, true) => self.close::<true, false, true>(trig, pay, pb, sb, mv),
+            (true, false, false) => self.close::<true, false, false>(trig, pay, pb, sb, mv),
+            (false, false, true) => self.close::<false, false, true>(trig, pay, pb, sb, mv),
+            (false, false, false) => self.close::<false, false, false>(trig, pay, pb, sb, mv),
         }
     }
 
@@ -228,36 +232,35 @@ impl<const N: usize> SolveKernel<N> {
         pay: &[[f64; L]; 2],
         pb: &PoseBlock<N>,
         sb: &mut SolveBlock<N>,
+        mv: &mut Moves<N>,
     ) {
         let (sn, cs) = (&trig.0, &trig.1);
-        // The base tilt (rad), its rotation (sin, cos − 1) and the displacement it gives.
-        let mut tilt = [[0.0; L]; 5];
+        // The base tilt (rad), its rotation (sin, cos − 1) and the displacement it gives;
+        // the clearance offsets and bending shifts. Each is written by its own effect, or
+        // stays zero from the scratch's making (`Moves`: not zeroed again for every block).
         if self.base.on() {
-            let [phi, sr, cm, dx, dy] = &mut tilt;
+            let [phi, sr, cm, dx, dy] = &mut mv.tilt;
             self.base.tilt(pb, pay, phi, sr, cm, dx, dy);
         }
-        let mut u = [[[0.0; L]; N]; 2];
-        let mut sh = Shifts::<N>::new();
         if GEOM {
             if self.clear.any {
-                self.clear.offsets(pb, &mut u);
+                self.clear.offsets(pb, &mut mv.u);
             }
             if self.bend.any {
-                self.bend.shifts(pb, sn, cs, pay, &mut sh);
+                self.bend.shifts(pb, sn, cs, pay, &mut mv.sh);
             }
         }
-        let geo = Geo {
-            sn,
-            cs,
-            u: &u,
-            sh: &sh,
+        let (tilt, u, sh) = (&mv.tilt, &mv.u, &mv.sh);
+        let geo = Geo { sn, cs, u, sh };
+        // Not `bool::then` with a closure: a closure may be left out of line, and would then
+        // be compiled for the baseline x86-64 (no AVX, no FMA) instead of this variant.
+        let turns = if self.fa.any_rotary {
+            Some(Turns::of::<PLAY, UP>(&self.fa, pb, &sb.seen))
+        } else {
+            None
         };
-        let turns = self
-            .fa
-            .any_rotary
-            .then(|| Turns::of::<PLAY, UP>(&self.fa, pb, &sb.seen));
         for at in (0..L).step_by(W) {
-            self.close_pack::<PLAY, UP, GEOM>(at, &geo, turns.as_ref(), &tilt, pay, pb, sb);
+            self.close_pack::<PLAY, UP, GEOM>(at, &geo, turns.as_ref(), tilt, pay, pb, sb);
         }
     }
 
@@ -369,8 +372,8 @@ impl<const N: usize> SolveKernel<N> {
             sr = ns;
             cm = nc;
             let (gx, gy) = (ld(&pb.gx[i]), ld(&pb.gy[i]));
-            dx = dx + (nc * gx - ns * gy);
-            dy = dy + (ns * gx + nc * gy);
+            dx = dx + nc.mul_add(gx, -(ns * gy));
+            dy = dy + ns.mul_add(gx, nc * gy);
             if am {
                 // the bent link's next pin (the measure point on the last link)
                 let (qx, qy) = if i + 1 < N {
@@ -641,6 +644,7 @@ impl<const N: usize> SolveKernel<N> {
             uy: Unit::new(),
             pb: PoseBlock::<N>::new(),
             sb: SolveBlock::<N>::new(),
+            mv: Moves::new(),
             pay: Vec::new(),
             group: Group::new(),
         };
@@ -730,7 +734,7 @@ impl<const N: usize> SolveKernel<N> {
                         k.fric
                             .step(&mut sc.pb, &mut held, &k.fa.body_c, &mut sc.sb.seen);
                     }
-                    k.close_any(&trig, &pay, &sc.pb, &mut sc.sb);
+                    k.close_any(&trig, &pay, &sc.pb, &mut sc.sb, &mut sc.mv);
                     for j in 0..count {
                         bad[j] |= sc.sb.fail[j];
                     }
@@ -778,6 +782,7 @@ struct SeqScratch<const N: usize> {
     uy: Unit<N>,
     pb: PoseBlock<N>,
     sb: SolveBlock<N>,
+    mv: Moves<N>,
     /// The block's payloads (x, y per lane) by state.
     pay: Vec<[[f64; L]; 2]>,
     /// The states kept for writing.
@@ -854,6 +859,7 @@ impl<const N: usize> SolveKernel<N> {
         let rows = status.len(); // an output not asked for is empty
         let mut pb = PoseBlock::<N>::new();
         let mut sb = SolveBlock::<N>::new();
+        let mut mv = Moves::new();
         let mut general: Option<General> = None;
         let mut p = 0;
         while p < rows {
@@ -861,14 +867,14 @@ impl<const N: usize> SolveKernel<N> {
             let alpha = &input.alpha_deg[p * N..(p + count) * N];
             let payload = &input.payload_n[2 * p..2 * (p + count)];
             self.block(
-                simd, alpha, payload, count, &mut pb, &mut sb, &mut out, status, p, None,
+                simd, alpha, payload, count, &mut pb, &mut sb, &mut mv, &mut out, status, p, None,
             );
-            for q in 0..count {
-                if sb.fail[q] {
-                    let r = p + q;
-                    let g = general.get_or_insert_with(|| General::new(ctx.arm));
-                    status[r] = g.solve(ctx, alpha, payload, q, &mut out, r, first_row + r)?;
-                }
+            // The lanes the kernel could not solve (rare: one test per block first).
+            let failed = sb.fail[..count].contains(&true);
+            for q in (0..count).filter(|&q| failed && sb.fail[q]) {
+                let r = p + q;
+                let g = general.get_or_insert_with(|| General::new(ctx.arm));
+                status[r] = g.solve(ctx, alpha, payload, q, &mut out, r, first_row + r)?;
             }
             p += count;
         }

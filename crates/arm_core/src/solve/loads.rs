@@ -38,11 +38,15 @@ impl<'a> Loads<'a> {
         match self {
             Self::Forces(f) => f,
             Self::Masses { kg, shared } => {
-                buf.clear();
-                let weight = |&k: &f64| [0.0, -k * g];
+                // x = 0 and y = −k·g per mass, `m` times over the shared states (one plain
+                // loop over the rows, which LLVM vectorises, not an iterator of pairs)
                 let times = if shared { m } else { 1 };
-                for _ in 0..times {
-                    buf.extend(kg.iter().flat_map(weight));
+                buf.clear();
+                buf.resize(2 * kg.len() * times, 0.0);
+                for rows in buf.chunks_exact_mut(2 * kg.len().max(1)) {
+                    for (xy, &k) in rows.chunks_exact_mut(2).zip(kg) {
+                        xy[1] = -k * g;
+                    }
                 }
                 buf
             }
@@ -74,12 +78,22 @@ pub(crate) fn check_shapes(
     Ok(seqs)
 }
 
-/// No value is NaN or ±∞: one branch-free pass (vectorised).
+/// No value is NaN or ±∞: one branch-free pass, vectorised for the best instruction set of
+/// this CPU (`pulp`). A value's exponent bits `e` are all ones exactly when `e + 2⁵²`
+/// carries into the sign bit, so the pass is integer ANDs, adds and ORs (no 64-bit compare,
+/// which SSE2 lacks).
 fn all_finite(v: &[f64]) -> bool {
-    let exp = f64::INFINITY.to_bits();
-    v.iter()
-        .fold(0u64, |bad, x| bad | u64::from(x.to_bits() & exp == exp))
-        == 0
+    struct Op<'a>(&'a [f64]);
+    impl pulp::WithSimd for Op<'_> {
+        type Output = bool;
+        #[inline(always)]
+        fn with_simd<S: pulp::Simd>(self, _simd: S) -> bool {
+            let exp = f64::INFINITY.to_bits();
+            let carry = |x: &f64| (x.to_bits() & exp) + (1 << 52);
+            self.0.iter().fold(0u64, |bad, x| bad | carry(x)) >> 63 == 0
+        }
+    }
+    pulp::Arch::new().dispatch(Op(v))
 }
 
 /// Refuses a non-finite angle or payload, or a negative mass, naming the first such

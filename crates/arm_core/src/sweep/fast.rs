@@ -504,14 +504,14 @@ pub(crate) struct Turn<T: Lane> {
 impl<T: Lane> Turn<T> {
     #[inline(always)]
     pub(crate) fn of(c: T, s: T, dc: T) -> Self {
-        let t = c * 2.0 + dc;
-        let s2 = s * s - dc * t;
+        let t = c.mul_add(T::splat(2.0), dc);
+        let s2 = s.mul_add(s, -(dc * t));
         let s1 = s2.max(T::splat(0.0)).sqrt();
-        let cosd = c * (c + dc) + s * s1;
+        let cosd = c.mul_add(c + dc, s * s1);
         // One division for 1/(s + s′) and 1/(1 + |cos δ|) (≥ 1, used where cos δ > 0).
         let den = cosd.abs() + 1.0;
         let q = T::splat(1.0) / ((s + s1) * den);
-        let sind = -dc * (s + c * t * (den * q));
+        let sind = -dc * (c * t).mul_add(den * q, s);
         let cos_m1 = T::select(cosd.gt(0.0), -sind * sind * ((s + s1) * q), cosd - 1.0);
         Self {
             closes: s2.ge(0.0),
@@ -541,7 +541,10 @@ pub(crate) fn block_trig<const N: usize>(
 /// Rotation (sin a, cos a − 1) followed by (sin b, cos b − 1): (sin(a+b), cos(a+b) − 1).
 #[inline(always)]
 pub(crate) fn compose<T: Lane>(sa: T, ca: T, sb: T, cb: T) -> (T, T) {
-    (sa + sb + (sa * cb + ca * sb), ca + cb + (ca * cb - sa * sb))
+    (
+        sa + sb + sa.mul_add(cb, ca * sb),
+        ca + cb + ca.mul_add(cb, -(sa * sb)),
+    )
 }
 
 /// `sign(f)`, 0 below `z` (the scalar core's `sign_above`), branch-free.
@@ -554,7 +557,7 @@ pub(crate) fn sign_above<T: Lane>(f: T, z: f64) -> T {
 /// `R(s, c)·v`.
 #[inline(always)]
 pub(crate) fn rot<T: Lane>(s: T, c: T, v: [T; 2]) -> (T, T) {
-    (c * v[0] - s * v[1], s * v[0] + c * v[1])
+    (c.mul_add(v[0], -(s * v[1])), s.mul_add(v[0], c * v[1]))
 }
 
 impl<const N: usize> FastArm<N> {
@@ -632,7 +635,7 @@ impl<const N: usize> FastArm<N> {
             (rax[i], ray[i]) = rot4(s, c, &k4.a[i]);
             (rnx[i], rny[i]) = rot4(s, c, &k4.next[i]);
             (rbx[i], rby[i]) = rot4(s, c, &k4.b[i]);
-            rcx[i] = c * k4.c[i][0] - s * k4.c[i][1];
+            rcx[i] = c.mul_add(k4.c[i][0], -(s * k4.c[i][1]));
         }
         for i in 0..N {
             if ROT && this.rotary[i] {
@@ -672,11 +675,11 @@ impl<const N: usize> FastArm<N> {
             };
             let (ax, ay) = (rax[i], ray[i]);
             let (vx, vy) = (ax - dx, ay - dy);
-            let l2 = vx * vx + vy * vy;
+            let l2 = vx.mul_add(vx, vy * vy);
             let l = l2.sqrt();
             // h = (A − O) × e = hv / ℓ. One division, which does not wait for the square
             // root, gives both 1/ℓ = ℓ·hv/(ℓ²·hv) and 1/h = ℓ·ℓ²/(ℓ²·hv).
-            let hv = ax * vy - ay * vx;
+            let hv = ax.mul_add(vy, -(ay * vx));
             let q = 1.0 / (l2 * hv);
             let inv_l = l * (hv * q);
             inv_h[i] = l * (l2 * q);
@@ -691,8 +694,8 @@ impl<const N: usize> FastArm<N> {
             dx.store(&mut pb.d[0][i], at);
             dy.store(&mut pb.d[1][i], at);
             l.store(&mut pb.len[i], at);
-            let sg = (dx * ay - dy * ax) * k4.inv_rd[i];
-            ((dx * ax + dy * ay) * k4.inv_rd[i]).store(&mut pb.c[i], at);
+            let sg = dx.mul_add(ay, -(dy * ax)) * k4.inv_rd[i];
+            (dx.mul_add(ax, dy * ay) * k4.inv_rd[i]).store(&mut pb.c[i], at);
             sg.abs().store(&mut pb.s[i], at);
             sg.sign_one().store(&mut pb.side[i], at);
         }
@@ -717,12 +720,13 @@ impl<const N: usize> FastArm<N> {
             let (fx, fy) = (-fw1 * e0n, -fw1 * e1n);
             let qx = fx - rwx1;
             let mut qy = fy - rwy1 - k4.w_sum[i];
-            let mut t = k4.neg_wl[i] * rcx[i] - k4.wa[i] * ax - k4.wb[i] * bx + (bx * fy - by * fx)
-                - (nx * rwy1 - ny * rwx1);
+            let mut t = k4.neg_wl[i] * rcx[i] - k4.wa[i] * ax - k4.wb[i] * bx
+                + bx.mul_add(fy, -(by * fx))
+                - nx.mul_add(rwy1, -(ny * rwx1));
             let (gx, gy) = (-fu1 * e0n, -fu1 * e1n);
             let qux = gx - rux1;
             let quy = gy - ruy1;
-            let mut tu = (bx * gy - by * gx) - (nx * ruy1 - ny * rux1);
+            let mut tu = bx.mul_add(gy, -(by * gx)) - nx.mul_add(ruy1, -(ny * rux1));
             if ROT && i + 1 < N && this.rotary[i + 1] {
                 // Drive i+1's housing: its weight at O_{i+1} and the couple −T_{i+1}.
                 let wo = k4.w_drive[i + 1];
@@ -733,11 +737,11 @@ impl<const N: usize> FastArm<N> {
             let f = -t * inv_h[i];
             let fu = -tu * inv_h[i];
             fw1 = f;
-            rwx1 = -qx - f * e0[i];
-            rwy1 = -qy - f * e1[i];
+            rwx1 = (-f).mul_add(e0[i], -qx);
+            rwy1 = (-f).mul_add(e1[i], -qy);
             fu1 = fu;
-            rux1 = -qux - fu * e0[i];
-            ruy1 = -quy - fu * e1[i];
+            rux1 = (-fu).mul_add(e0[i], -qux);
+            ruy1 = (-fu).mul_add(e1[i], -quy);
             e0n = e0[i];
             e1n = e1[i];
             f.store(&mut pb.fw[i], at);

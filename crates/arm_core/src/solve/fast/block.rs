@@ -1,6 +1,7 @@
 //! The per-pose results of a block of the solve kernel, read by the writes (`write_block`
 //! and a sequence's [`super::group`]).
 
+use super::bending::Shifts;
 use crate::sweep::fast::L;
 
 /// Per-pose results of a block (`[link][lane]`).
@@ -43,6 +44,27 @@ impl<const N: usize> SolveBlock<N> {
             status: [0; L],
             seen: z,
             q: z,
+        }
+    }
+}
+
+/// What the geometric effects move in a block, read by its closure: the base tilt (angle
+/// (rad), rotation (sin, cos − 1), and the displacement of O_1), the offsets of the joints'
+/// pins in their bores (`[x or y][joint][lane]`) and the bending shifts of the links' pins.
+/// Zeroed once, when made: each effect of the arm overwrites its own entries in every block
+/// and every state, and the entries of the effects it does not have stay zero.
+pub(super) struct Moves<const N: usize> {
+    pub(super) tilt: [[f64; L]; 5],
+    pub(super) u: [[[f64; L]; N]; 2],
+    pub(super) sh: Shifts<N>,
+}
+
+impl<const N: usize> Moves<N> {
+    pub(super) fn new() -> Self {
+        Self {
+            tilt: [[0.0; L]; 5],
+            u: [[[0.0; L]; N]; 2],
+            sh: Shifts::new(),
         }
     }
 }

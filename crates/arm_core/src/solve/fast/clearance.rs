@@ -42,14 +42,15 @@ impl<const N: usize> Clearance<N> {
         k
     }
 
-    /// Adds the global offset of every joint's pin, `[x or y][joint][lane]`, to `u`: along the
-    /// force −R_i that link i presses on body i−1 in the loaded state (minus the unloaded
-    /// one's, taken up).
     /// Joint `i` has a clearance (its pin centre moves).
     pub(crate) fn at(&self, i: usize) -> bool {
         self.c[i] != 0.0
     }
 
+    /// Writes the global offset of the pin of every joint with a clearance into `u`
+    /// (`[x or y][joint][lane]`; the other joints' entries are left as they are, zero):
+    /// along the force −R_i that link i presses on body i−1 in the loaded state (minus the
+    /// unloaded one's, taken up).
     #[inline(always)]
     pub(crate) fn offsets(&self, pb: &PoseBlock<N>, u: &mut [[[f64; L]; N]; 2]) {
         for i in 0..N {
@@ -66,8 +67,8 @@ impl<const N: usize> Clearance<N> {
                 } else {
                     offset(-wx, -wy, up)
                 };
-                u[0][i][k] += ox - zx;
-                u[1][i][k] += oy - zy;
+                u[0][i][k] = ox - zx;
+                u[1][i][k] = oy - zy;
             }
         }
     }

@@ -71,7 +71,9 @@ impl<const N: usize> Friction<N> {
     /// Steps the first `count` lanes' elements from `held` and rewrites the payload case of
     /// `pb` (`fu`, `ru`) as what the actuators and pins take; `seen[i][k]` is the further
     /// length of actuator i's body that a body friction leaves (mm), `body_c` the bodies'
-    /// compliances (mm/N).
+    /// compliances (mm/N). Inlined into the kernel's instruction-set variant (out of line it
+    /// would be compiled for the baseline x86-64).
+    #[inline(always)]
     pub(crate) fn step(
         &self,
         pb: &mut PoseBlock<N>,

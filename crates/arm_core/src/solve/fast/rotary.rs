@@ -14,6 +14,7 @@ use crate::lanes::trig::{cos_m1, sincos_small};
 use crate::lanes::{Lane, F4, M4};
 use crate::sweep::fast::{FastArm, PoseBlock, L};
 use crate::validity::Status;
+use std::f64::consts::PI;
 
 /// The rotary drives of an arm with an angle range.
 #[derive(Debug, Clone)]
@@ -79,6 +80,10 @@ impl<const N: usize> Ranges<N> {
 
     /// The unloaded drive angles `q` (rad, [`RotaryDrive::angle_of`]) of a block's `count`
     /// rows of angles (deg); a pose with one outside its range is out of stroke in `pb`.
+    /// Inlined into the kernel's instruction-set variant, and written as lane loops without
+    /// branches (a block whose angles need a turn's wrapping takes `angle_of` itself), so
+    /// that LLVM vectorises them; the angles are `angle_of`'s, bit for bit.
+    #[inline(always)]
     pub(crate) fn unloaded(
         &self,
         alpha_deg: &[f64],
@@ -87,20 +92,40 @@ impl<const N: usize> Ranges<N> {
         q: &mut [[f64; L]; N],
     ) {
         let x = lanes_of_rows::<N>(Shuffles::copies(), alpha_deg, count);
+        let relative = |i: usize, k: usize| {
+            let before = if i == 0 {
+                0.0
+            } else {
+                x[i - 1][k].to_radians()
+            };
+            x[i][k].to_radians() - before
+        };
         for (i, d) in self.drives.iter().enumerate() {
             let Some(d) = d else { continue };
+            // `angle_of` is `mid + wrap_pi(q − mid)`, and `wrap_pi` keeps [−π, π) as it is.
+            let mid = d.mid_angle();
+            let mut inside = true;
             for k in 0..L {
-                let before = if i == 0 {
-                    0.0
-                } else {
-                    x[i - 1][k].to_radians()
-                };
-                q[i][k] = d.angle_of(x[i][k].to_radians() - before);
-                if d.out_of_range(q[i][k]) {
-                    pb.out_of_stroke[k] = true;
-                    pb.reachable[k] = false;
-                    pb.code[k] = Status::OutOfStroke.code();
+                let y = relative(i, k) - mid;
+                q[i][k] = mid + y;
+                inside &= (-PI..PI).contains(&y); // a NaN is not inside
+            }
+            if !inside {
+                for k in 0..L {
+                    q[i][k] = d.angle_of(relative(i, k));
                 }
+            }
+            // `RotaryDrive::out_of_range`, branch-free.
+            let lo = d
+                .min_angle
+                .map_or(f64::NEG_INFINITY, |lo| lo - ANGLE_TOL_RAD);
+            let hi = d.max_angle.map_or(f64::INFINITY, |hi| hi + ANGLE_TOL_RAD);
+            let code = Status::OutOfStroke.code();
+            for k in 0..L {
+                let out = q[i][k] < lo || q[i][k] > hi;
+                pb.out_of_stroke[k] |= out;
+                pb.reachable[k] &= !out;
+                pb.code[k] = if out { code } else { pb.code[k] };
             }
         }
     }
