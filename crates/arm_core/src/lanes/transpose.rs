@@ -40,15 +40,20 @@ impl Shuffles {
         }
     }
 
-    /// Writes four rows of `M` values (`out`, 4M long) from M columns of four lanes, with the
-    /// shuffles where they cover `M`; false where they do not (nothing written).
+    /// Writes four rows of `M` values (`out`, 4M long) from M columns of four lanes (`col(i)`:
+    /// column i, read where it lies, not copied first), with the shuffles where they cover
+    /// `M`; false where they do not (nothing written).
     #[inline(always)]
-    fn rows_of_cols<const M: usize>(self, cols: &[[f64; 4]; M], out: &mut [f64]) -> bool {
+    fn rows_of_cols<const M: usize>(
+        self,
+        col: impl Fn(usize) -> [f64; 4],
+        out: &mut [f64],
+    ) -> bool {
         #[cfg(target_arch = "x86_64")]
         if let Some(v3) = self.v3 {
-            return avx::rows_of_cols(v3, cols, out);
+            return avx::rows_of_cols::<M>(v3, col, out);
         }
-        let _ = (cols, out);
+        let _ = (col, out);
         false
     }
 
@@ -70,12 +75,7 @@ impl Shuffles {
 pub(crate) fn transpose_into<const N: usize>(sh: Shuffles, block: &[[f64; L]; N], out: &mut [f64]) {
     if out.len() == L * N {
         for (g, rows) in out.chunks_exact_mut(4 * N).enumerate() {
-            let cols: [[f64; 4]; N] =
-                std::array::from_fn(|i| std::array::from_fn(|q| block[i][4 * g + q]));
-            if !sh.rows_of_cols(&cols, rows) {
-                let t: [[f64; N]; 4] = std::array::from_fn(|q| std::array::from_fn(|i| cols[i][q]));
-                rows.copy_from_slice(t.as_flattened());
-            }
+            pack_into::<N>(sh, |i| four(&block[i], 4 * g), rows);
         }
         return;
     }
@@ -97,15 +97,7 @@ pub(crate) fn transpose_xy_into<const N: usize>(
     if out.len() == 2 * L * N {
         for (g, rows) in out.chunks_exact_mut(8 * N).enumerate() {
             // column 2i is link i's x, 2i + 1 its y
-            let cols: [[[f64; 4]; 2]; N] = std::array::from_fn(|i| {
-                std::array::from_fn(|c| std::array::from_fn(|q| xy[c][i][4 * g + q]))
-            });
-            if !sh.rows_of_pairs::<N>(cols.as_flattened(), rows) {
-                let t: [[[f64; 2]; N]; 4] = std::array::from_fn(|q| {
-                    std::array::from_fn(|i| std::array::from_fn(|c| cols[i][c][q]))
-                });
-                rows.copy_from_slice(t.as_flattened().as_flattened());
-            }
+            pairs_into::<N>(sh, |j| four(&xy[j % 2][j / 2], 4 * g), rows);
         }
         return;
     }
@@ -118,17 +110,54 @@ pub(crate) fn transpose_xy_into<const N: usize>(
 }
 
 impl Shuffles {
-    /// [`Self::rows_of_cols`] of `2P` columns taken as P pairs (`cols[2k]`, `cols[2k + 1]`).
+    /// [`Self::rows_of_cols`] of `2P` columns taken as P pairs (`col(2k)`, `col(2k + 1)`).
     #[inline(always)]
-    fn rows_of_pairs<const P: usize>(self, cols: &[[f64; 4]], out: &mut [f64]) -> bool {
+    fn rows_of_pairs<const P: usize>(
+        self,
+        col: impl Fn(usize) -> [f64; 4],
+        out: &mut [f64],
+    ) -> bool {
         #[cfg(target_arch = "x86_64")]
         if let Some(v3) = self.v3 {
-            avx::rows_of_pairs::<P>(v3, cols, out);
+            avx::rows_of_pairs::<P>(v3, col, out);
             return true;
         }
-        let _ = (cols, out);
+        let _ = (col, out);
         false
     }
+}
+
+/// Four rows of `N` values (`out`, 4N long) from N columns of four lanes (`col(i)`, column
+/// i, read where it lies, not copied first): one pack of [`transpose_into`].
+#[inline(always)]
+fn pack_into<const N: usize>(sh: Shuffles, col: impl Fn(usize) -> [f64; 4], out: &mut [f64]) {
+    if !sh.rows_of_cols::<N>(&col, out) {
+        let cols: [[f64; 4]; N] = std::array::from_fn(col);
+        let t: [[f64; N]; 4] = std::array::from_fn(|q| std::array::from_fn(|i| cols[i][q]));
+        out.copy_from_slice(t.as_flattened());
+    }
+}
+
+/// [`pack_into`] for N (x, y) pairs per row (`col(2i)` link i's x, `col(2i + 1)` its y):
+/// one pack of [`transpose_xy_into`].
+#[inline(always)]
+fn pairs_into<const N: usize>(sh: Shuffles, col: impl Fn(usize) -> [f64; 4], out: &mut [f64]) {
+    if !sh.rows_of_pairs::<N>(&col, out) {
+        let cols: [[[f64; 4]; 2]; N] =
+            std::array::from_fn(|i| std::array::from_fn(|c| col(2 * i + c)));
+        let t: [[[f64; 2]; N]; 4] = std::array::from_fn(|q| {
+            std::array::from_fn(|i| std::array::from_fn(|c| cols[i][c][q]))
+        });
+        out.copy_from_slice(t.as_flattened().as_flattened());
+    }
+}
+
+/// Lanes `at..at + 4` of a lane array.
+#[inline(always)]
+fn four(a: &[f64; L], at: usize) -> [f64; 4] {
+    let mut v = [0.0; 4];
+    v.copy_from_slice(&a[at..at + 4]);
+    v
 }
 
 /// `count` rows of `M` values (row-major) as `[column][lane]`; the lanes beyond `count`
@@ -179,6 +208,15 @@ mod avx {
         out.copy_from_slice(&a);
     }
 
+    /// Lane 0 of `x`, lane 1 of `y`, lane 2 of `z`, lane 3 of `x`. (Functions here, never
+    /// closures: a kernel's variant is large, and a closure LLVM leaves out of line is
+    /// compiled without the variant's instruction set.)
+    #[inline(always)]
+    fn blend(v3: V3, x: __m256d, y: __m256d, z: __m256d) -> __m256d {
+        let xy = v3.avx._mm256_blend_pd::<0b0010>(x, y);
+        v3.avx._mm256_blend_pd::<0b0100>(xy, z)
+    }
+
     /// `[a.lo, b.lo]` (`HIGH` false) or `[a.hi, b.hi]`: 128-bit halves of two registers.
     #[inline(always)]
     fn halves<const HIGH: bool>(v3: V3, a: __m256d, b: __m256d) -> __m256d {
@@ -193,32 +231,28 @@ mod avx {
     #[inline(always)]
     pub(super) fn rows_of_cols<const M: usize>(
         v3: V3,
-        cols: &[[f64; 4]; M],
+        col: impl Fn(usize) -> [f64; 4],
         out: &mut [f64],
     ) -> bool {
         match M {
-            1 => out.copy_from_slice(&cols[0]),
+            1 => out.copy_from_slice(&col(0)),
             3 => {
-                let (a, b, c) = (ld(cols[0]), ld(cols[1]), ld(cols[2]));
+                let (a, b, c) = (ld(col(0)), ld(col(1)), ld(col(2)));
                 // a0 a3 a2 a1 / b1 b0 b3 b2 / c2 c1 c0 c3: every row's values in place
                 let pa = v3.avx2._mm256_permute4x64_pd::<0b01_10_11_00>(a);
                 let pb = v3.avx._mm256_permute_pd::<0b0101>(b);
                 let pc = v3.avx2._mm256_permute4x64_pd::<0b11_00_01_10>(c);
-                let blend = |x, y, z| {
-                    let xy = v3.avx._mm256_blend_pd::<0b0010>(x, y);
-                    v3.avx._mm256_blend_pd::<0b0100>(xy, z)
-                };
-                put(&mut out[0..4], blend(pa, pb, pc)); // a0 b0 c0 a1
-                put(&mut out[4..8], blend(pb, pc, pa)); // b1 c1 a2 b2
-                put(&mut out[8..12], blend(pc, pa, pb)); // c2 a3 b3 c3
+                put(&mut out[0..4], blend(v3, pa, pb, pc)); // a0 b0 c0 a1
+                put(&mut out[4..8], blend(v3, pb, pc, pa)); // b1 c1 a2 b2
+                put(&mut out[8..12], blend(v3, pc, pa, pb)); // c2 a3 b3 c3
             }
-            m if m % 2 == 0 => match cols.as_flattened().len() / 8 {
-                1 => rows_of_pairs::<1>(v3, cols, out),
-                2 => rows_of_pairs::<2>(v3, cols, out),
-                3 => rows_of_pairs::<3>(v3, cols, out),
-                4 => rows_of_pairs::<4>(v3, cols, out),
-                5 => rows_of_pairs::<5>(v3, cols, out),
-                6 => rows_of_pairs::<6>(v3, cols, out),
+            m if m % 2 == 0 => match m / 2 {
+                1 => rows_of_pairs::<1>(v3, col, out),
+                2 => rows_of_pairs::<2>(v3, col, out),
+                3 => rows_of_pairs::<3>(v3, col, out),
+                4 => rows_of_pairs::<4>(v3, col, out),
+                5 => rows_of_pairs::<5>(v3, col, out),
+                6 => rows_of_pairs::<6>(v3, col, out),
                 _ => return false,
             },
             _ => return false,
@@ -226,21 +260,25 @@ mod avx {
         true
     }
 
-    /// Four rows of P (u, v) pairs from the 2P columns `cols` (u_k = `cols[2k]`, v_k =
-    /// `cols[2k + 1]`). The unpacks give each pose's pair in a 128-bit half; the rows, 4P
+    /// Four rows of P (u, v) pairs from the 2P columns `col` (u_k = `col(2k)`, v_k =
+    /// `col(2k + 1)`). The unpacks give each pose's pair in a 128-bit half; the rows, 4P
     /// halves in order, are stored two halves to a register (P pairs of two poses are an
     /// even count, so both halves of a register come from the same pair of poses).
     #[inline(always)]
-    pub(super) fn rows_of_pairs<const P: usize>(v3: V3, cols: &[[f64; 4]], out: &mut [f64]) {
-        // lo_k: pairs of poses 0 (low half) and 2 (high); hi_k: poses 1 and 3
-        let lo: [__m256d; P] = std::array::from_fn(|k| {
-            v3.avx
-                ._mm256_unpacklo_pd(ld(cols[2 * k]), ld(cols[2 * k + 1]))
-        });
-        let hi: [__m256d; P] = std::array::from_fn(|k| {
-            v3.avx
-                ._mm256_unpackhi_pd(ld(cols[2 * k]), ld(cols[2 * k + 1]))
-        });
+    pub(super) fn rows_of_pairs<const P: usize>(
+        v3: V3,
+        col: impl Fn(usize) -> [f64; 4],
+        out: &mut [f64],
+    ) {
+        // lo_k: pairs of poses 0 (low half) and 2 (high); hi_k: poses 1 and 3 (plain loops,
+        // not `array::from_fn`, which LLVM may leave out of line in a large variant)
+        let zero = ld([0.0; 4]);
+        let (mut lo, mut hi) = ([zero; P], [zero; P]);
+        for k in 0..P {
+            let (u, v) = (ld(col(2 * k)), ld(col(2 * k + 1)));
+            lo[k] = v3.avx._mm256_unpacklo_pd(u, v);
+            hi[k] = v3.avx._mm256_unpackhi_pd(u, v);
+        }
         // pair t of the 4P in memory order: pose q = t / P, pair k = t % P
         let reg = |t: usize| {
             let (q, k) = (t / P, t % P);
@@ -285,13 +323,9 @@ mod avx {
                 // rows a0 b0 c0 a1 / b1 c1 a2 b2 / c2 a3 b3 c3: the blends of rows_of_cols
                 // undone, then the permutes (each its own inverse)
                 let (r0, r1, r2) = (r(0), r(1), r(2));
-                let blend = |x, y, z| {
-                    let xy = v3.avx._mm256_blend_pd::<0b0010>(x, y);
-                    v3.avx._mm256_blend_pd::<0b0100>(xy, z)
-                };
-                let pa = blend(r0, r2, r1); // a0 a3 a2 a1
-                let pb = blend(r1, r0, r2); // b1 b0 b3 b2
-                let pc = blend(r2, r1, r0); // c2 c1 c0 c3
+                let pa = blend(v3, r0, r2, r1); // a0 a3 a2 a1
+                let pb = blend(v3, r1, r0, r2); // b1 b0 b3 b2
+                let pc = blend(v3, r2, r1, r0); // c2 c1 c0 c3
                 [
                     v3.avx2._mm256_permute4x64_pd::<0b01_10_11_00>(pa),
                     v3.avx._mm256_permute_pd::<0b0101>(pb),

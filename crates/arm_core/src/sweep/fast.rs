@@ -967,8 +967,9 @@ impl<const N: usize> FastArm<N> {
     ///
     /// The lane loops are inlined into `pulp`'s `#[target_feature]` wrapper for the best
     /// instruction set of this CPU (AVX-512 or AVX2 + FMA where present, else x86-64's SSE2),
-    /// so LLVM vectorises them 8 or 4 wide there. Multiplications and additions are never
-    /// fused (Rust does not contract them), so every instruction set gives the same bits.
+    /// so LLVM vectorises them 8 or 4 wide there. Rust never contracts `a·b + c`; the fused
+    /// multiply–adds asked for (`Lane::mul_add`) round once on every instruction set, so
+    /// every instruction set gives the same bits.
     pub fn cells(&self, simd: pulp::Arch, pb: &PoseBlock<N>, m: f64, cb: &mut CellBlock<N>) {
         struct Op<'a, const N: usize>(&'a FastArm<N>, &'a PoseBlock<N>, f64, &'a mut CellBlock<N>);
         impl<const N: usize> pulp::WithSimd for Op<'_, N> {
