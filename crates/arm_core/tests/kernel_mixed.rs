@@ -25,7 +25,7 @@ use arm_core::{
     solve_batch_general, solve_batch_status, solve_sequence, Actuator, Arm, BatchBuffers,
     BatchInput, Drive, Effect, EffectSet, ExtraDeformations, Link, RotaryDrive, SequenceInput, V2,
 };
-use common::{opts, push_payload, Rng};
+use common::{opts, outputs, outputs_mut, push_payload, Rng, OUTPUTS};
 use proptest::prelude::*;
 
 /// The example arm's shapes jittered (the third repeated beyond three), joint i turned by a
@@ -245,33 +245,17 @@ const UNWRITTEN: f64 = -7.25e300;
 /// Buffers for `rows` poses of an `n`-link arm holding [`UNWRITTEN`] everywhere.
 fn unwritten(rows: usize, n: usize) -> BatchBuffers {
     let mut b = BatchBuffers::new(rows, n);
-    for (_, v) in fields(&mut b) {
+    for v in outputs_mut(&mut b) {
         v.fill(UNWRITTEN);
     }
     b
 }
 
-/// Every output of `b` by name.
-fn fields(b: &mut BatchBuffers) -> [(&'static str, &mut Vec<f64>); 11] {
-    [
-        ("force_n", &mut b.force_n),
-        ("reaction_n", &mut b.reaction_n),
-        ("dforce_n", &mut b.dforce_n),
-        ("torque_nmm", &mut b.torque_nmm),
-        ("dtorque_nmm", &mut b.dtorque_nmm),
-        ("dx_mm", &mut b.dx_mm),
-        ("dy_mm", &mut b.dy_mm),
-        ("dalpha_deg", &mut b.dalpha_deg),
-        ("dl_mm", &mut b.dl_mm),
-        ("dlength_mm", &mut b.dlength_mm),
-        ("length_mm", &mut b.length_mm),
-    ]
-}
-
 /// The first output element (name, index) or status row still unwritten, if any.
-fn first_unwritten(b: &mut BatchBuffers, status: &[u8]) -> Option<(&'static str, usize)> {
-    fields(b)
+fn first_unwritten(b: &BatchBuffers, status: &[u8]) -> Option<(&'static str, usize)> {
+    OUTPUTS
         .into_iter()
+        .zip(outputs(b))
         .find_map(|(name, v)| v.iter().position(|&x| x == UNWRITTEN).map(|j| (name, j)))
         .or_else(|| status.iter().position(|&s| s == 255).map(|r| ("status", r)))
 }
@@ -321,8 +305,8 @@ proptest! {
         let (mut st_fast, mut st_gen) = (vec![255u8; 37], vec![255u8; 37]);
         solve_batch_status(&arm, &set, input, none(), opts(sw), fast.out(), &mut st_fast).unwrap();
         solve_batch_general(&arm, &set, input, none(), opts(sw), gen.out(), &mut st_gen).unwrap();
-        prop_assert_eq!(first_unwritten(&mut fast, &st_fast), None, "kernel, {:?}", set.effects());
-        prop_assert_eq!(first_unwritten(&mut gen, &st_gen), None, "general, {:?}", set.effects());
+        prop_assert_eq!(first_unwritten(&fast, &st_fast), None, "kernel, {:?}", set.effects());
+        prop_assert_eq!(first_unwritten(&gen, &st_gen), None, "general, {:?}", set.effects());
         let (w, field) = worst(&fast, &gen);
         prop_assert!(w <= 1.0, "{} differs by {:e} × its tolerance, {:?}", field, w, set.effects());
         prop_assert_eq!(st_fast, st_gen, "status, {:?}", set.effects());
@@ -348,7 +332,7 @@ proptest! {
         let mut st_fast = vec![255u8; seqs * states];
         let seq = SequenceInput { alpha_deg: &alpha, payload_n: &payload, states };
         solve_sequence(&arm, &set, seq, opts(sw), fast.out(), &mut st_fast).unwrap();
-        prop_assert_eq!(first_unwritten(&mut fast, &st_fast), None, "{:?}", set.effects());
+        prop_assert_eq!(first_unwritten(&fast, &st_fast), None, "{:?}", set.effects());
         // The general path, state by state, with the sequence's memory.
         let mut ws = Workspace::new(&arm);
         let mut gen = BatchBuffers::new(seqs * states, n);

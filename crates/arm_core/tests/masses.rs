@@ -11,7 +11,7 @@ use arm_core::{
     solve_batch_masses, solve_batch_status, solve_sequence, solve_sequence_masses, ArmError,
     BatchBuffers, BatchInput, EffectSet, ExtraDeformations, Masses, SequenceInput,
 };
-use common::{opts, Rng};
+use common::{opts, outputs, Rng, OUTPUTS};
 
 /// `rows` poses in the example arm's range and masses of 0–7 kg.
 fn inputs(rows: usize, seed: u64) -> (Vec<f64>, Vec<f64>) {
@@ -30,23 +30,15 @@ fn forces(mass: &[f64], g: f64) -> Vec<f64> {
 
 /// Every output of two batches, bit for bit (the same forces reach the same kernel).
 fn same(a: &BatchBuffers, b: &BatchBuffers) {
-    let pairs = [
-        (&a.force_n, &b.force_n),
-        (&a.reaction_n, &b.reaction_n),
-        (&a.dforce_n, &b.dforce_n),
-        (&a.dx_mm, &b.dx_mm),
-        (&a.dy_mm, &b.dy_mm),
-        (&a.dalpha_deg, &b.dalpha_deg),
-        (&a.dl_mm, &b.dl_mm),
-        (&a.dlength_mm, &b.dlength_mm),
-        (&a.length_mm, &b.length_mm),
-    ];
-    for (k, (x, y)) in pairs.into_iter().enumerate() {
-        assert_eq!(x.len(), y.len());
+    for (name, (x, y)) in OUTPUTS
+        .into_iter()
+        .zip(outputs(a).into_iter().zip(outputs(b)))
+    {
+        assert_eq!(x.len(), y.len(), "{name}");
         for (r, (u, v)) in x.iter().zip(y.iter()).enumerate() {
             assert!(
                 u.to_bits() == v.to_bits(),
-                "output {k}, element {r}: {u} != {v}"
+                "{name}, element {r}: {u} != {v}"
             );
         }
     }

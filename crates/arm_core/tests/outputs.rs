@@ -13,6 +13,7 @@
 //! written to the wrong place of a chunk).
 
 #![allow(clippy::unwrap_used)] // test code: a failure should panic
+mod common;
 use arm_core::effects::{
     DriveCompliance, JointClearance, JointFriction, LinkBending, MountCompliance, Unloaded,
 };
@@ -21,38 +22,8 @@ use arm_core::{
     solve_batch_general, solve_batch_status, solve_sequence, Arm, BatchBuffers, BatchInput, Drive,
     Effect, EffectSet, ExtraDeformations, RotaryDrive, SequenceInput, SolveOptions, V2,
 };
+use common::{outputs, OUTPUTS};
 use proptest::prelude::*;
-
-/// The output fields, in `BatchBuffers`' order.
-const KEYS: [&str; 11] = [
-    "force_n",
-    "reaction_n",
-    "dforce_n",
-    "torque_nmm",
-    "dtorque_nmm",
-    "dx_mm",
-    "dy_mm",
-    "dalpha_deg",
-    "dl_mm",
-    "dlength_mm",
-    "length_mm",
-];
-
-fn fields(b: &BatchBuffers) -> [&[f64]; 11] {
-    [
-        &b.force_n,
-        &b.reaction_n,
-        &b.dforce_n,
-        &b.torque_nmm,
-        &b.dtorque_nmm,
-        &b.dx_mm,
-        &b.dy_mm,
-        &b.dalpha_deg,
-        &b.dl_mm,
-        &b.dlength_mm,
-        &b.length_mm,
-    ]
-}
 
 /// The example arm with the joints `rotary[i]` turned by a rotary drive instead of its
 /// actuator (the actuator's pins unused): 0 linear, 1 rotary, 2 mixed (a drive at joint 2).
@@ -174,17 +145,17 @@ fn solve(
 /// The asked outputs of `part` are those of `full`, value for value (NaN where NaN); the
 /// others are empty; the statuses are the same.
 fn same(full: &(BatchBuffers, Vec<u8>), part: &(BatchBuffers, Vec<u8>), mask: u16) {
-    for (k, (a, b)) in fields(&full.0).iter().zip(fields(&part.0)).enumerate() {
+    for (k, (a, b)) in outputs(&full.0).iter().zip(outputs(&part.0)).enumerate() {
         if mask & (1 << k) == 0 {
-            assert!(b.is_empty(), "{} was not asked for", KEYS[k]);
+            assert!(b.is_empty(), "{} was not asked for", OUTPUTS[k]);
             continue;
         }
-        assert_eq!(a.len(), b.len(), "{}", KEYS[k]);
+        assert_eq!(a.len(), b.len(), "{}", OUTPUTS[k]);
         for (j, (x, y)) in a.iter().zip(b).enumerate() {
             assert!(
                 x.to_bits() == y.to_bits() || (x.is_nan() && y.is_nan()),
                 "{}[{j}]: {x} with every output, {y} with some",
-                KEYS[k]
+                OUTPUTS[k]
             );
         }
     }
@@ -192,7 +163,7 @@ fn same(full: &(BatchBuffers, Vec<u8>), part: &(BatchBuffers, Vec<u8>), mask: u1
 }
 
 fn asked(mask: u16) -> impl Fn(&str) -> bool {
-    move |key: &str| mask & (1 << KEYS.iter().position(|k| *k == key).unwrap()) != 0
+    move |key: &str| mask & (1 << OUTPUTS.iter().position(|k| *k == key).unwrap()) != 0
 }
 
 /// A batch of `rows` poses with every output, then with each mask's subset.

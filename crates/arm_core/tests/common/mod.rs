@@ -6,7 +6,57 @@
 #![allow(dead_code)]
 
 use arm_core::fem::{FemModel, FemWorkspace};
-use arm_core::{Actuator, Arm, EffectSet, Link, SolveOptions, Workspace, V2};
+use arm_core::{Actuator, Arm, BatchBuffers, EffectSet, Link, SolveOptions, Workspace, V2};
+
+/// The outputs of a batch by name, in `BatchBuffers`' order: the one list the tests walk
+/// when they look at every output ([`outputs`], [`outputs_mut`]).
+pub const OUTPUTS: [&str; 11] = [
+    "force_n",
+    "reaction_n",
+    "dforce_n",
+    "torque_nmm",
+    "dtorque_nmm",
+    "dx_mm",
+    "dy_mm",
+    "dalpha_deg",
+    "dl_mm",
+    "dlength_mm",
+    "length_mm",
+];
+
+/// Every output of `b`, in [`OUTPUTS`]' order.
+pub fn outputs(b: &BatchBuffers) -> [&[f64]; 11] {
+    [
+        &b.force_n,
+        &b.reaction_n,
+        &b.dforce_n,
+        &b.torque_nmm,
+        &b.dtorque_nmm,
+        &b.dx_mm,
+        &b.dy_mm,
+        &b.dalpha_deg,
+        &b.dl_mm,
+        &b.dlength_mm,
+        &b.length_mm,
+    ]
+}
+
+/// Every output of `b`, to write, in [`OUTPUTS`]' order.
+pub fn outputs_mut(b: &mut BatchBuffers) -> [&mut Vec<f64>; 11] {
+    [
+        &mut b.force_n,
+        &mut b.reaction_n,
+        &mut b.dforce_n,
+        &mut b.torque_nmm,
+        &mut b.dtorque_nmm,
+        &mut b.dx_mm,
+        &mut b.dy_mm,
+        &mut b.dalpha_deg,
+        &mut b.dl_mm,
+        &mut b.dlength_mm,
+        &mut b.length_mm,
+    ]
+}
 
 pub fn v(x: f64, y: f64) -> V2 {
     V2::new(x, y)
