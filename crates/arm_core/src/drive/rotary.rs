@@ -93,8 +93,19 @@ impl RotaryDrive {
     /// `[min_angle, max_angle]` by more than [`ANGLE_TOL_RAD`] (an angle on its limit, as
     /// rounding leaves it, is inside).
     pub fn out_of_range(&self, angle: f64) -> bool {
-        self.min_angle.is_some_and(|lo| angle < lo - ANGLE_TOL_RAD)
-            || self.max_angle.is_some_and(|hi| angle > hi + ANGLE_TOL_RAD)
+        let (lo, hi) = self.bounds();
+        angle < lo || angle > hi
+    }
+
+    /// The lowest and highest angles inside the range (rad), [`ANGLE_TOL_RAD`] included:
+    /// ±∞ where there is no limit (what [`Self::out_of_range`] compares with, branch-free).
+    pub fn bounds(&self) -> (f64, f64) {
+        (
+            self.min_angle
+                .map_or(f64::NEG_INFINITY, |lo| lo - ANGLE_TOL_RAD),
+            self.max_angle
+                .map_or(f64::INFINITY, |hi| hi + ANGLE_TOL_RAD),
+        )
     }
 
     /// A loaded |torque| (N·mm) above `max_torque`.

@@ -116,10 +116,7 @@ impl<const N: usize> Ranges<N> {
                 }
             }
             // `RotaryDrive::out_of_range`, branch-free.
-            let lo = d
-                .min_angle
-                .map_or(f64::NEG_INFINITY, |lo| lo - ANGLE_TOL_RAD);
-            let hi = d.max_angle.map_or(f64::INFINITY, |hi| hi + ANGLE_TOL_RAD);
+            let (lo, hi) = d.bounds();
             let code = Status::OutOfStroke.code();
             for k in 0..L {
                 let out = q[i][k] < lo || q[i][k] > hi;
@@ -147,10 +144,7 @@ impl<const N: usize> Ranges<N> {
         let rad = std::f64::consts::PI / 180.0; // f64::to_radians's factor
         let dq = d * rad - before * rad;
         let a = q + dq;
-        let lo = r
-            .min_angle
-            .map_or(f64::NEG_INFINITY, |lo| lo - ANGLE_TOL_RAD);
-        let hi = r.max_angle.map_or(f64::INFINITY, |hi| hi + ANGLE_TOL_RAD);
+        let (lo, hi) = r.bounds();
         let turned = Lane::gt(dq.abs(), ANGLE_TOL_RAD) & Lane::lt(dq.abs(), f64::INFINITY);
         turned & (Lane::lt(a, lo) | Lane::gt(a, hi))
     }
